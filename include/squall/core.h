@@ -1,0 +1,115 @@
+/* squall/core.h — context, result codes, last-error text, logging, aligned allocation,
+ * memory budget checks, feature queries. Everything in libsquall hangs off an sq_context. */
+#ifndef SQ_CORE_H
+#define SQ_CORE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(SQ_BUILDING_LIBRARY) && defined(__GNUC__)
+#define SQ_API __attribute__((visibility("default")))
+#else
+#define SQ_API
+#endif
+
+#if defined(__GNUC__)
+#define SQ_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define SQ_PRINTF(a, b)
+#endif
+
+#define SQ_VERSION_MAJOR 0
+#define SQ_VERSION_MINOR 1
+#define SQ_VERSION_PATCH 0
+#define SQ_VERSION_STRING "0.1.0"
+
+/* Result codes: SQ_OK = 0, failures are small negative numbers. The human-readable reason is
+ * in sq_last_error() on the failing thread. */
+typedef enum sq_result {
+    SQ_OK = 0,
+    SQ_ERR_INVALID_ARG = -1, /* a desc field, argument or input value breaks a rule */
+    SQ_ERR_OUT_OF_MEMORY = -2,
+    SQ_ERR_IO = -3,          /* file missing, unreadable, unwritable */
+    SQ_ERR_PARSE = -4,       /* malformed file (YAML, PNG, NetCDF) */
+    SQ_ERR_UNSTABLE = -5,    /* numerical blow-up: names step, place and field */
+    SQ_ERR_UNSUPPORTED = -6, /* feature not compiled in or not offered by the platform */
+    SQ_ERR_GL = -7,          /* OpenGL / EGL failure */
+    SQ_ERR_TOO_LARGE = -8,   /* request exceeds memory or an implementation limit */
+    SQ_ERR_EXISTS = -9,      /* output exists and overwrite was not requested */
+    SQ_ERR_NOT_FOUND = -10,  /* unknown preset, layer, key */
+    SQ_ERR_INTERNAL = -11,
+    SQ_ERR_CANCELLED = -12
+} sq_result;
+
+SQ_API const char *sq_result_name(sq_result r);
+
+/* The reason for the last failure on this thread ("" if none). Valid until the next failure. */
+SQ_API const char *sq_last_error(void);
+SQ_API void sq_clear_error(void);
+
+typedef enum sq_log_level {
+    SQ_LOG_DEFAULT = 0, /* = SQ_LOG_INFO */
+    SQ_LOG_DEBUG = 1,
+    SQ_LOG_INFO = 2,
+    SQ_LOG_WARN = 3,
+    SQ_LOG_ERROR = 4,
+    SQ_LOG_NONE = 5
+} sq_log_level;
+
+/* module: a short tag ("lbm", "scene"); msg: one line without trailing newline. */
+typedef void (*sq_log_fn)(void *user, sq_log_level level, const char *module, const char *msg);
+
+typedef struct sq_context_desc {
+    int threads;               /* worker threads for kernels; 0 = all available cores */
+    sq_log_fn log;             /* NULL = silent */
+    void *log_user;
+    sq_log_level log_level;    /* messages below this level are dropped; 0 = INFO */
+    uint64_t memory_limit_bytes; /* 0 = 80 % of physical memory; requests above are refused */
+    uint64_t seed;             /* default seed for reproducible randomness; 0 is a valid seed */
+} sq_context_desc;
+
+typedef struct sq_context sq_context;
+
+SQ_API sq_result sq_context_create(const sq_context_desc *desc, sq_context **out);
+SQ_API void sq_context_destroy(sq_context *ctx);
+SQ_API int sq_context_threads(const sq_context *ctx);
+SQ_API uint64_t sq_context_seed(const sq_context *ctx);
+SQ_API uint64_t sq_context_memory_limit(const sq_context *ctx);
+
+/* 64-byte aligned allocation through the context. NULL on failure (error text set).
+ * sq_alloc_zero clears the memory. sq_free accepts NULL. */
+SQ_API void *sq_alloc(sq_context *ctx, size_t bytes);
+SQ_API void *sq_alloc_zero(sq_context *ctx, size_t bytes);
+SQ_API void sq_free(sq_context *ctx, void *p);
+/* Bytes currently allocated through the context and the peak. */
+SQ_API uint64_t sq_context_bytes_in_use(const sq_context *ctx);
+SQ_API uint64_t sq_context_bytes_peak(const sq_context *ctx);
+
+/* Refuses, before anything is allocated, a request whose total size exceeds the memory limit.
+ * what: e.g. "lattice 512x512x512"; the message names it and the bytes needed. */
+SQ_API sq_result sq_context_check_memory(sq_context *ctx, uint64_t bytes, const char *what);
+
+SQ_API void sq_log(sq_context *ctx, sq_log_level level, const char *module, const char *fmt, ...)
+    SQ_PRINTF(4, 5);
+
+/* Compiled-in features: "openmp", "gl", "png", "mp4", "netcdf", "yaml". */
+SQ_API bool sq_has_feature(const char *name);
+/* Space-separated list of compiled-in features. */
+SQ_API const char *sq_features(void);
+SQ_API const char *sq_version(void);
+
+/* Physical memory of the machine in bytes (0 if unknown). */
+SQ_API uint64_t sq_physical_memory_bytes(void);
+
+/* Monotonic wall clock in seconds. */
+SQ_API double sq_time_now(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
