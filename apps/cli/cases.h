@@ -1,0 +1,10 @@
+/* cases.h — prototypes of every bench/validate case function (see registry.c). */
+#ifndef SQ_CLI_CASES_H
+#define SQ_CLI_CASES_H
+
+#include "cli.h"
+
+int sq_bench_stream_case(const sq_bench_args *a);
+/* helpers: add prototypes here */
+
+#endif
