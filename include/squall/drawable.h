@@ -1,0 +1,128 @@
+/* squall/drawable.h — the contract between phenomena and renderers (ARCHITECTURE.md).
+ * A phenomenon publishes read-only views after each step; the renderer (GL or the reference
+ * path tracer) draws them by kind and never learns which phenomenon made them. All pointers
+ * are borrowed: valid until the owner's next step or destroy. */
+#ifndef SQ_DRAWABLE_H
+#define SQ_DRAWABLE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/sqmath.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum sq_drawable_kind {
+    SQ_DRAWABLE_NONE = 0,
+    SQ_DRAWABLE_VOLUME = 1,
+    SQ_DRAWABLE_PARTICLES = 2,
+    SQ_DRAWABLE_SURFACE = 3
+} sq_drawable_kind;
+
+/* Participating medium on a regular grid inside an axis-aligned box.
+ * Extinction coefficient of channel c at a point: beta_ext[c] = density * sigma_ext[c] (1/m).
+ * Scattering: beta_sca = albedo[c] * beta_ext[c]. Phase: Henyey–Greenstein with g[c]
+ * (cos theta = dot of propagation directions, g > 0 forward), optionally mixed with a second
+ * lobe g2 with weight w2. Channels are linear R, G, B. */
+typedef struct sq_volume_view {
+    const float *density;  /* nx*ny*nz, x fastest; any unit consistent with sigma_ext */
+    int nx, ny, nz;
+    sq_vec3 origin_m;      /* min corner of the box */
+    sq_vec3 size_m;        /* extent of the box; cell (i,j,k) centre = origin + (i+.5)*size/nx */
+    float sigma_ext[3];    /* extinction per unit density (1/m per density unit) */
+    float albedo[3];       /* single-scattering albedo */
+    float g[3];            /* HG asymmetry */
+    float g2;              /* second lobe asymmetry (e.g. -0.3 back lobe); used if w2 > 0 */
+    float w2;              /* weight of the second lobe in [0, 1); 0 = single lobe */
+    float density_max;     /* max of density (for the renderer's normalisation) */
+    uint64_t version;      /* increments whenever density changes */
+} sq_volume_view;
+
+typedef enum sq_sprite_kind {
+    SQ_SPRITE_DEFAULT = 0,  /* = SQ_SPRITE_PUFF */
+    SQ_SPRITE_PUFF = 1,     /* soft dust puff (gaussian with noise) */
+    SQ_SPRITE_DISC = 2,     /* gaussian snow disc */
+    SQ_SPRITE_FLAKE6 = 3,   /* six-fold snowflake */
+    SQ_SPRITE_SPLAT = 4,    /* cloud splat: Hermite falloff (SPEC 8.5) */
+    SQ_SPRITE_SPHERE = 5    /* lit opaque sphere impostor (avalanche particles) */
+} sq_sprite_kind;
+
+/* Camera-facing particles. Opacity model: a particle's optical depth through its centre is
+ * tau[i] * sigma_rel[c] for channel c (sigma_rel normalised so green = 1); the sprite
+ * shape scales it across the quad. Lit by sun (through the volume light buffer if any) and sky
+ * with single scattering: colour = albedo * (sun * phase(g) * shadow + sky ambient). */
+typedef struct sq_particles_view {
+    int count;
+    const float *position;     /* 3*count, world metres */
+    const float *radius_m;     /* count; NULL -> radius_default_m */
+    const float *rotation_rad; /* count, in-plane rotation; NULL -> 0 */
+    const float *tau;          /* count, optical depth through the centre; NULL -> tau_default */
+    const float *fade;         /* count, [0,1] multiplier (spawn fade-in / boundary fade-out) */
+    const float *color;        /* 3*count albedo per particle; NULL -> albedo */
+    float radius_default_m;
+    float tau_default;
+    float sigma_rel[3];        /* per-channel extinction relative to green; 0 -> 1,1,1 */
+    float albedo[3];           /* single-scattering albedo per channel */
+    float g;                   /* HG asymmetry for sun light */
+    sq_sprite_kind sprite;
+    float softness_m;          /* depth fade distance against opaque geometry; 0 = hard */
+    uint64_t version;
+} sq_particles_view;
+
+typedef enum sq_material {
+    SQ_MATERIAL_DEFAULT = 0, /* = terrain-like rock/soil */
+    SQ_MATERIAL_SAND = 1,
+    SQ_MATERIAL_SNOW = 2,
+    SQ_MATERIAL_ROCK = 3
+} sq_material;
+
+/* A heightfield surface z = height[j*nx+i] at (origin.x + i*dx, origin.y + j*dy) drawn over the
+ * world (e.g. deposited snow, avalanche deposit). Cells with coverage 0 are not drawn. */
+typedef struct sq_surface_view {
+    int nx, ny;
+    sq_vec3 origin_m;
+    float dx_m, dy_m;
+    const float *height_m;  /* nx*ny absolute heights */
+    const float *coverage;  /* nx*ny in [0,1]: blend weight of the material (NULL -> 1) */
+    sq_material material;
+    sq_vec3 albedo;         /* 0 -> material default */
+    uint64_t version;
+} sq_surface_view;
+
+typedef struct sq_drawable {
+    sq_drawable_kind kind;
+    const char *name; /* e.g. "dust", "snowfall", "snow-cover" */
+    union {
+        sq_volume_view volume;
+        sq_particles_view particles;
+        sq_surface_view surface;
+    } u;
+} sq_drawable;
+
+/* Scalar metric published after each step, e.g. {"visibility_2m_min", 312.5, "m"}. */
+typedef struct sq_metric {
+    const char *name;
+    double value;
+    const char *unit;
+} sq_metric;
+
+/* A named 3D (or 2D with n.nz = 1) field for NetCDF/VTK export. */
+typedef struct sq_named_field {
+    const char *name;       /* NetCDF variable name, e.g. "dust_mass_concentration" */
+    const char *units;      /* UDUNITS string, e.g. "kg m-3" */
+    const char *long_name;
+    const char *standard_name; /* CF standard name or NULL */
+    const float *data;      /* x fastest; nx*ny*nz contiguous */
+    int nx, ny, nz;
+    sq_vec3 origin_m;       /* centre of cell (0,0,0) */
+    sq_vec3 spacing_m;
+} sq_named_field;
+
+#ifdef __cplusplus
+}
+#endif
+#endif

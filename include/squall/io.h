@@ -1,0 +1,94 @@
+/* squall/io.h — files: safe output (temporary name + rename), PNG, MP4 (H.264 through FFmpeg's
+ * libraries), NetCDF (CF conventions) and VTK image data, 16-bit heightmaps. Inputs are never
+ * written. Every reader treats its input as untrusted and names the file and place on error. */
+#ifndef SQ_IO_H
+#define SQ_IO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/drawable.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- safe outputs -------------------------------------------------------------------------- */
+/* Checks that path can be created: its directory exists and is writable, and the file does not
+ * exist unless overwrite. Fails with SQ_ERR_IO (missing directory, named) or SQ_ERR_EXISTS. */
+SQ_API sq_result sq_output_check(const char *path, bool overwrite);
+/* Builds the temporary name for path ("dir/.name.tmp-PID") into buf. */
+SQ_API sq_result sq_output_temp_name(const char *path, char *buf, size_t size);
+/* Renames tmp to path (atomic on one filesystem); refuses to replace unless overwrite. */
+SQ_API sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite);
+/* Writes bytes to path through a temporary file. */
+SQ_API sq_result sq_output_write_file(const char *path, const void *data, size_t size,
+                                      bool overwrite);
+
+/* ---- PNG ----------------------------------------------------------------------------------- */
+SQ_API sq_result sq_png_write_rgba8(const char *path, int width, int height,
+                                    const uint8_t *rgba, bool overwrite);
+/* 16-bit grey PNG (for depth maps): values 0..65535. */
+SQ_API sq_result sq_png_write_gray16(const char *path, int width, int height,
+                                     const uint16_t *gray, bool overwrite);
+SQ_API sq_result sq_png_read_rgba8(sq_context *ctx, const char *path, uint8_t **rgba_out,
+                                   int *width, int *height);
+/* Reads a 16-bit greyscale heightmap; refuses other bit depths/colour types and images larger
+ * than max_pixels (naming the file, what it found and the rule). Free with sq_free. */
+SQ_API sq_result sq_png_read_heightmap16(sq_context *ctx, const char *path, int max_pixels,
+                                         uint16_t **out, int *width, int *height);
+
+/* ---- MP4 video ------------------------------------------------------------------------------- */
+typedef struct sq_video_desc {
+    const char *path;   /* final name; written to a temporary name until closed */
+    int width, height;  /* even numbers for yuv420p; odd sizes are refused with a message */
+    int fps;            /* 0 -> 30 */
+    int crf;            /* x264 quality 0..51; 0 -> 20 */
+    bool overwrite;
+} sq_video_desc;
+
+typedef struct sq_video_writer sq_video_writer;
+
+SQ_API sq_result sq_video_open(sq_context *ctx, const sq_video_desc *desc, sq_video_writer **out);
+/* Adds one frame: 8-bit RGBA, top row first. */
+SQ_API sq_result sq_video_add_rgba8(sq_video_writer *w, const uint8_t *rgba);
+/* Finishes the file and renames it to its final name. */
+SQ_API sq_result sq_video_close(sq_video_writer *w);
+/* Abandons the file: removes the temporary, the final name is untouched. Accepts NULL. */
+SQ_API void sq_video_abort(sq_video_writer *w);
+
+typedef struct sq_video_info {
+    int width, height;
+    int frames;         /* decoded frame count */
+    double fps;
+    char codec[32];     /* e.g. "h264" */
+    char pix_fmt[32];   /* e.g. "yuv420p" */
+    double mean_luma;   /* mean Y of all decoded frames (0..255), for tests */
+} sq_video_info;
+
+/* Decodes every frame of a video file (for tests and `squall info FILE`). */
+SQ_API sq_result sq_video_probe(sq_context *ctx, const char *path, sq_video_info *out);
+
+/* ---- NetCDF (CF-1.8) and VTK image data ----------------------------------------------------- */
+typedef struct sq_field_file_desc {
+    const char *path;
+    const char *title;        /* global attribute */
+    const char *source;       /* e.g. "squall 0.1.0 sandstorm" */
+    double time_s;            /* value of the time coordinate */
+    bool overwrite;
+} sq_field_file_desc;
+
+/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing) with x, y, z (and time)
+ * coordinate variables in metres, units and long_name attributes, Conventions = "CF-1.8". */
+SQ_API sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
+                                        const sq_named_field *fields, int count);
+/* The same grid as VTK XML ImageData (.vti, raw appended binary). */
+SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
+                                     const sq_named_field *fields, int count);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,107 @@
+/* squall/plugin.h — how a phenomenon plugs in: a parameter table (the single source of truth
+ * for scene-file keys, --set overrides, `squall params`, docs) and a vtable. One registry line
+ * (src/phen/registry.c) makes it available to scenes, the CLI and the renderer. */
+#ifndef SQ_PLUGIN_H
+#define SQ_PLUGIN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/drawable.h"
+#include "squall/world.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum sq_param_type {
+    SQ_PARAM_NONE = 0,
+    SQ_PARAM_FLOAT = 1,   /* float */
+    SQ_PARAM_DOUBLE = 2,  /* double */
+    SQ_PARAM_INT = 3,     /* int */
+    SQ_PARAM_BOOL = 4,    /* bool */
+    SQ_PARAM_ENUM = 5,    /* int index into choices "a|b|c" */
+    SQ_PARAM_VEC3 = 6,    /* float[3] (or sq_vec3) */
+    SQ_PARAM_STRING = 7,  /* char[SQ_PARAM_STRING_MAX] */
+    SQ_PARAM_FLOATS = 8,  /* float[max_count] + int count at count_offset */
+    SQ_PARAM_U64 = 9      /* uint64_t (seeds) */
+} sq_param_type;
+
+#define SQ_PARAM_STRING_MAX 256
+
+enum {
+    SQ_PARAM_ZERO_IS_PHYSICAL = 1u << 0, /* 0 is a real value and is never replaced */
+    SQ_PARAM_ADVANCED = 1u << 1          /* hidden from short listings */
+};
+
+typedef struct sq_param {
+    const char *key;      /* dotted key within its section, e.g. "dust.median_radius_m" */
+    sq_param_type type;
+    const char *unit;     /* SI unit ("m", "m/s", "kg/m3", "1" dimensionless, "" none) */
+    size_t offset;        /* offsetof(desc, field) */
+    double def;           /* default for numbers, bools (0/1), enums (index) */
+    double min, max;      /* inclusive range for numbers and each element of lists/vec3 */
+    const char *def_text; /* default for strings, vec3 ("0 0 1") and lists ("1 2 3") */
+    const char *choices;  /* ENUM: "desert|urban" */
+    int max_count;        /* FLOATS: capacity */
+    size_t count_offset;  /* FLOATS: offsetof the int count */
+    unsigned flags;
+    const char *doc;      /* one or two sentences: meaning, source (S0 §x / SPEC) */
+} sq_param;
+
+/* Fills every field of desc from the table's defaults. */
+SQ_API void sq_params_defaults(const sq_param *table, size_t n, void *desc);
+/* Finds the entry for key (NULL if none). */
+SQ_API const sq_param *sq_params_find(const sq_param *table, size_t n, const char *key);
+/* Sets key from text (numbers in the table's unit; bools true/false/yes/no/1/0; enums by name;
+ * vec3 and lists as "a b c" or "[a, b, c]"). Checks type and range. where names the place for
+ * messages (e.g. "scene.yaml:12:5" or "--set"). Errors: SQ_ERR_NOT_FOUND (unknown key, with a
+ * "did you mean" suggestion), SQ_ERR_INVALID_ARG (wrong type, out of range with range + unit). */
+SQ_API sq_result sq_params_set(const sq_param *table, size_t n, void *desc, const char *section,
+                               const char *key, const char *value, const char *where);
+/* Writes the current value of an entry as text (YAML scalar or flow list). */
+SQ_API void sq_params_format(const sq_param *p, const void *desc, char *buf, size_t size);
+/* Checks every entry's range; messages name section.key, value, range and unit. */
+SQ_API sq_result sq_params_validate(const sq_param *table, size_t n, const void *desc,
+                                    const char *section);
+/* Closest key by edit distance (NULL if nothing is close). */
+SQ_API const char *sq_params_suggest(const sq_param *table, size_t n, const char *key);
+
+/* ---- the phenomenon vtable ------------------------------------------------------------- */
+typedef struct sq_phen_plugin {
+    const char *name;      /* layer type in scene files: "sandstorm" */
+    const char *summary;   /* one line */
+    size_t desc_size;      /* sizeof the phenomenon's desc */
+    const sq_param *params;
+    size_t param_count;
+    /* Fills zero fields with defaults (zero-is-physical fields stay). */
+    sq_result (*desc_resolve)(void *desc);
+    /* Checks the desc against physics and the world (beyond table ranges). */
+    sq_result (*validate)(sq_context *ctx, const void *desc, const sq_world *world);
+    /* Bytes the instance will allocate (refused before create if too large). */
+    sq_result (*memory_bytes)(const void *desc, const sq_world *world, uint64_t *bytes);
+    sq_result (*create)(sq_context *ctx, const void *desc, const sq_world *world, void **out);
+    void (*destroy)(void *self);
+    /* Largest step the phenomenon takes stably now (s); the scene sub-cycles to it. <= 0: any. */
+    double (*max_stable_dt)(const void *self);
+    sq_result (*step)(void *self, double dt_s);
+    /* Optional: the camera for this frame (near-field particles live around it). */
+    void (*observe)(void *self, const sq_camera *camera);
+    /* Fills up to max drawables; returns the count. */
+    int (*drawables)(void *self, sq_drawable *out, int max);
+    /* Fills up to max metrics for the current state; returns the count. */
+    int (*metrics)(void *self, sq_metric *out, int max);
+    /* Fills up to max fields for export; returns the count. */
+    int (*fields)(void *self, sq_named_field *out, int max);
+} sq_phen_plugin;
+
+SQ_API int sq_plugin_count(void);
+SQ_API const sq_phen_plugin *sq_plugin_at(int i);
+SQ_API const sq_phen_plugin *sq_plugin_find(const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

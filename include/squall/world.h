@@ -1,0 +1,156 @@
+/* squall/world.h — the world every phenomenon lives in: terrain heightfield, obstacles
+ * (buildings, fences as boxes with optional gable roofs), sun and sky, and the camera type.
+ * World axes: x east, y north, z up, metres. */
+#ifndef SQ_WORLD_H
+#define SQ_WORLD_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/sqmath.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum sq_terrain_kind {
+    SQ_TERRAIN_DEFAULT = 0,   /* = SQ_TERRAIN_HILLS */
+    SQ_TERRAIN_FLAT = 1,      /* z = base_m everywhere */
+    SQ_TERRAIN_HILLS = 2,     /* fBm gradient noise */
+    SQ_TERRAIN_DUNES = 3,     /* transverse dunes (sharp crests) plus noise */
+    SQ_TERRAIN_MOUNTAIN = 4,  /* a slope for avalanches: inclined plane + ridges + run-out */
+    SQ_TERRAIN_HEIGHTMAP = 5  /* 16-bit PNG heightmap (loaded by the io layer) */
+} sq_terrain_kind;
+
+typedef struct sq_terrain_desc {
+    sq_terrain_kind kind;
+    float size_m[2];        /* extent along x and y; 0 -> 2000 x 2000 (heightmap: from pixels) */
+    int resolution[2];      /* samples along x and y; 0 -> 257 x 257 (heightmap: pixels) */
+    float origin_m[2];      /* world x, y of sample (0,0); NaN/0 -> centred on the origin */
+    bool origin_set;        /* true if origin_m was given (0 is physical) */
+    float base_m;           /* base elevation; 0 is physical */
+    float relief_m;         /* height amplitude for procedural kinds; 0 -> 60 m */
+    float feature_m;        /* horizontal feature size of the noise; 0 -> 400 m */
+    int octaves;            /* 0 -> 5 */
+    float slope_deg;        /* SQ_TERRAIN_MOUNTAIN: slope of the release area; 0 -> 35 */
+    float dune_dir_deg;     /* SQ_TERRAIN_DUNES: crest normal azimuth (deg from east) */
+    uint64_t seed;          /* 0 is a valid seed */
+    /* heightmap: 16-bit grey samples (borrowed for the create call; row 0 = north edge),
+     * metres per pixel and the heights that 0 and 65535 map to */
+    const uint16_t *heightmap;
+    int heightmap_w, heightmap_h;
+    float metres_per_px;
+    float height_min_m, height_max_m;
+} sq_terrain_desc;
+
+typedef enum sq_obstacle_kind {
+    SQ_OBSTACLE_BOX = 0,   /* plain box: a building block */
+    SQ_OBSTACLE_HOUSE = 1, /* box walls plus a gable roof (ridge along x) */
+    SQ_OBSTACLE_FENCE = 2  /* thin porous wall (solid for solvers at their resolution) */
+} sq_obstacle_kind;
+
+typedef struct sq_obstacle {
+    sq_obstacle_kind kind;
+    sq_vec3 center_m;      /* x, y of the footprint centre; z of its base (NaN -> on terrain) */
+    sq_vec3 size_m;        /* footprint x, y and wall height z */
+    float roof_m;          /* HOUSE: ridge height above the walls */
+    float yaw_deg;         /* rotation about z (0 = axes aligned); solvers voxelise it */
+    sq_vec3 albedo;        /* 0 -> a default per kind */
+} sq_obstacle;
+
+#define SQ_MAX_OBSTACLES 256
+
+typedef struct sq_sky_desc {
+    float turbidity;        /* Preetham-style haze 2..10; 0 -> 3 */
+    sq_vec3 ground_albedo;  /* 0 -> sand-grey default */
+} sq_sky_desc;
+
+typedef struct sq_sun_desc {
+    sq_vec3 direction;      /* direction TOWARD the sun; zero -> from date/time/latitude */
+    int day_of_year;        /* 1..366; 0 -> 172 (June solstice) */
+    float hour_solar;       /* local solar time in hours; 0 -> 15.0 */
+    bool hour_set;          /* true if hour_solar was given (0 = midnight is physical) */
+    float latitude_deg;     /* 0 is physical (equator) */
+    float irradiance_w_m2;  /* direct normal irradiance at the ground; 0 -> 1000 */
+} sq_sun_desc;
+
+typedef struct sq_world_desc {
+    sq_terrain_desc terrain;
+    sq_sun_desc sun;
+    sq_sky_desc sky;
+    const sq_obstacle *obstacles; /* borrowed for the create call */
+    int obstacle_count;
+} sq_world_desc;
+
+/* The world after creation: read-only for phenomena and the renderer. */
+typedef struct sq_world {
+    /* terrain heightfield: heights[j*nx + i] at (origin.x + i*dx, origin.y + j*dy) */
+    int nx, ny;
+    float dx, dy;
+    sq_vec3 origin;        /* x, y of sample (0,0); z unused */
+    float *heights;        /* nx*ny, metres above datum */
+    float *normals;        /* 3*nx*ny, unit normals */
+    float height_min, height_max;
+    sq_terrain_kind terrain_kind;
+    /* obstacles */
+    sq_obstacle obstacles[SQ_MAX_OBSTACLES];
+    int obstacle_count;
+    /* sun and sky */
+    sq_vec3 sun_dir;       /* unit vector toward the sun */
+    sq_vec3 sun_radiance;  /* linear RGB irradiance scale of the sun at the ground */
+    sq_vec3 sky_zenith;    /* linear RGB sky radiance at zenith */
+    sq_vec3 sky_horizon;   /* linear RGB sky radiance at the horizon */
+    sq_vec3 ground_albedo;
+    float turbidity;
+    uint64_t generation;   /* changes when terrain or obstacles change (e.g. heightmap edit) */
+} sq_world;
+
+SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);
+SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
+SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
+
+/* Terrain height and normal at (x, y), bilinear; outside the heightfield the edge is extended. */
+SQ_API float sq_world_height_at(const sq_world *w, float x, float y);
+SQ_API sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y);
+/* Highest surface (terrain or obstacle top/roof) at (x, y). */
+SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
+/* True if the point is inside the terrain or inside an obstacle. */
+SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
+/* World bounds of the terrain: min/max x, y and heights. */
+SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);
+/* Sun direction (toward the sun) from day of year, local solar time and latitude. */
+SQ_API sq_vec3 sq_sun_direction(int day_of_year, float hour_solar, float latitude_deg);
+
+/* ---- camera ------------------------------------------------------------------------------ */
+typedef struct sq_camera {
+    sq_vec3 position_m;
+    sq_vec3 target_m;
+    sq_vec3 up;          /* zero -> (0, 0, 1) */
+    float fov_y_deg;     /* vertical field of view; 0 -> 50 */
+    float near_m;        /* 0 -> 0.5 */
+    float far_m;         /* 0 -> 20000 */
+} sq_camera;
+
+typedef struct sq_camera_key {
+    double time_s;
+    sq_vec3 position_m;
+    sq_vec3 target_m;
+    float fov_y_deg;     /* 0 -> keep the base camera's */
+} sq_camera_key;
+
+#define SQ_MAX_CAMERA_KEYS 64
+
+/* Camera at time t along keys (sorted by time; Catmull–Rom through positions and targets,
+ * clamped at the ends). With no keys returns base. */
+SQ_API sq_camera sq_camera_at(const sq_camera *base, const sq_camera_key *keys, int key_count,
+                              double t);
+SQ_API sq_camera sq_camera_resolve(sq_camera c);
+SQ_API sq_mat4 sq_camera_view(const sq_camera *c);
+SQ_API sq_mat4 sq_camera_proj(const sq_camera *c, float aspect);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

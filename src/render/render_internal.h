@@ -1,0 +1,93 @@
+/* render_internal.h — the renderer's private state shared by its passes. Owned by the base
+ * renderer (renderer.c: context, frame buffers, sky, terrain, obstacles, surfaces, tone
+ * mapping); the volume pass (render_volume.c) and the particle pass (render_particles.c) add
+ * their state through the opaque pointers below and draw through the functions declared here.
+ * GL lives on the thread that created the renderer. */
+#ifndef SQ_RENDER_INTERNAL_H
+#define SQ_RENDER_INTERNAL_H
+
+#include <epoxy/gl.h>
+
+#include "core/core_internal.h"
+#include "squall/render.h"
+
+typedef struct sq__gl_context sq__gl_context;       /* EGL display + context (gl_context.c) */
+typedef struct sq__volume_pass sq__volume_pass;     /* render_volume.c */
+typedef struct sq__particle_pass sq__particle_pass; /* render_particles.c */
+
+struct sq_renderer {
+    sq_context *ctx;
+    sq_render_desc desc;  /* resolved */
+    int width, height;
+    sq__gl_context *gl;
+    sq_render_info info;
+
+    /* HDR scene target: linear RGB (RGBA16F) + depth texture (DEPTH_COMPONENT32F). Opaque
+     * passes write both; volumes and particles read depth_tex and blend into hdr_color. */
+    GLuint hdr_fbo, hdr_color, depth_tex;
+    /* tone-mapped 8-bit target for read-back */
+    GLuint ldr_fbo, ldr_color;
+    GLuint empty_vao; /* for full-screen triangles */
+
+    /* per-frame camera */
+    sq_mat4 view, proj, view_proj, inv_view_proj;
+    sq_vec3 cam_pos, cam_forward, cam_right, cam_up;
+    float near_m, far_m;
+    double time_s;
+    const sq_world *world;
+
+    /* world geometry cache (rebuilt when world->generation changes) */
+    uint64_t world_generation;
+    GLuint terrain_vao, terrain_vbo, terrain_ibo;
+    GLsizei terrain_index_count;
+    GLuint obstacle_vao, obstacle_vbo;
+    GLsizei obstacle_vertex_count;
+
+    /* programs owned by the base renderer */
+    GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_tonemap;
+
+    /* Sun shadowing by volumes: the volume pass leaves its final light buffer here (a 2D
+     * texture of transmitted sun radiance over the volume box, seen from the sun) with the
+     * matrix mapping world positions to its texture coordinates; 0 when no volume. Opaque
+     * shading multiplies the sun term by it. Because opaque geometry is drawn before volumes,
+     * the base renderer calls sq__volume_pass_prepare_shadow() before the opaque passes. */
+    GLuint sun_shadow_tex;
+    sq_mat4 sun_shadow_matrix;
+
+    sq__volume_pass *volume;
+    sq__particle_pass *particles;
+};
+
+/* ---- gl_context.c ---------------------------------------------------------------------- */
+/* Creates a headless OpenGL 4.5 core context (EGL surfaceless, else EGL device platform) and
+ * makes it current. On failure the message says what failed and how to get a context. */
+sq_result sq__gl_context_create(sq_context *ctx, const char *device_hint, sq__gl_context **out);
+void sq__gl_context_destroy(sq__gl_context *gl);
+void sq__gl_query_info(sq_render_info *info);
+
+/* ---- gl_util.c --------------------------------------------------------------------------- */
+/* Compiles and links a program from embedded shader files (names without .glsl, e.g.
+ * "terrain.vert", "terrain.frag"; geometry optional NULL). Compile/link errors are reported
+ * with the shader name and line. */
+sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, const char *frag,
+                         GLuint *out);
+/* Text of an embedded shader file by name (NULL if none). */
+const char *sq__shader_source(const char *name);
+/* Translates glGetError into an sq_result with the place named. */
+sq_result sq__gl_check(sq_context *ctx, const char *where);
+
+/* ---- render_volume.c --------------------------------------------------------------------- */
+sq_result sq__volume_pass_create(sq_renderer *r);
+void sq__volume_pass_destroy(sq_renderer *r);
+/* Uploads (if its version changed) and runs the light passes so sun_shadow_tex is ready. */
+sq_result sq__volume_pass_prepare_shadow(sq_renderer *r, const sq_volume_view *v);
+/* Half-angle slicing into hdr_color, tested against depth_tex. */
+sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v);
+
+/* ---- render_particles.c ------------------------------------------------------------------ */
+sq_result sq__particle_pass_create(sq_renderer *r);
+void sq__particle_pass_destroy(sq_renderer *r);
+/* Instanced camera-facing quads with soft depth fade, blended into hdr_color. */
+sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p);
+
+#endif
