@@ -1,0 +1,172 @@
+/* test_world.c — terrain generation, sun position, obstacles, camera paths. */
+#include "sq_test.h"
+#include "squall/world.h"
+
+SQ_LABEL(unit)
+
+static sq_context *mkctx(void)
+{
+    sq_context *ctx = NULL;
+    sq_context_create(NULL, &ctx);
+    return ctx;
+}
+
+SQ_TEST(flat_terrain_and_bounds)
+{
+    sq_context *ctx = mkctx();
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.terrain.base_m = 12.5f;
+    d.terrain.size_m[0] = 100;
+    d.terrain.size_m[1] = 50;
+    d.terrain.resolution[0] = 11;
+    d.terrain.resolution[1] = 6;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    SQ_CHECK_NEAR(w->dx, 10.0, 1e-6);
+    SQ_CHECK_NEAR(w->origin.x, -50.0, 1e-6);
+    SQ_CHECK_NEAR(sq_world_height_at(w, 3.3f, -7.0f), 12.5, 1e-5);
+    sq_vec3 n = sq_world_normal_at(w, 0, 0);
+    SQ_CHECK_NEAR(n.z, 1.0, 1e-6);
+    SQ_CHECK(sq_world_solid_at(w, sq_v3(0, 0, 12.0f)));
+    SQ_CHECK(!sq_world_solid_at(w, sq_v3(0, 0, 13.0f)));
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(heightmap_maps_range_and_slope_normals)
+{
+    sq_context *ctx = mkctx();
+    uint16_t px[4 * 3];
+    /* a ramp rising toward +x: value = i * 65535 / 3 */
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 4; i++) px[j * 4 + i] = (uint16_t)(i * 21845);
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_HEIGHTMAP;
+    d.terrain.heightmap = px;
+    d.terrain.heightmap_w = 4;
+    d.terrain.heightmap_h = 3;
+    d.terrain.metres_per_px = 10.0f;
+    d.terrain.height_min_m = 100.0f;
+    d.terrain.height_max_m = 130.0f;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    SQ_CHECK(w->nx == 4 && w->ny == 3);
+    SQ_CHECK_NEAR(w->height_min, 100.0, 1e-4);
+    SQ_CHECK_NEAR(w->height_max, 130.0, 1e-3);
+    /* slope 10 m per 10 m: normal = (-1, 0, 1)/sqrt 2 */
+    sq_vec3 n = sq_world_normal_at(w, w->origin.x + 15.0f, w->origin.y + 10.0f);
+    SQ_CHECK_NEAR(n.x, -sqrt(0.5), 1e-4);
+    SQ_CHECK_NEAR(n.z, sqrt(0.5), 1e-4);
+    sq_world_destroy(ctx, w);
+    d.terrain.metres_per_px = 0.0f;
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "metres_per_px = 0");
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(procedural_kinds_are_finite_and_seeded)
+{
+    sq_context *ctx = mkctx();
+    const sq_terrain_kind kinds[] = {SQ_TERRAIN_HILLS, SQ_TERRAIN_DUNES, SQ_TERRAIN_MOUNTAIN};
+    for (int k = 0; k < 3; k++) {
+        sq_world_desc d = {0};
+        d.terrain.kind = kinds[k];
+        d.terrain.resolution[0] = d.terrain.resolution[1] = 65;
+        d.terrain.seed = 7;
+        sq_world *a = NULL, *b = NULL;
+        SQ_CHECK_OK(sq_world_create(ctx, &d, &a));
+        SQ_CHECK_OK(sq_world_create(ctx, &d, &b));
+        SQ_CHECK(a->height_max > a->height_min + 1.0f);
+        int same = 1;
+        for (int i = 0; i < 65 * 65; i++) {
+            SQ_CHECK(isfinite(a->heights[i]));
+            same &= a->heights[i] == b->heights[i];
+        }
+        SQ_CHECK(same);
+        sq_world_destroy(ctx, a);
+        sq_world_destroy(ctx, b);
+    }
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(mountain_slope_angle)
+{
+    sq_context *ctx = mkctx();
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_MOUNTAIN;
+    d.terrain.slope_deg = 35.0f;
+    d.terrain.relief_m = 0.001f; /* no ridges: a clean slope */
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 1000.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 201;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    float x0 = w->origin.x + 100.0f, x1 = w->origin.x + 300.0f, y = w->origin.y + 100.0f;
+    float drop = sq_world_height_at(w, x0, y) - sq_world_height_at(w, x1, y);
+    SQ_CHECK_NEAR(atan2(drop, 200.0) * 180.0 / SQ_PI, 35.0, 0.5);
+    /* run-out plain at the far end is flat */
+    float h1 = sq_world_height_at(w, w->origin.x + 900.0f, y),
+          h2 = sq_world_height_at(w, w->origin.x + 950.0f, y);
+    SQ_CHECK_NEAR(h1, h2, 0.01);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(sun_direction)
+{
+    /* Equinox (day 80), noon, equator: the sun is at the zenith (declination ~ 0). */
+    sq_vec3 s = sq_sun_direction(80, 12.0f, 0.0f);
+    SQ_CHECK(s.z > 0.999f);
+    /* 45 N, June solstice, noon: elevation = 90 - 45 + 23.45 = 68.45 deg, due south. */
+    s = sq_sun_direction(172, 12.0f, 45.0f);
+    SQ_CHECK_NEAR(asin(s.z) * 180.0 / SQ_PI, 68.45, 0.1);
+    SQ_CHECK(s.y < 0.0f);
+    SQ_CHECK_NEAR(s.x, 0.0, 1e-3);
+    /* afternoon: sun in the west (x < 0); morning: east */
+    SQ_CHECK(sq_sun_direction(172, 15.0f, 45.0f).x < 0.0f);
+    SQ_CHECK(sq_sun_direction(172, 9.0f, 45.0f).x > 0.0f);
+    /* midnight: below the horizon */
+    SQ_CHECK(sq_sun_direction(172, 0.0f, 45.0f).z < 0.0f);
+}
+
+SQ_TEST(obstacles_solid_and_roof)
+{
+    sq_context *ctx = mkctx();
+    sq_obstacle house = {.kind = SQ_OBSTACLE_HOUSE,
+                         .center_m = {10, 0, NAN},
+                         .size_m = {8, 6, 4},
+                         .roof_m = 2};
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.obstacles = &house;
+    d.obstacle_count = 1;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    SQ_CHECK_NEAR(w->obstacles[0].center_m.z, 0.0, 1e-6); /* placed on the terrain */
+    SQ_CHECK(sq_world_solid_at(w, sq_v3(10, 0, 5.9f)));   /* under the ridge */
+    SQ_CHECK(!sq_world_solid_at(w, sq_v3(10, 2.9f, 5.0f))); /* eave side: roof lower */
+    SQ_CHECK(!sq_world_solid_at(w, sq_v3(15, 0, 1.0f)));   /* outside the footprint */
+    SQ_CHECK_NEAR(sq_world_surface_at(w, 10, 0), 6.0, 1e-5);
+    sq_world_destroy(ctx, w);
+    house.size_m.y = 0;
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "obstacles[0].size");
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(camera_path)
+{
+    sq_camera base = {.position_m = {0, 0, 10}, .target_m = {1, 0, 10}};
+    sq_camera_key keys[3] = {{0.0, {0, 0, 10}, {100, 0, 0}, 0},
+                             {5.0, {50, 0, 20}, {100, 0, 0}, 40},
+                             {10.0, {100, 0, 10}, {200, 0, 0}, 0}};
+    sq_camera c = sq_camera_at(&base, keys, 3, 5.0);
+    SQ_CHECK_NEAR(c.position_m.x, 50.0, 1e-4);
+    SQ_CHECK_NEAR(c.position_m.z, 20.0, 1e-4);
+    SQ_CHECK_NEAR(c.fov_y_deg, 40.0, 1e-4);
+    c = sq_camera_at(&base, keys, 3, 20.0);
+    SQ_CHECK_NEAR(c.position_m.x, 100.0, 1e-4);
+    c = sq_camera_at(&base, keys, 3, 2.5);
+    SQ_CHECK(c.position_m.x > 0.0f && c.position_m.x < 50.0f); /* between the keys */
+    SQ_CHECK_NEAR(c.fov_y_deg, 45.0, 1e-3);
+    c = sq_camera_at(&base, NULL, 0, 3.0);
+    SQ_CHECK(c.fov_y_deg == 50.0f && c.near_m == 0.5f);
+}
