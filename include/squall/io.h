@@ -19,11 +19,13 @@ extern "C" {
 /* Checks that path can be created: its directory exists and is writable, and the file does not
  * exist unless overwrite. Fails with SQ_ERR_IO (missing directory, named) or SQ_ERR_EXISTS. */
 SQ_API sq_result sq_output_check(const char *path, bool overwrite);
-/* Builds the temporary name for path ("dir/.name.tmp-PID") into buf. */
+/* Builds the temporary-name prefix for path ("dir/.name.tmp-PID") into buf; the writers append
+ * "-N", the first N whose file can be created exclusively. */
 SQ_API sq_result sq_output_temp_name(const char *path, char *buf, size_t size);
-/* Renames tmp to path (atomic on one filesystem); refuses to replace unless overwrite. */
+/* Flushes tmp to disk and renames it to path (atomic on one filesystem); refuses to replace an
+ * existing path unless overwrite (SQ_ERR_EXISTS). On failure tmp is left for the caller. */
 SQ_API sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite);
-/* Writes bytes to path through a temporary file. */
+/* Writes bytes to path through a temporary file (removed on any failure). */
 SQ_API sq_result sq_output_write_file(const char *path, const void *data, size_t size,
                                       bool overwrite);
 
@@ -33,10 +35,14 @@ SQ_API sq_result sq_png_write_rgba8(const char *path, int width, int height,
 /* 16-bit grey PNG (for depth maps): values 0..65535. */
 SQ_API sq_result sq_png_write_gray16(const char *path, int width, int height,
                                      const uint16_t *gray, bool overwrite);
+/* Reads any PNG as 8-bit RGBA (palette, grey and 16-bit are converted; alpha 255 where the file
+ * has none), rows top first. Free with sq_free(ctx, *rgba_out). */
 SQ_API sq_result sq_png_read_rgba8(sq_context *ctx, const char *path, uint8_t **rgba_out,
                                    int *width, int *height);
-/* Reads a 16-bit greyscale heightmap; refuses other bit depths/colour types and images larger
- * than max_pixels (naming the file, what it found and the rule). Free with sq_free. */
+/* Reads a 16-bit greyscale heightmap (rows top first, native-endian values 0..65535); refuses
+ * other bit depths/colour types (SQ_ERR_INVALID_ARG), images larger than max_pixels
+ * (SQ_ERR_TOO_LARGE; max_pixels <= 0 -> 16384*16384), corrupt or truncated files
+ * (SQ_ERR_PARSE), naming the file, what it found and the rule. Free with sq_free(ctx, *out). */
 SQ_API sq_result sq_png_read_heightmap16(sq_context *ctx, const char *path, int max_pixels,
                                          uint16_t **out, int *width, int *height);
 

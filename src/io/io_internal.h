@@ -1,0 +1,36 @@
+/* io_internal.h — helpers shared by the file writers and readers of src/io/: the temporary-file
+ * protocol of safe outputs (ARCHITECTURE.md "Files and data safety") and field-file checks. */
+#ifndef SQ_IO_INTERNAL_H
+#define SQ_IO_INTERNAL_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include "core/core_internal.h"
+#include "squall/drawable.h"
+#include "squall/io.h"
+
+/* Largest temporary name the writers build (the path plus ".tmp-PID-N"). */
+#define SQ__TEMP_NAME_MAX 4096
+
+/* Checks path (sq_output_check), then creates its temporary "dir/.name.tmp-PID-N" exclusively
+ * (O_EXCL, the first free N) and returns the open descriptor in *fd_out and the name in tmp.
+ * On failure nothing is left on disk, *fd_out = -1 and the error text is set. */
+sq_result sq__output_open_temp(const char *path, bool overwrite, char *tmp, size_t size,
+                               int *fd_out);
+/* Flushes tmp to disk and renames it to path (sq_output_commit). On failure tmp is removed. */
+sq_result sq__output_finish(const char *tmp, const char *path, bool overwrite);
+/* Removes a temporary (ignores a missing one). Accepts NULL and "". */
+void sq__output_discard(const char *tmp);
+
+/* Logs the current error text (set by a context-free function) on ctx under "io" and returns r
+ * unchanged; SQ_OK passes through silently. */
+sq_result sq__io_relog(sq_context *ctx, sq_result r);
+
+/* Validates a set of fields for one field file: count >= 1, names [A-Za-z_][A-Za-z0-9_.-]*
+ * unique and none of x, y, z, time; data non-NULL; sizes >= 1 and equal; origin and spacing
+ * equal, spacing > 0 and finite. Also checks desc and desc->path. Messages name the field. */
+sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
+                               const sq_named_field *fields, int count, const char *what);
+
+#endif
