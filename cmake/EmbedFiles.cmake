@@ -14,7 +14,7 @@ string(APPEND out "typedef struct { const char *name; const char *text; } sq__em
 set(entries "")
 set(n 0)
 foreach(f ${files})
-  get_filename_component(name ${f} NAME_WE)
+  get_filename_component(name ${f} NAME_WLE)  # "terrain.vert.glsl" -> "terrain.vert"
   file(READ ${f} content HEX)
   string(REGEX REPLACE "([0-9a-f][0-9a-f])" "0x\\1," bytes "${content}")
   string(APPEND out "static const char ${SYMBOL}_data_${n}[] = {${bytes}0x00};\n")
