@@ -1,0 +1,247 @@
+/* squall/optics.h — dust optics and visibility (SPEC §2): exact Lorenz–Mie efficiencies of a
+ * homogeneous sphere, van de Hulst's anomalous-diffraction approximation (ADA), log-normal size
+ * distributions (moments, quadrature, size bins), bulk optics of a distribution and the
+ * per-channel table the renderer uses, the Henyey–Greenstein phase function and Koschmieder
+ * visibility.
+ *
+ * Refractive-index sign convention: m = n_real + i n_imag with n_imag >= 0 for an absorbing
+ * material (time dependence e^{-i omega t}, as in Bohren & Huffman). MIEV0 (Wiscombe) writes the
+ * same material as n − ik and SPEC §2.1 as n_r − i n_i: pass n_imag = k = n_i (a positive
+ * number). A negative n_imag is an input error (SQ_ERR_INVALID_ARG), never silently flipped.
+ *
+ * Units: SI everywhere (metres, kg, m², m⁻¹); efficiencies Q and the asymmetry g are
+ * dimensionless. Pure functions: no context, no allocation, no global state; failures set
+ * sq_last_error() with the parameter, its value and the rule. */
+#ifndef SQ_OPTICS_H
+#define SQ_OPTICS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- single spheres ------------------------------------------------------------------------ */
+
+/* Largest size parameter x = 2 pi r / lambda the exact Mie series accepts. */
+#define SQ_MIE_MAX_SIZE_PARAMETER 1.0e5
+
+typedef struct sq_mie_result {
+    double qext;  /* extinction efficiency C_ext / (pi r²) */
+    double qsca;  /* scattering efficiency */
+    double qabs;  /* absorption efficiency qext − qsca (>= 0) */
+    double qback; /* backscattering efficiency (Bohren & Huffman definition); NaN from ADA */
+    double g;     /* asymmetry parameter <cos theta> (g > 0: forward); NaN from ADA */
+    int terms;    /* number of series terms summed (0 for ADA) */
+} sq_mie_result;
+
+/* Exact Lorenz–Mie efficiencies for a homogeneous sphere of size parameter x (0 < x <= 1e5) and
+ * refractive index n_real + i n_imag (n_real > 0, n_imag >= 0) relative to the medium.
+ * Downward logarithmic-derivative recurrence started from Lentz's continued fraction (exact
+ * start value, no start-margin heuristic), Wiscombe's term count x + 4.05 x^(1/3) + 2, double
+ * precision. Validated against Wiscombe's MIEV0 test set, BHMIE and scattnlay
+ * (tests/optics/test_optics_mie.c). */
+SQ_API sq_result sq_mie_sphere(double x, double n_real, double n_imag, sq_mie_result *out);
+
+/* Exact Mie efficiencies of a perfectly conducting sphere (the m -> infinity limit). */
+SQ_API sq_result sq_mie_sphere_conducting(double x, sq_mie_result *out);
+
+/* Van de Hulst's anomalous-diffraction approximation (SPEC §2.2, eqs 3.14–3.15):
+ *   Q_ext = 4 Re K(2x(n_imag + i(n_real − 1))),  Q_abs = 2 K(4 x n_imag),
+ *   K(w) = 1/2 + e^{−w}/w + (e^{−w} − 1)/w²,
+ * with the power series K(w) = sum_j (−1)^{j+1} (j+1)/(j+2)! w^j for |w| < 0.1 (the closed form
+ * cancels catastrophically for small w), so Q_abs never goes negative. Meant for |m − 1| small
+ * and x >> 1; needs m != 1. qback and g are NaN, terms = 0. */
+SQ_API sq_result sq_ada_sphere(double x, double n_real, double n_imag, sq_mie_result *out);
+
+/* Default refractive index of mineral dust at a wavelength (reference/dust_optics.md):
+ * n_real = 1.53 (Woodward 2001); n_imag interpolated linearly in wavelength through
+ *   450 nm: 0.0057 (Woodward 2001, 500 nm value; the blue absorbs most: yellow-brown tint),
+ *   550 nm: 0.0030 (the Met Office UM / CLASSIC value used in the cross-check table),
+ *   650 nm: 0.0014 (Dubovik et al. 2002, Saharan dust at 670 nm),
+ * and held constant outside 450–650 nm. */
+SQ_API sq_result sq_dust_refractive_index(double wavelength_m, double *n_real, double *n_imag);
+
+/* ---- log-normal size distribution ----------------------------------------------------------- */
+
+/* Number-weighted log-normal: ln r is normal with mean ln(median_radius_m) and standard
+ * deviation ln_sigma = ln(sigma_g). Build with one of the two constructors below. */
+typedef struct sq_lognormal {
+    double median_radius_m; /* number median radius r_m, > 0 */
+    double ln_sigma;        /* ln of the geometric standard deviation, > 0 */
+} sq_lognormal;
+
+/* From the geometric standard deviation sigma_g (> 1). */
+SQ_API sq_result sq_lognormal_make(double median_radius_m, double sigma_g, sq_lognormal *out);
+/* From ln(sigma_g) (> 0), the "std" of SPEC §2.4–2.7 (eta). */
+SQ_API sq_result sq_lognormal_make_ln(double median_radius_m, double ln_sigma, sq_lognormal *out);
+/* Checks a distribution filled in by hand (messages name median_radius_m / ln_sigma). */
+SQ_API sq_result sq_lognormal_validate(const sq_lognormal *d);
+
+/* Analytic moment <r^k> = r_m^k exp(k² ln²sigma_g / 2) (m^k). */
+SQ_API double sq_lognormal_moment(const sq_lognormal *d, double k);
+/* Partial moment: integral of r^k P(r) dr over [r_lo, r_hi] (P normalised to 1 over (0, inf));
+ * = <r^k> [Phi(z_hi − k ln sigma) − Phi(z_lo − k ln sigma)], z = (ln r − ln r_m)/ln sigma. */
+SQ_API double sq_lognormal_partial_moment(const sq_lognormal *d, double k, double r_lo_m,
+                                          double r_hi_m);
+/* Probability density per unit ln r, dN/dln r / N (dimensionless). */
+SQ_API double sq_lognormal_pdf_ln(const sq_lognormal *d, double radius_m);
+
+/* Default integration range in radius for bulk optics: ln r from ln r_m − 6 ln sigma (the
+ * number tail) to ln r_m + 3 ln² sigma + 6 ln sigma (6 sigma beyond the mass median), so the
+ * neglected tails of the number, area and mass integrals are each below 1e-9. */
+SQ_API sq_result sq_lognormal_auto_range(const sq_lognormal *d, double *r_min_m,
+                                         double *r_max_m);
+
+/* Quadrature in ln r: `nodes` equally spaced nodes from ln r_min to ln r_max (trapezoid rule,
+ * which converges spectrally for these smooth, rapidly decaying integrands). Fills radius_m[i]
+ * and weight[i] so that sum_i weight[i] f(radius_m[i]) approximates the integral of f(r) P(r) dr
+ * over [r_min, r_max] (weights are NOT renormalised; their sum is the number fraction inside
+ * the range). r_min_m = r_max_m = 0 selects sq_lognormal_auto_range; 16 <= nodes <= 100000. */
+SQ_API sq_result sq_lognormal_quadrature(const sq_lognormal *d, double r_min_m, double r_max_m,
+                                         int nodes, double *radius_m, double *weight);
+
+/* One size class of a discretised distribution. Fractions are shares of the particles (or
+ * mass) inside [r_min, r_max], so each sums to 1 over the bins. */
+typedef struct sq_size_bin {
+    double r_lo_m, r_hi_m;  /* bin edges (log-spaced) */
+    double radius_m;        /* representative radius: cube root of the bin's mean r³ (conserves
+                               mass when all particles of the bin get this radius) */
+    double number_fraction; /* share of the number */
+    double mass_fraction;   /* share of the mass (volume) */
+} sq_size_bin;
+
+/* Splits [r_min, r_max] into `count` log-spaced bins (1 <= count <= 4096). r_min_m = r_max_m =
+ * 0 selects ln r_m − 3 ln sigma .. ln r_m + 3 ln² sigma + 3 ln sigma (the central 99.7 % of the
+ * number and of the mass). All values are analytic (error functions). */
+SQ_API sq_result sq_lognormal_bins(const sq_lognormal *d, int count, double r_min_m,
+                                   double r_max_m, sq_size_bin *bins);
+
+/* Number density of particles (m⁻³) for a dust mass concentration (kg/m³, 0 is physical):
+ * rho_n = C / (rho_d <4/3 pi r³>) with the analytic third moment. density_kg_m3 > 0. */
+SQ_API sq_result sq_lognormal_number_density(const sq_lognormal *d, double conc_kg_m3,
+                                             double density_kg_m3, double *out_per_m3);
+
+/* ---- bulk optics of a distribution -------------------------------------------------------- */
+
+typedef enum sq_optics_method {
+    SQ_OPTICS_DEFAULT = 0, /* = SQ_OPTICS_MIE */
+    SQ_OPTICS_MIE = 1,     /* exact Lorenz–Mie per node */
+    SQ_OPTICS_ADA = 2      /* anomalous diffraction, the thesis's method (S0 §3.3) */
+} sq_optics_method;
+
+#define SQ_DUST_DENSITY_DEFAULT 2650.0   /* kg/m³, quartz / Met Office UM value */
+#define SQ_OPTICS_NODES_DEFAULT 400      /* quadrature nodes in ln r */
+#define SQ_OPTICS_ADA_ASYMMETRY_DEFAULT 0.7 /* SPEC §2.6 default g (ADA has no angular data) */
+/* Above this size parameter the bulk integral does not evaluate the Mie series: efficiencies
+ * continue as Q_mie(x_cap) + Q_ada(x) − Q_ada(x_cap) (geometric-optics regime, Q within ~0.1 %
+ * of its limit), g is held at its x_cap value. Keeps coarse distributions cheap. */
+#define SQ_OPTICS_MIE_X_CAP 1.0e4
+
+typedef struct sq_bulk_optics_desc {
+    sq_lognormal size;       /* required: build with sq_lognormal_make / _make_ln */
+    double wavelength_m;     /* required, > 0 */
+    double n_real;           /* 0 = dust default at wavelength_m (sq_dust_refractive_index),
+                                n_imag is then ignored; otherwise > 0 */
+    double n_imag;           /* >= 0, 0 is physical (non-absorbing) when n_real is set */
+    double density_kg_m3;    /* particle material density; 0 = 2650 */
+    sq_optics_method method; /* 0 = exact Mie */
+    double r_min_m, r_max_m; /* integration range; both 0 = sq_lognormal_auto_range */
+    int nodes;               /* quadrature nodes in ln r; 0 = 400; 16..100000 */
+    double ada_asymmetry;    /* g reported by the ADA method; 0 = 0.7; in (−1, 1) */
+} sq_bulk_optics_desc;
+
+/* Bulk optical properties per particle and per unit mass. Averages are over the particles in
+ * [r_min, r_max] (the quadrature weights are renormalised to that range). */
+typedef struct sq_bulk_optics {
+    double wavelength_m, n_real, n_imag; /* resolved inputs */
+    double ext_cross_section_m2;   /* <C_ext> per particle; beta_ext = rho_n <C_ext> */
+    double sca_cross_section_m2;   /* <C_sca> */
+    double abs_cross_section_m2;   /* <C_abs> */
+    double particle_mass_kg;       /* rho_d <4/3 pi r³> */
+    double mass_extinction_m2_per_kg; /* k_ext = <C_ext> / (rho_d <4/3 pi r³>) */
+    double mass_scattering_m2_per_kg;
+    double single_scattering_albedo;  /* <C_sca> / <C_ext> */
+    double asymmetry;              /* scattering-weighted g: <C_sca g> / <C_sca> */
+    double effective_radius_m;     /* <r³> / <r²> */
+} sq_bulk_optics;
+
+/* Fills defaults (zeros) and validates; out receives the resolved copy. */
+SQ_API sq_result sq_bulk_optics_desc_resolve(const sq_bulk_optics_desc *desc,
+                                             sq_bulk_optics_desc *out);
+SQ_API sq_result sq_bulk_optics_compute(const sq_bulk_optics_desc *desc, sq_bulk_optics *out);
+
+/* ---- the per-channel table the renderer and the sandstorm use ----------------------------- */
+
+typedef enum sq_optics_channel {
+    SQ_OPTICS_RED = 0,   /* default 650 nm */
+    SQ_OPTICS_GREEN = 1, /* default 550 nm */
+    SQ_OPTICS_BLUE = 2,  /* default 450 nm */
+    SQ_OPTICS_VIS = 3,   /* 550 nm reference for visibility (SPEC §2.7) */
+    SQ_OPTICS_CHANNELS = 4
+} sq_optics_channel;
+
+typedef struct sq_optics_table_desc {
+    sq_lognormal size;                          /* required */
+    double density_kg_m3;                       /* 0 = 2650 */
+    sq_optics_method method;                    /* 0 = exact Mie */
+    double wavelength_m[SQ_OPTICS_CHANNELS];    /* 0 = 650, 550, 450, 550 nm */
+    double n_real[SQ_OPTICS_CHANNELS];          /* 0 = dust default at that wavelength */
+    double n_imag[SQ_OPTICS_CHANNELS];          /* used where n_real is set; 0 is physical */
+    double r_min_m, r_max_m;                    /* 0 = auto range */
+    int nodes;                                  /* 0 = 400 */
+    double ada_asymmetry;                       /* 0 = 0.7 */
+} sq_optics_table_desc;
+
+typedef struct sq_optics_table {
+    sq_bulk_optics channel[SQ_OPTICS_CHANNELS];
+    sq_lognormal size;
+    double density_kg_m3;
+    sq_optics_method method;
+} sq_optics_table;
+
+SQ_API sq_result sq_optics_table_desc_resolve(const sq_optics_table_desc *desc,
+                                              sq_optics_table_desc *out);
+/* Builds the table once (scene creation): four bulk-optics evaluations. */
+SQ_API sq_result sq_optics_table_build(const sq_optics_table_desc *desc, sq_optics_table *out);
+
+/* ---- phase function --------------------------------------------------------------------- */
+
+/* Henyey–Greenstein phase function (1/sr), normalised to 1 over 4 pi:
+ * p = (1 − g²) / (4 pi (1 + g² − 2 g cos_theta)^{3/2}), cos_theta = dot of the propagation
+ * directions of the incident and scattered light, so g > 0 is forward scattering (SPEC §2.6).
+ * |g| < 1. */
+SQ_API double sq_hg_phase(double cos_theta, double g);
+/* Inverse CDF: cos_theta distributed as p for a uniform u in [0, 1] (u = 0 gives +1). */
+SQ_API double sq_hg_sample_cos(double g, double u);
+/* Scattered propagation direction for incident unit direction dir_in: cos_theta from u1,
+ * azimuth 2 pi u2 around dir_in. dir_out is a unit vector; dir_in and dir_out may alias. */
+SQ_API void sq_hg_sample_direction(const double dir_in[3], double g, double u1, double u2,
+                                   double dir_out[3]);
+
+/* ---- visibility (Koschmieder, SPEC §2.7) --------------------------------------------------- */
+
+#define SQ_VISIBILITY_CONTRAST_DEFAULT 0.05 /* S0 and WMO MOR; the UM and UPP use 0.02 */
+
+/* V = ln(1/contrast) / beta_ext. beta_ext >= 0 (0 gives +infinity); contrast in (0, 1), 0 =
+ * 0.05. */
+SQ_API sq_result sq_visibility_from_extinction(double beta_ext_per_m, double contrast,
+                                               double *out_m);
+/* beta_ext = ln(1/contrast) / V for a visibility V > 0. */
+SQ_API sq_result sq_extinction_for_visibility(double visibility_m, double contrast,
+                                              double *out_per_m);
+/* V for a dust mass concentration (kg/m³, >= 0) and mass extinction k_ext (m²/kg, > 0). */
+SQ_API sq_result sq_visibility_from_concentration(double conc_kg_m3, double mass_ext_m2_per_kg,
+                                                  double contrast, double *out_m);
+/* The dust mass concentration (kg/m³) that gives visibility V (m, > 0). */
+SQ_API sq_result sq_concentration_for_visibility(double visibility_m, double mass_ext_m2_per_kg,
+                                                 double contrast, double *out_kg_m3);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
