@@ -94,6 +94,21 @@ SQ_API sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_des
 SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                      const sq_named_field *fields, int count);
 
+/* ---- scene files (YAML through libyaml) ----------------------------------------------------- */
+struct sq_cfg;
+/* Parses YAML text into a configuration tree; errors name source:line:column. */
+SQ_API sq_result sq_cfg_parse(sq_context *ctx, const char *text, size_t len, const char *source,
+                              struct sq_cfg **out);
+/* Reads and parses a scene file (missing/unreadable files are named). */
+SQ_API sq_result sq_cfg_load_file(sq_context *ctx, const char *path, struct sq_cfg **out);
+/* A built-in preset by name (SQ_ERR_NOT_FOUND lists the presets). */
+SQ_API sq_result sq_cfg_load_preset(sq_context *ctx, const char *name, struct sq_cfg **out);
+/* A file path if it exists (or has a .yaml/.yml ending), else a preset name. */
+SQ_API sq_result sq_cfg_load(sq_context *ctx, const char *file_or_preset, struct sq_cfg **out);
+/* The heightmap loader scenes use (16-bit PNG, at most 8192x8192). */
+SQ_API sq_result sq_scene_heightmap_loader(sq_context *ctx, const char *path, uint16_t **out,
+                                           int *width, int *height);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,132 @@
+/* squall/scene.h — a scene = world + phenomena (layers) + camera + outputs, stepped on one
+ * clock. Scenes are built from a configuration tree (parsed from YAML by the io layer, or a
+ * built-in preset) through the parameter tables of each section and plug-in. */
+#ifndef SQ_SCENE_H
+#define SQ_SCENE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/drawable.h"
+#include "squall/plugin.h"
+#include "squall/world.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- configuration tree ------------------------------------------------------------------ */
+typedef enum sq_cfg_kind { SQ_CFG_SCALAR = 0, SQ_CFG_MAP = 1, SQ_CFG_SEQ = 2 } sq_cfg_kind;
+
+typedef struct sq_cfg_node {
+    sq_cfg_kind kind;
+    char *key;      /* for entries of a map */
+    char *value;    /* for scalars */
+    int line, col;  /* 1-based position in the source (0 for --set) */
+    struct sq_cfg_node *child; /* first entry of a map or sequence */
+    struct sq_cfg_node *next;  /* next sibling */
+} sq_cfg_node;
+
+typedef struct sq_cfg {
+    sq_cfg_node *root;   /* a map */
+    char source[256];    /* file name or "preset NAME" */
+    char base_dir[512];  /* directory relative paths in the file are resolved against */
+} sq_cfg;
+
+SQ_API sq_result sq_cfg_create(sq_cfg **out);
+SQ_API void sq_cfg_destroy(sq_cfg *cfg);
+SQ_API sq_cfg_node *sq_cfg_node_new(sq_cfg_kind kind, const char *key, const char *value,
+                                    int line, int col);
+SQ_API void sq_cfg_node_free(sq_cfg_node *n);
+/* Appends child to parent's list. */
+SQ_API void sq_cfg_node_append(sq_cfg_node *parent, sq_cfg_node *child);
+/* Map lookup (NULL if absent or parent is not a map). */
+SQ_API sq_cfg_node *sq_cfg_get(const sq_cfg_node *map, const char *key);
+/* Applies "path.to.key=value". Path parts address map keys; for sequences a part is an index
+ * or, in `layers`, a layer's name or type. Missing map keys are created. */
+SQ_API sq_result sq_cfg_set(sq_cfg *cfg, const char *assignment);
+/* Writes the tree as YAML into a malloc'd string (free with free()). */
+SQ_API char *sq_cfg_to_yaml(const sq_cfg *cfg);
+
+/* Built-in presets (the YAML files of scenes/ compiled into the library). */
+SQ_API int sq_preset_count(void);
+SQ_API const char *sq_preset_name(int i);
+SQ_API const char *sq_preset_text(const char *name); /* NULL if unknown */
+/* The default scene of `squall render` without arguments and of `make demo`. */
+SQ_API const char *sq_preset_default(void);
+
+/* ---- section tables (world, camera, output) for `squall params` -------------------------- */
+SQ_API const sq_param *sq_scene_section_params(const char *section, size_t *count);
+
+/* ---- scene outputs ------------------------------------------------------------------------- */
+typedef enum sq_field_format {
+    SQ_FIELDS_NETCDF = 0,
+    SQ_FIELDS_VTK = 1,
+    SQ_FIELDS_BOTH = 2
+} sq_field_format;
+
+typedef struct sq_scene_output {
+    int width, height;        /* frame size */
+    int fps;                  /* frames per second of video time */
+    double duration_s;        /* video length; frames = round(duration * fps) unless frames set */
+    int frames;               /* frame count (0 = from duration) */
+    int steps_per_frame;      /* simulation steps per frame (>= 1) */
+    double time_scale;        /* simulated seconds per video second (1 = real time) */
+    double warmup_s;          /* simulated time stepped before the first frame */
+    char video[SQ_PARAM_STRING_MAX];      /* MP4 path ("" = none) */
+    char frames_dir[SQ_PARAM_STRING_MAX]; /* PNG frames directory ("" = none) */
+    char metrics[SQ_PARAM_STRING_MAX];    /* CSV path ("" = none) */
+    char fields[SQ_PARAM_STRING_MAX];     /* field file prefix ("" = none) */
+    int fields_every;         /* write fields every N frames (0 = last frame only) */
+    int fields_format;        /* sq_field_format */
+    float exposure;
+    int volume_slices;
+    int light_buffer;
+    bool volume_noise;
+} sq_scene_output;
+
+/* ---- the scene ------------------------------------------------------------------------------- */
+typedef struct sq_scene sq_scene;
+
+/* Loads a 16-bit heightmap for the scene (supplied by the io layer). */
+typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint16_t **out,
+                                         int *width, int *height);
+
+typedef struct sq_scene_desc {
+    const sq_cfg *cfg;
+    sq_heightmap_loader load_heightmap; /* NULL: heightmap terrains are refused */
+    bool validate_only;                 /* resolve and check everything, create no phenomena */
+} sq_scene_desc;
+
+SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);
+SQ_API void sq_scene_destroy(sq_scene *s);
+
+SQ_API const sq_scene_output *sq_scene_output_settings(const sq_scene *s);
+SQ_API const sq_world *sq_scene_world(const sq_scene *s);
+SQ_API const char *sq_scene_name(const sq_scene *s);
+SQ_API uint64_t sq_scene_seed(const sq_scene *s);
+SQ_API double sq_scene_time(const sq_scene *s);
+SQ_API int sq_scene_frame_count(const sq_scene *s);
+/* Simulated seconds between frames. */
+SQ_API double sq_scene_frame_dt(const sq_scene *s);
+
+/* Advances every layer by dt (each sub-cycled to its max stable step). */
+SQ_API sq_result sq_scene_step(sq_scene *s, double dt_s);
+/* The camera at the current time (calls each layer's observe hook). */
+SQ_API sq_camera sq_scene_camera(sq_scene *s);
+SQ_API int sq_scene_drawables(sq_scene *s, sq_drawable *out, int max);
+/* Metrics of every layer, names prefixed "<layer>." (names valid until the next call). */
+SQ_API int sq_scene_metrics(sq_scene *s, sq_metric *out, int max);
+SQ_API int sq_scene_fields(sq_scene *s, sq_named_field *out, int max);
+SQ_API int sq_scene_layer_count(const sq_scene *s);
+SQ_API const char *sq_scene_layer_name(const sq_scene *s, int i);
+SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
+/* Total bytes the layers declared (memory_bytes) at creation. */
+SQ_API uint64_t sq_scene_memory_bytes(const sq_scene *s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

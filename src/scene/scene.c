@@ -1,0 +1,586 @@
+/* scene.c — builds a scene from a configuration tree through the parameter tables (world,
+ * camera, output and each layer's plug-in), creates the world and the phenomena, and steps
+ * everything on one clock, sub-cycling each layer to its stable time step. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/core_internal.h"
+#include "scene_internal.h"
+#include "squall/rng.h"
+
+#define MAX_LAYERS 16
+#define MAX_METRICS 256
+
+typedef struct layer {
+    const sq_phen_plugin *plugin;
+    char name[64];
+    void *desc;
+    void *self;
+} layer;
+
+struct sq_scene {
+    sq_context *ctx;
+    char name[SQ_PARAM_STRING_MAX + 16];
+    uint64_t seed;
+    sq_world *world;
+    sq_camera camera;
+    sq_camera_key keys[SQ_MAX_CAMERA_KEYS];
+    int key_count;
+    sq_scene_output out;
+    layer layers[MAX_LAYERS];
+    int layer_count;
+    double time_s;
+    uint64_t step_count;
+    uint64_t memory_bytes;
+    char metric_names[MAX_METRICS][96];
+};
+
+/* ---- applying a cfg subtree through a table ------------------------------------------------ */
+typedef struct apply_ctx {
+    const sq_cfg *cfg;
+    const char *section; /* e.g. "world", "layers[0] (sandstorm)" */
+} apply_ctx;
+
+static void where_of(const apply_ctx *a, const sq_cfg_node *n, char *buf, size_t size)
+{
+    if (n && n->line > 0)
+        snprintf(buf, size, "%s:%d:%d", a->cfg->source, n->line, n->col);
+    else
+        snprintf(buf, size, "%s (--set)", a->cfg->source);
+}
+
+/* Joins the scalar children of a sequence into "[a, b, c]"; fails for nested content. */
+static sq_result seq_text(const apply_ctx *a, const sq_cfg_node *seq, const char *key, char *buf,
+                          size_t size)
+{
+    size_t len = 0;
+    len += (size_t)snprintf(buf, size, "[");
+    for (const sq_cfg_node *c = seq->child; c; c = c->next) {
+        if (c->kind != SQ_CFG_SCALAR) {
+            char w[320];
+            where_of(a, c, w, sizeof w);
+            return sq__set_error(SQ_ERR_INVALID_ARG, "%s: %s.%s: expected a list of numbers",
+                                 w, a->section, key);
+        }
+        if (len < size)
+            len += (size_t)snprintf(buf + len, size - len, "%s%s", c == seq->child ? "" : ", ",
+                                    c->value ? c->value : "");
+    }
+    if (len < size) snprintf(buf + len, size - len, "]");
+    return SQ_OK;
+}
+
+/* Applies every entry of map under prefix; skip: keys handled by the caller (NULL-terminated). */
+static sq_result apply_map(const apply_ctx *a, const sq_cfg_node *map, const char *prefix,
+                           const sq_param *table, size_t n, void *desc, const char *const *skip)
+{
+    for (const sq_cfg_node *c = map->child; c; c = c->next) {
+        if (!prefix[0] && skip) {
+            bool s = false;
+            for (const char *const *k = skip; *k; k++) s = s || strcmp(*k, c->key) == 0;
+            if (s) continue;
+        }
+        char key[256];
+        snprintf(key, sizeof key, "%s%s%s", prefix, prefix[0] ? "." : "", c->key);
+        char w[320];
+        where_of(a, c, w, sizeof w);
+        sq_result r;
+        if (c->kind == SQ_CFG_MAP) {
+            /* a nested section, unless the table has this exact key (then it is a type error) */
+            if (sq_params_find(table, n, key))
+                return sq__set_error(SQ_ERR_INVALID_ARG, "%s: %s.%s: expected a value, found a map",
+                                     w, a->section, key);
+            r = apply_map(a, c, key, table, n, desc, NULL);
+        } else if (c->kind == SQ_CFG_SEQ) {
+            char text[1024];
+            r = seq_text(a, c, key, text, sizeof text);
+            if (r == SQ_OK) r = sq_params_set(table, n, desc, a->section, key, text, w);
+        } else {
+            /* a key that is a prefix of table keys used with a scalar: wrong type */
+            if (!sq_params_find(table, n, key)) {
+                size_t kl = strlen(key);
+                for (size_t i = 0; i < n; i++)
+                    if (strncmp(table[i].key, key, kl) == 0 && table[i].key[kl] == '.')
+                        return sq__set_error(SQ_ERR_INVALID_ARG,
+                                             "%s: %s.%s: expected a section with keys such as "
+                                             "'%s', found a value",
+                                             w, a->section, key, table[i].key + kl + 1);
+            }
+            r = sq_params_set(table, n, desc, a->section, key, c->value, w);
+        }
+        if (r != SQ_OK) return r;
+    }
+    return SQ_OK;
+}
+
+static sq_result expect_kind(const apply_ctx *a, const sq_cfg_node *n, sq_cfg_kind k,
+                             const char *what)
+{
+    if (n->kind == k) return SQ_OK;
+    char w[320];
+    where_of(a, n, w, sizeof w);
+    const char *names[] = {"a value", "a map", "a list"};
+    return sq__set_error(SQ_ERR_INVALID_ARG, "%s: %s: expected %s, found %s", w, what, names[k],
+                         names[n->kind]);
+}
+
+/* ---- sections ------------------------------------------------------------------------------ */
+static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_cfg_node *node,
+                             sq_world **out)
+{
+    const sq_cfg *cfg = sd->cfg;
+    sq__world_section ws;
+    sq_params_defaults(sq__world_params, sq__world_param_count, &ws);
+    apply_ctx a = {cfg, "world"};
+    static const char *const skip[] = {"obstacles", NULL};
+    sq_obstacle *obs = (sq_obstacle *)calloc(SQ_MAX_OBSTACLES, sizeof *obs);
+    if (!obs) return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    int nobs = 0;
+    sq_result r = SQ_OK;
+    if (node) {
+        r = expect_kind(&a, node, SQ_CFG_MAP, "world");
+        if (r == SQ_OK) r = apply_map(&a, node, "", sq__world_params, sq__world_param_count, &ws, skip);
+        const sq_cfg_node *ol = sq_cfg_get(node, "obstacles");
+        if (r == SQ_OK && ol) {
+            r = expect_kind(&a, ol, SQ_CFG_SEQ, "world.obstacles");
+            int i = 0;
+            for (const sq_cfg_node *o = ol->child; r == SQ_OK && o; o = o->next, i++) {
+                char sec[64];
+                snprintf(sec, sizeof sec, "world.obstacles[%d]", i);
+                apply_ctx oa = {cfg, sec};
+                r = expect_kind(&oa, o, SQ_CFG_MAP, sec);
+                if (r != SQ_OK) break;
+                if (nobs >= SQ_MAX_OBSTACLES) {
+                    r = sq__set_error(SQ_ERR_INVALID_ARG, "%s: world.obstacles: more than %d",
+                                      cfg->source, SQ_MAX_OBSTACLES);
+                    break;
+                }
+                sq__obstacle_item it;
+                sq_params_defaults(sq__obstacle_params, sq__obstacle_param_count, &it);
+                r = apply_map(&oa, o, "", sq__obstacle_params, sq__obstacle_param_count, &it, NULL);
+                if (r != SQ_OK) break;
+                if (it.center_count < 2) {
+                    r = sq__set_error(SQ_ERR_INVALID_ARG, "%s: %s.center: expected [x, y] or [x, y, z]",
+                                      cfg->source, sec);
+                    break;
+                }
+                sq_obstacle *ob = &obs[nobs++];
+                ob->kind = (sq_obstacle_kind)it.kind;
+                ob->center_m = sq_v3(it.center[0], it.center[1],
+                                     it.center_count == 3 ? it.center[2] : NAN);
+                ob->size_m = sq_v3(it.size[0], it.size[1], it.size[2]);
+                ob->roof_m = it.roof_m;
+                ob->yaw_deg = it.yaw_deg;
+                ob->albedo = sq_v3(it.albedo[0], it.albedo[1], it.albedo[2]);
+            }
+        }
+    }
+    /* procedural city: rows x cols blocks separated by streets */
+    for (int rr = 0; r == SQ_OK && rr < ws.city_rows; rr++)
+        for (int cc = 0; cc < ws.city_cols; cc++) {
+            if (nobs >= SQ_MAX_OBSTACLES) break;
+            float pitch = ws.city_block_m + ws.city_street_m;
+            float x = ws.city_center[0] + ((float)cc - 0.5f * (float)(ws.city_cols - 1)) * pitch;
+            float y = ws.city_center[1] + ((float)rr - 0.5f * (float)(ws.city_rows - 1)) * pitch;
+            float u = sq_rng_uniform(ws.city_seed, 0xC17Eu, (uint64_t)(rr * 64 + cc));
+            float h = ws.city_height_min_m + (ws.city_height_max_m - ws.city_height_min_m) * u * u;
+            float shade = 0.35f + 0.3f * sq_rng_uniform(ws.city_seed, 0xC17Fu, (uint64_t)(rr * 64 + cc));
+            sq_obstacle *ob = &obs[nobs++];
+            memset(ob, 0, sizeof *ob);
+            ob->kind = SQ_OBSTACLE_BOX;
+            ob->center_m = sq_v3(x, y, NAN);
+            ob->size_m = sq_v3(ws.city_block_m, ws.city_block_m, h);
+            ob->albedo = sq_v3(shade, shade * 0.95f, shade * 0.9f);
+        }
+    if (r != SQ_OK) {
+        free(obs);
+        return sq__fail(ctx, r, "scene", "%s", sq_last_error());
+    }
+    sq_world_desc wd = {0};
+    wd.terrain.kind = (sq_terrain_kind)ws.terrain_kind;
+    if (ws.size_count == 2) {
+        wd.terrain.size_m[0] = ws.size_m[0];
+        wd.terrain.size_m[1] = ws.size_m[1];
+    }
+    if (ws.resolution_count == 2) {
+        wd.terrain.resolution[0] = (int)ws.resolution[0];
+        wd.terrain.resolution[1] = (int)ws.resolution[1];
+    }
+    if (ws.origin_count == 2) {
+        wd.terrain.origin_m[0] = ws.origin_m[0];
+        wd.terrain.origin_m[1] = ws.origin_m[1];
+        wd.terrain.origin_set = true;
+    }
+    wd.terrain.base_m = ws.base_m;
+    wd.terrain.relief_m = ws.relief_m;
+    wd.terrain.feature_m = ws.feature_m;
+    wd.terrain.octaves = ws.octaves;
+    wd.terrain.slope_deg = ws.slope_deg;
+    wd.terrain.dune_dir_deg = ws.dune_dir_deg;
+    wd.terrain.seed = ws.terrain_seed;
+    wd.sun.direction = sq_v3(ws.sun_direction[0], ws.sun_direction[1], ws.sun_direction[2]);
+    wd.sun.day_of_year = ws.day_of_year;
+    wd.sun.hour_solar = ws.hour;
+    wd.sun.hour_set = true;
+    wd.sun.latitude_deg = ws.latitude_deg;
+    wd.sun.irradiance_w_m2 = ws.irradiance;
+    wd.sky.turbidity = ws.turbidity;
+    wd.obstacles = obs;
+    wd.obstacle_count = nobs;
+    uint16_t *hm = NULL;
+    if (wd.terrain.kind == SQ_TERRAIN_HEIGHTMAP) {
+        if (!ws.heightmap[0]) {
+            free(obs);
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: world.terrain.kind = heightmap needs world.terrain.heightmap "
+                            "(a 16-bit PNG path)",
+                            cfg->source);
+        }
+        if (!sd->load_heightmap) {
+            free(obs);
+            return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene", "heightmap terrains need a loader");
+        }
+        char path[1024];
+        if (ws.heightmap[0] == '/' || !cfg->base_dir[0])
+            snprintf(path, sizeof path, "%s", ws.heightmap);
+        else
+            snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws.heightmap);
+        r = sd->load_heightmap(ctx, path, &hm, &wd.terrain.heightmap_w, &wd.terrain.heightmap_h);
+        if (r != SQ_OK) {
+            free(obs);
+            return r;
+        }
+        wd.terrain.heightmap = hm;
+        wd.terrain.metres_per_px = ws.metres_per_px;
+        wd.terrain.height_min_m = ws.height_min_m;
+        wd.terrain.height_max_m = ws.height_max_m;
+    }
+    r = sq_world_create(ctx, &wd, out);
+    sq_free(ctx, hm);
+    free(obs);
+    return r;
+}
+
+static sq_result build_camera(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node *node)
+{
+    sq__camera_section cs;
+    sq_params_defaults(sq__camera_params, sq__camera_param_count, &cs);
+    apply_ctx a = {cfg, "camera"};
+    static const char *const skip[] = {"path", NULL};
+    sq_result r = SQ_OK;
+    if (node) {
+        r = expect_kind(&a, node, SQ_CFG_MAP, "camera");
+        if (r == SQ_OK) r = apply_map(&a, node, "", sq__camera_params, sq__camera_param_count, &cs, skip);
+        const sq_cfg_node *path = sq_cfg_get(node, "path");
+        if (r == SQ_OK && path) {
+            r = expect_kind(&a, path, SQ_CFG_SEQ, "camera.path");
+            int i = 0;
+            for (const sq_cfg_node *k = path->child; r == SQ_OK && k; k = k->next, i++) {
+                char sec[64];
+                snprintf(sec, sizeof sec, "camera.path[%d]", i);
+                apply_ctx ka = {cfg, sec};
+                if (i >= SQ_MAX_CAMERA_KEYS) {
+                    r = sq__set_error(SQ_ERR_INVALID_ARG, "%s: camera.path: more than %d keys",
+                                      cfg->source, SQ_MAX_CAMERA_KEYS);
+                    break;
+                }
+                r = expect_kind(&ka, k, SQ_CFG_MAP, sec);
+                if (r != SQ_OK) break;
+                sq__camera_key_item it;
+                sq_params_defaults(sq__camera_key_params, sq__camera_key_param_count, &it);
+                r = apply_map(&ka, k, "", sq__camera_key_params, sq__camera_key_param_count, &it,
+                              NULL);
+                if (r != SQ_OK) break;
+                if (i > 0 && it.t <= s->keys[i - 1].time_s) {
+                    char w[320];
+                    where_of(&ka, k, w, sizeof w);
+                    r = sq__set_error(SQ_ERR_INVALID_ARG,
+                                      "%s: %s.t = %g: key times must increase (previous %g)", w,
+                                      sec, it.t, s->keys[i - 1].time_s);
+                    break;
+                }
+                s->keys[i].time_s = it.t;
+                s->keys[i].position_m = sq_v3(it.position[0], it.position[1], it.position[2]);
+                s->keys[i].target_m = sq_v3(it.target[0], it.target[1], it.target[2]);
+                s->keys[i].fov_y_deg = it.fov_deg;
+                s->key_count = i + 1;
+            }
+        }
+    }
+    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    s->camera.position_m = sq_v3(cs.position[0], cs.position[1], cs.position[2]);
+    s->camera.target_m = sq_v3(cs.target[0], cs.target[1], cs.target[2]);
+    s->camera.up = sq_v3(cs.up[0], cs.up[1], cs.up[2]);
+    s->camera.fov_y_deg = cs.fov_deg;
+    s->camera.near_m = cs.near_m;
+    s->camera.far_m = cs.far_m;
+    return SQ_OK;
+}
+
+static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node *node)
+{
+    sq_params_defaults(sq__output_params, sq__output_param_count, &s->out);
+    apply_ctx a = {cfg, "output"};
+    sq_result r = SQ_OK;
+    if (node) {
+        r = expect_kind(&a, node, SQ_CFG_MAP, "output");
+        if (r == SQ_OK) r = apply_map(&a, node, "", sq__output_params, sq__output_param_count, &s->out, NULL);
+    }
+    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    if (s->out.frames == 0) {
+        double f = floor(s->out.duration_s * s->out.fps + 0.5);
+        s->out.frames = f < 1.0 ? 1 : (int)f;
+    }
+    return SQ_OK;
+}
+
+static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg_node *node)
+{
+    const sq_cfg *cfg = sd->cfg;
+    apply_ctx a = {cfg, "layers"};
+    if (!node) return SQ_OK;
+    sq_result r = expect_kind(&a, node, SQ_CFG_SEQ, "layers");
+    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    int i = 0;
+    for (const sq_cfg_node *l = node->child; l; l = l->next, i++) {
+        char sec[96];
+        snprintf(sec, sizeof sec, "layers[%d]", i);
+        apply_ctx la = {cfg, sec};
+        char w[320];
+        where_of(&la, l, w, sizeof w);
+        r = expect_kind(&la, l, SQ_CFG_MAP, sec);
+        if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+        const sq_cfg_node *type = sq_cfg_get(l, "type");
+        if (!type || type->kind != SQ_CFG_SCALAR || !type->value)
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: %s needs 'type: <phenomenon>' (see `squall params`)", w, sec);
+        const sq_phen_plugin *pl = sq_plugin_find(type->value);
+        if (!pl) {
+            char known[256] = "";
+            for (int k = 0; k < sq_plugin_count(); k++) {
+                strncat(known, k ? ", " : "", sizeof known - strlen(known) - 1);
+                strncat(known, sq_plugin_at(k)->name, sizeof known - strlen(known) - 1);
+            }
+            where_of(&la, type, w, sizeof w);
+            return sq__fail(s->ctx, SQ_ERR_NOT_FOUND, "scene",
+                            "%s: %s.type = '%s': no such phenomenon in this build (available: %s)",
+                            w, sec, type->value, known[0] ? known : "none");
+        }
+        const sq_cfg_node *en = sq_cfg_get(l, "enabled");
+        if (en && en->value && (strcmp(en->value, "false") == 0 || strcmp(en->value, "no") == 0))
+            continue;
+        if (s->layer_count >= MAX_LAYERS)
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "%s: more than %d layers", w,
+                            MAX_LAYERS);
+        layer *L = &s->layers[s->layer_count];
+        const sq_cfg_node *nm = sq_cfg_get(l, "name");
+        snprintf(L->name, sizeof L->name, "%s", nm && nm->value ? nm->value : pl->name);
+        snprintf(sec, sizeof sec, "layers[%d] (%s)", i, pl->name);
+        la.section = sec;
+        L->plugin = pl;
+        L->desc = calloc(1, pl->desc_size);
+        if (!L->desc) return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+        s->layer_count++;
+        sq_params_defaults(pl->params, pl->param_count, L->desc);
+        static const char *const skip[] = {"type", "name", "enabled", NULL};
+        r = apply_map(&la, l, "", pl->params, pl->param_count, L->desc, skip);
+        if (r == SQ_OK && pl->desc_resolve) r = pl->desc_resolve(L->desc);
+        if (r == SQ_OK) r = sq_params_validate(pl->params, pl->param_count, L->desc, sec);
+        if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+        if (pl->validate) {
+            r = pl->validate(s->ctx, L->desc, s->world);
+            if (r != SQ_OK) return r;
+        }
+        uint64_t bytes = 0;
+        if (pl->memory_bytes) {
+            r = pl->memory_bytes(L->desc, s->world, &bytes);
+            if (r != SQ_OK) return r;
+            char what[128];
+            snprintf(what, sizeof what, "layer '%s' (%s)", L->name, pl->name);
+            r = sq_context_check_memory(s->ctx, s->memory_bytes + bytes, what);
+            if (r != SQ_OK) return r;
+            s->memory_bytes += bytes;
+        }
+    }
+    return SQ_OK;
+}
+
+static const char *const top_keys[] = {"name", "description", "seed", "world",
+                                       "camera", "layers", "output", NULL};
+
+sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out)
+{
+    if (!out || !desc || !desc->cfg || !desc->cfg->root)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene", "sq_scene_create: missing desc or cfg");
+    *out = NULL;
+    const sq_cfg *cfg = desc->cfg;
+    apply_ctx a = {cfg, "scene"};
+    /* unknown top-level keys */
+    for (const sq_cfg_node *c = cfg->root->child; c; c = c->next) {
+        bool known = false;
+        for (const char *const *k = top_keys; *k; k++) known = known || strcmp(*k, c->key) == 0;
+        if (!known) {
+            char w[320];
+            where_of(&a, c, w, sizeof w);
+            const char *best = NULL;
+            size_t bl = 99;
+            for (const char *const *k = top_keys; *k; k++) {
+                size_t d = 0, la = strlen(c->key), lb = strlen(*k);
+                d = la > lb ? la - lb : lb - la;
+                for (size_t q = 0; q < la && q < lb; q++) d += c->key[q] != (*k)[q];
+                if (d < bl) {
+                    bl = d;
+                    best = *k;
+                }
+            }
+            if (bl <= 2)
+                return sq__fail(ctx, SQ_ERR_NOT_FOUND, "scene",
+                                "%s: unknown key '%s'; did you mean '%s'?", w, c->key, best);
+            return sq__fail(ctx, SQ_ERR_NOT_FOUND, "scene",
+                            "%s: unknown key '%s' (top-level keys: name, description, seed, world, "
+                            "camera, layers, output)",
+                            w, c->key);
+        }
+    }
+    sq_scene *s = (sq_scene *)calloc(1, sizeof *s);
+    if (!s) return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    s->ctx = ctx;
+    const sq_cfg_node *nm = sq_cfg_get(cfg->root, "name");
+    snprintf(s->name, sizeof s->name, "%s", nm && nm->value ? nm->value : cfg->source);
+    const sq_cfg_node *seed = sq_cfg_get(cfg->root, "seed");
+    if (seed && seed->value) {
+        char *end = NULL;
+        unsigned long long v = strtoull(seed->value, &end, 10);
+        if (!*seed->value || *end) {
+            char w[320];
+            where_of(&a, seed, w, sizeof w);
+            sq_scene_destroy(s);
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: seed = '%s': expected a whole number >= 0", w, seed->value);
+        }
+        s->seed = v;
+    }
+    sq_result r = build_output(s, cfg, sq_cfg_get(cfg->root, "output"));
+    if (r == SQ_OK) r = build_camera(s, cfg, sq_cfg_get(cfg->root, "camera"));
+    if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &s->world);
+    if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
+    if (r == SQ_OK && !desc->validate_only) {
+        for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
+            layer *L = &s->layers[i];
+            r = L->plugin->create(ctx, L->desc, s->world, &L->self);
+        }
+    }
+    if (r != SQ_OK) {
+        sq_scene_destroy(s);
+        return r;
+    }
+    *out = s;
+    return SQ_OK;
+}
+
+void sq_scene_destroy(sq_scene *s)
+{
+    if (!s) return;
+    for (int i = s->layer_count - 1; i >= 0; i--) {
+        layer *L = &s->layers[i];
+        if (L->self && L->plugin->destroy) L->plugin->destroy(L->self);
+        free(L->desc);
+    }
+    sq_world_destroy(s->ctx, s->world);
+    free(s);
+}
+
+const sq_scene_output *sq_scene_output_settings(const sq_scene *s) { return &s->out; }
+const sq_world *sq_scene_world(const sq_scene *s) { return s->world; }
+const char *sq_scene_name(const sq_scene *s) { return s->name; }
+uint64_t sq_scene_seed(const sq_scene *s) { return s->seed; }
+double sq_scene_time(const sq_scene *s) { return s->time_s; }
+int sq_scene_frame_count(const sq_scene *s) { return s->out.frames; }
+double sq_scene_frame_dt(const sq_scene *s) { return s->out.time_scale / (double)s->out.fps; }
+int sq_scene_layer_count(const sq_scene *s) { return s->layer_count; }
+uint64_t sq_scene_memory_bytes(const sq_scene *s) { return s->memory_bytes; }
+const char *sq_scene_layer_name(const sq_scene *s, int i)
+{
+    return i >= 0 && i < s->layer_count ? s->layers[i].name : NULL;
+}
+const char *sq_scene_layer_type(const sq_scene *s, int i)
+{
+    return i >= 0 && i < s->layer_count ? s->layers[i].plugin->name : NULL;
+}
+
+sq_result sq_scene_step(sq_scene *s, double dt_s)
+{
+    if (!(dt_s > 0.0) || !isfinite(dt_s))
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "step dt = %g s; must be > 0", dt_s);
+    for (int i = 0; i < s->layer_count; i++) {
+        layer *L = &s->layers[i];
+        if (!L->self) continue;
+        double lim = L->plugin->max_stable_dt ? L->plugin->max_stable_dt(L->self) : 0.0;
+        int n = 1;
+        if (lim > 0.0 && dt_s > lim) {
+            double nn = ceil(dt_s / lim - 1e-9);
+            if (nn > 100000.0)
+                return sq__fail(s->ctx, SQ_ERR_UNSTABLE, "scene",
+                                "layer '%s': stable step %g s would need %.0f sub-steps for a "
+                                "frame step of %g s",
+                                L->name, lim, nn, dt_s);
+            n = (int)nn;
+        }
+        for (int k = 0; k < n; k++) {
+            sq_result r = L->plugin->step(L->self, dt_s / n);
+            if (r != SQ_OK) return r;
+        }
+    }
+    s->time_s += dt_s;
+    s->step_count++;
+    return SQ_OK;
+}
+
+sq_camera sq_scene_camera(sq_scene *s)
+{
+    double video_t = s->out.time_scale > 0.0 ? (s->time_s - s->out.warmup_s) / s->out.time_scale
+                                             : s->time_s;
+    sq_camera c = sq_camera_at(&s->camera, s->keys, s->key_count, video_t);
+    for (int i = 0; i < s->layer_count; i++)
+        if (s->layers[i].self && s->layers[i].plugin->observe)
+            s->layers[i].plugin->observe(s->layers[i].self, &c);
+    return c;
+}
+
+int sq_scene_drawables(sq_scene *s, sq_drawable *out, int max)
+{
+    int n = 0;
+    for (int i = 0; i < s->layer_count && n < max; i++)
+        if (s->layers[i].self && s->layers[i].plugin->drawables)
+            n += s->layers[i].plugin->drawables(s->layers[i].self, out + n, max - n);
+    return n;
+}
+
+int sq_scene_metrics(sq_scene *s, sq_metric *out, int max)
+{
+    int n = 0;
+    if (max > MAX_METRICS) max = MAX_METRICS;
+    for (int i = 0; i < s->layer_count && n < max; i++) {
+        layer *L = &s->layers[i];
+        if (!L->self || !L->plugin->metrics) continue;
+        int k = L->plugin->metrics(L->self, out + n, max - n);
+        for (int j = 0; j < k; j++) {
+            snprintf(s->metric_names[n + j], sizeof s->metric_names[0], "%s.%s", L->name,
+                     out[n + j].name);
+            out[n + j].name = s->metric_names[n + j];
+        }
+        n += k;
+    }
+    return n;
+}
+
+int sq_scene_fields(sq_scene *s, sq_named_field *out, int max)
+{
+    int n = 0;
+    for (int i = 0; i < s->layer_count && n < max; i++)
+        if (s->layers[i].self && s->layers[i].plugin->fields)
+            n += s->layers[i].plugin->fields(s->layers[i].self, out + n, max - n);
+    return n;
+}

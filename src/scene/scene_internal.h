@@ -1,0 +1,62 @@
+/* scene_internal.h — section structs behind the world/camera/output parameter tables. */
+#ifndef SQ_SCENE_INTERNAL_H
+#define SQ_SCENE_INTERNAL_H
+
+#include "squall/scene.h"
+
+typedef struct sq__world_section {
+    int terrain_kind;
+    float size_m[2];
+    int size_count;
+    float resolution[2];
+    int resolution_count;
+    float origin_m[2];
+    int origin_count;
+    float base_m, relief_m, feature_m;
+    int octaves;
+    float slope_deg, dune_dir_deg;
+    uint64_t terrain_seed;
+    char heightmap[SQ_PARAM_STRING_MAX];
+    float metres_per_px, height_min_m, height_max_m;
+    float sun_direction[3];
+    int day_of_year;
+    float hour, latitude_deg, irradiance;
+    float turbidity;
+    int city_rows, city_cols;
+    float city_block_m, city_street_m, city_height_min_m, city_height_max_m;
+    float city_center[3];
+    uint64_t city_seed;
+} sq__world_section;
+
+typedef struct sq__obstacle_item {
+    int kind;
+    float center[3];
+    int center_count;
+    float size[3];
+    float roof_m, yaw_deg;
+    float albedo[3];
+} sq__obstacle_item;
+
+typedef struct sq__camera_section {
+    float position[3], target[3], up[3];
+    float fov_deg, near_m, far_m;
+} sq__camera_section;
+
+typedef struct sq__camera_key_item {
+    double t;
+    float position[3], target[3];
+    float fov_deg;
+} sq__camera_key_item;
+
+extern const sq_param sq__world_params[];
+extern const size_t sq__world_param_count;
+extern const sq_param sq__obstacle_params[];
+extern const size_t sq__obstacle_param_count;
+extern const sq_param sq__camera_params[];
+extern const size_t sq__camera_param_count;
+extern const sq_param sq__camera_key_params[];
+extern const size_t sq__camera_key_param_count;
+extern const sq_param sq__output_params[];
+extern const size_t sq__output_param_count;
+
+#endif
