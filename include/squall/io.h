@@ -82,15 +82,25 @@ typedef struct sq_field_file_desc {
     const char *path;
     const char *title;        /* global attribute */
     const char *source;       /* e.g. "squall 0.1.0 sandstorm" */
-    double time_s;            /* value of the time coordinate */
+    double time_s;            /* value of the time coordinate: seconds since the clock's start */
     bool overwrite;
+    /* Date and time of the clock's start for CF time units "seconds since <reference_time>",
+     * as "YYYY-MM-DD" or "YYYY-MM-DD hh:mm:ss" (UTC). NULL -> "2000-01-01 00:00:00", an
+     * arbitrary origin (then only differences of time are meaningful). NetCDF only. */
+    const char *reference_time;
 } sq_field_file_desc;
 
-/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing) with x, y, z (and time)
- * coordinate variables in metres, units and long_name attributes, Conventions = "CF-1.8". */
+/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing) as netCDF-4 with CF-1.8
+ * metadata: dimensions time (1), z, y, x; coordinate variables x, y, z (cell centres, metres,
+ * axis X/Y/Z) and time; each field a float variable (time, z, y, x), or (time, y, x) with a
+ * scalar z coordinate when nz == 1, carrying units, long_name, standard_name (where given) and
+ * _FillValue. Written through a temporary name; the conventions are detailed in
+ * src/io/netcdf_fields.c. Names must match [A-Za-z_][A-Za-z0-9_.-]* and be unique. */
 SQ_API sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                         const sq_named_field *fields, int count);
-/* The same grid as VTK XML ImageData (.vti, raw appended binary). */
+/* The same grid as VTK XML ImageData (.vti, raw appended binary): each field a Float32 point
+ * array on points at the cell centres (Origin = centre of cell 0, Spacing in metres), the time
+ * as field data "TimeValue". Written through a temporary name. */
 SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                      const sq_named_field *fields, int count);
 

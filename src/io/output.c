@@ -37,8 +37,9 @@ sq_result sq_output_check(const char *path, bool overwrite)
 {
     if (!path || !*path) return sq__set_error(SQ_ERR_INVALID_ARG, "output path is empty");
     if (strlen(path) >= SQ__TEMP_NAME_MAX - 64)
-        return sq__set_error(SQ_ERR_INVALID_ARG, "output path '%.80s...' is %zu characters; at most %d",
-                             path, strlen(path), SQ__TEMP_NAME_MAX - 65);
+        return sq__set_error(SQ_ERR_INVALID_ARG,
+                             "output path '%.80s...' is %zu characters; at most %d", path,
+                             strlen(path), SQ__TEMP_NAME_MAX - 65);
     char dir[SQ__TEMP_NAME_MAX];
     const char *base = NULL;
     split_path(path, dir, sizeof dir, &base);
@@ -48,8 +49,8 @@ sq_result sq_output_check(const char *path, bool overwrite)
     struct stat st;
     if (stat(dir, &st) != 0) {
         if (errno == ENOENT || errno == ENOTDIR)
-            return sq__set_error(SQ_ERR_IO, "cannot write '%s': directory '%s' does not exist", path,
-                                 dir);
+            return sq__set_error(SQ_ERR_IO, "cannot write '%s': directory '%s' does not exist",
+                                 path, dir);
         return sq__set_error(SQ_ERR_IO, "cannot write '%s': directory '%s': %s", path, dir,
                              strerror(errno));
     }
@@ -72,7 +73,8 @@ sq_result sq_output_check(const char *path, bool overwrite)
 
 sq_result sq_output_temp_name(const char *path, char *buf, size_t size)
 {
-    if (!buf || size == 0) return sq__set_error(SQ_ERR_INVALID_ARG, "temporary name buffer is empty");
+    if (!buf || size == 0)
+        return sq__set_error(SQ_ERR_INVALID_ARG, "temporary name buffer is empty");
     buf[0] = 0;
     if (!path || !*path) return sq__set_error(SQ_ERR_INVALID_ARG, "output path is empty");
     char dir[SQ__TEMP_NAME_MAX];
@@ -172,7 +174,8 @@ static sq_result rename_noreplace(const char *tmp, const char *path)
 sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite)
 {
     if (!tmp || !*tmp || !path || !*path)
-        return sq__set_error(SQ_ERR_INVALID_ARG, "output commit needs a temporary and a final name");
+        return sq__set_error(SQ_ERR_INVALID_ARG,
+                             "output commit needs a temporary and a final name");
     /* Data first, then the name: after a crash the final name holds the whole file or nothing. */
     int fd = open(tmp, O_RDONLY | O_CLOEXEC);
     if (fd < 0)

@@ -68,8 +68,8 @@ static sq_result png_write(const char *path, int width, int height, const void *
     if (!path || !*path) return sq__set_error(SQ_ERR_INVALID_ARG, "PNG output path is empty");
     if (width < 1 || height < 1 || width > SQ__PNG_MAX_SIDE || height > SQ__PNG_MAX_SIDE)
         return sq__set_error(SQ_ERR_INVALID_ARG,
-                             "cannot write '%s': image is %dx%d; each side must be in 1..%d",
-                             path, width, height, SQ__PNG_MAX_SIDE);
+                             "cannot write '%s': image is %dx%d; each side must be in 1..%d", path,
+                             width, height, SQ__PNG_MAX_SIDE);
     if (!pixels) return sq__set_error(SQ_ERR_INVALID_ARG, "cannot write '%s': no pixels", path);
 
     char tmp[SQ__TEMP_NAME_MAX];
@@ -84,8 +84,8 @@ static sq_result png_write(const char *path, int width, int height, const void *
         return sq__set_error(SQ_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
     png_err err = {.ctx = NULL, .path = path, .msg = ""};
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, on_png_error,
-                                              on_png_warning);
+    png_structp png =
+        png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, on_png_error, on_png_warning);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (!png || !info) {
         png_destroy_write_struct(png ? &png : NULL, NULL);
@@ -134,8 +134,8 @@ sq_result sq_png_write_gray16(const char *path, int width, int height, const uin
 
 typedef enum png_read_mode { READ_RGBA8, READ_HEIGHTMAP16 } png_read_mode;
 
-static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
-                          int64_t max_pixels, void **out, int *width_out, int *height_out)
+static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode, int64_t max_pixels,
+                          void **out, int *width_out, int *height_out)
 {
     const char *what = mode == READ_HEIGHTMAP16 ? "heightmap" : "image";
     if (out) *out = NULL;
@@ -162,8 +162,8 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     }
 
     png_err err = {.ctx = ctx, .path = path, .msg = ""};
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, on_png_error,
-                                             on_png_warning);
+    png_structp png =
+        png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, on_png_error, on_png_warning);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (!png || !info) {
         png_destroy_read_struct(png ? &png : NULL, NULL, NULL);
@@ -218,8 +218,8 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     if (mode == READ_HEIGHTMAP16) {
         if (host_is_little_endian()) png_set_swap(png);
     } else {
-        png_set_expand(png);      /* palette -> RGB, grey < 8 bit -> 8 bit, tRNS -> alpha */
-        png_set_scale_16(png);    /* 16 -> 8 bit, rounded */
+        png_set_expand(png);   /* palette -> RGB, grey < 8 bit -> 8 bit, tRNS -> alpha */
+        png_set_scale_16(png); /* 16 -> 8 bit, rounded */
         png_set_gray_to_rgb(png);
         png_set_add_alpha(png, 0xff, PNG_FILLER_AFTER); /* only where there is no alpha */
     }
@@ -259,14 +259,14 @@ sq_result sq_png_read_rgba8(sq_context *ctx, const char *path, uint8_t **rgba_ou
                             int *height)
 {
     void *p = NULL;
-    sq_result r = png_read(ctx, path, READ_RGBA8, (int64_t)SQ__PNG_MAX_SIDE * SQ__PNG_MAX_SIDE,
-                           &p, width, height);
+    sq_result r = png_read(ctx, path, READ_RGBA8, (int64_t)SQ__PNG_MAX_SIDE * SQ__PNG_MAX_SIDE, &p,
+                           width, height);
     if (rgba_out) *rgba_out = (uint8_t *)p;
     return r;
 }
 
-sq_result sq_png_read_heightmap16(sq_context *ctx, const char *path, int max_pixels,
-                                  uint16_t **out, int *width, int *height)
+sq_result sq_png_read_heightmap16(sq_context *ctx, const char *path, int max_pixels, uint16_t **out,
+                                  int *width, int *height)
 {
     void *p = NULL;
     int64_t limit = max_pixels > 0 ? max_pixels : SQ__HEIGHTMAP_DEFAULT_MAX_PIXELS;

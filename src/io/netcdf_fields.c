@@ -1,0 +1,254 @@
+/* netcdf_fields.c — field output as netCDF-4 following the CF conventions 1.8 (issue 3 part 5).
+ *
+ * Layout (C order, x fastest, matching sq_named_field):
+ *   dimensions  time = 1, z = nz (only when nz > 1), y = ny, x = nx
+ *   x(x), y(y)  double, units "m", axis "X"/"Y", standard_name projection_x_coordinate /
+ *               projection_y_coordinate: world axes x east, y north (ARCHITECTURE.md), cell
+ *               centres origin + i * spacing. There is no map projection: the grid is a local
+ *               Cartesian frame, so no grid_mapping is written.
+ *   z(z)        double, units "m", axis "Z", positive "up", long_name "height of cell centres
+ *               above the world origin". No standard_name: CF's "height" means above the local
+ *               surface and "altitude" above the geoid; the world's z is neither in general.
+ *               When nz == 1, z is a scalar coordinate variable (the height of the slice) named
+ *               by each field's "coordinates" attribute, and fields are (time, y, x).
+ *   time(time)  double, standard_name "time", axis "T", calendar "standard", units
+ *               "seconds since <reference_time>" (desc; default "2000-01-01 00:00:00", an
+ *               arbitrary origin). CF requires a reference date in time units; a bare "s" would
+ *               make time a duration, not a time coordinate.
+ *   fields      float (time, z, y, x) with units, long_name (the name when none is given),
+ *               standard_name where given, _FillValue = NC_FILL_FLOAT (9.96921e36).
+ *   globals     Conventions "CF-1.8", title, source, history ("<UTC time> squall <version>:
+ *               written"; SOURCE_DATE_EPOCH, when set, replaces the clock for reproducibility).
+ * The file is written to a temporary name and renamed when closed (output.c). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "io/io_internal.h"
+
+#if SQ_HAVE_NETCDF
+#include <netcdf.h>
+
+#define SQ__NC_DEFAULT_REFERENCE "2000-01-01 00:00:00"
+
+/* "YYYY-MM-DD" optionally followed by " hh:mm:ss" or "Thh:mm:ss" (optionally "Z"). */
+static bool reference_time_ok(const char *s)
+{
+    static const char pattern[] = "dddd-dd-dd dd:dd:dd";
+    size_t n = strlen(s);
+    if (n > 0 && s[n - 1] == 'Z') n--;
+    if (n != 10 && n != 19) return false;
+    for (size_t i = 0; i < n; i++) {
+        const char p = pattern[i], c = s[i];
+        if (p == 'd' && !(c >= '0' && c <= '9')) return false;
+        if (p == ' ' && c != ' ' && c != 'T') return false;
+        if (p != 'd' && p != ' ' && c != p) return false;
+    }
+    return true;
+}
+
+static void history_text(char *buf, size_t size)
+{
+    time_t now = time(NULL);
+    const char *epoch = getenv("SOURCE_DATE_EPOCH");
+    if (epoch && *epoch) {
+        char *end = NULL;
+        long long v = strtoll(epoch, &end, 10);
+        if (end && !*end && v >= 0) now = (time_t)v;
+    }
+    struct tm tm;
+    char stamp[32] = "unknown time";
+    if (gmtime_r(&now, &tm)) strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    snprintf(buf, size, "%s squall %s: written", stamp, SQ_VERSION_STRING);
+}
+
+typedef struct nc_writer {
+    sq_context *ctx;
+    const char *path;
+    int ncid;
+} nc_writer;
+
+static sq_result nc_fail(const nc_writer *w, int status, const char *doing)
+{
+    return sq__fail(w->ctx, status == NC_ENOMEM ? SQ_ERR_OUT_OF_MEMORY : SQ_ERR_IO, "io",
+                    "cannot write '%s' (%s): %s", w->path, doing, nc_strerror(status));
+}
+
+static int put_text(int ncid, int varid, const char *name, const char *text)
+{
+    return nc_put_att_text(ncid, varid, name, strlen(text), text);
+}
+
+/* Defines a coordinate variable with its attributes. dim < 0: a scalar coordinate. */
+static int def_coord(int ncid, const char *name, int dim, const char *units, const char *axis,
+                     const char *standard_name, const char *long_name, int *varid)
+{
+    int st = nc_def_var(ncid, name, NC_DOUBLE, dim >= 0 ? 1 : 0, dim >= 0 ? &dim : NULL, varid);
+    if (st == NC_NOERR) st = put_text(ncid, *varid, "units", units);
+    if (st == NC_NOERR) st = put_text(ncid, *varid, "axis", axis);
+    if (st == NC_NOERR && standard_name)
+        st = put_text(ncid, *varid, "standard_name", standard_name);
+    if (st == NC_NOERR) st = put_text(ncid, *varid, "long_name", long_name);
+    return st;
+}
+
+static int put_axis(int ncid, int varid, size_t n, double origin, double spacing)
+{
+    /* Written in blocks to bound the stack; coordinates are exact multiples of the spacing. */
+    double buf[256];
+    int st = NC_NOERR;
+    for (size_t i0 = 0; i0 < n && st == NC_NOERR; i0 += 256) {
+        size_t m = n - i0 < 256 ? n - i0 : 256;
+        for (size_t i = 0; i < m; i++) buf[i] = origin + (double)(i0 + i) * spacing;
+        st = nc_put_vara_double(ncid, varid, &i0, &m, buf);
+    }
+    return st;
+}
+
+/* Defines, fills and closes the file; ncid is open in define mode. */
+static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
+                                const sq_named_field *fields, int count, const char *reference)
+{
+    const int ncid = w->ncid;
+    const sq_named_field *g = &fields[0];
+    const bool has_z_dim = g->nz > 1;
+    int dim_t, dim_z = -1, dim_y, dim_x;
+    int st = nc_def_dim(ncid, "time", 1, &dim_t);
+    if (st == NC_NOERR && has_z_dim) st = nc_def_dim(ncid, "z", (size_t)g->nz, &dim_z);
+    if (st == NC_NOERR) st = nc_def_dim(ncid, "y", (size_t)g->ny, &dim_y);
+    if (st == NC_NOERR) st = nc_def_dim(ncid, "x", (size_t)g->nx, &dim_x);
+    if (st != NC_NOERR) return nc_fail(w, st, "defining dimensions");
+
+    int var_t, var_z, var_y, var_x;
+    char time_units[64];
+    snprintf(time_units, sizeof time_units, "seconds since %s", reference);
+    st = def_coord(ncid, "time", dim_t, time_units, "T", "time", "simulation time", &var_t);
+    if (st == NC_NOERR) st = put_text(ncid, var_t, "calendar", "standard");
+    if (st == NC_NOERR)
+        st = def_coord(ncid, "z", has_z_dim ? dim_z : -1, "m", "Z", NULL,
+                       "height of cell centres above the world origin", &var_z);
+    if (st == NC_NOERR) st = put_text(ncid, var_z, "positive", "up");
+    if (st == NC_NOERR)
+        st = def_coord(ncid, "y", dim_y, "m", "Y", "projection_y_coordinate",
+                       "y (north) of cell centres", &var_y);
+    if (st == NC_NOERR)
+        st = def_coord(ncid, "x", dim_x, "m", "X", "projection_x_coordinate",
+                       "x (east) of cell centres", &var_x);
+    if (st != NC_NOERR) return nc_fail(w, st, "defining coordinates");
+
+    int dims4[4], nd = 0;
+    dims4[nd++] = dim_t;
+    if (has_z_dim) dims4[nd++] = dim_z;
+    dims4[nd++] = dim_y;
+    dims4[nd++] = dim_x;
+    int *varids = (int *)sq_alloc(w->ctx, sizeof(int) * (size_t)count);
+    if (!varids) return sq__io_relog(w->ctx, SQ_ERR_OUT_OF_MEMORY);
+    const float fill = NC_FILL_FLOAT;
+    char doing[192] = "";
+    for (int i = 0; i < count && st == NC_NOERR; i++) {
+        const sq_named_field *f = &fields[i];
+        snprintf(doing, sizeof doing, "defining variable '%s'", f->name);
+        st = nc_def_var(ncid, f->name, NC_FLOAT, nd, dims4, &varids[i]);
+        if (st == NC_NOERR) st = nc_def_var_fill(ncid, varids[i], 0, &fill);
+        if (st == NC_NOERR && f->units && *f->units)
+            st = put_text(ncid, varids[i], "units", f->units);
+        if (st == NC_NOERR)
+            st = put_text(ncid, varids[i], "long_name",
+                          f->long_name && *f->long_name ? f->long_name : f->name);
+        if (st == NC_NOERR && f->standard_name && *f->standard_name)
+            st = put_text(ncid, varids[i], "standard_name", f->standard_name);
+        if (st == NC_NOERR && !has_z_dim) st = put_text(ncid, varids[i], "coordinates", "z");
+    }
+    if (st == NC_NOERR) {
+        char history[128];
+        history_text(history, sizeof history);
+        char source[128];
+        snprintf(source, sizeof source, "squall %s", SQ_VERSION_STRING);
+        snprintf(doing, sizeof doing, "global attributes");
+        st = put_text(ncid, NC_GLOBAL, "Conventions", "CF-1.8");
+        if (st == NC_NOERR)
+            st = put_text(ncid, NC_GLOBAL, "title",
+                          desc->title && *desc->title ? desc->title : "squall fields");
+        if (st == NC_NOERR)
+            st = put_text(ncid, NC_GLOBAL, "source",
+                          desc->source && *desc->source ? desc->source : source);
+        if (st == NC_NOERR) st = put_text(ncid, NC_GLOBAL, "history", history);
+    }
+    if (st == NC_NOERR) {
+        snprintf(doing, sizeof doing, "leaving define mode");
+        st = nc_enddef(ncid);
+    }
+    if (st == NC_NOERR) {
+        snprintf(doing, sizeof doing, "writing coordinates");
+        st = nc_put_var_double(ncid, var_t, &desc->time_s);
+        if (st == NC_NOERR)
+            st = has_z_dim ? put_axis(ncid, var_z, (size_t)g->nz, (double)g->origin_m.z,
+                                      (double)g->spacing_m.z)
+                           : nc_put_var_double(ncid, var_z, &(double){(double)g->origin_m.z});
+        if (st == NC_NOERR)
+            st =
+                put_axis(ncid, var_y, (size_t)g->ny, (double)g->origin_m.y, (double)g->spacing_m.y);
+        if (st == NC_NOERR)
+            st =
+                put_axis(ncid, var_x, (size_t)g->nx, (double)g->origin_m.x, (double)g->spacing_m.x);
+    }
+    for (int i = 0; i < count && st == NC_NOERR; i++) {
+        snprintf(doing, sizeof doing, "writing variable '%s'", fields[i].name);
+        st = nc_put_var_float(ncid, varids[i], fields[i].data);
+    }
+    sq_free(w->ctx, varids);
+    if (st != NC_NOERR) return nc_fail(w, st, doing);
+    return SQ_OK;
+}
+
+sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
+                                 const sq_named_field *fields, int count)
+{
+    sq_result r = sq__field_file_check(ctx, desc, fields, count, "NetCDF file");
+    if (r != SQ_OK) return r;
+    const char *reference = desc->reference_time ? desc->reference_time : SQ__NC_DEFAULT_REFERENCE;
+    if (!reference_time_ok(reference))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io",
+                        "NetCDF file '%s': reference_time = '%s'; must be \"YYYY-MM-DD\" or "
+                        "\"YYYY-MM-DD hh:mm:ss\"",
+                        desc->path, reference);
+    char tmp[SQ__TEMP_NAME_MAX];
+    int fd = -1;
+    r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
+    if (r != SQ_OK) return sq__io_relog(ctx, r);
+    close(fd); /* reserved exclusively; libnetcdf recreates it */
+
+    nc_writer w = {.ctx = ctx, .path = desc->path, .ncid = -1};
+    int st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &w.ncid);
+    if (st != NC_NOERR) {
+        r = nc_fail(&w, st, "creating the temporary");
+        sq__output_discard(tmp);
+        return r;
+    }
+    r = write_contents(&w, desc, fields, count, reference);
+    st = nc_close(w.ncid);
+    if (r == SQ_OK && st != NC_NOERR) r = nc_fail(&w, st, "closing");
+    if (r == SQ_OK)
+        r = sq__io_relog(ctx, sq__output_finish(tmp, desc->path, desc->overwrite));
+    else
+        sq__output_discard(tmp);
+    if (r == SQ_OK) sq_log(ctx, SQ_LOG_INFO, "io", "wrote '%s' (%d fields)", desc->path, count);
+    return r;
+}
+
+#else /* !SQ_HAVE_NETCDF */
+
+sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
+                                 const sq_named_field *fields, int count)
+{
+    (void)desc;
+    (void)fields;
+    (void)count;
+    return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "io",
+                    "squall was built without NetCDF support (SQ_WITH_NETCDF=OFF); write VTK "
+                    "(.vti) instead");
+}
+
+#endif
