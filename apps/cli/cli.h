@@ -12,6 +12,8 @@
 
 enum { SQ_EXIT_OK = 0, SQ_EXIT_RUNTIME = 1, SQ_EXIT_USAGE = 2 };
 
+#define sq__cli_set_error sq_set_error
+
 /* Maps a library result to an exit code: input/usage problems -> 2, runtime -> 1. */
 int sq_cli_exit_code(sq_result r);
 

@@ -1,10 +1,64 @@
-/* main.c — the squall command line (placeholder until the sub-commands land). */
+/* main.c — `squall`: dispatch to the sub-commands. Exit codes: 0 success, 1 runtime failure,
+ * 2 usage or input error. */
 #include <stdio.h>
+#include <string.h>
 
-#include "squall/core.h"
+#include "cli.h"
+#include "commands.h"
 
-int main(void)
+typedef struct command {
+    const char *name;
+    int (*fn)(int argc, char **argv);
+    const char *summary;
+} command;
+
+static const command commands[] = {
+    {"render", sq_cmd_render, "simulate a scene and render it to MP4 / PNG frames"},
+    {"simulate", sq_cmd_render, "the same loop without rendering: metrics and fields only"},
+    {"visibility", sq_cmd_visibility, "visibility from dust concentration and size (Mie, Koschmieder)"},
+    {"scenes", sq_cmd_scenes, "list the built-in scene presets"},
+    {"scene", sq_cmd_scene, "scene show NAME: print a preset as YAML to start from"},
+    {"params", sq_cmd_params, "list every parameter of a layer or section with unit, default, range"},
+    {"info", sq_cmd_info, "version, OpenGL renderer, threads and compiled-in features"},
+    {"bench", sq_cmd_bench, "benchmarks: JSON lines with timings and the STREAM bandwidth"},
+    {"validate", sq_cmd_validate, "validation cases printing CSV for comparison with literature"},
+};
+
+static void usage(FILE *f)
 {
-    printf("squall %s\n", sq_version());
-    return 0;
+    fprintf(f,
+            "squall %s — physically based weather phenomena: simulation and rendering\n\n"
+            "usage: squall COMMAND [options]   (squall COMMAND --help for details)\n\n"
+            "commands:\n",
+            sq_version());
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        fprintf(f, "  %-11s %s\n", commands[i].name, commands[i].summary);
+    fprintf(f, "\nexamples:\n"
+               "  squall render                       render the default demo to out/squall.mp4\n"
+               "  squall render village-snowdrift -o snow.mp4 --size 1280x720 --duration 20\n"
+               "  squall simulate desert-sandstorm --set output.metrics=out/storm.csv\n"
+               "  squall scene show desert-sandstorm > my.yaml; squall render my.yaml\n"
+               "  squall params sandstorm\n\n"
+               "exit codes: 0 success, 1 runtime failure, 2 usage or input error\n");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        usage(stderr);
+        return SQ_EXIT_USAGE;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        strcmp(argv[1], "help") == 0) {
+        usage(stdout);
+        return SQ_EXIT_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0) {
+        printf("squall %s\n", sq_version());
+        return SQ_EXIT_OK;
+    }
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (strcmp(argv[1], commands[i].name) == 0) return commands[i].fn(argc - 1, argv + 1);
+    sq_cli_error("unknown command '%s' (see squall --help)", argv[1]);
+    return SQ_EXIT_USAGE;
 }

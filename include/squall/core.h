@@ -51,6 +51,9 @@ SQ_API const char *sq_result_name(sq_result r);
 /* The reason for the last failure on this thread ("" if none). Valid until the next failure. */
 SQ_API const char *sq_last_error(void);
 SQ_API void sq_clear_error(void);
+/* Sets this thread's last-error text (printf-style) and returns r: for callbacks and
+ * applications that report through the same channel. */
+SQ_API sq_result sq_set_error(sq_result r, const char *fmt, ...) SQ_PRINTF(2, 3);
 
 typedef enum sq_log_level {
     SQ_LOG_DEFAULT = 0, /* = SQ_LOG_INFO */

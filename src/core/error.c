@@ -54,3 +54,12 @@ sq_result sq__set_error(sq_result r, const char *fmt, ...)
     va_end(ap);
     return r;
 }
+
+sq_result sq_set_error(sq_result r, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(sq__error_text, sizeof sq__error_text, fmt, ap);
+    va_end(ap);
+    return r;
+}
