@@ -37,6 +37,30 @@ struct sq_scene {
     char metric_names[MAX_METRICS][96];
 };
 
+/* Logs the error already set (by the parameter tables) and returns r. */
+static sq_result relog(sq_context *ctx, sq_result r)
+{
+    sq_log(ctx, SQ_LOG_ERROR, "scene", "%s", sq_last_error());
+    return r;
+}
+
+static size_t edit_distance(const char *a, const char *b)
+{
+    size_t la = strlen(a), lb = strlen(b);
+    if (la > 31 || lb > 31) return 99;
+    size_t d[32][32];
+    for (size_t i = 0; i <= la; i++) d[i][0] = i;
+    for (size_t j = 0; j <= lb; j++) d[0][j] = j;
+    for (size_t i = 1; i <= la; i++)
+        for (size_t j = 1; j <= lb; j++) {
+            size_t c = d[i - 1][j - 1] + (a[i - 1] != b[j - 1]);
+            if (d[i - 1][j] + 1 < c) c = d[i - 1][j] + 1;
+            if (d[i][j - 1] + 1 < c) c = d[i][j - 1] + 1;
+            d[i][j] = c;
+        }
+    return d[la][lb];
+}
+
 /* ---- applying a cfg subtree through a table ------------------------------------------------ */
 typedef struct apply_ctx {
     const sq_cfg *cfg;
@@ -196,7 +220,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         }
     if (r != SQ_OK) {
         free(obs);
-        return sq__fail(ctx, r, "scene", "%s", sq_last_error());
+        return relog(ctx, r);
     }
     sq_world_desc wd = {0};
     wd.terrain.kind = (sq_terrain_kind)ws.terrain_kind;
@@ -309,7 +333,7 @@ static sq_result build_camera(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
             }
         }
     }
-    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    if (r != SQ_OK) return relog(s->ctx, r);
     s->camera.position_m = sq_v3(cs.position[0], cs.position[1], cs.position[2]);
     s->camera.target_m = sq_v3(cs.target[0], cs.target[1], cs.target[2]);
     s->camera.up = sq_v3(cs.up[0], cs.up[1], cs.up[2]);
@@ -328,7 +352,7 @@ static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
         r = expect_kind(&a, node, SQ_CFG_MAP, "output");
         if (r == SQ_OK) r = apply_map(&a, node, "", sq__output_params, sq__output_param_count, &s->out, NULL);
     }
-    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    if (r != SQ_OK) return relog(s->ctx, r);
     if (s->out.frames == 0) {
         double f = floor(s->out.duration_s * s->out.fps + 0.5);
         s->out.frames = f < 1.0 ? 1 : (int)f;
@@ -342,7 +366,7 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
     apply_ctx a = {cfg, "layers"};
     if (!node) return SQ_OK;
     sq_result r = expect_kind(&a, node, SQ_CFG_SEQ, "layers");
-    if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+    if (r != SQ_OK) return relog(s->ctx, r);
     int i = 0;
     for (const sq_cfg_node *l = node->child; l; l = l->next, i++) {
         char sec[96];
@@ -351,7 +375,7 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
         char w[320];
         where_of(&la, l, w, sizeof w);
         r = expect_kind(&la, l, SQ_CFG_MAP, sec);
-        if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+        if (r != SQ_OK) return relog(s->ctx, r);
         const sq_cfg_node *type = sq_cfg_get(l, "type");
         if (!type || type->kind != SQ_CFG_SCALAR || !type->value)
             return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
@@ -388,7 +412,7 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
         r = apply_map(&la, l, "", pl->params, pl->param_count, L->desc, skip);
         if (r == SQ_OK && pl->desc_resolve) r = pl->desc_resolve(L->desc);
         if (r == SQ_OK) r = sq_params_validate(pl->params, pl->param_count, L->desc, sec);
-        if (r != SQ_OK) return sq__fail(s->ctx, r, "scene", "%s", sq_last_error());
+        if (r != SQ_OK) return relog(s->ctx, r);
         if (pl->validate) {
             r = pl->validate(s->ctx, L->desc, s->world);
             if (r != SQ_OK) return r;
@@ -427,9 +451,7 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
             const char *best = NULL;
             size_t bl = 99;
             for (const char *const *k = top_keys; *k; k++) {
-                size_t d = 0, la = strlen(c->key), lb = strlen(*k);
-                d = la > lb ? la - lb : lb - la;
-                for (size_t q = 0; q < la && q < lb; q++) d += c->key[q] != (*k)[q];
+                size_t d = edit_distance(c->key, *k);
                 if (d < bl) {
                     bl = d;
                     best = *k;
