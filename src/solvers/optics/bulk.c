@@ -30,12 +30,18 @@ static sq_result resolve_common(const sq_lognormal *size, double *density, sq_op
         return sq__set_error(SQ_ERR_INVALID_ARG, "method = %d; must be SQ_OPTICS_MIE (1) or "
                                                  "SQ_OPTICS_ADA (2)",
                              (int)*method);
-    if (*nodes == 0) *nodes = SQ_OPTICS_NODES_DEFAULT;
     sq__quadrature q;
-    r = sq__quadrature_setup(size, *r_min, *r_max, *nodes, &q);
+    r = sq__quadrature_setup(size, *r_min, *r_max, *nodes == 0 ? 16 : *nodes, &q);
     if (r != SQ_OK) return r;
     *r_min = exp(q.a);
     *r_max = exp(q.b);
+    if (*nodes == 0) {
+        /* spacing <= SQ_OPTICS_NODE_SPACING in ln r, at least SQ_OPTICS_NODES_MIN nodes */
+        const double n = ceil((q.b - q.a) / SQ_OPTICS_NODE_SPACING) + 1.0;
+        *nodes = n < SQ_OPTICS_NODES_MIN ? SQ_OPTICS_NODES_MIN
+                 : n > SQ__QUADRATURE_MAX_NODES ? SQ__QUADRATURE_MAX_NODES
+                                                : (int)n;
+    }
     if (*ada_g == 0.0) *ada_g = SQ_OPTICS_ADA_ASYMMETRY_DEFAULT;
     if (!(isfinite(*ada_g) && *ada_g > -1.0 && *ada_g < 1.0))
         return sq__set_error(SQ_ERR_INVALID_ARG,
@@ -73,7 +79,8 @@ sq_result sq_bulk_optics_desc_resolve(const sq_bulk_optics_desc *desc, sq_bulk_o
 }
 
 /* Efficiencies and g at size parameter x for a resolved desc. Above SQ_OPTICS_MIE_X_CAP the Mie
- * values at the cap are continued with the ADA slope (see optics.h). */
+ * values at the cap are continued (see optics.h): Q_ext with its x^(−2/3) approach to 2, Q_abs
+ * with the ADA increment, g held. */
 typedef struct eff_ctx {
     const sq_bulk_optics_desc *d;
     bool cap_ready;
@@ -108,7 +115,9 @@ static void efficiencies(eff_ctx *c, double x, double *qext, double *qsca, doubl
     }
     double qe, qa;
     sq__ada_eval(x, d->n_real, d->n_imag, &qe, &qa);
-    const double ext = c->cap_mie.qext + (qe - c->cap_ada_ext);
+    (void)qe;
+    /* edge (glory/surface-wave) term of Q_ext decays as x^(−2/3) (Nussenzveig & Wiscombe 1980) */
+    const double ext = 2.0 + (c->cap_mie.qext - 2.0) * pow(x / SQ_OPTICS_MIE_X_CAP, -2.0 / 3.0);
     double abs = c->cap_mie.qabs + (qa - c->cap_ada_abs);
     if (abs < 0.0) abs = 0.0;
     if (abs > ext) abs = ext;

@@ -13,14 +13,15 @@ double sq_hg_phase(double cos_theta, double g)
     return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
 }
 
-/* The CDF measured from cos_theta = +1 is u = (1 − g²)/(2g) [1/(1 + g² − 2g mu)^{1/2} − 1/(1 + g)]
- * ... inverted: mu = (1 + g² − ((1 − g²)/(1 − g + 2 g u))²) / (2g). For |g| < 1e-6 the formula
- * cancels (relative error ~ 1e-16/|g|), and the isotropic 1 − 2u is within 1e-6 of it. */
+/* CDF from cos_theta = −1: u(mu) = (1 − g²)/(2g) [1/sqrt(1 + g² − 2g mu) − 1/(1 + g)], inverted:
+ * mu = (1 + g² − ((1 − g²)/(1 − g + 2 g u))²) / (2g); u = 0 gives −1, u = 1 gives +1. For
+ * |g| < 1e-6 the formula cancels (relative error ~ 1e-16/|g|) and the isotropic 2u − 1 is within
+ * 1e-6 of it. */
 double sq_hg_sample_cos(double g, double u)
 {
     if (u < 0.0) u = 0.0;
     if (u > 1.0) u = 1.0;
-    if (fabs(g) < 1e-6) return 1.0 - 2.0 * u;
+    if (fabs(g) < 1e-6) return 2.0 * u - 1.0;
     const double s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u);
     double mu = (1.0 + g * g - s * s) / (2.0 * g);
     if (mu > 1.0) mu = 1.0;
