@@ -50,12 +50,24 @@ struct sq_renderer {
      * texture of transmitted sun radiance over the volume box, seen from the sun) with the
      * matrix mapping world positions to its texture coordinates; 0 when no volume. Opaque
      * shading multiplies the sun term by it. Because opaque geometry is drawn before volumes,
-     * the base renderer calls sq__volume_pass_prepare_shadow() before the opaque passes. */
+     * the base renderer calls sq__volume_pass_prepare_shadow() before the opaque passes.
+     * The opaque shaders read its rgb as a transmittance (fraction of the sun's light that
+     * arrives, 1 = unshadowed) at texture coordinates (M * p).xy / (M * p).w, and use 1
+     * outside [0,1]^2. The base renderer sets sun_shadow_tex = 0 at the start of each frame. */
     GLuint sun_shadow_tex;
     sq_mat4 sun_shadow_matrix;
 
     sq__volume_pass *volume;
     sq__particle_pass *particles;
+
+    /* Frame constants (renderer.c): a uniform buffer bound at binding 0 for the whole frame,
+     * the `Frame` block of shaders/frame_common.glsl (camera, sun, sky, near/far, viewport,
+     * sun shadow matrix). Any pass may `#include "frame_common.glsl"` to read it and to use
+     * the sky model, ambient light and haze of the opaque passes. The Frame block also binds
+     * sampler unit 7 (u_sun_shadow); passes that include it leave unit 7 alone. */
+    GLuint frame_ubo;
+    GLuint white_tex;           /* 1x1 white RGBA8: bound at unit 7 when no sun shadow */
+    struct sq__base_cache *base; /* renderer.c: surface textures, validation cache */
 };
 
 /* ---- gl_context.c ---------------------------------------------------------------------- */
@@ -64,6 +76,8 @@ struct sq_renderer {
 sq_result sq__gl_context_create(sq_context *ctx, const char *device_hint, sq__gl_context **out);
 void sq__gl_context_destroy(sq__gl_context *gl);
 void sq__gl_query_info(sq_render_info *info);
+/* Makes the context current on this thread if it is not (renderers sharing a thread). */
+sq_result sq__gl_context_make_current(sq__gl_context *gl);
 
 /* ---- gl_util.c --------------------------------------------------------------------------- */
 /* Compiles and links a program from embedded shader files (names without .glsl, e.g.
@@ -75,6 +89,24 @@ sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, co
 const char *sq__shader_source(const char *name);
 /* Translates glGetError into an sq_result with the place named. */
 sq_result sq__gl_check(sq_context *ctx, const char *where);
+/* Compute program from one embedded shader ("x.comp"). */
+sq_result sq__gl_compute_program(sq_context *ctx, const char *comp, GLuint *out);
+/* Compiles one shader stage from text; name is used in messages ("name:line: error ...").
+ * A line `#include "other.glsl"` (after #version) inserts an embedded shader file, whose
+ * errors are reported under its own name. */
+sq_result sq__gl_shader_compile(sq_context *ctx, GLenum stage, const char *name, const char *text,
+                                GLuint *out);
+/* Links compiled shaders (left attached to nothing; the caller deletes them). */
+sq_result sq__gl_program_link(sq_context *ctx, const char *label, const GLuint *shaders, int n,
+                              GLuint *out);
+/* SQ_OK if the frame buffer object is complete, else SQ_ERR_GL naming it. */
+sq_result sq__gl_check_framebuffer(sq_context *ctx, GLuint fbo, const char *what);
+
+/* ---- renderer.c ------------------------------------------------------------------------- */
+/* Terrain colours by kind: on gentle slopes and on slopes steeper than ~40 degrees. */
+void sq__terrain_albedo(sq_terrain_kind kind, sq_vec3 *flat, sq_vec3 *steep);
+/* Default albedo of a surface drawable's material. */
+sq_vec3 sq__material_albedo(sq_material m);
 
 /* ---- render_volume.c --------------------------------------------------------------------- */
 sq_result sq__volume_pass_create(sq_renderer *r);

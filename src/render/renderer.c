@@ -1,0 +1,975 @@
+/* renderer.c — the base OpenGL 4.5 renderer (ARCHITECTURE "render"): frame buffers (HDR
+ * RGBA16F + DEPTH32F texture, 8-bit LDR), camera matrices, input checks (camera inside the
+ * terrain, non-finite volume densities), and the passes of a frame in order:
+ *   volume light passes (sun shadow) -> sky -> terrain -> obstacles -> surfaces ->
+ *   volumes -> particles -> tone mapping.
+ * Static geometry (terrain mesh, obstacles) is uploaded once per world generation; surfaces
+ * once per drawable version. Shading models are in shaders/<pass>.glsl (frame_common.glsl holds the
+ * sky, ambient and haze). */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "render/render_internal.h"
+
+#define SQ_MAX_SURFACES 8
+#define SQ_MAX_SCANNED_VOLUMES 8
+
+typedef struct surface_slot {
+    GLuint height_tex, coverage_tex;
+    int nx, ny;
+    bool has_coverage;
+    uint64_t version;
+    const float *height, *coverage;
+} surface_slot;
+
+typedef struct scanned_volume {
+    const float *density;
+    int nx, ny, nz;
+    uint64_t version;
+} scanned_volume;
+
+struct sq__base_cache {
+    surface_slot surfaces[SQ_MAX_SURFACES];
+    scanned_volume scanned[SQ_MAX_SCANNED_VOLUMES];
+    const sq_world *world; /* world the geometry cache was built from */
+    const float *world_heights;
+    int world_nx, world_ny;
+    bool has_world;
+    uint64_t frames;
+};
+
+/* std140 mirror of the Frame block in shaders/frame_common.glsl. */
+typedef struct frame_block {
+    float view_proj[16], inv_view_proj[16], view[16], sun_shadow_matrix[16];
+    float cam_pos[4], sun_dir[4], sun_radiance[4], sky_zenith[4], sky_horizon[4];
+    float ground_albedo[4], viewport[4], params[4];
+} frame_block;
+
+/* Vertex of the obstacle mesh: position, normal, albedo, aux (kind, along, height fraction). */
+typedef struct mesh_vertex {
+    float p[3], n[3], albedo[3], aux[3];
+} mesh_vertex;
+
+/* ---- materials -------------------------------------------------------------------------- */
+void sq__terrain_albedo(sq_terrain_kind kind, sq_vec3 *flat, sq_vec3 *steep)
+{
+    *steep = sq_v3(0.30f, 0.28f, 0.26f); /* weathered rock */
+    switch (kind) {
+    case SQ_TERRAIN_DUNES: /* desert sand on every slope */
+        *flat = sq_v3(0.58f, 0.45f, 0.30f);
+        *steep = sq_v3(0.52f, 0.40f, 0.27f);
+        break;
+    case SQ_TERRAIN_MOUNTAIN: /* alpine meadow / scree */
+        *flat = sq_v3(0.20f, 0.22f, 0.13f);
+        break;
+    default: /* dry grass and soil */
+        *flat = sq_v3(0.21f, 0.23f, 0.11f);
+        break;
+    }
+}
+
+sq_vec3 sq__material_albedo(sq_material m)
+{
+    switch (m) {
+    case SQ_MATERIAL_SAND: return sq_v3(0.58f, 0.45f, 0.30f);
+    case SQ_MATERIAL_SNOW: return sq_v3(0.90f, 0.92f, 0.95f);
+    case SQ_MATERIAL_ROCK: return sq_v3(0.30f, 0.28f, 0.26f);
+    default: return sq_v3(0.30f, 0.25f, 0.19f); /* soil */
+    }
+}
+
+/* ---- camera ----------------------------------------------------------------------------- */
+static bool finite3(sq_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
+
+static sq_result setup_camera(sq_renderer *r, const sq_camera *camera)
+{
+    sq_context *ctx = r->ctx;
+    const sq_camera c = sq_camera_resolve(*camera);
+    const sq_camera *cam = &c;
+    const float fov = c.fov_y_deg, znear = c.near_m, zfar = c.far_m;
+    const sq_vec3 up = c.up;
+    if (!finite3(cam->position_m) || !finite3(cam->target_m) || !finite3(up))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera position (%g, %g, %g), target (%g, %g, %g) or up is not finite",
+                        (double)cam->position_m.x, (double)cam->position_m.y,
+                        (double)cam->position_m.z, (double)cam->target_m.x,
+                        (double)cam->target_m.y, (double)cam->target_m.z);
+    if (!(fov > 0.0f && fov < 180.0f))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera fov_y_deg = %g; must be in (0, 180)", (double)fov);
+    if (!(znear > 0.0f) || !(zfar > znear) || !isfinite(zfar))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera near_m = %g, far_m = %g; need 0 < near < far (finite)",
+                        (double)znear, (double)zfar);
+    const sq_vec3 f = sq_v3_sub(cam->target_m, cam->position_m);
+    if (sq_v3_len(f) <= 0.0f)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera target equals its position (%g, %g, %g); it must look somewhere",
+                        (double)cam->position_m.x, (double)cam->position_m.y,
+                        (double)cam->position_m.z);
+    const sq_vec3 fn = sq_v3_norm(f);
+    if (sq_v3_len(sq_v3_cross(fn, sq_v3_norm(up))) < 1e-4f)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera looks along its up vector (%g, %g, %g); give an up that is not "
+                        "parallel to target - position (e.g. up = (0, 1, 0) for a view "
+                        "straight down)",
+                        (double)up.x, (double)up.y, (double)up.z);
+    const float aspect = (float)r->width / (float)r->height;
+    r->view = sq_camera_view(cam);
+    r->proj = sq_camera_proj(cam, aspect);
+    r->view_proj = sq_m4_mul(r->proj, r->view);
+    r->inv_view_proj = sq_m4_inverse(r->view_proj);
+    r->cam_pos = cam->position_m;
+    r->cam_forward = fn;
+    r->cam_right = sq_v3_norm(sq_v3_cross(fn, up));
+    r->cam_up = sq_v3_cross(r->cam_right, fn);
+    r->near_m = znear;
+    r->far_m = zfar;
+    return SQ_OK;
+}
+
+/* ---- input checks ----------------------------------------------------------------------- */
+static sq_result check_camera_above_terrain(sq_renderer *r, const sq_world *w)
+{
+    const sq_vec3 p = r->cam_pos;
+    const float h = sq_world_height_at(w, p.x, p.y);
+    if (p.z < h + 0.1f)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "camera at (%.2f, %.2f, %.2f) is below the terrain surface (%.2f m) or "
+                        "within 0.1 m of it; raise camera.position_m.z above %.2f m",
+                        (double)p.x, (double)p.y, (double)p.z, (double)h, (double)(h + 0.1f));
+    return SQ_OK;
+}
+
+static const char *drawable_name(const sq_drawable *d) { return d->name ? d->name : "(unnamed)"; }
+
+static sq_result check_volume(sq_renderer *r, const sq_drawable *d, int index)
+{
+    const sq_volume_view *v = &d->u.volume;
+    if (!v->density || v->nx < 1 || v->ny < 1 || v->nz < 1)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume drawable \"%s\" (#%d): density %s, cells %dx%dx%d; need data and "
+                        "at least 1 cell per axis",
+                        drawable_name(d), index, v->density ? "set" : "NULL", v->nx, v->ny, v->nz);
+    if (!finite3(v->origin_m) || !finite3(v->size_m) || !(v->size_m.x > 0.0f) ||
+        !(v->size_m.y > 0.0f) || !(v->size_m.z > 0.0f))
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume drawable \"%s\": box size (%g, %g, %g) m; every side must be "
+                        "finite and > 0",
+                        drawable_name(d), (double)v->size_m.x, (double)v->size_m.y,
+                        (double)v->size_m.z);
+    /* Scanning is skipped for a volume already found clean at this version. */
+    struct sq__base_cache *b = r->base;
+    const int slot = index < SQ_MAX_SCANNED_VOLUMES ? index : -1;
+    if (slot >= 0) {
+        const scanned_volume *s = &b->scanned[slot];
+        if (s->density == v->density && s->version == v->version && s->nx == v->nx &&
+            s->ny == v->ny && s->nz == v->nz)
+            return SQ_OK;
+    }
+    const size_t n = (size_t)v->nx * (size_t)v->ny * (size_t)v->nz;
+    for (size_t c = 0; c < n; c++) {
+        if (!isfinite(v->density[c])) {
+            const size_t i = c % (size_t)v->nx;
+            const size_t j = (c / (size_t)v->nx) % (size_t)v->ny;
+            const size_t k = c / ((size_t)v->nx * (size_t)v->ny);
+            return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                            "volume drawable \"%s\": density at cell (%zu, %zu, %zu) is %g; "
+                            "refusing to render a non-finite volume (the simulation that made "
+                            "it has blown up)",
+                            drawable_name(d), i, j, k, (double)v->density[c]);
+        }
+    }
+    if (slot >= 0) {
+        scanned_volume *s = &b->scanned[slot];
+        s->density = v->density;
+        s->version = v->version;
+        s->nx = v->nx;
+        s->ny = v->ny;
+        s->nz = v->nz;
+    }
+    return SQ_OK;
+}
+
+static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int count)
+{
+    int volumes = 0, surfaces = 0;
+    for (int i = 0; i < count; i++) {
+        const sq_drawable *d = &ds[i];
+        switch (d->kind) {
+        case SQ_DRAWABLE_VOLUME: {
+            sq_result res = check_volume(r, d, volumes++);
+            if (res != SQ_OK) return res;
+            break;
+        }
+        case SQ_DRAWABLE_SURFACE: {
+            const sq_surface_view *s = &d->u.surface;
+            if (!s->height_m || s->nx < 2 || s->ny < 2 || !(s->dx_m > 0.0f) || !(s->dy_m > 0.0f))
+                return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                                "surface drawable \"%s\": %dx%d samples, spacing %g x %g m, "
+                                "heights %s; need >= 2x2 samples, spacing > 0 and heights",
+                                drawable_name(d), s->nx, s->ny, (double)s->dx_m,
+                                (double)s->dy_m, s->height_m ? "set" : "NULL");
+            if (++surfaces > SQ_MAX_SURFACES)
+                return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                                "surface drawable \"%s\" is surface number %d; at most %d per "
+                                "frame",
+                                drawable_name(d), surfaces, SQ_MAX_SURFACES);
+            break;
+        }
+        case SQ_DRAWABLE_PARTICLES: {
+            const sq_particles_view *p = &d->u.particles;
+            if (p->count < 0 || (p->count > 0 && !p->position))
+                return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                                "particle drawable \"%s\": count = %d, positions %s; need "
+                                "count >= 0 and positions when count > 0",
+                                drawable_name(d), p->count, p->position ? "set" : "NULL");
+            break;
+        }
+        case SQ_DRAWABLE_NONE: break;
+        default:
+            return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                            "drawable \"%s\" (#%d) has unknown kind %d", drawable_name(d), i,
+                            (int)d->kind);
+        }
+    }
+    return SQ_OK;
+}
+
+/* ---- world geometry cache --------------------------------------------------------------- */
+static sq_result build_terrain(sq_renderer *r, const sq_world *w)
+{
+    sq_context *ctx = r->ctx;
+    const int nx = w->nx, ny = w->ny;
+    r->terrain_index_count = 0;
+    if (nx < 2 || ny < 2 || !w->heights) return SQ_OK; /* nothing to draw */
+    const size_t nv = (size_t)nx * (size_t)ny;
+    const size_t ni = (size_t)(nx - 1) * (size_t)(ny - 1) * 6;
+    if (ni > (size_t)INT32_MAX)
+        return sq__fail(ctx, SQ_ERR_TOO_LARGE, "render",
+                        "terrain %dx%d has too many triangles for one draw", nx, ny);
+    float *v = sq_alloc(ctx, nv * 6 * sizeof(float));
+    uint32_t *idx = sq_alloc(ctx, ni * sizeof(uint32_t));
+    if (!v || !idx) {
+        sq_free(ctx, v);
+        sq_free(ctx, idx);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
+    for (int j = 0; j < ny; j++) {
+        for (int i = 0; i < nx; i++) {
+            const size_t c = (size_t)j * (size_t)nx + (size_t)i;
+            float *o = v + 6 * c;
+            o[0] = w->origin.x + (float)i * w->dx;
+            o[1] = w->origin.y + (float)j * w->dy;
+            o[2] = w->heights[c];
+            if (w->normals) {
+                o[3] = w->normals[3 * c + 0];
+                o[4] = w->normals[3 * c + 1];
+                o[5] = w->normals[3 * c + 2];
+            } else { /* central differences */
+                const int il = i > 0 ? i - 1 : i, ir = i < nx - 1 ? i + 1 : i;
+                const int jl = j > 0 ? j - 1 : j, jr = j < ny - 1 ? j + 1 : j;
+                const float gx = (w->heights[(size_t)j * nx + ir] - w->heights[(size_t)j * nx + il]) /
+                                 ((float)(ir - il) * w->dx);
+                const float gy = (w->heights[(size_t)jr * nx + i] - w->heights[(size_t)jl * nx + i]) /
+                                 ((float)(jr - jl) * w->dy);
+                const sq_vec3 n = sq_v3_norm(sq_v3(-gx, -gy, 1.0f));
+                o[3] = n.x;
+                o[4] = n.y;
+                o[5] = n.z;
+            }
+        }
+    }
+    size_t k = 0;
+    for (int j = 0; j < ny - 1; j++) {
+        for (int i = 0; i < nx - 1; i++) {
+            const uint32_t a = (uint32_t)(j * nx + i), b = a + 1;
+            const uint32_t c = a + (uint32_t)nx, d = c + 1;
+            idx[k++] = a; idx[k++] = b; idx[k++] = d;
+            idx[k++] = a; idx[k++] = d; idx[k++] = c;
+        }
+    }
+    if (!r->terrain_vao) {
+        glCreateVertexArrays(1, &r->terrain_vao);
+        glEnableVertexArrayAttrib(r->terrain_vao, 0);
+        glEnableVertexArrayAttrib(r->terrain_vao, 1);
+        glVertexArrayAttribFormat(r->terrain_vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
+        glVertexArrayAttribFormat(r->terrain_vao, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
+        glVertexArrayAttribBinding(r->terrain_vao, 0, 0);
+        glVertexArrayAttribBinding(r->terrain_vao, 1, 0);
+    }
+    glDeleteBuffers(1, &r->terrain_vbo);
+    glDeleteBuffers(1, &r->terrain_ibo);
+    glCreateBuffers(1, &r->terrain_vbo);
+    glCreateBuffers(1, &r->terrain_ibo);
+    glNamedBufferStorage(r->terrain_vbo, (GLsizeiptr)(nv * 6 * sizeof(float)), v, 0);
+    glNamedBufferStorage(r->terrain_ibo, (GLsizeiptr)(ni * sizeof(uint32_t)), idx, 0);
+    glVertexArrayVertexBuffer(r->terrain_vao, 0, r->terrain_vbo, 0, 6 * sizeof(float));
+    glVertexArrayElementBuffer(r->terrain_vao, r->terrain_ibo);
+    r->terrain_index_count = (GLsizei)ni;
+    sq_free(ctx, v);
+    sq_free(ctx, idx);
+    return sq__gl_check(ctx, "terrain mesh upload");
+}
+
+/* Obstacle mesh building: local frame centred on the footprint, base at z = 0, ridge along x;
+ * rotated by yaw about z and moved to the obstacle's place. */
+typedef struct mesh_builder {
+    mesh_vertex *v;
+    int n, cap;
+    sq_vec3 centre, albedo;
+    float cos_yaw, sin_yaw, height, along_sign;
+    int kind;
+    bool along_x; /* fences: boards run along the longer footprint axis */
+} mesh_builder;
+
+static sq_vec3 to_world(const mesh_builder *m, sq_vec3 p)
+{
+    return sq_v3(m->centre.x + m->cos_yaw * p.x - m->sin_yaw * p.y,
+                 m->centre.y + m->sin_yaw * p.x + m->cos_yaw * p.y, m->centre.z + p.z);
+}
+
+/* Adds triangle a b c (local), oriented so that its normal points away from inside. */
+static void add_tri(mesh_builder *m, sq_vec3 a, sq_vec3 b, sq_vec3 c, sq_vec3 inside)
+{
+    if (m->n + 3 > m->cap) return;
+    sq_vec3 n = sq_v3_norm(sq_v3_cross(sq_v3_sub(b, a), sq_v3_sub(c, a)));
+    const sq_vec3 centroid = sq_v3_scale(sq_v3_add(sq_v3_add(a, b), c), 1.0f / 3.0f);
+    if (sq_v3_dot(n, sq_v3_sub(centroid, inside)) < 0.0f) {
+        n = sq_v3_scale(n, -1.0f);
+        const sq_vec3 t = b;
+        b = c;
+        c = t;
+    }
+    const sq_vec3 nw = sq_v3(m->cos_yaw * n.x - m->sin_yaw * n.y,
+                             m->sin_yaw * n.x + m->cos_yaw * n.y, n.z);
+    const sq_vec3 pts[3] = {a, b, c};
+    for (int i = 0; i < 3; i++) {
+        mesh_vertex *o = &m->v[m->n++];
+        const sq_vec3 w = to_world(m, pts[i]);
+        o->p[0] = w.x; o->p[1] = w.y; o->p[2] = w.z;
+        o->n[0] = nw.x; o->n[1] = nw.y; o->n[2] = nw.z;
+        o->albedo[0] = m->albedo.x; o->albedo[1] = m->albedo.y; o->albedo[2] = m->albedo.z;
+        o->aux[0] = (float)m->kind;
+        o->aux[1] = m->along_x ? pts[i].x : pts[i].y;
+        o->aux[2] = m->height > 0.0f ? pts[i].z / m->height : 0.0f;
+    }
+}
+
+static void add_quad(mesh_builder *m, sq_vec3 a, sq_vec3 b, sq_vec3 c, sq_vec3 d, sq_vec3 inside)
+{
+    add_tri(m, a, b, c, inside);
+    add_tri(m, a, c, d, inside);
+}
+
+/* Four walls and a flat top (the bottom is never seen). */
+static void add_box(mesh_builder *m, float hx, float hy, float h, bool top)
+{
+    const sq_vec3 in = sq_v3(0.0f, 0.0f, 0.5f * h);
+    const sq_vec3 p000 = sq_v3(-hx, -hy, 0.0f), p100 = sq_v3(hx, -hy, 0.0f);
+    const sq_vec3 p010 = sq_v3(-hx, hy, 0.0f), p110 = sq_v3(hx, hy, 0.0f);
+    const sq_vec3 p001 = sq_v3(-hx, -hy, h), p101 = sq_v3(hx, -hy, h);
+    const sq_vec3 p011 = sq_v3(-hx, hy, h), p111 = sq_v3(hx, hy, h);
+    add_quad(m, p000, p100, p101, p001, in); /* south */
+    add_quad(m, p010, p110, p111, p011, in); /* north */
+    add_quad(m, p000, p010, p011, p001, in); /* west */
+    add_quad(m, p100, p110, p111, p101, in); /* east */
+    if (top) add_quad(m, p001, p101, p111, p011, in);
+}
+
+static float obstacle_base(const sq_world *w, const sq_obstacle *o)
+{
+    if (isfinite(o->center_m.z)) return o->center_m.z;
+    /* on the terrain: the lowest ground under the footprint, so that nothing floats */
+    const float c = cosf(o->yaw_deg * SQ_PI_F / 180.0f), s = sinf(o->yaw_deg * SQ_PI_F / 180.0f);
+    float zmin = sq_world_height_at(w, o->center_m.x, o->center_m.y);
+    for (int k = 0; k < 4; k++) {
+        const float lx = (k & 1 ? 0.5f : -0.5f) * o->size_m.x;
+        const float ly = (k & 2 ? 0.5f : -0.5f) * o->size_m.y;
+        const float h = sq_world_height_at(w, o->center_m.x + c * lx - s * ly,
+                                           o->center_m.y + s * lx + c * ly);
+        if (h < zmin) zmin = h;
+    }
+    return zmin;
+}
+
+static sq_result build_obstacles(sq_renderer *r, const sq_world *w)
+{
+    sq_context *ctx = r->ctx;
+    r->obstacle_vertex_count = 0;
+    const int count = sq_clampi(w->obstacle_count, 0, SQ_MAX_OBSTACLES);
+    if (count == 0) return SQ_OK;
+    const int per = 48; /* house: 4 walls (24) + 2 roof slopes (12) + 2 gables (6) */
+    mesh_builder m = {.cap = count * per};
+    m.v = sq_alloc(ctx, (size_t)m.cap * sizeof(mesh_vertex));
+    if (!m.v) return SQ_ERR_OUT_OF_MEMORY;
+    for (int i = 0; i < count; i++) {
+        const sq_obstacle *o = &w->obstacles[i];
+        const float hx = 0.5f * o->size_m.x, hy = 0.5f * o->size_m.y, h = o->size_m.z;
+        if (!(hx > 0.0f && hy > 0.0f && h > 0.0f)) continue;
+        const bool given = o->albedo.x > 0.0f || o->albedo.y > 0.0f || o->albedo.z > 0.0f;
+        m.centre = sq_v3(o->center_m.x, o->center_m.y, obstacle_base(w, o));
+        m.cos_yaw = cosf(o->yaw_deg * SQ_PI_F / 180.0f);
+        m.sin_yaw = sinf(o->yaw_deg * SQ_PI_F / 180.0f);
+        m.kind = (int)o->kind;
+        m.height = h;
+        m.along_x = o->size_m.x >= o->size_m.y;
+        switch (o->kind) {
+        case SQ_OBSTACLE_HOUSE: {
+            m.albedo = given ? o->albedo : sq_v3(0.70f, 0.64f, 0.54f); /* rendered walls */
+            add_box(&m, hx, hy, h, o->roof_m <= 0.0f);
+            if (o->roof_m > 0.0f) {
+                m.albedo = given ? o->albedo : sq_v3(0.40f, 0.19f, 0.13f); /* clay tiles */
+                const float t = h + o->roof_m;
+                const sq_vec3 in = sq_v3(0.0f, 0.0f, h);
+                const sq_vec3 es0 = sq_v3(-hx, -hy, h), es1 = sq_v3(hx, -hy, h);
+                const sq_vec3 en0 = sq_v3(-hx, hy, h), en1 = sq_v3(hx, hy, h);
+                const sq_vec3 r0 = sq_v3(-hx, 0.0f, t), r1 = sq_v3(hx, 0.0f, t);
+                add_quad(&m, es0, es1, r1, r0, in);
+                add_quad(&m, en0, en1, r1, r0, in);
+                m.albedo = given ? o->albedo : sq_v3(0.70f, 0.64f, 0.54f);
+                add_tri(&m, es0, en0, r0, in);
+                add_tri(&m, es1, en1, r1, in);
+            }
+            break;
+        }
+        case SQ_OBSTACLE_FENCE:
+            m.albedo = given ? o->albedo : sq_v3(0.42f, 0.32f, 0.20f); /* weathered wood */
+            add_box(&m, hx, hy, h, true);
+            break;
+        default:
+            m.albedo = given ? o->albedo : sq_v3(0.50f, 0.48f, 0.45f); /* concrete */
+            add_box(&m, hx, hy, h, true);
+            break;
+        }
+    }
+    if (!r->obstacle_vao) {
+        glCreateVertexArrays(1, &r->obstacle_vao);
+        for (GLuint a = 0; a < 4; a++) {
+            glEnableVertexArrayAttrib(r->obstacle_vao, a);
+            glVertexArrayAttribFormat(r->obstacle_vao, a, 3, GL_FLOAT, GL_FALSE,
+                                      a * 3 * (GLuint)sizeof(float));
+            glVertexArrayAttribBinding(r->obstacle_vao, a, 0);
+        }
+    }
+    glDeleteBuffers(1, &r->obstacle_vbo);
+    r->obstacle_vbo = 0;
+    if (m.n > 0) {
+        glCreateBuffers(1, &r->obstacle_vbo);
+        glNamedBufferStorage(r->obstacle_vbo, (GLsizeiptr)((size_t)m.n * sizeof(mesh_vertex)),
+                             m.v, 0);
+        glVertexArrayVertexBuffer(r->obstacle_vao, 0, r->obstacle_vbo, 0, sizeof(mesh_vertex));
+    }
+    r->obstacle_vertex_count = m.n;
+    sq_free(ctx, m.v);
+    return sq__gl_check(ctx, "obstacle mesh upload");
+}
+
+static sq_result update_world_cache(sq_renderer *r, const sq_world *w)
+{
+    struct sq__base_cache *b = r->base;
+    if (b->has_world && b->world == w && r->world_generation == w->generation &&
+        b->world_heights == w->heights && b->world_nx == w->nx && b->world_ny == w->ny)
+        return SQ_OK;
+    b->has_world = false;
+    sq_result res = build_terrain(r, w);
+    if (res == SQ_OK) res = build_obstacles(r, w);
+    if (res != SQ_OK) return res;
+    b->has_world = true;
+    b->world = w;
+    b->world_heights = w->heights;
+    b->world_nx = w->nx;
+    b->world_ny = w->ny;
+    r->world_generation = w->generation;
+    return SQ_OK;
+}
+
+/* ---- surfaces ----------------------------------------------------------------------------- */
+static void surface_slot_free(surface_slot *s)
+{
+    glDeleteTextures(1, &s->height_tex);
+    glDeleteTextures(1, &s->coverage_tex);
+    memset(s, 0, sizeof *s);
+}
+
+static GLuint make_r32f(int nx, int ny)
+{
+    GLuint t = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, GL_R32F, nx, ny);
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+static void upload_surface(sq_renderer *r, surface_slot *s, const sq_surface_view *v)
+{
+    if (s->height_tex && s->nx == v->nx && s->ny == v->ny && s->version == v->version &&
+        s->height == v->height_m && s->coverage == v->coverage && s->has_coverage == !!v->coverage)
+        return;
+    if (!s->height_tex || s->nx != v->nx || s->ny != v->ny) {
+        surface_slot_free(s);
+        s->height_tex = make_r32f(v->nx, v->ny);
+        s->coverage_tex = make_r32f(v->nx, v->ny);
+        s->nx = v->nx;
+        s->ny = v->ny;
+    }
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTextureSubImage2D(s->height_tex, 0, 0, 0, v->nx, v->ny, GL_RED, GL_FLOAT, v->height_m);
+    if (v->coverage)
+        glTextureSubImage2D(s->coverage_tex, 0, 0, 0, v->nx, v->ny, GL_RED, GL_FLOAT,
+                            v->coverage);
+    s->has_coverage = v->coverage != NULL;
+    s->version = v->version;
+    s->height = v->height_m;
+    s->coverage = v->coverage;
+    (void)r;
+}
+
+static void draw_surface(sq_renderer *r, surface_slot *s, const sq_surface_view *v)
+{
+    upload_surface(r, s, v);
+    sq_vec3 albedo = v->albedo;
+    if (!(albedo.x > 0.0f || albedo.y > 0.0f || albedo.z > 0.0f))
+        albedo = sq__material_albedo(v->material);
+    const GLuint p = r->prog_surface;
+    glProgramUniform2i(p, 0, v->nx, v->ny);
+    glProgramUniform3f(p, 1, v->origin_m.x, v->origin_m.y, v->origin_m.z);
+    glProgramUniform2f(p, 2, v->dx_m, v->dy_m);
+    glProgramUniform1i(p, 3, s->has_coverage ? 1 : 0);
+    glProgramUniform3f(p, 4, albedo.x, albedo.y, albedo.z);
+    glProgramUniform1i(p, 5, (int)v->material);
+    glBindTextureUnit(1, s->height_tex);
+    glBindTextureUnit(2, s->coverage_tex);
+    glUseProgram(p);
+    glBindVertexArray(r->empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, (GLsizei)((v->nx - 1) * (v->ny - 1) * 6));
+}
+
+/* ---- frame ------------------------------------------------------------------------------ */
+static void copy_mat(float *dst, const sq_mat4 *m) { memcpy(dst, m->m, sizeof m->m); }
+static void copy_v4(float *dst, sq_vec3 v, float w)
+{
+    dst[0] = v.x;
+    dst[1] = v.y;
+    dst[2] = v.z;
+    dst[3] = w;
+}
+
+static void upload_frame_block(sq_renderer *r, const sq_world *w)
+{
+    frame_block f;
+    memset(&f, 0, sizeof f);
+    copy_mat(f.view_proj, &r->view_proj);
+    copy_mat(f.inv_view_proj, &r->inv_view_proj);
+    copy_mat(f.view, &r->view);
+    copy_mat(f.sun_shadow_matrix, &r->sun_shadow_matrix);
+    copy_v4(f.cam_pos, r->cam_pos, (float)r->time_s);
+    copy_v4(f.sun_dir, sq_v3_norm(w->sun_dir), r->sun_shadow_tex ? 1.0f : 0.0f);
+    copy_v4(f.sun_radiance, w->sun_radiance, w->turbidity);
+    copy_v4(f.sky_zenith, w->sky_zenith, r->near_m);
+    copy_v4(f.sky_horizon, w->sky_horizon, r->far_m);
+    copy_v4(f.ground_albedo, w->ground_albedo, (float)w->terrain_kind);
+    f.viewport[0] = (float)r->width;
+    f.viewport[1] = (float)r->height;
+    f.viewport[2] = 1.0f / (float)r->width;
+    f.viewport[3] = 1.0f / (float)r->height;
+    f.params[0] = r->desc.exposure;
+    glNamedBufferSubData(r->frame_ubo, 0, sizeof f, &f);
+}
+
+/* Binds what every base pass expects: HDR target, viewport, frame block, sun shadow. */
+static void bind_scene_state(sq_renderer *r)
+{
+    glBindFramebuffer(GL_FRAMEBUFFER, r->hdr_fbo);
+    glViewport(0, 0, r->width, r->height);
+    glBindBufferBase(GL_UNIFORM_BUFFER, 0, r->frame_ubo);
+    glBindTextureUnit(7, r->sun_shadow_tex ? r->sun_shadow_tex : r->white_tex);
+    glDisable(GL_BLEND);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glDisable(GL_STENCIL_TEST);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+}
+
+static void pass_sky(sq_renderer *r)
+{
+    glDisable(GL_DEPTH_TEST);
+    glDepthMask(GL_FALSE);
+    glUseProgram(r->prog_sky);
+    glBindVertexArray(r->empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+static void pass_opaque(sq_renderer *r, const sq_world *w)
+{
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    if (r->terrain_index_count > 0) {
+        sq_vec3 flat, steep;
+        sq__terrain_albedo(w->terrain_kind, &flat, &steep);
+        glProgramUniform3f(r->prog_terrain, 0, flat.x, flat.y, flat.z);
+        glProgramUniform3f(r->prog_terrain, 1, steep.x, steep.y, steep.z);
+        glUseProgram(r->prog_terrain);
+        glBindVertexArray(r->terrain_vao);
+        glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
+    }
+    if (r->obstacle_vertex_count > 0) {
+        glUseProgram(r->prog_mesh);
+        glBindVertexArray(r->obstacle_vao);
+        glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
+    }
+}
+
+static void pass_surfaces(sq_renderer *r, const sq_drawable *ds, int count)
+{
+    int slot = 0;
+    for (int i = 0; i < count; i++) {
+        if (ds[i].kind != SQ_DRAWABLE_SURFACE) continue;
+        if (slot == 0) {
+            glEnable(GL_DEPTH_TEST);
+            glDepthFunc(GL_LEQUAL);
+            glDepthMask(GL_TRUE);
+            /* drawn over the terrain it lies on: pull it toward the camera in depth */
+            glEnable(GL_POLYGON_OFFSET_FILL);
+            glPolygonOffset(-1.0f, -4.0f);
+            glEnable(GL_BLEND);
+            glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
+        }
+        draw_surface(r, &r->base->surfaces[slot], &ds[i].u.surface);
+        slot++;
+    }
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glDisable(GL_BLEND);
+    glDepthFunc(GL_LESS);
+}
+
+static void pass_tonemap(sq_renderer *r)
+{
+    glBindFramebuffer(GL_FRAMEBUFFER, r->ldr_fbo);
+    glViewport(0, 0, r->width, r->height);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    glDepthMask(GL_FALSE);
+    glProgramUniform1f(r->prog_tonemap, 0, r->desc.exposure);
+    glUseProgram(r->prog_tonemap);
+    glBindTextureUnit(0, r->hdr_color);
+    glBindVertexArray(r->empty_vao);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+}
+
+sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camera *camera,
+                           const sq_drawable *drawables, int count, double time_s)
+{
+    if (!r) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: renderer is NULL");
+    sq_context *ctx = r->ctx;
+    if (!world || !camera)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: %s is NULL",
+                        world ? "camera" : "world");
+    if (count < 0 || (count > 0 && !drawables))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_renderer_draw: count = %d with drawables %s", count,
+                        drawables ? "set" : "NULL");
+    sq_result res = sq__gl_context_make_current(r->gl);
+    if (res != SQ_OK) return res;
+    if ((res = setup_camera(r, camera)) != SQ_OK) return res;
+    if ((res = check_camera_above_terrain(r, world)) != SQ_OK) return res;
+    if ((res = check_drawables(r, drawables, count)) != SQ_OK) return res;
+    if ((res = update_world_cache(r, world)) != SQ_OK) return res;
+    r->world = world;
+    r->time_s = time_s;
+
+    /* volume light passes first: the opaque passes are shadowed by their light buffer */
+    r->sun_shadow_tex = 0;
+    r->sun_shadow_matrix = sq_m4_identity();
+    glBindBufferBase(GL_UNIFORM_BUFFER, 0, r->frame_ubo);
+    upload_frame_block(r, world);
+    for (int i = 0; i < count; i++) {
+        if (drawables[i].kind != SQ_DRAWABLE_VOLUME) continue;
+        if ((res = sq__volume_pass_prepare_shadow(r, &drawables[i].u.volume)) != SQ_OK)
+            return res;
+    }
+    upload_frame_block(r, world); /* with the sun shadow, if any */
+
+    bind_scene_state(r);
+    glDepthMask(GL_TRUE);
+    const float clear_color[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+    const float clear_depth = 1.0f;
+    glClearNamedFramebufferfv(r->hdr_fbo, GL_COLOR, 0, clear_color);
+    glClearNamedFramebufferfv(r->hdr_fbo, GL_DEPTH, 0, &clear_depth);
+    pass_sky(r);
+    pass_opaque(r, world);
+    pass_surfaces(r, drawables, count);
+    if ((res = sq__gl_check(ctx, "the opaque passes (sky, terrain, obstacles, surfaces)")) != SQ_OK)
+        return res;
+
+    for (int i = 0; i < count; i++) {
+        if (drawables[i].kind != SQ_DRAWABLE_VOLUME) continue;
+        bind_scene_state(r);
+        if ((res = sq__volume_pass_draw(r, &drawables[i].u.volume)) != SQ_OK) return res;
+    }
+    for (int i = 0; i < count; i++) {
+        if (drawables[i].kind != SQ_DRAWABLE_PARTICLES) continue;
+        bind_scene_state(r);
+        if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
+    }
+    pass_tonemap(r);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    if ((res = sq__gl_check(ctx, "the frame (volumes, particles, tone mapping)")) != SQ_OK)
+        return res;
+    r->base->frames++;
+    return SQ_OK;
+}
+
+/* ---- read-back ------------------------------------------------------------------------- */
+/* Reverses the order of rows (GL's first row is the bottom one). */
+static sq_result flip_rows(sq_context *ctx, void *data, size_t row_bytes, int rows)
+{
+    unsigned char *tmp = sq_alloc(ctx, row_bytes);
+    if (!tmp) return SQ_ERR_OUT_OF_MEMORY;
+    unsigned char *p = data;
+    for (int y = 0; y < rows / 2; y++) {
+        unsigned char *a = p + (size_t)y * row_bytes;
+        unsigned char *b = p + (size_t)(rows - 1 - y) * row_bytes;
+        memcpy(tmp, a, row_bytes);
+        memcpy(a, b, row_bytes);
+        memcpy(b, tmp, row_bytes);
+    }
+    sq_free(ctx, tmp);
+    return SQ_OK;
+}
+
+static sq_result read_prepare(sq_renderer *r, const void *out, const char *what)
+{
+    if (!r) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "%s: renderer is NULL", what);
+    if (!out) return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render", "%s: output is NULL", what);
+    if (r->base->frames == 0)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "%s: no frame drawn yet (call sq_renderer_draw first)", what);
+    return sq__gl_context_make_current(r->gl);
+}
+
+sq_result sq_renderer_read_rgba8(sq_renderer *r, uint8_t *rgba)
+{
+    sq_result res = read_prepare(r, rgba, "sq_renderer_read_rgba8");
+    if (res != SQ_OK) return res;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->ldr_fbo);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, r->width, r->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    if ((res = sq__gl_check(r->ctx, "sq_renderer_read_rgba8")) != SQ_OK) return res;
+    return flip_rows(r->ctx, rgba, (size_t)r->width * 4, r->height);
+}
+
+sq_result sq_renderer_read_linear(sq_renderer *r, float *rgb)
+{
+    sq_result res = read_prepare(r, rgb, "sq_renderer_read_linear");
+    if (res != SQ_OK) return res;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->hdr_fbo);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, r->width, r->height, GL_RGB, GL_FLOAT, rgb);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    if ((res = sq__gl_check(r->ctx, "sq_renderer_read_linear")) != SQ_OK) return res;
+    return flip_rows(r->ctx, rgb, (size_t)r->width * 3 * sizeof(float), r->height);
+}
+
+/* ---- lifecycle -------------------------------------------------------------------------- */
+static sq_result resolve_desc(sq_context *ctx, const sq_render_desc *in, sq_render_desc *out)
+{
+    sq_render_desc d;
+    if (in) d = *in;
+    else memset(&d, 0, sizeof d);
+    if (d.width == 0 && d.height == 0) {
+        d.width = 640;
+        d.height = 360;
+    } else if (d.width < 1 || d.height < 1) {
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "frame size %d x %d; width and height must both be >= 1 (or both 0 for "
+                        "the default 640 x 360)",
+                        d.width, d.height);
+    }
+    if (d.exposure == 0.0f) d.exposure = 1.0f;
+    if (!(d.exposure > 0.0f) || !isfinite(d.exposure))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "exposure = %g; must be finite and > 0 (0 -> 1)", (double)d.exposure);
+    if (d.volume_slices == 0) d.volume_slices = 128;
+    if (d.volume_slices < 1 || d.volume_slices > 4096)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume_slices = %d; must be in 1..4096 (0 -> 128)", d.volume_slices);
+    if (d.light_buffer_size == 0) d.light_buffer_size = 256;
+    if (d.light_buffer_size < 1)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "light_buffer_size = %d; must be >= 1 (0 -> 256)", d.light_buffer_size);
+    *out = d;
+    return SQ_OK;
+}
+
+/* The smallest of the implementation limits that bound one side of the frame. */
+static void side_limit(const sq_render_info *in, int axis, int *value, const char **name)
+{
+    *value = in->max_texture_size;
+    *name = "GL_MAX_TEXTURE_SIZE";
+    if (in->max_renderbuffer_size > 0 && in->max_renderbuffer_size < *value) {
+        *value = in->max_renderbuffer_size;
+        *name = "GL_MAX_RENDERBUFFER_SIZE";
+    }
+    const int vp = in->max_viewport[axis];
+    if (vp > 0 && vp < *value) {
+        *value = vp;
+        *name = axis == 0 ? "GL_MAX_VIEWPORT_DIMS (width)" : "GL_MAX_VIEWPORT_DIMS (height)";
+    }
+}
+
+/* Refuses a frame or light buffer larger than the GL implementation allows. */
+static sq_result check_limits(sq_renderer *r)
+{
+    const sq_render_info *in = &r->info;
+    const int size[2] = {r->desc.width, r->desc.height};
+    const char *side[2] = {"width", "height"};
+    for (int axis = 0; axis < 2; axis++) {
+        int limit;
+        const char *name;
+        side_limit(in, axis, &limit, &name);
+        if (limit > 0 && size[axis] > limit)
+            return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                            "frame %s = %d exceeds %s = %d of %s; render at most %d pixels "
+                            "per side",
+                            side[axis], size[axis], name, limit, in->gl_renderer, limit);
+    }
+    if (in->max_texture_size > 0 && r->desc.light_buffer_size > in->max_texture_size)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "light_buffer_size = %d exceeds GL_MAX_TEXTURE_SIZE = %d of %s",
+                        r->desc.light_buffer_size, in->max_texture_size, in->gl_renderer);
+    return SQ_OK;
+}
+
+static sq_result create_targets(sq_renderer *r)
+{
+    const int w = r->width, h = r->height;
+    glCreateTextures(GL_TEXTURE_2D, 1, &r->hdr_color);
+    glTextureStorage2D(r->hdr_color, 1, GL_RGBA16F, w, h);
+    glCreateTextures(GL_TEXTURE_2D, 1, &r->depth_tex);
+    glTextureStorage2D(r->depth_tex, 1, GL_DEPTH_COMPONENT32F, w, h);
+    glCreateTextures(GL_TEXTURE_2D, 1, &r->ldr_color);
+    glTextureStorage2D(r->ldr_color, 1, GL_RGBA8, w, h);
+    const GLuint texs[3] = {r->hdr_color, r->depth_tex, r->ldr_color};
+    for (int i = 0; i < 3; i++) {
+        glTextureParameteri(texs[i], GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTextureParameteri(texs[i], GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        glTextureParameteri(texs[i], GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(texs[i], GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    }
+    glCreateFramebuffers(1, &r->hdr_fbo);
+    glNamedFramebufferTexture(r->hdr_fbo, GL_COLOR_ATTACHMENT0, r->hdr_color, 0);
+    glNamedFramebufferTexture(r->hdr_fbo, GL_DEPTH_ATTACHMENT, r->depth_tex, 0);
+    glCreateFramebuffers(1, &r->ldr_fbo);
+    glNamedFramebufferTexture(r->ldr_fbo, GL_COLOR_ATTACHMENT0, r->ldr_color, 0);
+    sq_result res = sq__gl_check(r->ctx, "frame buffer creation");
+    if (res == SQ_OK) res = sq__gl_check_framebuffer(r->ctx, r->hdr_fbo, "HDR (RGBA16F + depth)");
+    if (res == SQ_OK) res = sq__gl_check_framebuffer(r->ctx, r->ldr_fbo, "LDR (RGBA8)");
+    if (res != SQ_OK) return res;
+
+    glCreateVertexArrays(1, &r->empty_vao);
+    glCreateBuffers(1, &r->frame_ubo);
+    glNamedBufferStorage(r->frame_ubo, sizeof(frame_block), NULL, GL_DYNAMIC_STORAGE_BIT);
+    const uint8_t white[4] = {255, 255, 255, 255};
+    glCreateTextures(GL_TEXTURE_2D, 1, &r->white_tex);
+    glTextureStorage2D(r->white_tex, 1, GL_RGBA8, 1, 1);
+    glTextureSubImage2D(r->white_tex, 0, 0, 0, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
+    return sq__gl_check(r->ctx, "renderer resources");
+}
+
+static sq_result create_programs(sq_renderer *r)
+{
+    sq_context *ctx = r->ctx;
+    sq_result res = sq__gl_program(ctx, "fullscreen.vert", NULL, "sky.frag", &r->prog_sky);
+    if (res == SQ_OK)
+        res = sq__gl_program(ctx, "terrain.vert", NULL, "terrain.frag", &r->prog_terrain);
+    if (res == SQ_OK) res = sq__gl_program(ctx, "mesh.vert", NULL, "mesh.frag", &r->prog_mesh);
+    if (res == SQ_OK)
+        res = sq__gl_program(ctx, "surface.vert", NULL, "surface.frag", &r->prog_surface);
+    if (res == SQ_OK)
+        res = sq__gl_program(ctx, "fullscreen.vert", NULL, "tonemap.frag", &r->prog_tonemap);
+    return res;
+}
+
+sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_renderer **out)
+{
+    if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_create: out is NULL");
+    *out = NULL;
+    sq_render_desc d;
+    sq_result res = resolve_desc(ctx, desc, &d);
+    if (res != SQ_OK) return res;
+    sq_renderer *r = sq_alloc_zero(ctx, sizeof *r);
+    if (!r) return SQ_ERR_OUT_OF_MEMORY;
+    r->ctx = ctx;
+    r->desc = d;
+    r->desc.egl_device = NULL; /* borrowed for this call only */
+    r->width = d.width;
+    r->height = d.height;
+    r->sun_shadow_matrix = sq_m4_identity();
+    r->base = sq_alloc_zero(ctx, sizeof *r->base);
+    if (!r->base) {
+        sq_renderer_destroy(r);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
+    res = sq__gl_context_create(ctx, d.egl_device, &r->gl);
+    if (res == SQ_OK) {
+        sq__gl_query_info(&r->info);
+        res = check_limits(r);
+    }
+    if (res == SQ_OK) res = create_targets(r);
+    if (res == SQ_OK) res = create_programs(r);
+    if (res == SQ_OK) res = sq__volume_pass_create(r);
+    if (res == SQ_OK) res = sq__particle_pass_create(r);
+    if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
+    if (res != SQ_OK) {
+        sq_renderer_destroy(r);
+        return res;
+    }
+    sq_log(ctx, SQ_LOG_DEBUG, "render", "renderer %dx%d on %s (%s)", r->width, r->height,
+           r->info.gl_renderer, r->info.gl_version);
+    *out = r;
+    return SQ_OK;
+}
+
+void sq_renderer_destroy(sq_renderer *r)
+{
+    if (!r) return;
+    sq_context *ctx = r->ctx;
+    if (r->gl && sq__gl_context_make_current(r->gl) == SQ_OK) {
+        sq__particle_pass_destroy(r);
+        sq__volume_pass_destroy(r);
+        if (r->base)
+            for (int i = 0; i < SQ_MAX_SURFACES; i++) surface_slot_free(&r->base->surfaces[i]);
+        const GLuint progs[5] = {r->prog_sky, r->prog_terrain, r->prog_mesh, r->prog_surface,
+                                 r->prog_tonemap};
+        for (int i = 0; i < 5; i++) glDeleteProgram(progs[i]);
+        const GLuint bufs[5] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo, 0};
+        glDeleteBuffers(4, bufs);
+        const GLuint vaos[3] = {r->terrain_vao, r->obstacle_vao, r->empty_vao};
+        glDeleteVertexArrays(3, vaos);
+        const GLuint fbos[2] = {r->hdr_fbo, r->ldr_fbo};
+        glDeleteFramebuffers(2, fbos);
+        const GLuint texs[4] = {r->hdr_color, r->depth_tex, r->ldr_color, r->white_tex};
+        glDeleteTextures(4, texs);
+    }
+    sq__gl_context_destroy(r->gl);
+    sq_free(ctx, r->base);
+    sq_free(ctx, r);
+}
+
+sq_result sq_renderer_info(const sq_renderer *r, sq_render_info *out)
+{
+    if (!r || !out)
+        return sq__fail(r ? r->ctx : NULL, SQ_ERR_INVALID_ARG, "render",
+                        "sq_renderer_info: %s is NULL", r ? "out" : "renderer");
+    *out = r->info;
+    return SQ_OK;
+}

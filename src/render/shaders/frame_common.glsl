@@ -1,0 +1,132 @@
+// frame_common.glsl — included (#include "frame_common.glsl") by the base renderer's shaders:
+// the per-frame uniform block (binding 0, mirrored by sq__frame_block in renderer.c), the
+// analytic sky, sun shadowing by volumes, terrain haze and a value noise for surface detail.
+// World axes: x east, y north, z up, metres. Radiance in the world's linear relative units
+// (world.c sky_model): a white Lambertian plane facing the sun reads sun_radiance, so the sun's
+// irradiance is pi * sun_radiance and a surface of albedo a under sky radiance L_sky reads a L_sky.
+
+layout(std140, binding = 0) uniform Frame {
+    mat4 u_view_proj;
+    mat4 u_inv_view_proj;
+    mat4 u_view;
+    mat4 u_sun_shadow_matrix;  // world -> light-buffer texture coordinates (volume pass)
+    vec4 u_cam_pos;            // xyz camera position, w time_s
+    vec4 u_sun_dir;            // xyz unit vector toward the sun, w 1 if u_sun_shadow is valid
+    vec4 u_sun_radiance;       // xyz sun irradiance scale at the ground, w turbidity
+    vec4 u_sky_zenith;         // xyz, w near plane (m)
+    vec4 u_sky_horizon;        // xyz, w far plane (m)
+    vec4 u_ground_albedo;      // xyz, w terrain kind (sq_terrain_kind)
+    vec4 u_viewport;           // width, height, 1/width, 1/height
+    vec4 u_params;             // x exposure
+};
+
+layout(binding = 7) uniform sampler2D u_sun_shadow; // transmittance of sun light (rgb)
+
+const float SQ_PI = 3.14159265358979;
+const float SQ_SUN_ANGULAR_RADIUS = 0.00465; // rad (0.27 degrees)
+
+// Fraction of the sun's light that reaches world point p through the volumes (1 = clear).
+vec3 sq_sun_transmittance(vec3 p)
+{
+    if (u_sun_dir.w < 0.5) return vec3(1.0);
+    vec4 t = u_sun_shadow_matrix * vec4(p, 1.0);
+    vec2 uv = t.xy / t.w;
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec3(1.0);
+    return texture(u_sun_shadow, uv).rgb;
+}
+
+float sq_hg(float cos_theta, float g)
+{
+    float d = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * SQ_PI * d * sqrt(d));
+}
+
+// Optical depth of the haze aerosol along the zenith from the turbidity (T = 1: clean air).
+float sq_haze_depth() { return 0.05 * max(u_sun_radiance.w - 1.0, 0.0); }
+
+// Sky radiance seen along unit direction d: gradient between zenith and horizon (weight
+// (1 - d.z)^3), a forward-scattering haze glow around the sun (Henyey–Greenstein g = 0.75,
+// single scattering of the aerosol optical depth along the view path), optionally the sun disc.
+// Below the horizon the sky fades to light reflected by the ground.
+vec3 sq_sky_radiance(vec3 d, bool with_sun)
+{
+    vec3 s = u_sun_dir.xyz;
+    vec3 E = u_sun_radiance.xyz;
+    float mu = d.z;
+    float h = max(mu, 0.0);
+    float t = (1.0 - h) * (1.0 - h) * (1.0 - h);
+    vec3 L = mix(u_sky_zenith.xyz, u_sky_horizon.xyz, t);
+    if (mu < 0.0) {
+        vec3 ground = u_ground_albedo.xyz *
+                      (E * max(s.z, 0.0) + 0.5 * (u_sky_zenith.xyz + u_sky_horizon.xyz));
+        L = mix(u_sky_horizon.xyz, ground, smoothstep(0.0, 0.15, -mu));
+    }
+    float c = dot(d, s);
+    float tau = sq_haze_depth() / max(h, 0.05);
+    // single scattering: irradiance (pi E) x scattered fraction x phase; 0.5 for the aerosol
+    // light lost before it reaches the eye
+    L += SQ_PI * E * sq_hg(c, 0.75) * (1.0 - exp(-tau)) * 0.5 * step(-0.02, s.z);
+    if (with_sun && mu > 0.0 && s.z > -SQ_SUN_ANGULAR_RADIUS) {
+        float ca = cos(SQ_SUN_ANGULAR_RADIUS);
+        if (c > ca) {
+            // disc radiance = irradiance (pi E) / solid angle, with a little limb darkening;
+            // capped below the half-float maximum of the HDR target
+            float omega = SQ_PI * SQ_SUN_ANGULAR_RADIUS * SQ_SUN_ANGULAR_RADIUS;
+            float r = clamp(acos(min(c, 1.0)) / SQ_SUN_ANGULAR_RADIUS, 0.0, 1.0);
+            float limb = 1.0 - 0.4 * (1.0 - sqrt(max(1.0 - r * r, 0.0)));
+            L += min(SQ_PI * E / omega * limb, vec3(30000.0));
+        }
+    }
+    return L;
+}
+
+// Radiance a white surface with unit normal n reflects from the sky and the ground (irradiance
+// / pi; hemisphere blend: the sky's mean radiance above, the ground's reflection below).
+vec3 sq_ambient(vec3 n)
+{
+    vec3 sky = mix(u_sky_horizon.xyz, u_sky_zenith.xyz, 0.35);
+    vec3 ground = u_ground_albedo.xyz *
+                  (u_sun_radiance.xyz * max(u_sun_dir.z, 0.0) + sky);
+    float up = 0.5 + 0.5 * n.z;
+    return sky * up + ground * (1.0 - up);
+}
+
+// Aerial perspective: blends radiance toward the horizon sky with distance.
+vec3 sq_haze(vec3 L, vec3 p)
+{
+    vec3 v = p - u_cam_pos.xyz;
+    float dist = length(v);
+    float beta = 1.0e-5 * (1.0 + 2.0 * max(u_sun_radiance.w - 1.0, 0.0)); // 1/m
+    float f = 1.0 - exp(-beta * dist);
+    vec3 d = v / max(dist, 1e-3);
+    vec3 inscatter = sq_sky_radiance(normalize(vec3(d.xy, max(d.z, 0.02))), false);
+    return mix(L, inscatter, f);
+}
+
+// Integer-hash value noise in [0, 1] (smooth, period-free).
+float sq_hash(ivec2 q)
+{
+    uint h = uint(q.x) * 0x8da6b343u ^ uint(q.y) * 0xd8163841u;
+    h ^= h >> 13;
+    h *= 0x5bd1e995u;
+    h ^= h >> 15;
+    return float(h & 0xffffffu) / 16777215.0;
+}
+
+float sq_value_noise(vec2 x)
+{
+    vec2 i = floor(x);
+    vec2 f = x - i;
+    vec2 u = f * f * (3.0 - 2.0 * f);
+    ivec2 q = ivec2(i);
+    float a = sq_hash(q), b = sq_hash(q + ivec2(1, 0));
+    float c = sq_hash(q + ivec2(0, 1)), e = sq_hash(q + ivec2(1, 1));
+    return mix(mix(a, b, u.x), mix(c, e, u.x), u.y);
+}
+
+// Three octaves, mean ~0.5.
+float sq_fbm(vec2 x)
+{
+    return 0.5 * sq_value_noise(x) + 0.3 * sq_value_noise(2.03 * x + 17.1) +
+           0.2 * sq_value_noise(4.01 * x + 41.7);
+}

@@ -1,0 +1,11 @@
+#version 450 core
+// fullscreen.vert — one triangle covering the viewport (draw 3 vertices, no attributes).
+// v_ndc is the normalised device position for reconstructing view rays.
+out vec2 v_ndc;
+
+void main()
+{
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
+    v_ndc = p;
+    gl_Position = vec4(p, 0.0, 1.0);
+}

@@ -1,0 +1,27 @@
+#version 450 core
+// terrain.frag — Lambertian ground: albedo/pi * sun * cos(incidence) * volume transmittance +
+// albedo * sky ambient, then aerial haze. The albedo blends the terrain kind's colour (sand on
+// dunes, grass/soil elsewhere) with rock on steep slopes, modulated by a mean-one value-noise
+// detail so that flat ground is not a uniform colour.
+#include "frame_common.glsl"
+
+in vec3 v_pos;
+in vec3 v_normal;
+layout(location = 0) out vec4 o_color;
+layout(location = 0) uniform vec3 u_albedo_flat;  // kind colour on gentle slopes
+layout(location = 1) uniform vec3 u_albedo_steep; // rock on slopes steeper than ~40 degrees
+
+void main()
+{
+    vec3 n = normalize(v_normal);
+    float steep = 1.0 - smoothstep(0.72, 0.85, n.z);
+    vec3 albedo = mix(u_albedo_flat, u_albedo_steep, steep);
+    // detail: mean ~1 (sq_fbm has mean ~0.5), +-15 % at 40 m and +-10 % at 2 m
+    float detail = (0.85 + 0.3 * sq_fbm(v_pos.xy / 40.0)) *
+                   (0.9 + 0.2 * sq_value_noise(v_pos.xy / 2.0));
+    albedo *= detail;
+    vec3 s = u_sun_dir.xyz;
+    vec3 E = u_sun_radiance.xyz * sq_sun_transmittance(v_pos);
+    vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
+    o_color = vec4(sq_haze(L, v_pos), 1.0);
+}
