@@ -4,7 +4,7 @@
 set -u
 PKGS=(build-essential cmake pkg-config libyaml-dev libpng-dev libepoxy-dev libegl-dev
       libgl1-mesa-dri libegl-mesa0 libavformat-dev libavcodec-dev libavutil-dev libswscale-dev
-      libnetcdf-dev libomp-dev)
+      libnetcdf-dev libomp-dev python3)
 missing=()
 for p in "${PKGS[@]}"; do
     if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

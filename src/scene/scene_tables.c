@@ -117,8 +117,8 @@ const size_t sq__camera_key_param_count =
 
 #define S sq_scene_output
 const sq_param sq__output_params[] = {
-    I("width", width, "px", 640, 16, 16384, "Frame width (even for MP4)."),
-    I("height", height, "px", 360, 16, 16384, "Frame height (even for MP4)."),
+    I("width", width, "px", 640, 16, 65536, "Frame width (even for MP4); the GL limit is checked when rendering."),
+    I("height", height, "px", 360, 16, 65536, "Frame height (even for MP4); the GL limit is checked when rendering."),
     I("fps", fps, "1/s", 24, 1, 240, "Frames per second of the video."),
     D("duration_s", duration_s, "s", 10, 0.01, 36000, "Video length (frames = duration * fps)."),
     {"frames", SQ_PARAM_INT, "1", offsetof(S, frames), 0, 0, 1000000, NULL, NULL, 0, 0,

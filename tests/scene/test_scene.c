@@ -83,7 +83,7 @@ SQ_TEST(out_of_range_names_range_and_unit)
     SQ_CHECK_ERR(try_scene(ctx, "camera:\n  fov_deg: 200\n"), SQ_ERR_INVALID_ARG,
                  "t.yaml:2:3: camera.fov_deg = 200 deg: outside the range [1, 170] deg");
     SQ_CHECK_ERR(try_scene(ctx, "output:\n  width: 0\n"), SQ_ERR_INVALID_ARG,
-                 "output.width = 0 px: outside the range [16, 16384] px");
+                 "output.width = 0 px: outside the range [16, 65536] px");
     SQ_CHECK_ERR(try_scene(ctx, "world:\n  sun: {latitude_deg: 91}\n"), SQ_ERR_INVALID_ARG,
                  "outside the range [-90, 90] deg");
     sq_context_destroy(ctx);
