@@ -122,11 +122,39 @@ int sq_cmd_scene(int argc, char **argv)
     return SQ_EXIT_OK;
 }
 
+static void print_markdown(const sq_param *t, size_t n, const void *desc)
+{
+    printf("| key | unit | default | range | meaning |\n|---|---|---|---|---|\n");
+    for (size_t i = 0; i < n; i++) {
+        const sq_param *p = &t[i];
+        char v[512], range[128] = "";
+        sq_params_format(p, desc, v, sizeof v);
+        if (p->type == SQ_PARAM_ENUM) {
+            snprintf(range, sizeof range, "%s", p->choices);
+            for (char *c = range; *c; c++)
+                if (*c == '|') *c = '/';
+        } else if (p->type == SQ_PARAM_BOOL)
+            snprintf(range, sizeof range, "true/false");
+        else if (!(p->min == 0 && p->max == 0) && p->type != SQ_PARAM_STRING)
+            snprintf(range, sizeof range, "%g … %g", p->min, p->max);
+        printf("| `%s` | %s | `%s` | %s | %s |\n", p->key,
+               p->unit && *p->unit && strcmp(p->unit, "1") ? p->unit : "–", v,
+               range[0] ? range : "–", p->doc ? p->doc : "");
+    }
+}
+
+static bool g_markdown;
+
 static void print_table(const char *title, const sq_param *t, size_t n, size_t desc_size, bool yaml)
 {
     char *desc = (char *)calloc(1, desc_size > (1u << 16) ? desc_size : (1u << 16));
     if (!desc) return;
     sq_params_defaults(t, n, desc);
+    if (g_markdown) {
+        print_markdown(t, n, desc);
+        free(desc);
+        return;
+    }
     if (yaml) {
         printf("# %s: every key with its default\n", title);
         for (size_t i = 0; i < n; i++) {
@@ -161,12 +189,13 @@ static void print_table(const char *title, const sq_param *t, size_t n, size_t d
 int sq_cmd_params(int argc, char **argv)
 {
     if (sq_cli_flag(argc, argv, "--help")) {
-        printf("usage: squall params [LAYER|world|obstacle|camera|camera-key|output] [--yaml]\n\n"
+        printf("usage: squall params [LAYER|world|obstacle|camera|camera-key|output] [--yaml|--markdown]\n\n"
                "Prints every parameter with its unit, default, range and meaning. Scene files use\n"
                "these keys (nested maps or dotted keys); --set layers.NAME.KEY=VALUE overrides.\n");
         return SQ_EXIT_OK;
     }
     bool yaml = sq_cli_flag(argc, argv, "--yaml");
+    g_markdown = sq_cli_flag(argc, argv, "--markdown");
     const char *what = argc > 1 && argv[1][0] != '-' ? argv[1] : NULL;
     if (!what) {
         printf("sections: world obstacle camera camera-key output\nlayers:  ");
