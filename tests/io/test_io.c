@@ -131,7 +131,8 @@ static void check_old_file(const char *path, const char *content)
 
 /* Writes a PNG of any colour type and depth through libpng directly (the library only writes
  * RGBA8 and grey16). Pixel bytes are big-endian for 16-bit, as in the file. */
-static void write_png_raw(const char *path, int w, int h, int depth, int color_type, int channels)
+static void write_png_any(const char *path, int w, int h, int depth, int color_type, int channels,
+                          int interlace)
 {
     FILE *fp = fopen(path, "wb");
     SQ_CHECK(fp != NULL);
@@ -145,19 +146,27 @@ static void write_png_raw(const char *path, int w, int h, int depth, int color_t
         return;
     }
     png_init_io(png, fp);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, depth, color_type, PNG_INTERLACE_NONE,
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, depth, color_type, interlace,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
     size_t stride = (size_t)w * (size_t)channels * (size_t)(depth / 8);
-    unsigned char *row = (unsigned char *)calloc(stride, 1);
+    unsigned char *img = (unsigned char *)calloc(stride * (size_t)h, 1);
+    png_bytep *rows = (png_bytep *)calloc((size_t)h, sizeof(png_bytep));
     for (int y = 0; y < h; y++) {
-        for (size_t i = 0; i < stride; i++) row[i] = (unsigned char)(i * 7 + (size_t)y * 13);
-        png_write_row(png, row);
+        rows[y] = img + (size_t)y * stride;
+        for (size_t i = 0; i < stride; i++) rows[y][i] = (unsigned char)(i * 7 + (size_t)y * 13);
     }
-    free(row);
+    png_write_image(png, rows); /* all passes when interlaced */
+    free(rows);
+    free(img);
     png_write_end(png, NULL);
     png_destroy_write_struct(&png, &info);
     fclose(fp);
+}
+
+static void write_png_raw(const char *path, int w, int h, int depth, int color_type, int channels)
+{
+    write_png_any(path, w, h, depth, color_type, channels, PNG_INTERLACE_NONE);
 }
 
 static uint32_t crc32_of(const unsigned char *p, size_t n)
@@ -196,11 +205,19 @@ static void write_png_header_only(const char *path, uint32_t w, uint32_t h)
     size_t n = 0;
     memcpy(buf, sig, 8);
     n = 8;
-    unsigned char ihdr[13] = {(unsigned char)(w >> 24), (unsigned char)(w >> 16),
-                              (unsigned char)(w >> 8),  (unsigned char)w,
-                              (unsigned char)(h >> 24), (unsigned char)(h >> 16),
-                              (unsigned char)(h >> 8),  (unsigned char)h,
-                              16, 0, 0, 0, 0};
+    unsigned char ihdr[13] = {(unsigned char)(w >> 24),
+                              (unsigned char)(w >> 16),
+                              (unsigned char)(w >> 8),
+                              (unsigned char)w,
+                              (unsigned char)(h >> 24),
+                              (unsigned char)(h >> 16),
+                              (unsigned char)(h >> 8),
+                              (unsigned char)h,
+                              16,
+                              0,
+                              0,
+                              0,
+                              0};
     n += put_chunk(buf + n, "IHDR", ihdr, 13);
     const unsigned char idat[2] = {0x78, 0x9c};
     n += put_chunk(buf + n, "IDAT", idat, 2);
@@ -385,6 +402,26 @@ SQ_TEST(png_roundtrip_gray16)
     SQ_CHECK(bw == w && bh == h);
     SQ_CHECK(back && memcmp(back, img, sizeof(uint16_t) * (size_t)w * h) == 0);
     sq_free(ctx, back);
+    /* Without a context (no memory budget) the reader works the same. */
+    back = NULL;
+    SQ_CHECK_OK(sq_png_read_heightmap16(NULL, p, 0, &back, &bw, &bh));
+    SQ_CHECK(back && memcmp(back, img, sizeof(uint16_t) * (size_t)w * h) == 0);
+    sq_free(NULL, back);
+    /* An interlaced (Adam7) heightmap: samples are big-endian pairs (i*7 + y*13 per byte). */
+    in_dir(p, sizeof p, "adam7.png");
+    write_png_any(p, 13, 11, 16, PNG_COLOR_TYPE_GRAY, 1, PNG_INTERLACE_ADAM7);
+    back = NULL;
+    SQ_CHECK_OK(sq_png_read_heightmap16(ctx, p, 0, &back, &bw, &bh));
+    SQ_CHECK(bw == 13 && bh == 11);
+    int bad = 0;
+    for (int y = 0; back && y < 11; y++)
+        for (int x = 0; x < 13; x++) {
+            unsigned hi = (unsigned char)(2 * x * 7 + y * 13),
+                     lo = (unsigned char)((2 * x + 1) * 7 + y * 13);
+            if (back[y * 13 + x] != (uint16_t)(hi << 8 | lo)) bad++;
+        }
+    SQ_CHECK(back && bad == 0);
+    sq_free(ctx, back);
     free(img);
     SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
@@ -433,8 +470,7 @@ SQ_TEST(heightmap_refuses_too_large)
     in_dir(p, sizeof p, "huge.png");
     write_png_header_only(p, 20000, 20000);
     snprintf(msg, sizeof msg, "heightmap '%s' is 20000x20000 pixels; at most 16777216", p);
-    SQ_CHECK_ERR(sq_png_read_heightmap16(ctx, p, 4096 * 4096, &hm, &w, &h), SQ_ERR_TOO_LARGE,
-                 msg);
+    SQ_CHECK_ERR(sq_png_read_heightmap16(ctx, p, 4096 * 4096, &hm, &w, &h), SQ_ERR_TOO_LARGE, msg);
     SQ_CHECK(hm == NULL && sq_context_bytes_peak(ctx) == 0); /* refused before allocating */
     /* The default limit (16384^2) refuses it too. */
     SQ_CHECK_ERR(sq_png_read_heightmap16(ctx, p, 0, &hm, &w, &h), SQ_ERR_TOO_LARGE,
@@ -545,8 +581,8 @@ static void fill_rgba(uint8_t *img, int w, int h, uint8_t r, uint8_t g, uint8_t 
 }
 
 /* Writes frames of one colour; returns the result of close. */
-static sq_result write_video(sq_context *ctx, const char *path, int w, int h, int frames,
-                             uint8_t r, uint8_t g, uint8_t b)
+static sq_result write_video(sq_context *ctx, const char *path, int w, int h, int frames, uint8_t r,
+                             uint8_t g, uint8_t b)
 {
     sq_video_desc d = {.path = path, .width = w, .height = h};
     sq_video_writer *vw = NULL;
@@ -736,7 +772,8 @@ SQ_TEST(video_refuses_bad_requests)
 
     in_dir(p, sizeof p, "odd.mp4");
     d.width = 63;
-    SQ_CHECK_ERR(sq_video_open(ctx, &d, &vw), SQ_ERR_INVALID_ARG, "63x48; width and height must be even");
+    SQ_CHECK_ERR(sq_video_open(ctx, &d, &vw), SQ_ERR_INVALID_ARG,
+                 "63x48; width and height must be even");
     d.width = 64;
     d.height = 35;
     SQ_CHECK_ERR(sq_video_open(ctx, &d, &vw), SQ_ERR_INVALID_ARG, "must be even");
@@ -774,16 +811,17 @@ static void make_fields(sq_named_field f[2], float *a, float *b, int nx, int ny,
                 b[c] = -(float)c * 1e-3f;
             }
     const sq_vec3 origin = {10.0f, 20.0f, 0.5f}, spacing = {2.0f, 3.0f, 1.0f};
-    f[0] = (sq_named_field){.name = "dust_mass_concentration",
-                            .units = "kg m-3",
-                            .long_name = "dust mass concentration",
-                            .standard_name = "mass_concentration_of_dust_dry_aerosol_particles_in_air",
-                            .data = a,
-                            .nx = nx,
-                            .ny = ny,
-                            .nz = nz,
-                            .origin_m = origin,
-                            .spacing_m = spacing};
+    f[0] =
+        (sq_named_field){.name = "dust_mass_concentration",
+                         .units = "kg m-3",
+                         .long_name = "dust mass concentration",
+                         .standard_name = "mass_concentration_of_dust_dry_aerosol_particles_in_air",
+                         .data = a,
+                         .nx = nx,
+                         .ny = ny,
+                         .nz = nz,
+                         .origin_m = origin,
+                         .spacing_m = spacing};
     f[1] = (sq_named_field){.name = "wind_x",
                             .units = "m s-1",
                             .long_name = "wind towards east",
@@ -882,8 +920,10 @@ SQ_TEST(netcdf_roundtrip_cf)
         }
         check_att_text(ncid, id, "units", f[v].units);
         check_att_text(ncid, id, "long_name", f[v].long_name);
-        if (f[v].standard_name) check_att_text(ncid, id, "standard_name", f[v].standard_name);
-        else SQ_CHECK(nc_inq_att(ncid, id, "standard_name", NULL, NULL) == NC_ENOTATT);
+        if (f[v].standard_name)
+            check_att_text(ncid, id, "standard_name", f[v].standard_name);
+        else
+            SQ_CHECK(nc_inq_att(ncid, id, "standard_name", NULL, NULL) == NC_ENOTATT);
         float fill = 0.0f;
         SQ_CHECK(nc_get_att_float(ncid, id, "_FillValue", &fill) == NC_NOERR);
         SQ_CHECK(fill == NC_FILL_FLOAT);
