@@ -580,6 +580,7 @@ static void fill_rgba(uint8_t *img, int w, int h, uint8_t r, uint8_t g, uint8_t 
         }
 }
 
+#if SQ_HAVE_MP4
 /* Writes frames of one colour; returns the result of close. */
 static sq_result write_video(sq_context *ctx, const char *path, int w, int h, int frames, uint8_t r,
                              uint8_t g, uint8_t b)
@@ -618,6 +619,8 @@ static int mp4_box_index(const unsigned char *b, size_t n, const char *t)
     }
     return -1;
 }
+
+#endif
 
 SQ_TEST(video_roundtrip_h264)
 {
