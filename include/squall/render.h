@@ -62,10 +62,10 @@ SQ_API sq_result sq_renderer_read_linear(sq_renderer *r, float *rgb);
 /* ---- reference path tracer (CPU, OpenMP) ------------------------------------------------- */
 typedef struct sq_reference_desc {
     int width, height;     /* 0 -> 320 x 180 */
-    int samples;           /* samples per pixel; must be > 0 (0 -> 64) */
+    int samples;           /* samples per pixel; must be > 0 (0 is refused) */
     int max_bounces;       /* 0 -> 64 */
-    float exposure;        /* 0 -> 1 */
-    bool single_scatter_only;
+    float exposure;        /* 0 -> 1; not applied to rgb_out: pass it to sq_tonemap_rgba8 */
+    bool single_scatter_only; /* = max_bounces 1 */
     bool isotropic_phase;
     uint64_t seed;
     /* progress callback: fraction done in [0,1]; return false to cancel */
@@ -73,7 +73,9 @@ typedef struct sq_reference_desc {
     void *progress_user;
 } sq_reference_desc;
 
-/* Renders linear RGB (width*height*3 floats, top row first). */
+/* Renders linear RGB radiance (width*height*3 floats, top row first) by unbiased volumetric
+ * path tracing; see src/render/reference/ref_trace.c for the estimators. Deterministic for a
+ * seed, independent of the thread count. SQ_ERR_CANCELLED when progress returns false. */
 SQ_API sq_result sq_reference_render(sq_context *ctx, const sq_reference_desc *desc,
                                      const sq_world *world, const sq_camera *camera,
                                      const sq_drawable *drawables, int count, float *rgb_out);
@@ -83,7 +85,10 @@ SQ_API void sq_tonemap_rgba8(const float *rgb, int width, int height, float expo
                              uint8_t *rgba);
 
 /* ---- image metrics ------------------------------------------------------------------------ */
-/* Mean SSIM (Wang et al. 2004, 8x8 gaussian windows sigma 1.5, on luminance of sRGB 8-bit). */
+/* Mean SSIM (Wang et al. 2004: 11x11 gaussian window sigma 1.5, K1 = 0.01, K2 = 0.03, L = 255,
+ * 'valid' windows only; smaller images use the largest odd window that fits) on the luma
+ * Y = 0.299 R + 0.587 G + 0.114 B of 8-bit sRGB RGBA. 1 for identical images; NaN (error text
+ * set) for NULL images or a size <= 0. */
 SQ_API double sq_image_ssim(const uint8_t *a_rgba, const uint8_t *b_rgba, int width, int height);
 
 #ifdef __cplusplus
