@@ -951,7 +951,7 @@ void sq_renderer_destroy(sq_renderer *r)
         const GLuint progs[5] = {r->prog_sky, r->prog_terrain, r->prog_mesh, r->prog_surface,
                                  r->prog_tonemap};
         for (int i = 0; i < 5; i++) glDeleteProgram(progs[i]);
-        const GLuint bufs[5] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo, 0};
+        const GLuint bufs[4] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo};
         glDeleteBuffers(4, bufs);
         const GLuint vaos[3] = {r->terrain_vao, r->obstacle_vao, r->empty_vao};
         glDeleteVertexArrays(3, vaos);
