@@ -232,9 +232,9 @@ double sq_image_ssim(const uint8_t *a_rgba, const uint8_t *b_rgba, int width, in
                 double u = ya[(size_t)y * width + x + i], v = yb[(size_t)y * width + x + i];
                 s[0] += wgt[i] * u;
                 s[1] += wgt[i] * v;
-                s[2] += wgt[i] * u * u;
-                s[3] += wgt[i] * v * v;
-                s[4] += wgt[i] * u * v;
+                s[2] += wgt[i] * (u * u);
+                s[3] += wgt[i] * (v * v);
+                s[4] += wgt[i] * (u * v);
             }
             for (int m = 0; m < 5; m++) rf[m * plane + (size_t)y * ow + x] = s[m];
         }
@@ -248,7 +248,7 @@ double sq_image_ssim(const uint8_t *a_rgba, const uint8_t *b_rgba, int width, in
                 for (int m = 0; m < 5; m++) s[m] += wgt[i] * rf[m * plane + (size_t)(y + i) * ow + x];
             double mx = s[0], my = s[1];
             double vx = s[2] - mx * mx, vy = s[3] - my * my, cxy = s[4] - mx * my;
-            row += ((2.0 * mx * my + c1) * (2.0 * cxy + c2)) /
+            row += ((2.0 * (mx * my) + c1) * (2.0 * cxy + c2)) / /* symmetric in a, b */
                    ((mx * mx + my * my + c1) * (vx + vy + c2));
         }
         total += row;
