@@ -162,9 +162,15 @@ static double hf_coverage(const sq__ref_heightfield *hf, int i, int j)
     return hf->coverage ? (double)hf->coverage[j * hf->nx + i] : 1.0;
 }
 
+/* The nearest triangle hit found so far in a heightfield walk. */
+typedef struct hf_cand {
+    double t, u, v;
+    int i, j, tri;
+} hf_cand;
+
 /* Tests the two triangles of cell (i, j); keeps the nearest hit in (tmin, *tbest). */
 static bool hf_cell_hit(const sq__ref_heightfield *hf, int i, int j, sq__dv3 o, sq__dv3 d,
-                        double tmin, double *tbest, sq__ref_hit *hit)
+                        double tmin, double *tbest, hf_cand *cand)
 {
     sq__dv3 p00 = hf_vertex(hf, i, j), p10 = hf_vertex(hf, i + 1, j);
     sq__dv3 p01 = hf_vertex(hf, i, j + 1), p11 = hf_vertex(hf, i + 1, j + 1);
@@ -175,32 +181,46 @@ static bool hf_cell_hit(const sq__ref_heightfield *hf, int i, int j, sq__dv3 o, 
         if (!(t > tmin && t < *tbest)) continue;
         *tbest = t;
         found = true;
-        double w0 = 1.0 - u - v;
-        int ib = tri == 0 ? i + 1 : i + 1, jb = tri == 0 ? j : j + 1;
-        int ic = tri == 0 ? i + 1 : i, jc = j + 1;
-        sq__dv3 ng = sq__dv_norm(sq__dv_cross(sq__dv_sub(b, a), sq__dv_sub(c, a)));
-        sq__dv3 na = hf_normal(hf, i, j), nb = hf_normal(hf, ib, jb), nc = hf_normal(hf, ic, jc);
-        sq__dv3 ns = sq__dv_norm(sq__dv_add(sq__dv_add(sq__dv_scale(na, w0), sq__dv_scale(nb, u)),
-                                            sq__dv_scale(nc, v)));
-        sq__dv3 p = sq__dv_madd(o, d, t);
-        double alb[3];
-        hf_shade(hf->shade, hf->albedo, hf->steep, p, ns, alb);
-        if (hf->coverage) {
-            double cov = w0 * hf_coverage(hf, i, j) + u * hf_coverage(hf, ib, jb) +
-                         v * hf_coverage(hf, ic, jc);
-            cov = cov < 0.0 ? 0.0 : (cov > 1.0 ? 1.0 : cov);
-            double under[3];
-            hf_shade(hf->under_shade, hf->under_albedo, hf->under_steep, p, ns, under);
-            for (int ch = 0; ch < 3; ch++) alb[ch] = cov * alb[ch] + (1.0 - cov) * under[ch];
-        }
-        if (sq__dv_dot(ng, d) > 0.0) ng = sq__dv_scale(ng, -1.0);
-        if (sq__dv_dot(ns, ng) < 0.0) ns = sq__dv_scale(ns, -1.0);
-        hit->t = t;
-        hit->ng = ng;
-        hit->ns = ns;
-        for (int ch = 0; ch < 3; ch++) hit->albedo[ch] = alb[ch];
+        cand->t = t;
+        cand->u = u;
+        cand->v = v;
+        cand->i = i;
+        cand->j = j;
+        cand->tri = tri;
     }
     return found;
+}
+
+/* Normals and albedo at the chosen hit. */
+static void hf_finish(const sq__ref_heightfield *hf, const hf_cand *cd, sq__dv3 o, sq__dv3 d,
+                      sq__ref_hit *hit)
+{
+    const int i = cd->i, j = cd->j, tri = cd->tri;
+    const double u = cd->u, v = cd->v, w0 = 1.0 - u - v;
+    const int ib = i + 1, jb = tri == 0 ? j : j + 1;
+    const int ic = tri == 0 ? i + 1 : i, jc = j + 1;
+    sq__dv3 a = hf_vertex(hf, i, j), b = hf_vertex(hf, ib, jb), c = hf_vertex(hf, ic, jc);
+    sq__dv3 ng = sq__dv_norm(sq__dv_cross(sq__dv_sub(b, a), sq__dv_sub(c, a)));
+    sq__dv3 na = hf_normal(hf, i, j), nb = hf_normal(hf, ib, jb), nc = hf_normal(hf, ic, jc);
+    sq__dv3 ns = sq__dv_norm(sq__dv_add(sq__dv_add(sq__dv_scale(na, w0), sq__dv_scale(nb, u)),
+                                        sq__dv_scale(nc, v)));
+    sq__dv3 p = sq__dv_madd(o, d, cd->t);
+    double alb[3];
+    hf_shade(hf->shade, hf->albedo, hf->steep, p, ns, alb);
+    if (hf->coverage) {
+        double cov = w0 * hf_coverage(hf, i, j) + u * hf_coverage(hf, ib, jb) +
+                     v * hf_coverage(hf, ic, jc);
+        cov = cov < 0.0 ? 0.0 : (cov > 1.0 ? 1.0 : cov);
+        double under[3];
+        hf_shade(hf->under_shade, hf->under_albedo, hf->under_steep, p, ns, under);
+        for (int ch = 0; ch < 3; ch++) alb[ch] = cov * alb[ch] + (1.0 - cov) * under[ch];
+    }
+    if (sq__dv_dot(ng, d) > 0.0) ng = sq__dv_scale(ng, -1.0);
+    if (sq__dv_dot(ns, ng) < 0.0) ns = sq__dv_scale(ns, -1.0);
+    hit->t = cd->t;
+    hit->ng = ng;
+    hit->ns = ns;
+    for (int ch = 0; ch < 3; ch++) hit->albedo[ch] = alb[ch];
 }
 
 /* Clips the ray to an axis-aligned box; returns false if [t0, t1] is empty. */
@@ -307,6 +327,7 @@ bool sq__ref_heightfield_intersect(const sq__ref_heightfield *hf, sq__dv3 o, sq_
     const double bw = hf->dx * SQ__REF_BLOCK, bh = hf->dy * SQ__REF_BLOCK;
     double tbest = tmax;
     bool found = false;
+    hf_cand cand = {0.0, 0.0, 0.0, 0, 0, 0};
     dda2 b;
     dda2_init(&b, o, d, t0, hf->ox, hf->oy, bw, bh, hf->bnx, hf->bny);
     double ta = t0;
@@ -328,11 +349,11 @@ bool sq__ref_heightfield_intersect(const sq__ref_heightfield *hf, sq__dv3 o, sq_
                 if (cb > tb) cb = tb;
                 double zca = o.z + d.z * ca, zcb = o.z + d.z * cb;
                 if ((zca < zcb ? zca : zcb) <= (double)hf->cell_max[c.iy * ncx + c.ix]) {
-                    if (hf_cell_hit(hf, c.ix, c.iy, o, d, tmin, &tbest, hit)) found = true;
+                    if (hf_cell_hit(hf, c.ix, c.iy, o, d, tmin, &tbest, &cand)) found = true;
                     /* a neighbour may still be hit first through rounding; but every hit in
                      * this cell is within its column, so stop after this cell's t range */
                 }
-                if (found && tbest <= cb + 1e-9 * (1.0 + cb)) return true;
+                if (found && tbest <= cb + 1e-9 * (1.0 + cb)) goto done;
                 if (cb >= tb) break;
                 ca = cb;
                 if (!dda2_step(&c)) break;
@@ -341,11 +362,13 @@ bool sq__ref_heightfield_intersect(const sq__ref_heightfield *hf, sq__dv3 o, sq_
                     break;
             }
         }
-        if (found && tbest <= tb + 1e-9 * (1.0 + tb)) return true;
+        if (found && tbest <= tb + 1e-9 * (1.0 + tb)) goto done;
         if (tb >= t1) break;
         ta = tb;
         if (!dda2_step(&b)) break;
     }
+done:
+    if (found && hit) hf_finish(hf, &cand, o, d, hit);
     return found;
 }
 
@@ -416,6 +439,7 @@ bool sq__ref_obstacle_intersect(const sq__ref_obstacle *ob, sq__dv3 o, sq__dv3 d
             side = -1.0;
         }
     }
+    if (!hit) return true;
     sq__dv3 nl = sq__dv_scale(sq__dv_norm(n[ihit]), side);
     sq__dv3 nw = sq__dv(c * nl.x - s * nl.y, s * nl.x + c * nl.y, nl.z);
     hit->t = thit;
@@ -450,6 +474,17 @@ bool sq__ref_intersect(const sq__ref_scene *s, sq__dv3 o, sq__dv3 d, double tmin
             found = true;
         }
     return found;
+}
+
+bool sq__ref_occluded(const sq__ref_scene *s, sq__dv3 o, sq__dv3 d, double tmin, double tmax)
+{
+    for (int i = 0; i < s->obstacle_count; i++)
+        if (sq__ref_obstacle_intersect(&s->obstacles[i], o, d, tmin, tmax, NULL)) return true;
+    if (s->has_terrain && sq__ref_heightfield_intersect(&s->terrain, o, d, tmin, tmax, NULL))
+        return true;
+    for (int i = 0; i < s->surface_count; i++)
+        if (sq__ref_heightfield_intersect(&s->surfaces[i], o, d, tmin, tmax, NULL)) return true;
+    return false;
 }
 
 /* ---- volumes ------------------------------------------------------------------------------ */

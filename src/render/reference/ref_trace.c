@@ -147,8 +147,7 @@ static int track(const sq__ref_scene *s, sq__dv3 o, sq__dv3 d, double t_end, dou
 /* Sun visibility times volume transmittance from x toward the sun. */
 static void sun_transmittance(const sq__ref_scene *s, sq__dv3 x, sq__ref_rng *rng, double tr[3])
 {
-    sq__ref_hit h;
-    if (sq__ref_intersect(s, x, s->sun_dir, 0.0, INFINITY, &h)) {
+    if (sq__ref_occluded(s, x, s->sun_dir, 0.0, INFINITY)) {
         tr[0] = tr[1] = tr[2] = 0.0;
         return;
     }

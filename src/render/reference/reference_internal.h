@@ -190,10 +190,13 @@ sq_result sq__ref_render_scene(sq_context *ctx, const sq_reference_desc *desc,
 /* Nearest opaque hit (terrain, surfaces, obstacles) with t in (tmin, tmax). */
 bool sq__ref_intersect(const sq__ref_scene *s, sq__dv3 o, sq__dv3 d, double tmin, double tmax,
                        sq__ref_hit *hit);
-/* Nearest hit of one heightfield; ng/ns/albedo filled. */
+/* True if anything opaque lies on the ray with t in (tmin, tmax) (shadow rays). */
+bool sq__ref_occluded(const sq__ref_scene *s, sq__dv3 o, sq__dv3 d, double tmin, double tmax);
+/* Nearest hit of one heightfield; ng/ns/albedo filled unless hit is NULL. */
 bool sq__ref_heightfield_intersect(const sq__ref_heightfield *hf, sq__dv3 o, sq__dv3 d,
                                    double tmin, double tmax, sq__ref_hit *hit);
-/* Nearest hit of one obstacle (a convex polytope: box, or box plus gable roof). */
+/* Nearest hit of one obstacle (a convex polytope: box, or box plus gable roof; fences porous
+ * as mesh.frag); hit may be NULL. */
 bool sq__ref_obstacle_intersect(const sq__ref_obstacle *ob, sq__dv3 o, sq__dv3 d, double tmin,
                                 double tmax, sq__ref_hit *hit);
 /* Bilinear terrain height at (x, y), the edge extended outside. */
