@@ -1,19 +1,308 @@
-/* render_particles.c — STUB (placeholder written by the base-renderer helper so the library
- * links while the real particle pass is written in parallel; the particle helper replaces this
- * file). Draws nothing. */
+/* render_particles.c — the soft-particle pass (SPEC 4.2-4.5, document S3, with its ⚠ fixes):
+ * instanced camera-facing quads (one instance per particle, rotated by the corrected corner
+ * formula of SPEC 4.5), depth fade against the opaque scene in LINEAR view depth over
+ * softness_m, no depth writes, per-channel premultiplied alpha with dual-source blending
+ * (hdr = C + (1 - alpha) hdr). Particles are sorted back to front on the CPU (stable LSD radix
+ * sort on view depth) so that "over" compositing is correct for any mix of colours, which also
+ * removes S3's bright spots where particles overlap. Opacity alpha_c = 1 - exp(-tau sigma_rel_c
+ * shape); lighting by the sun (HG phase g, shadowed through the volume pass's light buffer when
+ * there is one) and the sky/ground ambient of the base renderer. SQ_SPRITE_SPHERE draws a lit
+ * opaque sphere impostor instead. The per-particle fade multiplier comes from the phenomenon. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
 #include "render/render_internal.h"
+
+#define PART_FLOATS 12 /* per instance: pos.xyz radius | rot tau fade seed | albedo.rgb 0 */
+
+struct sq__particle_pass {
+    GLuint prog, vao, vbo, comp_fbo, comp_color;
+    size_t vbo_bytes;
+    size_t cap;         /* particles the staging arrays hold */
+    float *packed;      /* PART_FLOATS * cap */
+    uint32_t *key, *idx, *key2, *idx2;
+};
 
 sq_result sq__particle_pass_create(sq_renderer *r)
 {
-    (void)r;
+    sq__particle_pass *pp = sq_alloc_zero(r->ctx, sizeof *pp);
+    if (!pp) return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render", "particle pass: no memory");
+    r->particles = pp;
+    sq_result res = sq__gl_program(r->ctx, "particles_sprite.vert", NULL, "particles_sprite.frag",
+                                   &pp->prog);
+    if (res != SQ_OK) return res;
+    glCreateVertexArrays(1, &pp->vao);
+    glCreateBuffers(1, &pp->vbo);
+    glVertexArrayVertexBuffer(pp->vao, 0, pp->vbo, 0, PART_FLOATS * sizeof(float));
+    glVertexArrayBindingDivisor(pp->vao, 0, 1);
+    for (GLuint a = 0; a < 3; a++) {
+        glEnableVertexArrayAttrib(pp->vao, a);
+        glVertexArrayAttribFormat(pp->vao, a, 4, GL_FLOAT, GL_FALSE, a * 4 * sizeof(float));
+        glVertexArrayAttribBinding(pp->vao, a, 0);
+    }
+    return sq__gl_check(r->ctx, "particle pass create");
+}
+
+static void free_staging(sq_renderer *r, sq__particle_pass *pp)
+{
+    sq_free(r->ctx, pp->packed);
+    sq_free(r->ctx, pp->key);
+    sq_free(r->ctx, pp->idx);
+    sq_free(r->ctx, pp->key2);
+    sq_free(r->ctx, pp->idx2);
+    pp->packed = NULL;
+    pp->key = pp->idx = pp->key2 = pp->idx2 = NULL;
+    pp->cap = 0;
+}
+
+void sq__particle_pass_destroy(sq_renderer *r)
+{
+    if (!r || !r->particles) return;
+    sq__particle_pass *pp = r->particles;
+    glDeleteProgram(pp->prog);
+    glDeleteVertexArrays(1, &pp->vao);
+    glDeleteBuffers(1, &pp->vbo);
+    glDeleteFramebuffers(1, &pp->comp_fbo);
+    free_staging(r, pp);
+    sq_free(r->ctx, pp);
+    r->particles = NULL;
+}
+
+/* Host staging: 64 bytes per particle (48 packed + 16 for the sort). */
+static sq_result reserve(sq_renderer *r, sq__particle_pass *pp, size_t n)
+{
+    if (n <= pp->cap) return SQ_OK;
+    free_staging(r, pp);
+    size_t cap = n + n / 4 + 1024;
+    char what[64];
+    snprintf(what, sizeof what, "particle staging for %zu particles", cap);
+    sq_result res = sq_context_check_memory(r->ctx, (uint64_t)cap * 64u, what);
+    if (res != SQ_OK) return res;
+    pp->packed = sq_alloc(r->ctx, cap * PART_FLOATS * sizeof(float));
+    pp->key = sq_alloc(r->ctx, cap * sizeof(uint32_t));
+    pp->idx = sq_alloc(r->ctx, cap * sizeof(uint32_t));
+    pp->key2 = sq_alloc(r->ctx, cap * sizeof(uint32_t));
+    pp->idx2 = sq_alloc(r->ctx, cap * sizeof(uint32_t));
+    if (!pp->packed || !pp->key || !pp->idx || !pp->key2 || !pp->idx2) {
+        free_staging(r, pp);
+        return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                        "particle pass: no memory for %zu particles", cap);
+    }
+    pp->cap = cap;
     return SQ_OK;
 }
 
-void sq__particle_pass_destroy(sq_renderer *r) { (void)r; }
+/* Stable LSD radix sort of n (key, idx) pairs by key ascending, 8 bits per pass. */
+static void radix_sort(uint32_t *key, uint32_t *idx, uint32_t *k2, uint32_t *i2, size_t n)
+{
+    for (int shift = 0; shift < 32; shift += 8) {
+        size_t count[257] = {0};
+        for (size_t i = 0; i < n; i++) count[((key[i] >> shift) & 255u) + 1]++;
+        for (int b = 0; b < 256; b++) count[b + 1] += count[b];
+        for (size_t i = 0; i < n; i++) {
+            const size_t dst = count[(key[i] >> shift) & 255u]++;
+            k2[dst] = key[i];
+            i2[dst] = idx[i];
+        }
+        uint32_t *t = key;
+        key = k2;
+        k2 = t;
+        t = idx;
+        idx = i2;
+        i2 = t;
+    }
+    /* four passes: the result is back in the caller's arrays */
+}
+
+/* Order-preserving map of a float to uint32 (ascending floats -> ascending keys). */
+static uint32_t float_key(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+}
+
+static sq_result validate(sq_renderer *r, const sq_particles_view *p)
+{
+    sq_context *ctx = r->ctx;
+    if (!p) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "particle drawable: view is NULL");
+    if (p->count < 0)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "particles count = %d; must be >= 0",
+                        p->count);
+    if (p->count > 0 && !p->position)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles: position is NULL with count = %d", p->count);
+    if (!p->radius_m && !(p->radius_default_m > 0.0f && isfinite(p->radius_default_m)))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles radius_default_m = %g with radius_m NULL; must be > 0",
+                        (double)p->radius_default_m);
+    if (!p->tau && !(p->tau_default >= 0.0f && isfinite(p->tau_default)))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles tau_default = %g with tau NULL; must be finite and >= 0",
+                        (double)p->tau_default);
+    if (!(p->softness_m >= 0.0f) || !isfinite(p->softness_m))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles softness_m = %g; must be finite and >= 0 (0 = hard)",
+                        (double)p->softness_m);
+    if (!(p->g > -1.0f && p->g < 1.0f))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles g = %g; the HG asymmetry must be in (-1, 1)", (double)p->g);
+    if ((int)p->sprite < (int)SQ_SPRITE_DEFAULT || (int)p->sprite > (int)SQ_SPRITE_SPHERE)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "particles sprite = %d; must be a sq_sprite_kind (0..5)", (int)p->sprite);
+    for (int c = 0; c < 3; c++) {
+        if (!(p->sigma_rel[c] >= 0.0f) || !isfinite(p->sigma_rel[c]))
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                            "particles sigma_rel[%d] = %g; must be finite and >= 0", c,
+                            (double)p->sigma_rel[c]);
+        if (!p->color && !(p->albedo[c] >= 0.0f && p->albedo[c] <= 1.0f))
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                            "particles albedo[%d] = %g; must be in [0, 1]", c,
+                            (double)p->albedo[c]);
+    }
+    return SQ_OK;
+}
+
+/* Packs visible particles back to front; returns the count in *visible. */
+static sq_result pack(sq_renderer *r, const sq_particles_view *p, size_t *visible)
+{
+    sq__particle_pass *pp = r->particles;
+    *visible = 0;
+    const size_t n = (size_t)p->count;
+    sq_result res = reserve(r, pp, n);
+    if (res != SQ_OK) return res;
+    const sq_vec3 cam = r->cam_pos, fwd = r->cam_forward;
+    size_t m = 0;
+    for (size_t i = 0; i < n; i++) {
+        const float *x = p->position + 3 * i;
+        const float rad = p->radius_m ? p->radius_m[i] : p->radius_default_m;
+        if (!isfinite(x[0]) || !isfinite(x[1]) || !isfinite(x[2]) || !isfinite(rad))
+            return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                            "particle %zu: position (%g, %g, %g) m, radius %g m; must be finite",
+                            i, (double)x[0], (double)x[1], (double)x[2], (double)rad);
+        const float tau = p->tau ? p->tau[i] : p->tau_default;
+        const float fade = p->fade ? p->fade[i] : 1.0f;
+        if (!(rad > 0.0f) || !(tau > 0.0f) || !(fade > 0.0f)) continue; /* invisible */
+        const float depth = (x[0] - cam.x) * fwd.x + (x[1] - cam.y) * fwd.y + (x[2] - cam.z) * fwd.z;
+        if (depth < -rad) continue; /* wholly behind the camera */
+        pp->key[m] = ~float_key(depth); /* descending depth: back to front */
+        pp->idx[m] = (uint32_t)i;
+        m++;
+    }
+    radix_sort(pp->key, pp->idx, pp->key2, pp->idx2, m);
+    for (size_t j = 0; j < m; j++) {
+        const size_t i = pp->idx[j];
+        float *o = pp->packed + PART_FLOATS * j;
+        const float *x = p->position + 3 * i;
+        o[0] = x[0];
+        o[1] = x[1];
+        o[2] = x[2];
+        o[3] = p->radius_m ? p->radius_m[i] : p->radius_default_m;
+        o[4] = p->rotation_rad && isfinite(p->rotation_rad[i]) ? p->rotation_rad[i] : 0.0f;
+        o[5] = p->tau ? p->tau[i] : p->tau_default;
+        o[6] = p->fade ? sq_clampf(p->fade[i], 0.0f, 1.0f) : 1.0f;
+        o[7] = (float)(i & 0xffffu);
+        for (int c = 0; c < 3; c++)
+            o[8 + c] = sq_clampf(p->color ? p->color[3 * i + (size_t)c] : p->albedo[c], 0.0f, 1.0f);
+        o[11] = 0.0f;
+    }
+    *visible = m;
+    return SQ_OK;
+}
 
 sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
 {
-    (void)r;
-    (void)p;
-    return SQ_OK;
+    if (!r->particles)
+        return sq__fail(r->ctx, SQ_ERR_INTERNAL, "render", "particle pass was not created");
+    sq_result res = validate(r, p);
+    if (res != SQ_OK || p->count == 0) return res;
+    sq__particle_pass *pp = r->particles;
+    size_t m = 0;
+    if ((res = pack(r, p, &m)) != SQ_OK) return res;
+    if (m == 0) return SQ_OK;
+
+    const size_t bytes = m * PART_FLOATS * sizeof(float);
+    if (bytes > pp->vbo_bytes) {
+        pp->vbo_bytes = bytes + bytes / 4;
+        glNamedBufferData(pp->vbo, (GLsizeiptr)pp->vbo_bytes, NULL, GL_STREAM_DRAW);
+    } else {
+        glInvalidateBufferData(pp->vbo);
+    }
+    glNamedBufferSubData(pp->vbo, 0, (GLsizeiptr)bytes, pp->packed);
+
+    if (!pp->comp_fbo || pp->comp_color != r->hdr_color) {
+        if (!pp->comp_fbo) glCreateFramebuffers(1, &pp->comp_fbo);
+        glNamedFramebufferTexture(pp->comp_fbo, GL_COLOR_ATTACHMENT0, r->hdr_color, 0);
+        glNamedFramebufferDrawBuffer(pp->comp_fbo, GL_COLOR_ATTACHMENT0);
+        pp->comp_color = r->hdr_color;
+        if ((res = sq__gl_check_framebuffer(r->ctx, pp->comp_fbo, "particle target")) != SQ_OK)
+            return res;
+    }
+
+    const GLuint prog = pp->prog;
+    const sq_world *w = r->world;
+    glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_view_proj"), 1, GL_FALSE,
+                              r->view_proj.m);
+    const sq_vec3 v3[4] = {r->cam_pos, r->cam_right, r->cam_up, r->cam_forward};
+    const char *n3[4] = {"u_cam", "u_right", "u_up", "u_forward"};
+    for (int i = 0; i < 4; i++)
+        glProgramUniform3f(prog, glGetUniformLocation(prog, n3[i]), v3[i].x, v3[i].y, v3[i].z);
+    glProgramUniform2f(prog, glGetUniformLocation(prog, "u_proj_z"), r->proj.m[10], r->proj.m[14]);
+    float srel[3] = {p->sigma_rel[0], p->sigma_rel[1], p->sigma_rel[2]};
+    if (srel[0] == 0.0f && srel[1] == 0.0f && srel[2] == 0.0f) srel[0] = srel[1] = srel[2] = 1.0f;
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sigma_rel"), srel[0], srel[1], srel[2]);
+    glProgramUniform1f(prog, glGetUniformLocation(prog, "u_g"),
+                       r->desc.isotropic_phase ? 0.0f : p->g);
+    const int sprite = p->sprite == SQ_SPRITE_DEFAULT ? (int)SQ_SPRITE_PUFF : (int)p->sprite;
+    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_sprite"), sprite);
+    glProgramUniform1f(prog, glGetUniformLocation(prog, "u_softness"), p->softness_m);
+    /* radiance units of the base renderer: a white Lambertian plane facing the sun has
+     * radiance sun_radiance (so the sun's irradiance is pi sun_radiance); the ambient
+     * hemispheres are its sky mean and the sunlit ground below */
+    const sq_vec3 sun = sq_v3_norm(w->sun_dir);
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun_radiance"), w->sun_radiance.x,
+                       w->sun_radiance.y, w->sun_radiance.z);
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun_dir"), sun.x, sun.y, sun.z);
+    const sq_vec3 sky = sq_v3_lerp(w->sky_horizon, w->sky_zenith, 0.35f);
+    const float mu = sun.z > 0.0f ? sun.z : 0.0f;
+    const sq_vec3 ground =
+        sq_v3_mul(w->ground_albedo, sq_v3_add(sq_v3_scale(w->sun_radiance, mu), sky));
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sky"), sky.x, sky.y, sky.z);
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_ground"), ground.x, ground.y,
+                       ground.z);
+    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_has_shadow"), r->sun_shadow_tex ? 1 : 0);
+    glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_shadow_matrix"), 1, GL_FALSE,
+                              r->sun_shadow_matrix.m);
+
+    GLint saved_fbo, saved_vp[4], saved_prog, saved_vao;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &saved_fbo);
+    glGetIntegerv(GL_VIEWPORT, saved_vp);
+    glGetIntegerv(GL_CURRENT_PROGRAM, &saved_prog);
+    glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &saved_vao);
+    const GLboolean saved_blend = glIsEnabled(GL_BLEND), saved_depth = glIsEnabled(GL_DEPTH_TEST),
+                    saved_cull = glIsEnabled(GL_CULL_FACE);
+
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, pp->comp_fbo);
+    glViewport(0, 0, r->width, r->height);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glDepthMask(GL_FALSE);
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
+    glBindTextureUnit(2, r->depth_tex);
+    if (r->sun_shadow_tex) glBindTextureUnit(6, r->sun_shadow_tex);
+    glUseProgram(prog);
+    glBindVertexArray(pp->vao);
+    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)m);
+
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)saved_fbo);
+    glViewport(saved_vp[0], saved_vp[1], saved_vp[2], saved_vp[3]);
+    glUseProgram((GLuint)saved_prog);
+    glBindVertexArray((GLuint)saved_vao);
+    if (!saved_blend) glDisable(GL_BLEND);
+    if (saved_depth) glEnable(GL_DEPTH_TEST);
+    if (saved_cull) glEnable(GL_CULL_FACE);
+    return sq__gl_check(r->ctx, "particle pass");
 }

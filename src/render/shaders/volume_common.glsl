@@ -1,0 +1,52 @@
+// volume_common.glsl — shared by the volume pass shaders (#include "volume_common.glsl"):
+// ray/box intersection, Henyey–Greenstein phase with an optional second lobe (SPEC 2.6;
+// cos theta between PROPAGATION directions, g > 0 forward), the density lookup with the
+// noise perturbation of texture coordinates (S0 Fig 3.12), and the slab clipping used to
+// make every slice stand for exactly the part of its slab that lies inside the box.
+
+const float VOL_PI = 3.14159265358979;
+
+// Ray p + t d against the box [lo, hi]: returns (t_enter, t_exit); empty if t_enter > t_exit.
+vec2 vol_box_interval(vec3 p, vec3 d, vec3 lo, vec3 hi)
+{
+    vec3 inv = 1.0 / d; // IEEE: +-inf for axis-parallel rays, handled by min/max below
+    vec3 t0 = (lo - p) * inv;
+    vec3 t1 = (hi - p) * inv;
+    vec3 tmin = min(t0, t1);
+    vec3 tmax = max(t0, t1);
+    return vec2(max(max(tmin.x, tmin.y), tmin.z), min(min(tmax.x, tmax.y), tmax.z));
+}
+
+float vol_hg(float cos_theta, float g)
+{
+    float d = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * VOL_PI * d * sqrt(d));
+}
+
+// Two-lobe HG per channel: (1 - w2) HG(g_c) + w2 HG(g2). g2w2 = (g2, w2).
+vec3 vol_phase(float cos_theta, vec3 g, vec2 g2w2)
+{
+    vec3 p1 = vec3(vol_hg(cos_theta, g.r), vol_hg(cos_theta, g.g), vol_hg(cos_theta, g.b));
+    return mix(p1, vec3(vol_hg(cos_theta, g2w2.x)), g2w2.y);
+}
+
+// Density at world point p (clamped into the box; the texture clamps to its edge texels).
+// With noise on, texture coordinates are displaced by a smooth random vector field of
+// amplitude noise_amp voxels (two octaves of tileable value noise from a 32^3 texture).
+float vol_density(sampler3D dens, sampler3D noise, vec3 p, vec3 lo, vec3 size, vec3 dims,
+                  bool use_noise, float noise_amp, float noise_freq, vec3 noise_offset)
+{
+    vec3 tc = (clamp(p, lo, lo + size) - lo) / size;
+    if (use_noise) {
+        vec3 q = tc * dims * noise_freq + noise_offset;
+        vec3 n = texture(noise, q).xyz * 0.65 + texture(noise, 2.03 * q + 0.37).xyz * 0.35;
+        tc += (n * 2.0 - 1.0) * noise_amp / dims;
+    }
+    return max(texture(dens, tc).r, 0.0);
+}
+
+// Length of the slab [c - h, c + h] that lies inside [a, b] (0 if none).
+float vol_clip_len(float c, float h, float a, float b)
+{
+    return max(min(c + h, b) - max(c - h, a), 0.0);
+}
