@@ -3,7 +3,6 @@
  * EGL device platform (eglQueryDevicesEXT; vendor drivers). No window system is needed: the
  * context is made current with EGL_NO_SURFACE and draws into frame buffer objects only.
  * GL functions are loaded through libepoxy. */
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,52 +24,12 @@ struct sq__gl_context {
     "install Mesa's llvmpipe (apt-get install libgl1-mesa-dri libegl1) or a GPU driver"
 
 /* EGL displays are process-wide objects inside EGL itself: eglGetPlatformDisplayEXT returns the
- * same handle for the same platform and device, and eglTerminate would pull it from under every
- * other renderer in the process. This reference count (the library's only mutable global, by
- * necessity of that EGL rule) terminates a display when its last user goes. */
-#define SQ_EGL_MAX_DISPLAYS 16
-static pthread_mutex_t sq_egl_lock = PTHREAD_MUTEX_INITIALIZER;
-static struct {
-    EGLDisplay display;
-    int refs;
-} sq_egl_displays[SQ_EGL_MAX_DISPLAYS];
-
-/* Initialises the display (once per process) and counts a user. */
-static EGLBoolean display_acquire(EGLDisplay d, EGLint *major, EGLint *minor)
-{
-    EGLBoolean ok = EGL_FALSE;
-    pthread_mutex_lock(&sq_egl_lock);
-    int slot = -1, free_slot = -1;
-    for (int i = 0; i < SQ_EGL_MAX_DISPLAYS; i++) {
-        if (sq_egl_displays[i].refs > 0 && sq_egl_displays[i].display == d) slot = i;
-        if (sq_egl_displays[i].refs == 0 && free_slot < 0) free_slot = i;
-    }
-    if (slot < 0) slot = free_slot;
-    if (slot >= 0) {
-        ok = eglInitialize(d, major, minor);
-        if (ok) {
-            sq_egl_displays[slot].display = d;
-            sq_egl_displays[slot].refs++;
-        }
-    }
-    pthread_mutex_unlock(&sq_egl_lock);
-    return ok;
-}
-
-static void display_release(EGLDisplay d)
-{
-    pthread_mutex_lock(&sq_egl_lock);
-    for (int i = 0; i < SQ_EGL_MAX_DISPLAYS; i++) {
-        if (sq_egl_displays[i].refs > 0 && sq_egl_displays[i].display == d) {
-            if (--sq_egl_displays[i].refs == 0) {
-                sq_egl_displays[i].display = EGL_NO_DISPLAY;
-                eglTerminate(d);
-            }
-            break;
-        }
-    }
-    pthread_mutex_unlock(&sq_egl_lock);
-}
+ * same handle for the same platform and device to every caller in the process (other renderers,
+ * sq_gl_probe, other libraries), and eglTerminate would pull it from under all of them. So a
+ * display, once initialised, stays initialised (a second eglInitialize is a no-op) and is
+ * released by EGL at process exit; contexts are destroyed with their renderer. Keeping the
+ * display also keeps the driver loaded, so its one-time allocations stay attributable (the leak
+ * checker's suppressions name the driver libraries). */
 
 static const char *egl_error_name(EGLint e)
 {
@@ -132,7 +91,7 @@ static bool try_display(EGLDisplay d, const char *platform, sq__gl_context *gl, 
         return false;
     }
     EGLint major = 0, minor = 0;
-    if (!display_acquire(d, &major, &minor)) {
+    if (!eglInitialize(d, &major, &minor)) {
         note(why, cap, "eglInitialize failed on the %s platform: %s", platform,
              egl_error_name(eglGetError()));
         return false;
@@ -140,13 +99,11 @@ static bool try_display(EGLDisplay d, const char *platform, sq__gl_context *gl, 
     const char *ext = eglQueryString(d, EGL_EXTENSIONS);
     if (!has_ext(ext, "EGL_KHR_surfaceless_context")) {
         note(why, cap, "the %s platform lacks EGL_KHR_surfaceless_context", platform);
-        display_release(d);
         return false;
     }
     if (!eglBindAPI(EGL_OPENGL_API)) {
         note(why, cap, "eglBindAPI(EGL_OPENGL_API) failed on the %s platform: %s", platform,
              egl_error_name(eglGetError()));
-        display_release(d);
         return false;
     }
     const EGLint config_attribs[] = {EGL_SURFACE_TYPE, 0, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT,
@@ -158,7 +115,6 @@ static bool try_display(EGLDisplay d, const char *platform, sq__gl_context *gl, 
             config = EGL_NO_CONFIG_KHR;
         } else {
             note(why, cap, "no OpenGL-renderable EGL config on the %s platform", platform);
-            display_release(d);
             return false;
         }
     }
@@ -171,14 +127,12 @@ static bool try_display(EGLDisplay d, const char *platform, sq__gl_context *gl, 
     if (c == EGL_NO_CONTEXT) {
         note(why, cap, "eglCreateContext(OpenGL 4.5 core) failed on the %s platform: %s",
              platform, egl_error_name(eglGetError()));
-        display_release(d);
         return false;
     }
     if (!eglMakeCurrent(d, EGL_NO_SURFACE, EGL_NO_SURFACE, c)) {
         note(why, cap, "eglMakeCurrent(EGL_NO_SURFACE) failed on the %s platform: %s", platform,
              egl_error_name(eglGetError()));
         eglDestroyContext(d, c);
-        display_release(d);
         return false;
     }
     const int version = epoxy_gl_version();
@@ -187,7 +141,6 @@ static bool try_display(EGLDisplay d, const char *platform, sq__gl_context *gl, 
              version / 10, version % 10);
         eglMakeCurrent(d, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         eglDestroyContext(d, c);
-        display_release(d);
         return false;
     }
     gl->display = d;
@@ -293,7 +246,6 @@ void sq__gl_context_destroy(sq__gl_context *gl)
             eglMakeCurrent(gl->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         eglDestroyContext(gl->display, gl->context);
     }
-    if (gl->display != EGL_NO_DISPLAY) display_release(gl->display);
     sq_free(gl->ctx, gl);
 }
 

@@ -238,17 +238,27 @@ static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int coun
 }
 
 /* ---- world geometry cache --------------------------------------------------------------- */
+/* Terrain mesh: at most SQ_TERRAIN_MAX_SIDE vertices per side (a larger heightfield, e.g. a big
+ * heightmap, is sampled every `stride` samples, always including the last row and column). */
+#define SQ_TERRAIN_MAX_SIDE 1025
+
+/* Sample index of mesh vertex m along an axis of n samples taken every stride. */
+static int mesh_sample(int m, int stride, int n)
+{
+    const int i = m * stride;
+    return i < n - 1 ? i : n - 1;
+}
+
 static sq_result build_terrain(sq_renderer *r, const sq_world *w)
 {
     sq_context *ctx = r->ctx;
-    const int nx = w->nx, ny = w->ny;
     r->terrain_index_count = 0;
-    if (nx < 2 || ny < 2 || !w->heights) return SQ_OK; /* nothing to draw */
+    if (w->nx < 2 || w->ny < 2 || !w->heights) return SQ_OK; /* nothing to draw */
+    const int big = w->nx > w->ny ? w->nx : w->ny;
+    const int stride = (big - 1 + SQ_TERRAIN_MAX_SIDE - 2) / (SQ_TERRAIN_MAX_SIDE - 1);
+    const int nx = (w->nx - 1 + stride - 1) / stride + 1, ny = (w->ny - 1 + stride - 1) / stride + 1;
     const size_t nv = (size_t)nx * (size_t)ny;
     const size_t ni = (size_t)(nx - 1) * (size_t)(ny - 1) * 6;
-    if (ni > (size_t)INT32_MAX)
-        return sq__fail(ctx, SQ_ERR_TOO_LARGE, "render",
-                        "terrain %dx%d has too many triangles for one draw", nx, ny);
     float *v = sq_alloc(ctx, nv * 6 * sizeof(float));
     uint32_t *idx = sq_alloc(ctx, ni * sizeof(uint32_t));
     if (!v || !idx) {
@@ -256,10 +266,13 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
         sq_free(ctx, idx);
         return SQ_ERR_OUT_OF_MEMORY;
     }
-    for (int j = 0; j < ny; j++) {
-        for (int i = 0; i < nx; i++) {
-            const size_t c = (size_t)j * (size_t)nx + (size_t)i;
-            float *o = v + 6 * c;
+    const int wnx = w->nx, wny = w->ny;
+    for (int mj = 0; mj < ny; mj++) {
+        const int j = mesh_sample(mj, stride, wny);
+        for (int mi = 0; mi < nx; mi++) {
+            const int i = mesh_sample(mi, stride, wnx);
+            const size_t c = (size_t)j * (size_t)wnx + (size_t)i;
+            float *o = v + 6 * ((size_t)mj * (size_t)nx + (size_t)mi);
             o[0] = w->origin.x + (float)i * w->dx;
             o[1] = w->origin.y + (float)j * w->dy;
             o[2] = w->heights[c];
@@ -268,11 +281,12 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
                 o[4] = w->normals[3 * c + 1];
                 o[5] = w->normals[3 * c + 2];
             } else { /* central differences */
-                const int il = i > 0 ? i - 1 : i, ir = i < nx - 1 ? i + 1 : i;
-                const int jl = j > 0 ? j - 1 : j, jr = j < ny - 1 ? j + 1 : j;
-                const float gx = (w->heights[(size_t)j * nx + ir] - w->heights[(size_t)j * nx + il]) /
+                const int il = i > 0 ? i - 1 : i, ir = i < wnx - 1 ? i + 1 : i;
+                const int jl = j > 0 ? j - 1 : j, jr = j < wny - 1 ? j + 1 : j;
+                const float *hh = w->heights;
+                const float gx = (hh[(size_t)j * wnx + ir] - hh[(size_t)j * wnx + il]) /
                                  ((float)(ir - il) * w->dx);
-                const float gy = (w->heights[(size_t)jr * nx + i] - w->heights[(size_t)jl * nx + i]) /
+                const float gy = (hh[(size_t)jr * wnx + i] - hh[(size_t)jl * wnx + i]) /
                                  ((float)(jr - jl) * w->dy);
                 const sq_vec3 n = sq_v3_norm(sq_v3(-gx, -gy, 1.0f));
                 o[3] = n.x;

@@ -25,6 +25,15 @@ layout(binding = 7) uniform sampler2D u_sun_shadow; // transmittance of sun ligh
 const float SQ_PI = 3.14159265358979;
 const float SQ_SUN_ANGULAR_RADIUS = 0.00465; // rad (0.27 degrees)
 
+// Distance along the view axis (m, positive) of a depth-buffer value d in [0, 1] (standard
+// OpenGL perspective of sq_camera_proj, clip z in [-1, 1]); d = 1 is the far plane.
+float sq_linear_depth(float d)
+{
+    float n = u_sky_zenith.w, f = u_sky_horizon.w;
+    float z = 2.0 * d - 1.0;
+    return 2.0 * n * f / (f + n - z * (f - n));
+}
+
 // Fraction of the sun's light that reaches world point p through the volumes (1 = clear).
 vec3 sq_sun_transmittance(vec3 p)
 {
