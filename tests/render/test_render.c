@@ -874,3 +874,27 @@ SQ_TEST(large_heightfield_is_subsampled)
     free_world(small);
     sq_context_destroy(ctx);
 }
+
+/* egl_device picks a device of the EGL device platform by index or DRM path; an unknown one is
+ * refused with the number of devices found. */
+SQ_TEST(egl_device_hint)
+{
+    sq_context *ctx = make_ctx();
+    sq_render_desc d;
+    memset(&d, 0, sizeof d);
+    d.width = 8;
+    d.height = 8;
+    d.egl_device = "0";
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &d, &r));
+    if (r) {
+        sq_world *w = make_world(9, 100.0f, 0.0f);
+        const sq_camera cam = north_camera(0.0f, -10.0f, 5.0f);
+        SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0));
+        free_world(w);
+    }
+    sq_renderer_destroy(r);
+    d.egl_device = "no-such-gpu";
+    SQ_CHECK_ERR(sq_renderer_create(ctx, &d, &r), SQ_ERR_GL, "no EGL device matches egl_device \"no-such-gpu\"");
+    sq_context_destroy(ctx);
+}
