@@ -1,0 +1,306 @@
+/* grid_forces.c — body forces on the MAC grid (SPEC §1.4 eq. 2.6, u <- u + dt F):
+ *   uniform and cell-centred accelerations, averaged to the faces;
+ *   Boussinesq buoyancy a_z = beta g (T - Tref(z)) / Tref(z) (SPEC §1.10, the recommended
+ *     replacement of S0's thermophoresis);
+ *   vorticity confinement f = eps h (N x omega), N = grad|omega| / |grad|omega|| [Fedkiw,
+ *     Stam, Jensen 2001] and its helicity-adaptive variant (SPEC §1.4 eq. 2.15 with the
+ *     dimensional fix): f = eps h (|u.omega| / (|u||omega| + eps0)) (N x omega), clamped so
+ *     that |f| dt^2 <= confinement_max_cells * h. */
+#include <string.h>
+
+#include "solvers/grid/grid_internal.h"
+
+#define MOD "grid"
+
+static sq_result check(sq_grid *g, double dt, const char *what)
+{
+    if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "%s: grid is NULL", what);
+    if (!(dt > 0.0) || !isfinite(dt))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD, "%s: dt = %g s; must be > 0", what, dt);
+    if (g->topology_dirty) return sq__grid_update_topology(g);
+    return SQ_OK;
+}
+
+static ptrdiff_t cell_step(const sq_grid *g, int c) { return c == 0 ? 1 : c == 1 ? g->sy : g->sz; }
+
+sq_result sq_grid_add_acceleration(sq_grid *g, double ax, double ay, double az, double dt_s)
+{
+    sq_result r = check(g, dt_s, "sq_grid_add_acceleration");
+    if (r != SQ_OK) return r;
+    if (!isfinite(ax) || !isfinite(ay) || !isfinite(az))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "acceleration = (%g, %g, %g) m/s^2; must be finite", ax, ay, az);
+    double t0 = sq_time_now();
+    const float dv[3] = {(float)(ax * dt_s), (float)(ay * dt_s), (float)(az * dt_s)};
+    const uint8_t *fl = g->flags;
+    const int nt = sq_context_threads(g->ctx);
+    for (int c = 0; c < 3; c++) {
+        if (dv[c] == 0.0f) continue;
+        sq_field3 *f = &g->vel[c];
+        const ptrdiff_t off = cell_step(g, c);
+        const float d = dv[c];
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = 0; k < f->n.nz; k++)
+            for (int j = 0; j < f->n.ny; j++) {
+                float *u = sq_field3_at(f, 0, j, k);
+                const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < f->n.nx; i++)
+                    if (!((fl[r0 + i - off] | fl[r0 + i]) & SQ__CF_FIXED)) u[i] += d;
+            }
+    }
+    sq__grid_enforce_velocity(g);
+    g->vel_version++;
+    g->stats.ms_forces += (sq_time_now() - t0) * 1e3;
+    return SQ_OK;
+}
+
+static sq_result check_view(sq_grid *g, const sq_field_view *v, const char *name)
+{
+    if (!v) return SQ_OK;
+    if (!v->data || v->n.nx != g->n[0] || v->n.ny != g->n[1] || v->n.nz != g->n[2])
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "%s view is %dx%dx%d%s; must be %dx%dx%d (the grid's cells)", name,
+                        v->n.nx, v->n.ny, v->n.nz, v->data ? "" : " with NULL data", g->n[0],
+                        g->n[1], g->n[2]);
+    return SQ_OK;
+}
+
+/* Face value of a cell-centred quantity: mean of the two cells, or the one fluid cell. */
+static inline float face_mean(const uint8_t *fl, ptrdiff_t lo, ptrdiff_t hi, float a, float b)
+{
+    bool ua = !(fl[lo] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
+    bool ub = !(fl[hi] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
+    return ua && ub ? 0.5f * (a + b) : ua ? a : ub ? b : 0.0f;
+}
+
+sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
+                                         const sq_field_view *ay, const sq_field_view *az,
+                                         double dt_s)
+{
+    sq_result r = check(g, dt_s, "sq_grid_add_acceleration_field");
+    if (r != SQ_OK) return r;
+    const sq_field_view *a[3] = {ax, ay, az};
+    static const char *names[3] = {"ax", "ay", "az"};
+    for (int c = 0; c < 3; c++)
+        if ((r = check_view(g, a[c], names[c])) != SQ_OK) return r;
+    double t0 = sq_time_now();
+    const uint8_t *fl = g->flags;
+    const int nt = sq_context_threads(g->ctx);
+    const float dt = (float)dt_s;
+    for (int c = 0; c < 3; c++) {
+        if (!a[c]) continue;
+        const sq_field_view *v = a[c];
+        sq_field3 *f = &g->vel[c];
+        const ptrdiff_t off = cell_step(g, c);
+        const int nc = g->n[c];
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = 0; k < f->n.nz; k++)
+            for (int j = 0; j < f->n.ny; j++) {
+                float *u = sq_field3_at(f, 0, j, k);
+                const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < f->n.nx; i++) {
+                    const ptrdiff_t hi = r0 + i, lo = hi - off;
+                    if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
+                    int x[3] = {i, j, k};
+                    int xl[3] = {i, j, k};
+                    xl[c]--;
+                    /* periodic neighbours wrap, domain faces use the inner cell */
+                    if (xl[c] < 0) xl[c] = g->periodic[c] ? nc - 1 : 0;
+                    if (x[c] >= nc) x[c] = g->periodic[c] ? 0 : nc - 1;
+                    float va = sq_view_get(v, xl[0], xl[1], xl[2]);
+                    float vb = sq_view_get(v, x[0], x[1], x[2]);
+                    u[i] += dt * face_mean(fl, lo, hi, va, vb);
+                }
+            }
+    }
+    sq__grid_enforce_velocity(g);
+    g->vel_version++;
+    g->stats.ms_forces += (sq_time_now() - t0) * 1e3;
+    return SQ_OK;
+}
+
+sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double beta,
+                               double gravity_mps2, double dt_s)
+{
+    sq_result r = check(g, dt_s, "sq_grid_add_buoyancy");
+    if (r != SQ_OK) return r;
+    if (tidx < 0 || tidx >= g->d.scalar_count)
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "temperature_idx = %d; must be in 0..%d (scalar_count = %d)", tidx,
+                        g->d.scalar_count - 1, g->d.scalar_count);
+    if (!isfinite(beta) || !isfinite(gravity_mps2))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "buoyancy beta = %g, gravity = %g m/s^2; both must be finite", beta,
+                        gravity_mps2);
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    const sq_field3 *T = &g->scalar[tidx];
+    const uint8_t *fl = g->flags;
+    double t0 = sq_time_now();
+    /* reference temperature per level, kept in the plane-sum slots 2 (Tref) */
+    double *tr = g->plane_sum;
+    for (int k = 0; k < nz; k++) {
+        double ref;
+        if (tref_k) {
+            ref = (double)tref_k[k];
+        } else {
+            double s = 0.0;
+            long cnt = 0;
+            for (int j = 0; j < ny; j++)
+                for (int i = 0; i < nx; i++) {
+                    if (fl[sq__cidx(g, i, j, k)] & SQ__CF_SOLID) continue;
+                    s += (double)*sq_field3_at(T, i, j, k);
+                    cnt++;
+                }
+            ref = cnt ? s / (double)cnt : 1.0;
+        }
+        if (!(ref > 0.0) || !isfinite(ref))
+            return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "buoyancy reference temperature at level k = %d is %g K; must be > 0 "
+                            "(absolute temperature, SPEC §1.6)",
+                            k, ref);
+        tr[4 * k + 2] = 1.0 / ref;
+        tr[4 * k + 3] = ref;
+    }
+    const float bg = (float)(beta * gravity_mps2 * dt_s);
+    sq_field3 *W = &g->vel[2];
+    const int nt = sq_context_threads(g->ctx);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k <= nz; k++) {
+        const int kl = k - 1 < 0 ? (g->periodic[2] ? nz - 1 : 0) : k - 1;
+        const int kh = k >= nz ? (g->periodic[2] ? 0 : nz - 1) : k;
+        const float il = (float)tr[4 * kl + 2], rl = (float)tr[4 * kl + 3];
+        const float ihh = (float)tr[4 * kh + 2], rh = (float)tr[4 * kh + 3];
+        for (int j = 0; j < ny; j++) {
+            float *w = sq_field3_at(W, 0, j, k);
+            const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+            for (int i = 0; i < nx; i++) {
+                const ptrdiff_t hi = r0 + i, lo = hi - g->sz;
+                if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
+                float bl = (*sq_field3_at(T, i, j, kl) - rl) * il;
+                float bh = (*sq_field3_at(T, i, j, kh) - rh) * ihh;
+                w[i] += bg * face_mean(fl, lo, hi, bl, bh);
+            }
+        }
+    }
+    memset(g->plane_sum, 0, ((size_t)nz + 2) * 4 * sizeof(double));
+    sq__grid_enforce_velocity(g);
+    g->vel_version++;
+    g->stats.ms_forces += (sq_time_now() - t0) * 1e3;
+    return SQ_OK;
+}
+
+/* ---- vorticity confinement ------------------------------------------------------------------ */
+/* cell-centred velocity component c at padded cell (i,j,k), -1 <= i <= nx etc. */
+static inline float ucell(const sq_grid *g, int c, int i, int j, int k)
+{
+    const sq_field3 *f = &g->vel[c];
+    const float *p = sq_field3_at(f, i, j, k);
+    const ptrdiff_t s = c == 0 ? 1 : c == 1 ? f->sy : f->sz;
+    return 0.5f * (p[0] + p[s]);
+}
+
+sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adaptive, double dt_s)
+{
+    sq_result r = check(g, dt_s, "sq_grid_confine_vorticity");
+    if (r != SQ_OK) return r;
+    if (!(eps >= 0.0) || !isfinite(eps))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "confinement eps = %g; must be >= 0 (0 turns it off)", eps);
+    if (eps == 0.0) return SQ_OK;
+    double t0 = sq_time_now();
+    sq__grid_enforce_velocity(g);
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    const float h = g->h, i2h = 0.5f / g->h;
+    const uint8_t *fl = g->flags;
+    float *wx = g->scratch[0], *wy = g->scratch[1], *wz = g->scratch[2], *wm = g->scratch[3];
+    const int nt = sq_context_threads(g->ctx);
+    /* pass 1: omega and |omega| at cell centres (central differences of cell velocities) */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const ptrdiff_t c = sq__cidx(g, i, j, k);
+                if (fl[c] & SQ__CF_SOLID) {
+                    wx[c] = wy[c] = wz[c] = wm[c] = 0.0f;
+                    continue;
+                }
+                float ox = (ucell(g, 2, i, j + 1, k) - ucell(g, 2, i, j - 1, k) -
+                            ucell(g, 1, i, j, k + 1) + ucell(g, 1, i, j, k - 1)) * i2h;
+                float oy = (ucell(g, 0, i, j, k + 1) - ucell(g, 0, i, j, k - 1) -
+                            ucell(g, 2, i + 1, j, k) + ucell(g, 2, i - 1, j, k)) * i2h;
+                float oz = (ucell(g, 1, i + 1, j, k) - ucell(g, 1, i - 1, j, k) -
+                            ucell(g, 0, i, j + 1, k) + ucell(g, 0, i, j - 1, k)) * i2h;
+                wx[c] = ox;
+                wy[c] = oy;
+                wz[c] = oz;
+                wm[c] = sqrtf(ox * ox + oy * oy + oz * oz);
+            }
+    sq__grid_fill_ghosts(g, wm + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
+    /* pass 2: f = eps h (N x omega) [* relative helicity], clamped; written over omega */
+    const float e = (float)eps * h;
+    const float dt = (float)dt_s;
+    const float fmax = (float)g->d.confinement_max_cells * h / (dt * dt);
+    const float eps0 = 1e-6f; /* m/s^2: keeps the relative helicity finite at rest */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const ptrdiff_t c = sq__cidx(g, i, j, k);
+                if (fl[c] & SQ__CF_SOLID) continue;
+                float ex = (wm[c + 1] - wm[c - 1]) * i2h;
+                float ey = (wm[c + g->sy] - wm[c - g->sy]) * i2h;
+                float ez = (wm[c + g->sz] - wm[c - g->sz]) * i2h;
+                float en = sqrtf(ex * ex + ey * ey + ez * ez) + 1e-10f;
+                float Nx = ex / en, Ny = ey / en, Nz = ez / en;
+                float ox = wx[c], oy = wy[c], oz = wz[c];
+                float fx = e * (Ny * oz - Nz * oy);
+                float fy = e * (Nz * ox - Nx * oz);
+                float fz = e * (Nx * oy - Ny * ox);
+                if (helicity_adaptive) {
+                    float ux = ucell(g, 0, i, j, k), uy = ucell(g, 1, i, j, k),
+                          uz = ucell(g, 2, i, j, k);
+                    float un = sqrtf(ux * ux + uy * uy + uz * uz);
+                    float hel = fabsf(ux * ox + uy * oy + uz * oz) / (un * wm[c] + eps0);
+                    fx *= hel;
+                    fy *= hel;
+                    fz *= hel;
+                }
+                float fn = sqrtf(fx * fx + fy * fy + fz * fz);
+                if (fn > fmax) {
+                    float s = fmax / fn;
+                    fx *= s;
+                    fy *= s;
+                    fz *= s;
+                }
+                wx[c] = fx;
+                wy[c] = fy;
+                wz[c] = fz;
+            }
+    float *fc[3] = {wx, wy, wz};
+    for (int c = 0; c < 3; c++)
+        sq__grid_fill_ghosts(g, fc[c] + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
+    /* pass 3: faces get the mean of their cells' forces */
+    for (int c = 0; c < 3; c++) {
+        sq_field3 *f = &g->vel[c];
+        const ptrdiff_t off = cell_step(g, c);
+        const float *F = fc[c];
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = 0; k < f->n.nz; k++)
+            for (int j = 0; j < f->n.ny; j++) {
+                float *u = sq_field3_at(f, 0, j, k);
+                const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < f->n.nx; i++) {
+                    const ptrdiff_t hi = r0 + i, lo = hi - off;
+                    if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
+                    bool sa = (fl[lo] & SQ__CF_SOLID) != 0, sb = (fl[hi] & SQ__CF_SOLID) != 0;
+                    float v = sa ? F[hi] : sb ? F[lo] : 0.5f * (F[lo] + F[hi]);
+                    u[i] += dt * v;
+                }
+            }
+    }
+    g->trace_valid = false;
+    g->vel_version++;
+    sq__grid_enforce_velocity(g);
+    g->stats.ms_confine += (sq_time_now() - t0) * 1e3;
+    return SQ_OK;
+}

@@ -1,0 +1,138 @@
+/* grid_internal.h — the sq_grid struct, lattice helpers and the kernels shared by the files of
+ * the MAC-grid fluid solver (grid.c lifecycle/boundaries, grid_advect.c, grid_project.c,
+ * grid_forces.c, grid_diffuse.c). SPEC §1.4, §1.5, §1.12. */
+#ifndef SQ_GRID_INTERNAL_H
+#define SQ_GRID_INTERNAL_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "core/core_internal.h"
+#include "squall/grid.h"
+
+/* Sample lattices: cell centres and the three face sets. */
+enum { SQ__L_CELL = 0, SQ__L_U = 1, SQ__L_V = 2, SQ__L_W = 3 };
+
+/* Cell flags on the padded cell lattice (one ghost layer, strides of the pressure field). */
+#define SQ__CF_SOLID 1u     /* interior solid cell, or the periodic copy of one */
+#define SQ__CF_WALL 2u      /* ghost of a wall or inflow face: faces against it are fixed */
+#define SQ__CF_DIRICHLET 4u /* ghost of an outflow/open face: p = 0 on the face */
+#define SQ__CF_FIXED (SQ__CF_SOLID | SQ__CF_WALL)
+
+/* Scratch arrays: each holds max padded sample count of the four lattices. */
+enum {
+    SQ__S_FWD = 0,   /* 4 arrays: forward trace base index (int32) and fractions */
+    SQ__S_BACK = 4,  /* 4 arrays: backward trace */
+    SQ__S_HAT = 8,   /* forward semi-Lagrangian result */
+    SQ__S_OUT = 9,   /* 3 arrays: advection outputs */
+    SQ__SCRATCH = 12
+};
+
+/* One multigrid level (levels >= 1; level 0 uses the byte link masks of sq_grid). Arrays are
+ * padded with one ghost layer; c[a][idx] is the coefficient of the link between cell idx and
+ * idx + e_a (idx may be a low ghost: the link across the low boundary). */
+typedef struct sq__mg_level {
+    int n[3];
+    int b[3]; /* block size (1 or 2) per axis used to coarsen the finer level into this one */
+    ptrdiff_t sy, sz;
+    size_t count;
+    float *x, *rhs, *res;
+    float *c[3];
+    float *inv_diag; /* 0 marks a solid (inactive) cell */
+    float *ext_w;    /* solid cells: 1 / (number of fluid face neighbours), else 0 */
+} sq__mg_level;
+
+#define SQ__MG_MAX_LEVELS 16
+
+struct sq_grid {
+    sq_context *ctx;
+    sq_grid_desc d; /* resolved */
+    int n[3];
+    float h;
+    bool periodic[3];
+    sq_field3 vel[3];
+    sq_field3 *scalar;
+    float scalar_inflow[SQ_GRID_MAX_SCALARS];
+    sq_field3 p; /* kinematic pressure p/rho, m^2/s^2 */
+    /* padded cell lattice (same layout as p) */
+    ptrdiff_t sy, sz;
+    size_t cell_count; /* padded */
+    uint8_t *flags;
+    uint8_t *links;     /* level 0: bit 2a (low) / 2a+1 (high) = unit link open along axis a */
+    uint8_t *diag;      /* level 0: diagonal (sum of link coefficients + pin) */
+    uint16_t *below;    /* cells from the nearest solid/ground below (1 = resting on it);
+                           0 = none below */
+    uint8_t *solid;     /* nx*ny*nz public solid flags */
+    uint8_t *plane_solid; /* per padded z plane (nz + 2): plane contains solid cells */
+    float *scratch[SQ__SCRATCH];
+    size_t scratch_count;
+    float *inflow[6];
+    int inflow_n[6][2];
+    double *plane_sum; /* per z plane partial sums (nz + 2) x 4 */
+    sq__mg_level mg[SQ__MG_MAX_LEVELS];
+    int mg_levels; /* including level 0 */
+    int pins;
+    bool topology_dirty;
+    bool has_dirichlet;
+    double last_project_dt;
+    /* cached cell-centre traces for scalars */
+    uint64_t vel_version;
+    bool trace_valid;
+    uint64_t trace_version;
+    double trace_dt, trace_drift;
+    sq_grid_stats stats;
+};
+
+static inline ptrdiff_t sq__cidx(const sq_grid *g, int i, int j, int k)
+{
+    return (ptrdiff_t)(i + 1) + (ptrdiff_t)(j + 1) * g->sy + (ptrdiff_t)(k + 1) * g->sz;
+}
+
+/* Lattice offsets in cell units: sample (i,j,k) of lattice L lies at (i+ox, j+oy, k+oz) h. */
+static inline float sq__lattice_off(int L, int axis)
+{
+    return (L == SQ__L_CELL || L - 1 != axis) ? 0.5f : 0.0f;
+}
+
+/* Coefficient of the Poisson link between two adjacent cells of the padded lattice: 1 between
+ * fluid cells, 2 from a fluid cell to an outflow/open ghost (p = 0 on the face, half a cell
+ * away), 0 against solids and walls (dp/dn = 0). */
+static inline int sq__link_coef(uint8_t fa, uint8_t fb)
+{
+    if ((fa | fb) & SQ__CF_FIXED) return 0;
+    if ((fa & SQ__CF_DIRICHLET) && (fb & SQ__CF_DIRICHLET)) return 0;
+    if ((fa | fb) & SQ__CF_DIRICHLET) return 2;
+    return 1;
+}
+
+/* ---- grid.c ------------------------------------------------------------------------------ */
+/* Fills the ghost layer of a field on lattice L from the boundary conditions; scalar: index of
+ * the scalar for inflow values, or -1 for a generic zero-gradient cell field. */
+void sq__grid_fill_ghosts(sq_grid *g, float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
+                          int scalar);
+/* Rebuilds flags-derived data (links, pins, multigrid, ground distance) when solids or
+ * boundaries changed. */
+sq_result sq__grid_update_topology(sq_grid *g);
+/* Sets fixed faces (solids, walls, inflow), syncs periodic faces and fills the velocity
+ * ghosts; clip_backflow also sets inflow through OUTFLOW faces to 0 (before projections). */
+void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow);
+static inline void sq__grid_enforce_velocity(sq_grid *g) { sq__grid_enforce_velocity_ex(g, false); }
+/* Sums the per-z-plane partials plane_sum[4 k + slot], k < nz, in plane order. */
+double sq__grid_sum_planes(const sq_grid *g, int slot);
+
+/* ---- grid_advect.c ------------------------------------------------------------------------ */
+sq_result sq__grid_advect_velocity(sq_grid *g, float dt);
+sq_result sq__grid_advect_scalar(sq_grid *g, int idx, float dt, float drift);
+/* Trilinear sample of a lattice-L field at a point in cell units (x/h), wrapped on periodic
+ * axes and clamped into the ghost layer elsewhere. */
+float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
+                      float X, float Y, float Z);
+
+/* ---- grid_project.c ----------------------------------------------------------------------- */
+sq_result sq__grid_build_multigrid(sq_grid *g);
+void sq__grid_free_multigrid(sq_grid *g);
+uint64_t sq__grid_multigrid_bytes(const int n[3]);
+sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st);
+
+#endif
