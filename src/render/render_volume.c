@@ -54,7 +54,7 @@ typedef struct vol_plan {
 } vol_plan;
 
 struct sq__volume_pass {
-    GLuint prog_eye, prog_light, prog_comp;
+    GLuint prog_eye, prog_light, prog_comp, prog_bounds;
     GLuint vao_slices, vbo_slices, vao_empty;
     size_t vbo_bytes;
     GLuint density_tex, noise_tex;
@@ -64,7 +64,7 @@ struct sq__volume_pass {
     bool have_data;
     GLuint light_tex[2], light_fbo[2], shadow_tex;
     int light_size;
-    GLuint eye_c, eye_t, eye_fbo;
+    GLuint eye_c, eye_t, eye_fbo, bounds_tex, bounds_fbo;
     int eye_w, eye_h;
     GLuint comp_fbo, comp_color;
     int max_3d;
@@ -356,9 +356,18 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
 {
     if (vp->eye_fbo && vp->eye_w == r->width && vp->eye_h == r->height) return SQ_OK;
     if (vp->eye_fbo) glDeleteFramebuffers(1, &vp->eye_fbo);
+    if (vp->bounds_fbo) glDeleteFramebuffers(1, &vp->bounds_fbo);
     if (vp->eye_c) glDeleteTextures(1, &vp->eye_c);
     if (vp->eye_t) glDeleteTextures(1, &vp->eye_t);
-    vp->eye_fbo = vp->eye_c = vp->eye_t = 0;
+    if (vp->bounds_tex) glDeleteTextures(1, &vp->bounds_tex);
+    vp->eye_fbo = vp->eye_c = vp->eye_t = vp->bounds_tex = vp->bounds_fbo = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &vp->bounds_tex);
+    glTextureStorage2D(vp->bounds_tex, 1, GL_RG32F, r->width, r->height);
+    glCreateFramebuffers(1, &vp->bounds_fbo);
+    glNamedFramebufferTexture(vp->bounds_fbo, GL_COLOR_ATTACHMENT0, vp->bounds_tex, 0);
+    glNamedFramebufferDrawBuffer(vp->bounds_fbo, GL_COLOR_ATTACHMENT0);
+    sq_result res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
+    if (res != SQ_OK) return res;
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_c);
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_t);
     /* 32-bit floats: hundreds of slices accumulate here (half floats would lose ~0.1 %) */
@@ -422,6 +431,9 @@ sq_result sq__volume_pass_create(sq_renderer *r)
     if (res == SQ_OK)
         res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_composite.frag",
                              &vp->prog_comp);
+    if (res == SQ_OK)
+        res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_bounds.frag",
+                             &vp->prog_bounds);
     if (res != SQ_OK) return res;
     vp->loc_plane = glGetUniformLocation(vp->prog_light, "u_plane");
 
@@ -449,14 +461,16 @@ void sq__volume_pass_destroy(sq_renderer *r)
     glDeleteProgram(vp->prog_eye);
     glDeleteProgram(vp->prog_light);
     glDeleteProgram(vp->prog_comp);
+    glDeleteProgram(vp->prog_bounds);
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
     GLuint tex[8] = {vp->density_tex, vp->noise_tex, vp->light_tex[0], vp->light_tex[1],
-                     vp->shadow_tex, vp->eye_c, vp->eye_t, 0};
-    glDeleteTextures(7, tex);
-    GLuint fbo[4] = {vp->light_fbo[0], vp->light_fbo[1], vp->eye_fbo, vp->comp_fbo};
-    glDeleteFramebuffers(4, fbo);
+                     vp->shadow_tex, vp->eye_c, vp->eye_t, vp->bounds_tex};
+    glDeleteTextures(8, tex);
+    GLuint fbo[5] = {vp->light_fbo[0], vp->light_fbo[1], vp->eye_fbo, vp->comp_fbo,
+                     vp->bounds_fbo};
+    glDeleteFramebuffers(5, fbo);
     sq_free(r->ctx, vp->verts);
     sq_free(r->ctx, vp->first);
     sq_free(r->ctx, vp->count);
@@ -630,10 +644,14 @@ static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_
     const GLuint prog = r->volume->prog_eye;
     set_common_uniforms(r, prog, v, p);
     um4(prog, "u_view_proj", &r->view_proj);
-    um4(prog, "u_inv_view_proj", &r->inv_view_proj);
-    glProgramUniform2f(prog, glGetUniformLocation(prog, "u_viewport"), (float)r->width,
-                       (float)r->height);
     u3(prog, "u_cam", r->cam_pos);
+    const GLuint pb = r->volume->prog_bounds;
+    um4(pb, "u_inv_view_proj", &r->inv_view_proj);
+    glProgramUniform2f(pb, glGetUniformLocation(pb, "u_viewport"), (float)r->width,
+                       (float)r->height);
+    u3(pb, "u_cam", r->cam_pos);
+    u3(pb, "u_box_lo", p->lo);
+    u3(pb, "u_box_size", p->size);
     u1f(prog, "u_spacing", p->spacing);
     um4(prog, "u_light_matrix", &p->light_matrix);
     float g[3];
@@ -766,7 +784,16 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     set_light_uniforms(r, v, &p);
     set_eye_uniforms(r, v, &p);
     bind_volume_textures(vp);
+
+    /* per-pixel ray interval the volume may fill (box, camera, opaque depth) */
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->bounds_fbo);
+    glViewport(0, 0, r->width, r->height);
     glBindTextureUnit(2, r->depth_tex);
+    glUseProgram(vp->prog_bounds);
+    glBindVertexArray(vp->vao_empty);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+
+    glBindTextureUnit(2, vp->bounds_tex);
     glBindTextureUnit(3, vp->eye_c);
     glBindTextureUnit(4, vp->eye_t);
     clear_light(vp);

@@ -359,6 +359,102 @@ SQ_TEST(koschmieder_sun_ahead)
     koschmieder_case(sq_v3(1.0f, 0.3f, 0.6f), "ahead", false);
 }
 
+/* ---- single scattering of the sun: the eye pass against the line integral ------------------ */
+/* What is checked. An optically thin slab (beta 0.005 /m, 100 m deep, albedo 1, HG g = 0.5),
+ * single-scattering ablation on, seen against the sky. The sun's share of each pixel (frame with
+ * the sun minus frame without it; the ground albedo is set to 0 so that the sky ambient does not
+ * depend on the sun) must equal the single-scattering line integral
+ *     I = integral over the ray inside the box of
+ *         a beta E p_HG(theta) exp(-beta s_sun(t)) exp(-beta (t - t_in)) dt,
+ * with E = pi * sun_radiance (the renderer's units: a white Lambertian plane facing the sun has
+ * radiance sun_radiance), cos theta = (sun propagation) . (propagation toward the eye), s_sun the
+ * path from the point back to the box boundary toward the sun. Evaluated here with
+ * midpoint quadrature per pixel (400 steps); checked within 3 % relative on every sky pixel seeing more
+ * than 20 m of slab, for the sun behind the viewer (front-to-back) and ahead (back-to-front),
+ * with HG and with the isotropic-phase ablation (p = 1/4pi). */
+static void single_scatter_case(sq_vec3 sun_toward, bool isotropic, const char *tag)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx, 4000.0f, NULL, 0);
+    sq_render_desc rd = {0};
+    rd.width = IMG_W;
+    rd.height = IMG_H;
+    rd.volume_slices = 128;
+    rd.single_scatter_only = true;
+    rd.isotropic_phase = isotropic;
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &rd, &r));
+    float *on = NULL, *off = NULL;
+    if (!w || !r) goto done;
+    w->sun_dir = sq_v3_norm(sun_toward);
+    w->ground_albedo = sq_v3(0.0f, 0.0f, 0.0f);
+    const sq_vec3 sun = w->sun_radiance;
+    const float beta = 0.005f, g = 0.5f;
+    const sq_vec3 lo = sq_v3(50.0f, -1000.0f, 0.0f), size = sq_v3(100.0f, 2000.0f, 100.0f);
+    const sq_vec3 hi = sq_v3_add(lo, size);
+    medium m;
+    medium_init(&m, lo, size, beta, 1.0f, g, 1.0f);
+    const sq_camera cam = camera(sq_v3(0.0f, 0.0f, 50.0f), sq_v3(100.0f, 0.0f, 50.0f), 30.0f);
+    char name[64];
+    snprintf(name, sizeof name, "single_%s_on", tag);
+    on = render(r, w, &cam, &m.d, 1, 0.0, name);
+    w->sun_radiance = sq_v3(0.0f, 0.0f, 0.0f);
+    snprintf(name, sizeof name, "single_%s_off", tag);
+    off = render(r, w, &cam, &m.d, 1, 0.0, name);
+    if (!on || !off) goto done;
+    const double E = SQ_PI * (double)sun.y;
+    const sq_vec3 s = w->sun_dir;
+    double worst = 0.0, sum_m = 0.0, sum_e = 0.0;
+    int npx = 0;
+    for (int j = 0; j < IMG_H; j++)
+        for (int i = 0; i < IMG_W; i++) {
+            sq_vec3 o, d;
+            pixel_ray(&cam, i, j, &o, &d);
+            float t0, t1;
+            if (d.z < 0.02f || !ray_box(o, d, lo, hi, &t0, &t1)) continue;
+            t0 = fmaxf(t0, 0.0f);
+            if (t1 - t0 < 20.0f) continue;
+            const double ct = (double)sq_v3_dot(s, d);
+            const double p = isotropic ? 1.0 / (4.0 * SQ_PI)
+                                       : (1.0 - (double)(g * g)) /
+                                             (4.0 * SQ_PI * pow(1.0 + (double)(g * g) - 2.0 * g * ct, 1.5));
+            const int steps = 400;
+            const double dt = (double)(t1 - t0) / steps;
+            double I = 0.0;
+            for (int k = 0; k < steps; k++) {
+                const double t = (double)t0 + (k + 0.5) * dt;
+                const sq_vec3 x = sq_v3_add(o, sq_v3_scale(d, (float)t));
+                float u0, u1;
+                const float sl = ray_box(x, s, lo, hi, &u0, &u1) ? u1 : 0.0f;
+                I += (double)beta * E * p * exp(-(double)beta * sl) * exp(-(double)beta * (t - t0)) * dt;
+            }
+            const size_t q = (size_t)3 * (size_t)(j * IMG_W + i) + 1;
+            const double meas = (double)on[q] - off[q];
+            const double rel = fabs(meas - I) / I;
+            worst = fmax(worst, rel);
+            sum_m += meas;
+            sum_e += I;
+            npx++;
+            SQ_CHECK_MSG(rel <= 0.03, "%s pixel (%d,%d): in-scattered %.6g, integral %.6g (rel %.3g)",
+                         tag, i, j, meas, I, rel);
+        }
+    printf("single scattering %s: %d px, mean measured %.6g vs integral %.6g (rel %.4f), worst "
+           "pixel rel %.4f\n",
+           tag, npx, npx ? sum_m / npx : 0.0, npx ? sum_e / npx : 0.0,
+           sum_e > 0 ? fabs(sum_m - sum_e) / sum_e : -1.0, worst);
+    SQ_CHECK(npx > 2000);
+done:
+    free(on);
+    free(off);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(single_scatter_sun_behind) { single_scatter_case(sq_v3(-1.0f, 0.0f, 1.0f), false, "behind"); }
+SQ_TEST(single_scatter_sun_ahead) { single_scatter_case(sq_v3(1.0f, 0.2f, 1.7f), false, "ahead"); }
+SQ_TEST(single_scatter_isotropic) { single_scatter_case(sq_v3(1.0f, 0.2f, 1.7f), true, "isotropic"); }
+
 /* ---- composition with opaque geometry ------------------------------------------------------ */
 /* A dense slab (beta 0.1 /m, 100 m thick: optical depth 10) stands 200-300 m ahead. A white box
  * in front of it (x = 120 m) must be untouched (identical pixels with and without the slab) and

@@ -2,7 +2,7 @@
 // volume_eye.frag — eye pass of half-angle slicing (SPEC 3.4 step 4a, eq. 3.22 with its Δx):
 // one fragment of slice k stands for the slab of the view ray between the neighbouring
 // slices, clipped to the volume box, to the camera and to the opaque scene depth (so terrain
-// hides dust behind it). Over that length Δ the slab has transmittance T = exp(-β_ext Δ) per
+// hides dust behind it; the per-pixel bounds come from volume_bounds.frag). Over that length Δ the slab has transmittance T = exp(-β_ext Δ) per
 // channel and emits the exact integral of a constant source: a J (1 - T), with a the albedo
 // and J = E_sun L_k p(θ) + J_amb the phase-weighted radiance falling on it (L_k from the light
 // buffer, carried to the fragment through half of its own light slab). For thin slabs this is
@@ -15,13 +15,11 @@ in vec3 v_world;
 
 layout(binding = 0) uniform sampler3D u_density;
 layout(binding = 1) uniform sampler2D u_light;   // light buffer before this slice (ratio to E_sun)
-layout(binding = 2) uniform sampler2D u_depth;   // opaque scene depth (window depth in [0, 1])
+layout(binding = 2) uniform sampler2D u_bounds;  // per pixel: ray interval the volume may fill
 layout(binding = 3) uniform sampler2D u_eye_c;   // running colour
 layout(binding = 4) uniform sampler2D u_eye_t;   // running transmittance
 layout(binding = 5) uniform sampler3D u_noise;
 
-uniform mat4 u_inv_view_proj;
-uniform vec2 u_viewport;       // pixels
 uniform vec3 u_cam;
 uniform vec3 u_box_lo, u_box_size;
 uniform vec3 u_dims;           // nx, ny, nz
@@ -42,16 +40,6 @@ uniform vec3 u_noise_offset;
 layout(location = 0) out vec4 o_c;
 layout(location = 1) out vec4 o_t;
 
-// Distance from the camera to the opaque surface seen through this pixel (inf for the sky).
-float scene_distance(ivec2 px)
-{
-    float d = texelFetch(u_depth, px, 0).r;
-    if (d >= 1.0) return 3.0e38;
-    vec2 ndc = (vec2(px) + 0.5) / u_viewport * 2.0 - 1.0;
-    vec4 w = u_inv_view_proj * vec4(ndc, d * 2.0 - 1.0, 1.0);
-    return length(w.xyz / w.w - u_cam);
-}
-
 void main()
 {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -59,8 +47,8 @@ void main()
     float t = length(v);
     vec3 dir = v / max(t, 1e-6);
     float dt = u_spacing / max(abs(dot(u_s, dir)), 0.05);
-    vec2 box = vol_box_interval(u_cam, dir, u_box_lo, u_box_lo + u_box_size);
-    float len = vol_clip_len(t, 0.5 * dt, max(box.x, 0.0), min(box.y, scene_distance(px)));
+    vec2 bounds = texelFetch(u_bounds, px, 0).xy;
+    float len = vol_clip_len(t, 0.5 * dt, bounds.x, bounds.y);
     if (len <= 0.0) discard;
 
     float rho = vol_density(u_density, u_noise, v_world, u_box_lo, u_box_size, u_dims,

@@ -1,0 +1,34 @@
+#version 450 core
+// volume_bounds.frag — once per frame and pixel, before the slices: the part of the pixel's
+// view ray that the volume may fill, [max(t_box_in, 0), min(t_box_out, t_scene)] in metres
+// from the camera, t_scene being the distance to the opaque surface seen through the pixel
+// (from the depth buffer; the sky is infinitely far). The eye pass clips every slab to it, so
+// terrain hides the dust behind it (SPEC 3.4 step 5) and slabs cut by the box or the camera
+// count only their inside part. Empty intervals are written as (1, 0).
+#include "volume_common.glsl"
+
+layout(binding = 2) uniform sampler2D u_depth; // opaque scene depth (window depth in [0, 1])
+
+uniform mat4 u_inv_view_proj;
+uniform vec2 u_viewport;
+uniform vec3 u_cam;
+uniform vec3 u_box_lo, u_box_size;
+
+layout(location = 0) out vec4 o_bounds;
+
+void main()
+{
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec2 ndc = (vec2(px) + 0.5) / u_viewport * 2.0 - 1.0;
+    vec4 f = u_inv_view_proj * vec4(ndc, 1.0, 1.0);
+    vec3 dir = normalize(f.xyz / f.w - u_cam);
+    float d = texelFetch(u_depth, px, 0).r;
+    float t_scene = 3.0e38;
+    if (d < 1.0) {
+        vec4 w = u_inv_view_proj * vec4(ndc, d * 2.0 - 1.0, 1.0);
+        t_scene = length(w.xyz / w.w - u_cam);
+    }
+    vec2 box = vol_box_interval(u_cam, dir, u_box_lo, u_box_lo + u_box_size);
+    vec2 b = vec2(max(box.x, 0.0), min(box.y, t_scene));
+    o_bounds = b.x < b.y ? vec4(b, 0.0, 0.0) : vec4(1.0, 0.0, 0.0, 0.0);
+}
