@@ -1,0 +1,161 @@
+/* squall/sandstorm.h — the parametric sandstorm of source document S0 (Gong 2012, ch. 2–3),
+ * physically corrected as SPEC §1–2 recommends:
+ *   - wind: Stam-split incompressible flow on a MAC grid (include/squall/grid.h), initialised
+ *     from the pressure wave P'(x,y,z) = P0(z) sin(kx x + ky y − σ) by Bernoulli speed and the
+ *     pressure-gradient direction (optionally rotated to geostrophic) over a hydrostatic
+ *     background, then projected; mixing-length eddy viscosity (κ = 0.4); helicity-adaptive
+ *     vorticity confinement with the dimensionless relative helicity;
+ *   - temperature: T = T̄(z) + T0(z) sin(kx x + ky y − σ + σ0), advected by the air; the updraft
+ *     is Boussinesq buoyancy on the air with a gain (S0's thermophoresis is ~1e-8 m/s, §1.10);
+ *   - dust: a log-normal size distribution (median radius, σ_g, grain density) split into size
+ *     bins, each a mass concentration (kg/m³) carried by the air and settling at its terminal
+ *     speed from the drag law C_D(Re) = 24/Re + 6/(1+√Re) + 0.4 (White); grains relax to the
+ *     air velocity exactly (exponential), which for τ_p ≪ Δt is the equilibrium-Eulerian limit
+ *     (SPEC §1.7 (a), §1.8): no stiff explicit drag; two-way momentum exchange: the drag of
+ *     settling grains passes their weight to the air (dust-laden air is heavier) and emitted
+ *     grains take their horizontal momentum from the air;
+ *   - emission: u* = κ u(z1) / ln(z1/z0) at the first cell above the ground, threshold
+ *     u*_t = u*_t0 · f_roughness · f_moisture · f_compactness, vertical mass flux
+ *     F = C u*³ (1 − u*_t²/u*²) above it (Marticorena & Bergametti 1995 form of S0's F = C u*³);
+ *   - optics and visibility: per-bin Mie mass extinction at R/G/B/550 nm (include/squall/optics.h),
+ *     Koschmieder V = ln(1/ε)/β_ext(550 nm) on horizontal planes at chosen heights.
+ * Scene type `urban` (S0 §3.5): no simulation, a homogeneous dust layer from the composition.
+ * Units: SI everywhere (m, s, kg, Pa, K). */
+#ifndef SQ_SANDSTORM_H
+#define SQ_SANDSTORM_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "squall/core.h"
+#include "squall/drawable.h"
+#include "squall/world.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define SQ_SANDSTORM_MAX_LEVELS 16
+#define SQ_SANDSTORM_MAX_BINS 8
+#define SQ_SANDSTORM_MAX_VIS 4
+#define SQ_SANDSTORM_MAX_STAGES 8
+
+typedef enum sq_sandstorm_mode {
+    SQ_SANDSTORM_DESERT = 0, /* full simulation */
+    SQ_SANDSTORM_URBAN = 1   /* homogeneous dust from the composition, no simulation */
+} sq_sandstorm_mode;
+
+/* Zero fields take the defaults named in `squall params sandstorm` (the parameter table in
+ * src/phen/sandstorm/sandstorm_plugin.c is the reference); fields marked "0 is physical" keep 0. */
+typedef struct sq_sandstorm_desc {
+    int mode;                      /* sq_sandstorm_mode */
+    uint64_t seed;                 /* 0 is a valid seed */
+    /* domain */
+    int cells[3];                  /* grid cells x, y, z; 0 -> 64 64 32 */
+    double cell_size_m;             /* 0 -> 40 m */
+    double center_m[2];             /* domain centre x, y; 0 is physical */
+    /* pressure wave (S0 eq. 2.18) and Bernoulli wind (2.19–2.20) */
+    float pressure_amp_pa[SQ_SANDSTORM_MAX_LEVELS]; /* P0 per level, bottom to top */
+    int pressure_amp_count;
+    double kx_per_m, ky_per_m;      /* horizontal wave numbers; 0 is physical */
+    double phase_rad;               /* σ; 0 is physical */
+    double bernoulli_pa;            /* C_B minus the surface reference pressure; 0 -> 200 Pa */
+    bool geostrophic;              /* rotate the wind 90° to run along the isobars */
+    double prevailing_dir_deg;      /* wind direction (toward, deg from east) where ∇P ≈ 0 */
+    double ramp_s;                  /* wind rises from calm over this time; 0 is physical (none) */
+    double roughness_m;             /* aerodynamic roughness length z0; 0 -> 5e-4 m */
+    double log_layer_m;             /* log-law profile below this height; 0 -> 100 m */
+    /* temperature wave (S0 eq. 2.35) and updraft (SPEC §1.10) */
+    double surface_temperature_k;   /* 0 -> 305 K */
+    double lapse_k_per_m;           /* 0 is physical (isothermal) */
+    float temperature_amp_k[SQ_SANDSTORM_MAX_LEVELS];
+    int temperature_amp_count;
+    double temperature_lag_rad;     /* σ0, trough phase lag; 0 is physical */
+    double buoyancy_gain;           /* 1 = physical Boussinesq; 0 is physical (off) */
+    /* numerics */
+    int pressure_solver;           /* 0 mgpcg, 1 multigrid, 2 jacobi */
+    int jacobi_iterations;         /* 0 -> 40 (S0) */
+    double pressure_tolerance;      /* relative residual; 0 -> 1e-3 */
+    int advection;                 /* 0 maccormack, 1 semi-lagrangian */
+    double confinement;             /* ε_h; 0 is physical (off) */
+    bool plain_confinement;        /* false: helicity-adaptive (S0); true: Fedkiw's constant eps */
+    double cfl;                     /* max |u| dt / h per sub-step; 0 -> 2 */
+    /* dust */
+    double median_radius_m;         /* number median radius; 0 -> 5e-6 m */
+    double sigma_g;                 /* geometric standard deviation; 0 -> 2.0 */
+    double grain_density_kg_m3;     /* 0 -> 2650 */
+    int bins;                      /* size bins; 0 -> 4 */
+    double n_real, n_imag;          /* refractive index; n_real 0 -> dust default per wavelength */
+    double inflow_dust_kg_m3;       /* dust entering with the inflow at the ground; 0 is physical */
+    double inflow_dust_height_m;    /* e-folding height of the inflow dust; 0 -> 300 m */
+    bool no_mass_fix;              /* false: rescale after advection so the budget closes */
+    /* surface (S0 eq. 2.32–2.34) */
+    double u_star_t0_mps;           /* single-grain threshold friction velocity; 0 -> 0.25 */
+    double roughness_factor;        /* R >= 1; 0 -> 1 */
+    double moisture_factor;         /* H >= 1; 0 -> 1 */
+    double compactness_factor;      /* M >= 1; 0 -> 1 */
+    double emission_coeff;          /* C in F = C u*^3 (kg s² m⁻⁵); 0 is physical (no emission) */
+    /* visibility (S0 eq. 3.23) */
+    float vis_heights_m[SQ_SANDSTORM_MAX_VIS];
+    int vis_height_count;          /* 0 -> 2 m and 10 m */
+    double contrast;                /* Koschmieder threshold; 0 -> 0.05 */
+    /* urban scene (S0 §3.5) */
+    float urban_conc_kg_m3[SQ_SANDSTORM_MAX_STAGES]; /* one or more severities */
+    int urban_conc_count;
+    double urban_stage_s;           /* time at each severity; 0 -> 4 s */
+    double urban_height_m;          /* depth of the dust layer; 0 -> 400 m */
+    /* near-field soft particles (S3) */
+    bool near_field;
+    int near_particles;            /* 0 -> 4000 */
+    double near_radius_m;           /* region radius around the camera; 0 -> 80 m */
+    double near_particle_radius_m;  /* 0 -> 4 m */
+    double near_fraction;           /* share of the local extinction drawn as particles; 0 -> 0.3 */
+} sq_sandstorm_desc;
+
+typedef struct sq_sandstorm sq_sandstorm;
+
+/* Dust budget since creation (kg). emitted − deposited − outflow + inflow = suspended − initial. */
+typedef struct sq_sandstorm_budget {
+    double suspended_kg, initial_kg, emitted_kg, deposited_kg, outflow_kg, inflow_kg;
+    double advection_correction_kg; /* mass added/removed by the mass fix (0 when off) */
+} sq_sandstorm_budget;
+
+typedef struct sq_sandstorm_stats {
+    int64_t steps;
+    double ms_advect, ms_forces, ms_diffuse, ms_project, ms_emission, ms_dust;
+    double pressure_residual;
+    int pressure_iterations;
+    double max_wind_mps, max_u_star_mps, emitting_fraction;
+    uint64_t memory_bytes;
+} sq_sandstorm_stats;
+
+SQ_API sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_desc *out);
+SQ_API sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *desc,
+                                       const sq_world *world);
+SQ_API uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *desc);
+/* world: terrain and obstacles become solid cells; borrowed, must outlive the sandstorm. */
+SQ_API sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc,
+                                     const sq_world *world, sq_sandstorm **out);
+SQ_API void sq_sandstorm_destroy(sq_sandstorm *s);
+SQ_API sq_result sq_sandstorm_step(sq_sandstorm *s, double dt_s);
+SQ_API double sq_sandstorm_max_stable_dt(const sq_sandstorm *s);
+SQ_API void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out);
+SQ_API void sq_sandstorm_get_stats(const sq_sandstorm *s, sq_sandstorm_stats *out);
+
+/* Terminal settling speed (m/s, positive down) of a sphere of radius r and density rho_p in air
+ * (rho_air, mu_air), solving |w| = sqrt(8 r g (rho_p − rho_air) / (3 rho_air C_D(Re))) with
+ * White's C_D(Re) (SPEC §1.8 eq. 2.29). At low Re it tends to Stokes 2 r² g Δρ / (9 μ). */
+SQ_API double sq_dust_terminal_speed(double radius_m, double rho_p, double rho_air,
+                                     double mu_air);
+/* White's drag coefficient for a sphere, 0 < Re < 2e5. */
+SQ_API double sq_drag_coefficient(double reynolds);
+/* Dust vertical mass flux (kg m⁻² s⁻¹): C u*³ (1 − u*_t²/u*²) for u* > u*_t, else 0. */
+SQ_API double sq_dust_emission_flux(double u_star, double u_star_t, double coeff);
+/* Friction velocity from the log law: kappa u(z) / ln(z/z0). */
+SQ_API double sq_friction_velocity(double u_mps, double z_m, double z0_m);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,887 @@
+/* sandstorm.c — lifecycle and the step recipe of the sandstorm (S0 §2.5.2 / Fig. 2.9, as
+ * corrected in SPEC §1.11): wind stages on the grid solver, then dust emission, transport,
+ * settling and deposition, with the dust budget kept every step. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sandstorm_internal.h"
+#include "squall/rng.h"
+
+/* ---- optics of the size bins -------------------------------------------------------------- */
+static sq_result build_optics(sq_sandstorm *s)
+{
+    sq_lognormal ln;
+    sq_result r = sq_lognormal_make(s->d.median_radius_m, s->d.sigma_g, &ln);
+    if (r != SQ_OK) return sq__fail(s->ctx, r, "sandstorm", "%s", "invalid size distribution");
+    r = sq_lognormal_bins(&ln, s->nbins, 0, 0, s->bins);
+    if (r != SQ_OK) return sq__fail(s->ctx, r, "sandstorm", "size bins: %s", "failed");
+    const double wl[4] = {650e-9, 550e-9, 450e-9, 550e-9};
+    for (int b = 0; b < s->nbins; b++) {
+        s->w_settle[b] = sq_dust_terminal_speed(s->bins[b].radius_m, s->d.grain_density_kg_m3,
+                                                SQ_SAND_AIR_DENSITY, SQ_SAND_AIR_VISCOSITY);
+        double dd = 2.0 * s->bins[b].radius_m;
+        double re = SQ_SAND_AIR_DENSITY * s->w_settle[b] * dd / SQ_SAND_AIR_VISCOSITY;
+        s->tau_p[b] = s->d.grain_density_kg_m3 * dd * dd / (18.0 * SQ_SAND_AIR_VISCOSITY) * 24.0 /
+                      (sq_drag_coefficient(re) * (re > 0 ? re : 1e-12));
+        for (int c = 0; c < 4; c++) {
+            sq_bulk_optics_desc od;
+            memset(&od, 0, sizeof od);
+            od.size = ln;
+            od.wavelength_m = wl[c];
+            od.n_real = s->d.n_real;
+            od.n_imag = s->d.n_real > 0.0 ? s->d.n_imag : 0.0;
+            od.density_kg_m3 = s->d.grain_density_kg_m3;
+            od.r_min_m = s->bins[b].r_lo_m;
+            od.r_max_m = s->bins[b].r_hi_m;
+            od.nodes = 200;
+            sq_bulk_optics bo;
+            r = sq_bulk_optics_compute(&od, &bo);
+            if (r != SQ_OK) return sq__fail(s->ctx, r, "sandstorm", "optics: %s", sq_last_error());
+            s->k_ext[b][c] = bo.mass_extinction_m2_per_kg;
+            s->albedo_b[b][c] = bo.single_scattering_albedo;
+            s->g_b[b][c] = bo.asymmetry;
+        }
+    }
+    /* drawable optics for the emitted composition (bin mass fractions) */
+    double kG = 0.0;
+    for (int b = 0; b < s->nbins; b++) kG += s->bins[b].mass_fraction * s->k_ext[b][1];
+    s->k_ext_total_550 = 0.0;
+    for (int b = 0; b < s->nbins; b++) s->k_ext_total_550 += s->bins[b].mass_fraction * s->k_ext[b][3];
+    for (int c = 0; c < 3; c++) {
+        double ke = 0, ks = 0, kg = 0;
+        for (int b = 0; b < s->nbins; b++) {
+            double f = s->bins[b].mass_fraction;
+            ke += f * s->k_ext[b][c];
+            ks += f * s->k_ext[b][c] * s->albedo_b[b][c];
+            kg += f * s->k_ext[b][c] * s->albedo_b[b][c] * s->g_b[b][c];
+        }
+        s->sigma_rel[c] = (float)(ke / kG);
+        s->albedo[c] = (float)(ks / ke);
+        s->g[c] = (float)(kg / ks);
+    }
+    return SQ_OK;
+}
+
+/* ---- wind and temperature initialisation (S0 eqs 2.18–2.20, 2.35; SPEC §1.6) -------------- */
+static double level_value(const float *amp, int count, double zfrac)
+{
+    if (count <= 0) return 0.0;
+    if (count == 1) return amp[0];
+    double x = zfrac * (count - 1);
+    if (x <= 0) return amp[0];
+    if (x >= count - 1) return amp[count - 1];
+    int i = (int)x;
+    double t = x - i;
+    return (double)amp[i] * (1 - t) + (double)amp[i + 1] * t;
+}
+
+/* The pressure perturbation P'(x, y, z) and its horizontal gradient. */
+static double pressure_wave(const sq_sandstorm *s, double x, double y, double zfrac, double *gx,
+                            double *gy)
+{
+    double a = level_value(s->d.pressure_amp_pa, s->d.pressure_amp_count, zfrac);
+    double ph = s->d.kx_per_m * x + s->d.ky_per_m * y - s->d.phase_rad;
+    *gx = a * s->d.kx_per_m * cos(ph);
+    *gy = a * s->d.ky_per_m * cos(ph);
+    return a * sin(ph);
+}
+
+/* Initial wind at a point (m/s): Bernoulli speed over the hydrostatic background (the rho g z
+ * term cancels against it, SPEC §1.6 ⚠1), direction -grad P (or along the isobars), and a log
+ * profile in the surface layer. */
+static sq_vec3 initial_wind(const sq_sandstorm *s, double x, double y, double z_abs, double ramp)
+{
+    double zfrac = (z_abs - s->origin[2]) / (s->nz * (double)s->h);
+    double gx, gy;
+    double p = pressure_wave(s, x, y, zfrac, &gx, &gy);
+    double speed = sqrt(fmax(0.0, 2.0 * (s->d.bernoulli_pa - p) / SQ_SAND_AIR_DENSITY));
+    double gl = sqrt(gx * gx + gy * gy);
+    double dx, dy;
+    if (gl > 1e-9) {
+        dx = -gx / gl;
+        dy = -gy / gl;
+        if (s->d.geostrophic) { /* northern hemisphere: low pressure on the left */
+            double t = dx;
+            dx = -dy;
+            dy = t;
+        }
+    } else {
+        double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
+        dx = cos(a);
+        dy = sin(a);
+    }
+    double zg = z_abs - (double)sq_world_height_at(s->world, (float)x, (float)y);
+    double prof = 0.0;
+    if (zg > s->d.roughness_m)
+        prof = fmin(1.0, log(zg / s->d.roughness_m) / log(s->d.log_layer_m / s->d.roughness_m));
+    double v = speed * prof * ramp;
+    return sq_v3((float)(v * dx), (float)(v * dy), 0.0f);
+}
+
+static double ramp_factor(const sq_sandstorm *s, double t)
+{
+    if (s->d.ramp_s <= 0.0) return 1.0;
+    double u = t / s->d.ramp_s;
+    if (u >= 1.0) return 1.0;
+    return u * u * (3.0 - 2.0 * u);
+}
+
+static void inflow_fn(void *user, double x, double y, double z, float vel[3])
+{
+    const sq_sandstorm *s = (const sq_sandstorm *)user;
+    sq_vec3 v = initial_wind(s, x, y, z, ramp_factor(s, s->time_s));
+    vel[0] = v.x;
+    vel[1] = v.y;
+    vel[2] = v.z;
+}
+
+static void fill_velocity(sq_sandstorm *s, double ramp)
+{
+    for (int axis = 0; axis < 3; axis++) {
+        sq_field3 *f = sq_grid_velocity_field(s->grid, axis);
+        for (int k = 0; k < f->n.nz; k++)
+            for (int j = 0; j < f->n.ny; j++)
+                for (int i = 0; i < f->n.nx; i++) {
+                    double x = s->origin[0] + (i + (axis == 0 ? 0.0 : 0.5)) * s->h;
+                    double y = s->origin[1] + (j + (axis == 1 ? 0.0 : 0.5)) * s->h;
+                    double z = s->origin[2] + (k + (axis == 2 ? 0.0 : 0.5)) * s->h;
+                    sq_vec3 v = initial_wind(s, x, y, z, ramp);
+                    *sq_field3_at(f, i, j, k) = axis == 0 ? v.x : axis == 1 ? v.y : v.z;
+                }
+    }
+}
+
+static void fill_temperature(sq_sandstorm *s)
+{
+    sq_field3 *T = sq_grid_scalar_field(s->grid, s->temp_idx);
+    for (int k = 0; k < s->nz; k++)
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) {
+                double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
+                double zr = (k + 0.5) * s->h, zfrac = zr / (s->nz * (double)s->h);
+                double a = level_value(s->d.temperature_amp_k, s->d.temperature_amp_count, zfrac);
+                double tp = a * sin(s->d.kx_per_m * x + s->d.ky_per_m * y - s->d.phase_rad +
+                                    s->d.temperature_lag_rad);
+                *sq_field3_at(T, i, j, k) =
+                    (float)(s->d.surface_temperature_k - s->d.lapse_k_per_m * zr + tp);
+            }
+}
+
+/* ---- create / destroy --------------------------------------------------------------------- */
+static void *xalloc(sq_sandstorm *s, size_t bytes, bool *ok)
+{
+    void *p = sq_alloc_zero(s->ctx, bytes);
+    if (!p) *ok = false;
+    return p;
+}
+
+static sq_result create_grid(sq_sandstorm *s)
+{
+    const sq_sandstorm_desc *d = &s->d;
+    s->nx = d->cells[0];
+    s->ny = d->cells[1];
+    s->nz = d->cells[2];
+    s->h = d->cell_size_m;
+    s->origin[0] = d->center_m[0] - 0.5 * s->nx * s->h;
+    s->origin[1] = d->center_m[1] - 0.5 * s->ny * s->h;
+    /* the domain's base: the lowest terrain under it, minus half a cell */
+    float zmin = 1e30f;
+    for (int j = 0; j <= s->ny; j++)
+        for (int i = 0; i <= s->nx; i++) {
+            float zt = sq_world_height_at(s->world, (float)(s->origin[0] + i * s->h),
+                                          (float)(s->origin[1] + j * s->h));
+            zmin = zt < zmin ? zt : zmin;
+        }
+    s->origin[2] = (double)zmin - 0.5 * s->h;
+    sq_grid_desc g;
+    memset(&g, 0, sizeof g);
+    g.cells = (sq_dims){s->nx, s->ny, s->nz};
+    g.cell_size_m = s->h;
+    for (int a = 0; a < 3; a++) g.origin_m[a] = s->origin[a];
+    g.boundary[SQ_FACE_XMIN] = SQ_BOUNDARY_INFLOW;
+    g.boundary[SQ_FACE_XMAX] = SQ_BOUNDARY_OUTFLOW;
+    g.boundary[SQ_FACE_YMIN] = SQ_BOUNDARY_OPEN;
+    g.boundary[SQ_FACE_YMAX] = SQ_BOUNDARY_OPEN;
+    g.boundary[SQ_FACE_ZMIN] = SQ_BOUNDARY_NO_SLIP;
+    g.boundary[SQ_FACE_ZMAX] = SQ_BOUNDARY_OPEN;
+    g.pressure = d->pressure_solver == 2   ? SQ_PRESSURE_JACOBI
+                 : d->pressure_solver == 1 ? SQ_PRESSURE_MULTIGRID
+                                           : SQ_PRESSURE_MGPCG;
+    g.jacobi_iterations = d->jacobi_iterations;
+    g.tolerance = d->pressure_tolerance;
+    g.advection = d->advection == 1 ? SQ_ADVECT_SEMI_LAGRANGIAN : SQ_ADVECT_MACCORMACK;
+    g.scalar_count = s->nbins + 1;
+    g.scalar_nonnegative = (1ull << (s->nbins + 1)) - 1ull;
+    s->temp_idx = s->nbins;
+    sq_result r = sq_grid_create(s->ctx, &g, &s->grid);
+    if (r != SQ_OK) return r;
+    /* solid cells: terrain and obstacles at cell centres */
+    size_t n = (size_t)s->nx * s->ny * s->nz, cols = (size_t)s->nx * s->ny;
+    uint8_t *mask = (uint8_t *)sq_alloc_zero(s->ctx, n);
+    bool ok = mask != NULL;
+    s->ground_k = (int *)xalloc(s, cols * sizeof(int), &ok);
+    s->ground_z1 = (float *)xalloc(s, cols * sizeof(float), &ok);
+    s->accel_z = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->density = (float *)xalloc(s, n * sizeof(float), &ok);
+    for (int v = 0; v < d->vis_height_count; v++) s->vis[v] = (float *)xalloc(s, cols * sizeof(float), &ok);
+    for (int e = 0; e < 6; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
+    if (!ok) {
+        sq_free(s->ctx, mask);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
+    for (int j = 0; j < s->ny; j++)
+        for (int i = 0; i < s->nx; i++) {
+            double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
+            int k0 = -1;
+            for (int k = 0; k < s->nz; k++) {
+                double z = s->origin[2] + (k + 0.5) * s->h;
+                bool solid = sq_world_solid_at(s->world, sq_v3((float)x, (float)y, (float)z));
+                mask[((size_t)k * s->ny + j) * s->nx + i] = solid;
+                if (!solid && k0 < 0) k0 = k;
+            }
+            s->ground_k[(size_t)j * s->nx + i] = k0;
+            float zt = sq_world_surface_at(s->world, (float)x, (float)y);
+            float z1 = k0 >= 0 ? (float)(s->origin[2] + (k0 + 0.5) * s->h) - zt : 0.0f;
+            s->ground_z1[(size_t)j * s->nx + i] = z1 > (float)(0.1 * s->h) ? z1 : (float)(0.1 * s->h);
+        }
+    r = sq_grid_set_solid_mask(s->grid, mask);
+    sq_free(s->ctx, mask);
+    if (r != SQ_OK) return r;
+    fill_velocity(s, ramp_factor(s, 0.0));
+    fill_temperature(s);
+    r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s);
+    if (r != SQ_OK) return r;
+    sq_grid_set_scalar_inflow(s->grid, s->temp_idx, s->d.surface_temperature_k);
+    sq_grid_apply_boundary(s->grid);
+    /* SPEC §1.6 ⚠3: the initial field is not divergence-free: project once */
+    sq_grid_project_stats ps;
+    r = sq_grid_project(s->grid, 1.0, &ps);
+    return r;
+}
+
+static sq_result create_near_field(sq_sandstorm *s)
+{
+    if (!s->d.near_field) return SQ_OK;
+    s->np = s->d.near_particles;
+    bool ok = true;
+    size_t n = (size_t)s->np;
+    s->p_pos = (float *)xalloc(s, n * 3 * sizeof(float), &ok);
+    s->p_radius = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->p_rot = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->p_spin = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->p_tau = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->p_fade = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->p_age = (float *)xalloc(s, n * sizeof(float), &ok);
+    if (!ok) return SQ_ERR_OUT_OF_MEMORY;
+    for (int i = 0; i < s->np; i++) s->p_age[i] = -1.0f; /* spawn on first camera */
+    return SQ_OK;
+}
+
+sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, const sq_world *world,
+                              sq_sandstorm **out)
+{
+    if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "sandstorm", "out is NULL");
+    *out = NULL;
+    if (!world) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "sandstorm", "a world is required");
+    sq_result r = sq_sandstorm_validate(ctx, desc, world);
+    if (r != SQ_OK) return r;
+    sq_sandstorm_desc d;
+    sq_sandstorm_desc_resolve(desc, &d);
+    uint64_t bytes = sq_sandstorm_memory_bytes(&d);
+    char what[96];
+    snprintf(what, sizeof what, "sandstorm grid %dx%dx%d", d.cells[0], d.cells[1], d.cells[2]);
+    r = sq_context_check_memory(ctx, bytes, what);
+    if (r != SQ_OK) return r;
+    sq_sandstorm *s = (sq_sandstorm *)sq_alloc_zero(ctx, sizeof *s);
+    if (!s) return SQ_ERR_OUT_OF_MEMORY;
+    s->ctx = ctx;
+    s->d = d;
+    s->world = world;
+    s->nbins = d.bins;
+    s->memory_bytes = bytes;
+    s->u_star_t = (double)d.u_star_t0_mps * d.roughness_factor * d.moisture_factor * d.compactness_factor;
+    r = build_optics(s);
+    if (r == SQ_OK && d.mode == SQ_SANDSTORM_DESERT) r = create_grid(s);
+    if (r == SQ_OK && d.mode == SQ_SANDSTORM_URBAN) {
+        sq_vec3 lo, hi;
+        sq_world_bounds(world, &lo, &hi);
+        s->urban_origin = sq_v3(lo.x, lo.y, lo.z - 1.0f);
+        s->urban_size = sq_v3(hi.x - lo.x, hi.y - lo.y, (hi.z - lo.z) + (float)d.urban_height_m + 1.0f);
+        s->urban_conc = d.urban_conc_kg_m3[0];
+    }
+    if (r == SQ_OK) r = create_near_field(s);
+    if (r != SQ_OK) {
+        sq_sandstorm_destroy(s);
+        return r;
+    }
+    s->derived_dirty = true;
+    s->version = 1;
+    s->stats.memory_bytes = bytes;
+    *out = s;
+    return SQ_OK;
+}
+
+void sq_sandstorm_destroy(sq_sandstorm *s)
+{
+    if (!s) return;
+    sq_context *ctx = s->ctx;
+    sq_grid_destroy(s->grid);
+    sq_free(ctx, s->ground_k);
+    sq_free(ctx, s->ground_z1);
+    sq_free(ctx, s->accel_z);
+    sq_free(ctx, s->density);
+    for (int v = 0; v < SQ_SANDSTORM_MAX_VIS; v++) sq_free(ctx, s->vis[v]);
+    for (int e = 0; e < 6; e++) sq_free(ctx, s->export_buf[e]);
+    float *pp[] = {s->p_pos, s->p_radius, s->p_rot, s->p_spin, s->p_tau, s->p_fade, s->p_age};
+    for (size_t i = 0; i < sizeof pp / sizeof pp[0]; i++) sq_free(ctx, pp[i]);
+    sq_free(ctx, s);
+}
+
+/* ---- the step ------------------------------------------------------------------------------ */
+static double dust_mass(const sq_sandstorm *s, int b)
+{
+    sq_field_view v = sq_grid_scalar_view(s->grid, b);
+    double m = 0.0;
+    for (int k = 0; k < s->nz; k++) {
+        double plane = 0.0;
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) plane += (double)sq_view_get(&v, i, j, k);
+        m += plane;
+    }
+    return m * (double)s->h * s->h * s->h;
+}
+
+/* Dust carried out through the open faces during dt by the face velocities (upwind). */
+static double boundary_outflow(const sq_sandstorm *s, int b, double dt)
+{
+    sq_field_view c = sq_grid_scalar_view(s->grid, b);
+    sq_field_view u = sq_grid_velocity_view(s->grid, 0), v = sq_grid_velocity_view(s->grid, 1),
+                  w = sq_grid_velocity_view(s->grid, 2);
+    double out = 0.0;
+    for (int k = 0; k < s->nz; k++)
+        for (int j = 0; j < s->ny; j++) {
+            out += fmax(0.0, (double)sq_view_get(&u, s->nx, j, k)) * (double)sq_view_get(&c, s->nx - 1, j, k);
+            out += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
+        }
+    for (int k = 0; k < s->nz; k++)
+        for (int i = 0; i < s->nx; i++) {
+            out += fmax(0.0, (double)sq_view_get(&v, i, s->ny, k)) * (double)sq_view_get(&c, i, s->ny - 1, k);
+            out += fmax(0.0, -(double)sq_view_get(&v, i, 0, k)) * (double)sq_view_get(&c, i, 0, k);
+        }
+    for (int j = 0; j < s->ny; j++)
+        for (int i = 0; i < s->nx; i++)
+            out += fmax(0.0, (double)sq_view_get(&w, i, j, s->nz)) * (double)sq_view_get(&c, i, j, s->nz - 1);
+    return out * dt * (double)s->h * s->h;
+}
+
+/* Dust emission in the ground layer (SPEC §1.9) with the momentum the new grains take from the
+ * air (two-way exchange); returns the emitted mass (kg). */
+static double emit_dust(sq_sandstorm *s, double dt)
+{
+    if (s->d.emission_coeff <= 0.0) {
+        s->stats.max_u_star_mps = 0.0;
+        return 0.0;
+    }
+    double total = 0.0, max_us = 0.0;
+    int emitting = 0, cols = 0;
+    sq_field3 *fu = sq_grid_velocity_field(s->grid, 0), *fv = sq_grid_velocity_field(s->grid, 1);
+    for (int j = 0; j < s->ny; j++)
+        for (int i = 0; i < s->nx; i++) {
+            size_t col = (size_t)j * s->nx + i;
+            int k0 = s->ground_k[col];
+            if (k0 < 0) continue;
+            cols++;
+            sq_vec3 uc = sq_grid_cell_velocity(s->grid, i, j, k0);
+            double uh = sqrt((double)uc.x * (double)uc.x + (double)uc.y * (double)uc.y);
+            double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
+            if (us > max_us) max_us = us;
+            double F = sq_dust_emission_flux(us, s->u_star_t, s->d.emission_coeff);
+            if (F <= 0.0) continue;
+            emitting++;
+            double dc = F * dt / s->h; /* kg/m³ added to the ground cell */
+            for (int b = 0; b < s->nbins; b++)
+                *sq_field3_at(sq_grid_scalar_field(s->grid, b), i, j, k0) +=
+                    (float)(dc * s->bins[b].mass_fraction);
+            total += dc;
+            /* grains start at rest: the air gives them momentum dc*u (exact mixing) */
+            float keep = (float)(1.0 - 0.5 * dc / (SQ_SAND_AIR_DENSITY + dc));
+            *sq_field3_at(fu, i, j, k0) *= keep;
+            *sq_field3_at(fu, i + 1, j, k0) *= keep;
+            *sq_field3_at(fv, i, j, k0) *= keep;
+            *sq_field3_at(fv, i, j + 1, k0) *= keep;
+        }
+    s->stats.max_u_star_mps = max_us;
+    s->stats.emitting_fraction = cols ? (double)emitting / cols : 0.0;
+    return total * (double)s->h * s->h * s->h;
+}
+
+/* The weight of the settling dust acts on the air through drag (SPEC §1.8: F_air = -F_cell):
+ * a_z = -g sum_b c_b / rho_air. */
+static sq_result add_dust_loading(sq_sandstorm *s, double dt)
+{
+    size_t n = (size_t)s->nx * s->ny * s->nz;
+    memset(s->accel_z, 0, n * sizeof(float));
+    const float gr = (float)(SQ_SAND_GRAVITY / SQ_SAND_AIR_DENSITY);
+    for (int b = 0; b < s->nbins; b++) {
+        sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        for (int k = 0; k < s->nz; k++)
+            for (int j = 0; j < s->ny; j++)
+                for (int i = 0; i < s->nx; i++)
+                    s->accel_z[((size_t)k * s->ny + j) * s->nx + i] -= gr * sq_view_get(&c, i, j, k);
+    }
+    sq_field_view az = {s->accel_z, {s->nx, s->ny, s->nz}, 1, s->nx, (ptrdiff_t)s->nx * s->ny};
+    return sq_grid_add_acceleration_field(s->grid, NULL, NULL, &az, dt);
+}
+
+/* The upwind dust entering with the inflow: the westmost cell layer holds the inflow profile. */
+static double inflow_dust(sq_sandstorm *s)
+{
+    if (s->d.inflow_dust_kg_m3 <= 0.0) return 0.0;
+    double ramp = ramp_factor(s, s->time_s), added = 0.0;
+    for (int b = 0; b < s->nbins; b++) {
+        sq_field3 *c = sq_grid_scalar_field(s->grid, b);
+        for (int j = 0; j < s->ny; j++) {
+            int k0 = s->ground_k[j * s->nx];
+            if (k0 < 0) continue;
+            for (int k = k0; k < s->nz; k++) {
+                double zg = (k - k0) * (double)s->h + (double)s->ground_z1[j * s->nx];
+                float want = (float)(ramp * s->d.inflow_dust_kg_m3 *
+                                     exp(-zg / s->d.inflow_dust_height_m) * s->bins[b].mass_fraction);
+                float *v = sq_field3_at(c, 0, j, k);
+                if (want > *v) {
+                    added += (double)(want - *v);
+                    *v = want;
+                }
+            }
+        }
+    }
+    return added * (double)s->h * s->h * s->h;
+}
+
+static double settle_dust(sq_sandstorm *s, double dt)
+{
+    const uint8_t *solid = sq_grid_solid(s->grid);
+    const ptrdiff_t plane = (ptrdiff_t)s->nx * s->ny;
+    double dep = 0.0;
+    for (int b = 0; b < s->nbins; b++) {
+        double frac_total = s->w_settle[b] * dt / s->h;
+        int sub = (int)ceil(frac_total);
+        if (sub < 1) sub = 1;
+        double frac = frac_total / sub;
+        sq_field3 *c = sq_grid_scalar_field(s->grid, b);
+        for (int it = 0; it < sub; it++)
+            for (int j = 0; j < s->ny; j++)
+                for (int i = 0; i < s->nx; i++)
+                    dep += sq__sand_column_settle(sq_field3_at(c, i, j, 0), c->sz,
+                                                  solid + (size_t)j * s->nx + i, plane, s->nz, frac);
+    }
+    return dep * (double)s->h * s->h * s->h;
+}
+
+/* Rescales the bins so the suspended mass equals the budget's prediction (global conservation
+ * fix for the non-conservative semi-Lagrangian/MacCormack transport). Returns the correction. */
+static double fix_mass(sq_sandstorm *s, int b, double expected, double actual)
+{
+    if (s->d.no_mass_fix || actual <= 0.0 || expected < 0.0) return 0.0;
+    float scale = (float)(expected / actual);
+    sq_field3 *c = sq_grid_scalar_field(s->grid, b);
+    for (int k = 0; k < s->nz; k++)
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) *sq_field3_at(c, i, j, k) *= scale;
+    return expected - actual;
+}
+
+static sq_result step_desert(sq_sandstorm *s, double dt)
+{
+    sq_result r = SQ_OK;
+    double t0 = sq_time_now();
+    /* wind (W1–W5; SPEC §1.11) */
+    if (s->d.ramp_s > 0.0 && s->time_s < s->d.ramp_s + dt)
+        r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s); /* the trough arrives */
+    if (r == SQ_OK) r = sq_grid_advect_velocity(s->grid, dt);             /* MacCormack + limiter */
+    double t1 = sq_time_now();
+    if (r == SQ_OK) r = add_dust_loading(s, dt);                           /* dust weight on air */
+    if (r == SQ_OK && s->d.buoyancy_gain > 0.0)                            /* thermal updraft */
+        r = sq_grid_add_buoyancy(s->grid, s->temp_idx, NULL, s->d.buoyancy_gain, SQ_SAND_GRAVITY, dt);
+    if (r == SQ_OK && s->d.confinement > 0.0)                              /* helicity confinement */
+        r = sq_grid_confine_vorticity(s->grid, s->d.confinement, !s->d.plain_confinement, dt);
+    double t2 = sq_time_now();
+    if (r == SQ_OK) r = sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt); /* mixing length */
+    double t3 = sq_time_now();
+    sq_grid_project_stats ps;
+    memset(&ps, 0, sizeof ps);
+    if (r == SQ_OK) r = sq_grid_project(s->grid, dt, &ps);                 /* divergence-free */
+    double t4 = sq_time_now();
+    if (r != SQ_OK) return r;
+    /* dust (D1–D5) */
+    double before[SQ_SANDSTORM_MAX_BINS], out[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < s->nbins; b++) before[b] = dust_mass(s, b);
+    double emitted = emit_dust(s, dt);                                     /* u* > u*_t: F ~ u*^3 */
+    double t5 = sq_time_now();
+    double inflow = inflow_dust(s);                                        /* storm from upwind */
+    for (int b = 0; b < s->nbins; b++) out[b] = boundary_outflow(s, b, dt);
+    r = sq_grid_advect_scalars(s->grid, dt);                               /* dust bins and T */
+    if (r != SQ_OK) return r;
+    double corr = 0.0, outflow = 0.0;
+    for (int b = 0; b < s->nbins; b++) {
+        double expected = before[b] + emitted * s->bins[b].mass_fraction +
+                          inflow * s->bins[b].mass_fraction - out[b];
+        corr += fix_mass(s, b, expected, dust_mass(s, b));
+        outflow += out[b];
+    }
+    double deposited = settle_dust(s, dt);                                 /* terminal speed per bin */
+    double t6 = sq_time_now();
+    s->budget.emitted_kg += emitted;
+    s->budget.inflow_kg += inflow;
+    s->budget.outflow_kg += outflow;
+    s->budget.deposited_kg += deposited;
+    s->budget.advection_correction_kg += corr;
+    s->stats.ms_advect += (t1 - t0 + (t6 - t5) * 0.5) * 1e3;
+    s->stats.ms_forces += (t2 - t1) * 1e3;
+    s->stats.ms_diffuse += (t3 - t2) * 1e3;
+    s->stats.ms_project += (t4 - t3) * 1e3;
+    s->stats.ms_emission += (t5 - t4) * 1e3;
+    s->stats.ms_dust += (t6 - t5) * 0.5e3;
+    s->stats.pressure_residual = ps.residual;
+    s->stats.pressure_iterations = ps.iterations;
+    return sq_grid_check_finite(s->grid, s->step);
+}
+
+/* Near-field particles (S3, SPEC §4): spawn in the upwind sector of a disc around the camera,
+ * drift with the local wind, fade in with age and out near the region's edge. */
+static sq_vec3 local_wind(const sq_sandstorm *s, sq_vec3 p)
+{
+    if (s->grid) return sq_grid_sample_velocity(s->grid, p);
+    double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
+    double v = sqrt(2.0 * s->d.bernoulli_pa / SQ_SAND_AIR_DENSITY) * 0.3;
+    return sq_v3((float)(v * cos(a)), (float)(v * sin(a)), 0.0f);
+}
+
+static void spawn_particle(sq_sandstorm *s, int i, bool anywhere)
+{
+    float u[4], u2[4];
+    uint64_t id = s->spawn_counter++;
+    sq_rng_uniform4(s->d.seed, 0x5A11D, id, u);
+    sq_rng_uniform4(s->d.seed, 0x5A11E, id, u2);
+    const float R = (float)s->d.near_radius_m;
+    sq_vec3 w = local_wind(s, s->cam_pos);
+    float up = atan2f(-w.y, -w.x); /* upwind azimuth */
+    float half = anywhere ? SQ_PI_F : (float)(SQ_PI / 3.0);
+    float az = up + (2.0f * u[0] - 1.0f) * half;
+    float rr = R * sqrtf(anywhere ? u[1] : 0.6f + 0.4f * u[1]);
+    float x = s->cam_pos.x + rr * cosf(az), y = s->cam_pos.y + rr * sinf(az);
+    float zg = sq_world_height_at(s->world, x, y);
+    float z = zg + 1.0f + u[2] * 0.5f * R;
+    s->p_pos[3 * i] = x;
+    s->p_pos[3 * i + 1] = y;
+    s->p_pos[3 * i + 2] = z;
+    s->p_radius[i] = (float)s->d.near_particle_radius_m * (0.6f + 0.8f * u[3]);
+    s->p_rot[i] = 2.0f * SQ_PI_F * u2[0];
+    s->p_spin[i] = (u2[1] - 0.5f) * 1.2f;
+    s->p_age[i] = 0.0f;
+}
+
+static void step_near_field(sq_sandstorm *s, double dt)
+{
+    if (!s->np || !s->have_camera) return;
+    const float R = (float)s->d.near_radius_m;
+    for (int i = 0; i < s->np; i++) {
+        if (s->p_age[i] < 0.0f) {
+            spawn_particle(s, i, true);
+            s->p_age[i] = 10.0f; /* initial fill: already faded in */
+        }
+        sq_vec3 p = sq_v3(s->p_pos[3 * i], s->p_pos[3 * i + 1], s->p_pos[3 * i + 2]);
+        sq_vec3 w = local_wind(s, p);
+        p = sq_v3_add(p, sq_v3_scale(w, (float)dt)); /* motion = wind x dt */
+        s->p_pos[3 * i] = p.x;
+        s->p_pos[3 * i + 1] = p.y;
+        s->p_pos[3 * i + 2] = p.z;
+        s->p_rot[i] += s->p_spin[i] * (float)dt;
+        s->p_age[i] += (float)dt;
+        sq_vec3 d = sq_v3_sub(p, s->cam_pos);
+        if (sqrtf(d.x * d.x + d.y * d.y) > R) spawn_particle(s, i, false);
+    }
+}
+
+sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
+{
+    if (!(dt > 0.0) || !isfinite(dt))
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "sandstorm", "step dt = %g s; must be > 0", dt);
+    sq_result r = SQ_OK;
+    if (s->d.mode == SQ_SANDSTORM_DESERT) {
+        double lim = sq_sandstorm_max_stable_dt(s);
+        int n = lim > 0.0 && dt > lim ? (int)ceil(dt / lim) : 1;
+        if (n > 1 && s->step == 0)
+            sq_log(s->ctx, SQ_LOG_INFO, "sandstorm",
+                   "step %g s exceeds the CFL limit %g s: sub-stepping %d times", dt, lim, n);
+        for (int k = 0; k < n && r == SQ_OK; k++) {
+            r = step_desert(s, dt / n);
+            s->time_s += dt / n;
+            s->step++;
+            s->stats.steps++;
+        }
+    } else {
+        s->time_s += dt;
+        s->step++;
+        int stage = (int)(s->time_s / s->d.urban_stage_s);
+        if (stage >= s->d.urban_conc_count) stage = s->d.urban_conc_count - 1;
+        float c = s->d.urban_conc_kg_m3[stage];
+        if (c != s->urban_conc) {
+            s->urban_conc = c;
+            s->version++;
+        }
+    }
+    step_near_field(s, dt);
+    s->derived_dirty = true;
+    return r;
+}
+
+double sq_sandstorm_max_stable_dt(const sq_sandstorm *s)
+{
+    if (!s->grid) return 0.0;
+    /* semi-Lagrangian transport is unconditionally stable; the CFL bound keeps the MacCormack
+     * correction and the emission/settling splitting accurate */
+    double v = sq_grid_max_speed(s->grid);
+    return v > 1e-6 ? s->d.cfl * s->h / v : 0.0;
+}
+
+void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
+{
+    *out = s->budget;
+    out->suspended_kg = 0.0;
+    if (s->grid)
+        for (int b = 0; b < s->nbins; b++) out->suspended_kg += dust_mass(s, b);
+}
+
+void sq_sandstorm_get_stats(const sq_sandstorm *s, sq_sandstorm_stats *out)
+{
+    *out = s->stats;
+    out->max_wind_mps = s->grid ? sq_grid_max_speed(s->grid) : 0.0;
+}
+
+/* ---- derived fields: extinction volume, visibility planes --------------------------------- */
+static void update_derived(sq_sandstorm *s)
+{
+    if (!s->derived_dirty) return;
+    s->derived_dirty = false;
+    s->version++;
+    if (!s->grid) return;
+    size_t n = (size_t)s->nx * s->ny * s->nz;
+    memset(s->density, 0, n * sizeof(float));
+    for (int b = 0; b < s->nbins; b++) {
+        sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        const float k = (float)s->k_ext[b][3];
+        for (int kk = 0; kk < s->nz; kk++)
+            for (int j = 0; j < s->ny; j++)
+                for (int i = 0; i < s->nx; i++)
+                    s->density[((size_t)kk * s->ny + j) * s->nx + i] += k * sq_view_get(&c, i, j, kk);
+    }
+    float mx = 0.0f;
+    for (size_t i = 0; i < n; i++) mx = s->density[i] > mx ? s->density[i] : mx;
+    s->density_max = mx;
+    for (int v = 0; v < s->d.vis_height_count; v++)
+        sq__sand_visibility_plane(s->density, s->nx, s->ny, s->nz, s->ground_k, s->ground_z1, (float)s->h,
+                                  s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
+}
+
+static int cmp_f(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Publishes the volume drawable and the near-field particles. */
+int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max)
+{
+    update_derived(s);
+    int n = 0;
+    if (max < 1) return 0;
+    sq_drawable *d = &out[n++];
+    memset(d, 0, sizeof *d);
+    d->kind = SQ_DRAWABLE_VOLUME;
+    d->name = "dust";
+    sq_volume_view *v = &d->u.volume;
+    if (s->grid) {
+        v->density = s->density;
+        v->nx = s->nx;
+        v->ny = s->ny;
+        v->nz = s->nz;
+        v->origin_m = sq_v3((float)s->origin[0], (float)s->origin[1], (float)s->origin[2]);
+        v->size_m = sq_v3((float)(s->nx * s->h), (float)(s->ny * s->h), (float)(s->nz * s->h));
+        v->density_max = s->density_max;
+    } else {
+        float beta = (float)((double)s->urban_conc * s->k_ext_total_550);
+        for (int i = 0; i < 8; i++) s->urban_density[i] = beta;
+        v->density = s->urban_density;
+        v->nx = v->ny = v->nz = 2;
+        v->origin_m = s->urban_origin;
+        v->size_m = s->urban_size;
+        v->density_max = beta;
+    }
+    for (int c = 0; c < 3; c++) {
+        v->sigma_ext[c] = s->sigma_rel[c]; /* density is beta_ext at 550 nm */
+        v->albedo[c] = s->albedo[c];
+        v->g[c] = s->g[c];
+    }
+    v->version = s->version;
+    if (s->np && s->have_camera && n < max) {
+        /* optical depth per particle so that N particles in the region carry near_fraction of
+         * the local extinction: n_p pi r^2 tau = f beta (SPEC §4; same optics as the volume) */
+        const float R = (float)s->d.near_radius_m;
+        const float vol = SQ_PI_F * R * R * 0.5f * R;
+        const float np_density = (float)s->np / vol;
+        for (int i = 0; i < s->np; i++) {
+            sq_vec3 p = sq_v3(s->p_pos[3 * i], s->p_pos[3 * i + 1], s->p_pos[3 * i + 2]);
+            float beta = s->grid ? 0.0f : (float)((double)s->urban_conc * s->k_ext_total_550);
+            if (s->grid) {
+                int ci = (int)(((double)p.x - s->origin[0]) / s->h),
+                    cj = (int)(((double)p.y - s->origin[1]) / s->h),
+                    ck = (int)(((double)p.z - s->origin[2]) / s->h);
+                if (ci >= 0 && ci < s->nx && cj >= 0 && cj < s->ny && ck >= 0 && ck < s->nz)
+                    beta = s->density[((size_t)ck * s->ny + cj) * s->nx + ci];
+            }
+            float r = s->p_radius[i];
+            float tau = (float)s->d.near_fraction * beta / (np_density * SQ_PI_F * r * r);
+            s->p_tau[i] = tau < 4.0f ? tau : 4.0f;
+            sq_vec3 dd = sq_v3_sub(p, s->cam_pos);
+            float dist = sqrtf(dd.x * dd.x + dd.y * dd.y);
+            float a = s->p_age[i] / 1.5f, e = (R - dist) / (0.25f * R);
+            a = a < 0 ? 0 : a > 1 ? 1 : a;
+            e = e < 0 ? 0 : e > 1 ? 1 : e;
+            s->p_fade[i] = a * a * (3 - 2 * a) * e * e * (3 - 2 * e);
+        }
+        sq_drawable *pd = &out[n++];
+        memset(pd, 0, sizeof *pd);
+        pd->kind = SQ_DRAWABLE_PARTICLES;
+        pd->name = "dust-near";
+        sq_particles_view *pv = &pd->u.particles;
+        pv->count = s->np;
+        pv->position = s->p_pos;
+        pv->radius_m = s->p_radius;
+        pv->rotation_rad = s->p_rot;
+        pv->tau = s->p_tau;
+        pv->fade = s->p_fade;
+        for (int c = 0; c < 3; c++) {
+            pv->sigma_rel[c] = s->sigma_rel[c];
+            pv->albedo[c] = s->albedo[c];
+        }
+        pv->g = s->g[1];
+        pv->sprite = SQ_SPRITE_PUFF;
+        pv->softness_m = (float)(2.0 * s->d.near_particle_radius_m);
+        pv->version = s->version;
+    }
+    return n;
+}
+
+void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam)
+{
+    bool first = !s->have_camera;
+    s->cam_pos = cam->position_m;
+    s->have_camera = true;
+    if (first) step_near_field(s, 1e-3);
+}
+
+int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
+{
+    update_derived(s);
+    int n = 0;
+#define PUT(nm, val, un)                                                                       \
+    do {                                                                                       \
+        if (n < max) out[n++] = (sq_metric){nm, (double)(val), un};                           \
+    } while (0)
+    static const char *const vmin[] = {"visibility_min_h0_m", "visibility_min_h1_m",
+                                       "visibility_min_h2_m", "visibility_min_h3_m"};
+    static const char *const vmed[] = {"visibility_median_h0_m", "visibility_median_h1_m",
+                                       "visibility_median_h2_m", "visibility_median_h3_m"};
+    if (s->grid) {
+        size_t cols = (size_t)s->nx * s->ny;
+        float *tmp = (float *)malloc(cols * sizeof(float));
+        for (int v = 0; v < s->d.vis_height_count && tmp; v++) {
+            size_t m = 0;
+            for (size_t c = 0; c < cols; c++)
+                if (isfinite(s->vis[v][c])) tmp[m++] = s->vis[v][c];
+            qsort(tmp, m, sizeof(float), cmp_f);
+            PUT(vmin[v], m ? tmp[0] : NAN, "m");
+            PUT(vmed[v], m ? tmp[m / 2] : NAN, "m");
+        }
+        free(tmp);
+        sq_sandstorm_budget b;
+        sq_sandstorm_get_budget(s, &b);
+        PUT("dust_suspended_kg", b.suspended_kg, "kg");
+        PUT("dust_emitted_kg", b.emitted_kg, "kg");
+        PUT("dust_deposited_kg", b.deposited_kg, "kg");
+        PUT("dust_outflow_kg", b.outflow_kg, "kg");
+        PUT("dust_inflow_kg", b.inflow_kg, "kg");
+        PUT("max_wind_mps", sq_grid_max_speed(s->grid), "m/s");
+        PUT("max_friction_velocity_mps", s->stats.max_u_star_mps, "m/s");
+        PUT("emitting_fraction", s->stats.emitting_fraction, "1");
+        PUT("pressure_residual", s->stats.pressure_residual, "1");
+    } else {
+        double beta = (double)s->urban_conc * s->k_ext_total_550 + SQ_SAND_BETA_AIR_550;
+        double vis = log(1.0 / s->d.contrast) / beta;
+        PUT(vmin[0], vis, "m");
+        PUT("dust_concentration_kg_m3", s->urban_conc, "kg/m3");
+        PUT("extinction_550_per_m", beta, "1/m");
+    }
+    PUT("mass_extinction_550_m2_per_g", s->k_ext_total_550 * 1e-3, "m2/g");
+#undef PUT
+    return n;
+}
+
+int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
+{
+    if (!s->grid || max < 6) return 0;
+    update_derived(s);
+    size_t n = (size_t)s->nx * s->ny * s->nz;
+    float *conc = s->export_buf[0], *u = s->export_buf[1], *v = s->export_buf[2],
+          *w = s->export_buf[3], *T = s->export_buf[4];
+    memset(conc, 0, n * sizeof(float));
+    for (int b = 0; b < s->nbins; b++) {
+        sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        for (int k = 0; k < s->nz; k++)
+            for (int j = 0; j < s->ny; j++)
+                for (int i = 0; i < s->nx; i++) conc[((size_t)k * s->ny + j) * s->nx + i] += sq_view_get(&c, i, j, k);
+    }
+    sq_field_view tv = sq_grid_scalar_view(s->grid, s->temp_idx);
+    for (int k = 0; k < s->nz; k++)
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) {
+                size_t id = ((size_t)k * s->ny + j) * s->nx + i;
+                sq_vec3 c = sq_grid_cell_velocity(s->grid, i, j, k);
+                u[id] = c.x;
+                v[id] = c.y;
+                w[id] = c.z;
+                T[id] = sq_view_get(&tv, i, j, k);
+            }
+    sq_vec3 o = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),
+                      (float)(s->origin[2] + 0.5 * s->h));
+    sq_vec3 sp = sq_v3((float)s->h, (float)s->h, (float)s->h);
+    const struct {
+        const char *name, *units, *longn, *stdn;
+        const float *data;
+    } f[] = {{"dust_mass_concentration", "kg m-3", "mass concentration of suspended dust",
+              "mass_concentration_of_dust_dry_aerosol_particles_in_air", conc},
+             {"u", "m s-1", "eastward wind", "eastward_wind", u},
+             {"v", "m s-1", "northward wind", "northward_wind", v},
+             {"w", "m s-1", "upward air velocity", "upward_air_velocity", w},
+             {"air_temperature", "K", "air temperature", "air_temperature", T},
+             {"extinction_550", "m-1", "dust extinction coefficient at 550 nm",
+              "volume_extinction_coefficient_in_air_due_to_ambient_aerosol_particles", s->density}};
+    int cnt = 0;
+    for (int i = 0; i < 6 && cnt < max; i++)
+        out[cnt++] = (sq_named_field){f[i].name, f[i].units, f[i].longn, f[i].stdn, f[i].data,
+                                      s->nx, s->ny, s->nz, o, sp};
+    return cnt;
+}
+
+/* Visibility plane v (nx*ny, metres) for tests and tools; NULL if none. */
+const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int *ny)
+{
+    update_derived(s);
+    if (!s->grid || v < 0 || v >= s->d.vis_height_count) return NULL;
+    *nx = s->nx;
+    *ny = s->ny;
+    return s->vis[v];
+}

@@ -1,0 +1,135 @@
+/* sandstorm_desc.c — defaults and validation of the sandstorm desc. Messages name the scene
+ * key (layers.sandstorm.<key>), the value and the rule. */
+#include <math.h>
+#include <string.h>
+
+#include "sandstorm_internal.h"
+
+#define DEF(f, v)                                                                              \
+    do {                                                                                       \
+        if ((f) == 0) (f) = (v);                                                               \
+    } while (0)
+
+sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_desc *out)
+{
+    sq_sandstorm_desc d;
+    memset(&d, 0, sizeof d);
+    if (in) d = *in;
+    DEF(d.cells[0], 64);
+    DEF(d.cells[1], 64);
+    DEF(d.cells[2], 32);
+    DEF(d.cell_size_m, 40.0);
+    if (d.pressure_amp_count == 0) {
+        d.pressure_amp_pa[0] = 400.0f;
+        d.pressure_amp_pa[1] = 300.0f;
+        d.pressure_amp_pa[2] = 150.0f;
+        d.pressure_amp_count = 3;
+    }
+    DEF(d.bernoulli_pa, 200.0);
+    DEF(d.roughness_m, 5e-4);
+    DEF(d.log_layer_m, 100.0);
+    DEF(d.surface_temperature_k, 305.0);
+    DEF(d.jacobi_iterations, 40);
+    DEF(d.pressure_tolerance, 1e-3);
+    DEF(d.cfl, 2.0);
+    DEF(d.median_radius_m, 5e-6);
+    DEF(d.sigma_g, 2.0);
+    DEF(d.grain_density_kg_m3, 2650.0);
+    DEF(d.bins, 4);
+    DEF(d.inflow_dust_height_m, 300.0);
+    DEF(d.u_star_t0_mps, 0.25);
+    DEF(d.roughness_factor, 1.0);
+    DEF(d.moisture_factor, 1.0);
+    DEF(d.compactness_factor, 1.0);
+    if (d.vis_height_count == 0) {
+        d.vis_heights_m[0] = 2.0f;
+        d.vis_heights_m[1] = 10.0f;
+        d.vis_height_count = 2;
+    }
+    DEF(d.contrast, 0.05);
+    if (d.urban_conc_count == 0) {
+        d.urban_conc_kg_m3[0] = 5e-3f;
+        d.urban_conc_count = 1;
+    }
+    DEF(d.urban_stage_s, 4.0);
+    DEF(d.urban_height_m, 400.0);
+    DEF(d.near_particles, 4000);
+    DEF(d.near_radius_m, 80.0);
+    DEF(d.near_particle_radius_m, 4.0);
+    DEF(d.near_fraction, 0.3);
+    if (out) *out = d;
+    return SQ_OK;
+}
+
+#define BAD(...) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "sandstorm", __VA_ARGS__)
+
+sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, const sq_world *w)
+{
+    sq_sandstorm_desc d;
+    sq_sandstorm_desc_resolve(in, &d);
+    const char *P = "layers.sandstorm.";
+    if (d.mode != SQ_SANDSTORM_DESERT && d.mode != SQ_SANDSTORM_URBAN)
+        BAD("%smode = %d; must be desert (0) or urban (1)", P, d.mode);
+    for (int a = 0; a < 3; a++)
+        if (d.cells[a] < 4 || d.cells[a] > 1024)
+            BAD("%sdomain.cells = %dx%dx%d; every axis needs 4..1024 cells", P, d.cells[0],
+                d.cells[1], d.cells[2]);
+    if (!(d.cell_size_m > 0.0) || !isfinite(d.cell_size_m))
+        BAD("%sdomain.cell_size_m = %g; must be > 0 m", P, (double)d.cell_size_m);
+    /* wave numbers that alias: a wavelength must span at least 4 cells (|k| h <= pi/2) */
+    double kh = sqrt((double)d.kx_per_m * d.kx_per_m + (double)d.ky_per_m * d.ky_per_m) * d.cell_size_m;
+    if (kh > SQ_PI / 2.0)
+        BAD("%swave.kx_per_m, ky_per_m = (%g, %g) 1/m: wavelength %.1f m is shorter than 4 cells of "
+            "%g m and would alias on the grid; use |k| <= %.3g 1/m or a smaller cell size",
+            P, (double)d.kx_per_m, (double)d.ky_per_m, 2.0 * SQ_PI / (kh / d.cell_size_m),
+            (double)d.cell_size_m, SQ_PI / 2.0 / d.cell_size_m);
+    if (!(d.median_radius_m > 0.0) || !isfinite(d.median_radius_m))
+        BAD("%sdust.median_radius_m = %g; must be a finite radius > 0 m", P, (double)d.median_radius_m);
+    if (!(d.sigma_g > 1.0) || !isfinite(d.sigma_g))
+        BAD("%sdust.sigma_g = %g; the geometric standard deviation must be > 1", P, (double)d.sigma_g);
+    if (!(d.grain_density_kg_m3 > 0.0))
+        BAD("%sdust.density_kg_m3 = %g; must be > 0 kg/m3", P, (double)d.grain_density_kg_m3);
+    if (d.n_imag < 0.0)
+        BAD("%sdust.n_imag = %g; the imaginary part of the refractive index must be >= 0 "
+            "(m = n + ik, k >= 0 absorbs)", P, (double)d.n_imag);
+    if (d.bins < 1 || d.bins > SQ_SANDSTORM_MAX_BINS)
+        BAD("%sdust.bins = %d; must be 1..%d", P, d.bins, SQ_SANDSTORM_MAX_BINS);
+    if (d.inflow_dust_kg_m3 < 0.0)
+        BAD("%sdust.inflow_kg_m3 = %g; a concentration must be >= 0", P, (double)d.inflow_dust_kg_m3);
+    for (int i = 0; i < d.urban_conc_count; i++)
+        if (d.urban_conc_kg_m3[i] < 0.0f || !isfinite(d.urban_conc_kg_m3[i]))
+            BAD("%surban.concentration_kg_m3[%d] = %g; a concentration must be >= 0", P, i,
+                (double)d.urban_conc_kg_m3[i]);
+    if (d.roughness_factor < 1.0 || d.moisture_factor < 1.0 || d.compactness_factor < 1.0)
+        BAD("%ssurface factors (roughness %g, moisture %g, compactness %g) must be >= 1: they raise "
+            "the threshold of a dry, loose, smooth surface", P, (double)d.roughness_factor,
+            (double)d.moisture_factor, (double)d.compactness_factor);
+    if (!(d.contrast > 0.0 && d.contrast < 1.0))
+        BAD("%svisibility.contrast = %g; must be in (0, 1)", P, (double)d.contrast);
+    if (d.mode == SQ_SANDSTORM_DESERT && w) {
+        double ex = d.cells[0] * (double)d.cell_size_m, ey = d.cells[1] * (double)d.cell_size_m;
+        sq_vec3 lo, hi;
+        sq_world_bounds(w, &lo, &hi);
+        if (d.center_m[0] - ex / 2 < (double)lo.x - 1e-3 || d.center_m[0] + ex / 2 > (double)hi.x + 1e-3 ||
+            d.center_m[1] - ey / 2 < (double)lo.y - 1e-3 || d.center_m[1] + ey / 2 > (double)hi.y + 1e-3)
+            BAD("%sdomain: %.0f x %.0f m centred at (%g, %g) reaches outside the terrain "
+                "[%g, %g] x [%g, %g] m", P, ex, ey, (double)d.center_m[0], (double)d.center_m[1],
+                (double)lo.x, (double)hi.x, (double)lo.y, (double)hi.y);
+    }
+    return SQ_OK;
+}
+
+uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *in)
+{
+    sq_sandstorm_desc d;
+    sq_sandstorm_desc_resolve(in, &d);
+    if (d.mode == SQ_SANDSTORM_URBAN) return 4096 + (uint64_t)d.near_particles * 40u;
+    sq_grid_desc g = {0};
+    g.cells = (sq_dims){d.cells[0], d.cells[1], d.cells[2]};
+    g.cell_size_m = d.cell_size_m;
+    g.scalar_count = d.bins + 1;
+    uint64_t n = (uint64_t)d.cells[0] * d.cells[1] * d.cells[2];
+    uint64_t cols = (uint64_t)d.cells[0] * d.cells[1];
+    return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 8u +
+           cols * 4u * (uint64_t)d.vis_height_count + (uint64_t)d.near_particles * 40u;
+}

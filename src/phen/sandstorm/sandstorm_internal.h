@@ -1,0 +1,82 @@
+/* sandstorm_internal.h — state of the sandstorm phenomenon and its kernels. */
+#ifndef SQ_SANDSTORM_INTERNAL_H
+#define SQ_SANDSTORM_INTERNAL_H
+
+#include "core/core_internal.h"
+#include "squall/grid.h"
+#include "squall/optics.h"
+#include "squall/sandstorm.h"
+
+#define SQ_SAND_AIR_DENSITY 1.2       /* kg/m³ (SPEC §1.2: "use 1.2") */
+#define SQ_SAND_AIR_VISCOSITY 1.81e-5 /* Pa s, dynamic viscosity of air at 15-20 °C */
+#define SQ_SAND_GRAVITY 9.81          /* m/s² */
+#define SQ_SAND_KARMAN 0.4            /* von Kármán constant (S0) */
+#define SQ_SAND_NU_AIR 1.5e-5         /* m²/s kinematic viscosity of air (SPEC §1.5) */
+/* Rayleigh extinction of clean air at 550 nm, sea level (Bucholtz 1995: 1.16e-5 1/m): the
+ * visibility of dust-free air is then ln(20)/beta ~ 258 km instead of infinite. */
+#define SQ_SAND_BETA_AIR_550 1.16e-5
+
+struct sq_sandstorm {
+    sq_context *ctx;
+    sq_sandstorm_desc d;
+    const sq_world *world;
+    uint64_t memory_bytes;
+    /* grid (desert) */
+    sq_grid *grid;
+    int nx, ny, nz;
+    double h;
+    double origin[3];
+    int temp_idx;
+    int *ground_k;    /* nx*ny: first fluid cell above the ground in each column (-1: none) */
+    float *ground_z1; /* nx*ny: height of that cell's centre above the terrain (m) */
+    float *accel_z;   /* nx*ny*nz scratch: dust-loading acceleration */
+    /* dust */
+    int nbins;
+    sq_size_bin bins[SQ_SANDSTORM_MAX_BINS];
+    double w_settle[SQ_SANDSTORM_MAX_BINS];  /* terminal speed, m/s (down) */
+    double tau_p[SQ_SANDSTORM_MAX_BINS];     /* response time, s */
+    double k_ext[SQ_SANDSTORM_MAX_BINS][4];  /* mass extinction m²/kg, R G B 550 */
+    double albedo_b[SQ_SANDSTORM_MAX_BINS][4];
+    double g_b[SQ_SANDSTORM_MAX_BINS][4];
+    float sigma_rel[3], albedo[3], g[3];     /* drawable optics (per unit beta_550) */
+    double k_ext_total_550;                  /* of the whole distribution (m²/kg) */
+    double u_star_t;                         /* threshold friction velocity */
+    /* drawable and metric buffers */
+    float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
+    float density_max;
+    float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */
+    float *export_buf[6];                    /* fields for export (conc, u, v, w, T, beta) */
+    bool derived_dirty;
+    uint64_t version;
+    /* urban */
+    float urban_density[8];                  /* 2x2x2 constant grid */
+    sq_vec3 urban_origin, urban_size;
+    float urban_conc;
+    /* time and accounting */
+    double time_s;
+    int64_t step;
+    sq_sandstorm_budget budget;
+    sq_sandstorm_stats stats;
+    /* near field */
+    int np;
+    float *p_pos, *p_radius, *p_rot, *p_spin, *p_tau, *p_fade, *p_age;
+    bool have_camera;
+    sq_vec3 cam_pos;
+    uint64_t spawn_counter;
+};
+
+/* kernels (sandstorm_kernels.c): pure functions over arrays */
+double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nz,
+                              double frac);
+void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
+                               const float *ground_z1, float h, float height_m, double contrast,
+                               float *out);
+
+/* used by the plug-in (sandstorm_plugin.c) and tests */
+int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max);
+int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max);
+int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max);
+void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam);
+const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int *ny);
+
+#endif

@@ -1,0 +1,92 @@
+/* sandstorm_kernels.c — pure kernels of the sandstorm: drag law and terminal speed (SPEC §1.8,
+ * eq. 2.29), friction velocity by the log law and the emission flux (SPEC §1.9), conservative
+ * settling of a column with deposition, and Koschmieder visibility planes (SPEC §2.7). */
+#include <math.h>
+
+#include "sandstorm_internal.h"
+
+double sq_drag_coefficient(double re)
+{
+    if (!(re > 0.0)) return INFINITY;
+    return 24.0 / re + 6.0 / (1.0 + sqrt(re)) + 0.4;
+}
+
+double sq_dust_terminal_speed(double r, double rho_p, double rho_air, double mu)
+{
+    if (!(r > 0.0) || !(rho_p > rho_air) || !(mu > 0.0)) return 0.0;
+    const double d = 2.0 * r, g = SQ_SAND_GRAVITY;
+    /* Stokes start, then fixed-point on w = sqrt(4 d g Δρ / (3 ρ C_D(Re))) with damping; the
+     * map is contracting for this drag law (monotone C_D), converging to 1e-12 in < 60 steps. */
+    double w = 2.0 * r * r * g * (rho_p - rho_air) / (9.0 * mu);
+    for (int it = 0; it < 200; it++) {
+        double re = rho_air * w * d / mu;
+        double wn = sqrt(4.0 * d * g * (rho_p - rho_air) / (3.0 * rho_air * sq_drag_coefficient(re)));
+        double next = 0.5 * (w + wn);
+        if (fabs(next - w) <= 1e-13 * w) return next;
+        w = next;
+    }
+    return w;
+}
+
+double sq_friction_velocity(double u, double z, double z0)
+{
+    if (!(z > z0) || !(z0 > 0.0)) return 0.0;
+    return SQ_SAND_KARMAN * fabs(u) / log(z / z0);
+}
+
+double sq_dust_emission_flux(double us, double ust, double c)
+{
+    if (!(us > ust) || !(us > 0.0)) return 0.0;
+    return c * us * us * us * (1.0 - (ust * ust) / (us * us));
+}
+
+/* One explicit upwind settling sub-step in a column: c[k*cs] are concentrations (k = 0 at the
+ * bottom), solid[k*ss] the solid flags; a fraction frac = w dt / h <= 1 of each cell falls one
+ * cell. A cell above a solid cell (or the domain bottom) loses its falling share to the ground;
+ * solid cells hold nothing; nothing falls in through the top. Conservative: returns the
+ * deposited amount (concentration units; multiply by h³ for mass). */
+double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nz,
+                              double frac)
+{
+    double deposited = 0.0;
+    const float f = (float)frac;
+    for (int k = 0; k < nz; k++) {
+        if (solid[(ptrdiff_t)k * ss]) continue;
+        float ck = c[(ptrdiff_t)k * cs];
+        float out = f * ck;
+        if (k == 0 || solid[(ptrdiff_t)(k - 1) * ss]) deposited += (double)out;
+        float in = 0.0f;
+        if (k + 1 < nz && !solid[(ptrdiff_t)(k + 1) * ss]) in = f * c[(ptrdiff_t)(k + 1) * cs];
+        c[(ptrdiff_t)k * cs] = ck - out + in;
+    }
+    return deposited;
+}
+
+/* Visibility (m) on the plane height_m above the terrain: beta from the cell containing that
+ * height (linear between cell centres, constant below the first fluid cell's centre). */
+void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
+                               const float *ground_z1, float h, float height_m, double contrast,
+                               float *out)
+{
+    const double lnc = log(1.0 / contrast);
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            size_t col = (size_t)j * (size_t)nx + (size_t)i;
+            int k0 = ground_k[col];
+            if (k0 < 0) {
+                out[col] = NAN;
+                continue;
+            }
+            float z1 = ground_z1[col];
+            float kf = (float)k0 + (height_m - z1) / h; /* fractional cell index of the plane */
+            if (kf < (float)k0) kf = (float)k0;
+            if (kf > (float)(nz - 1)) kf = (float)(nz - 1);
+            int ka = (int)kf;
+            int kb = ka + 1 < nz ? ka + 1 : ka;
+            float t = kf - (float)ka;
+            size_t plane = (size_t)nx * (size_t)ny;
+            double b = (1.0 - (double)t) * (double)beta[(size_t)ka * plane + col] +
+                       (double)t * (double)beta[(size_t)kb * plane + col];
+            out[col] = (float)(lnc / (b + SQ_SAND_BETA_AIR_550));
+        }
+}

@@ -1,0 +1,181 @@
+/* sandstorm_plugin.c — the sandstorm's parameter table (scene keys, units, defaults, ranges,
+ * docs) and its plug-in vtable. Defaults not given by S0 are chosen and justified here and in
+ * docs/phen/sandstorm.md. */
+#include <stddef.h>
+#include <stdlib.h>
+
+#include "sandstorm_internal.h"
+#include "squall/plugin.h"
+
+#define S sq_sandstorm_desc
+#define D(key, field, unit, def, lo, hi, flags, doc)                                           \
+    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
+#define I(key, field, unit, def, lo, hi, doc)                                                  \
+    {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, 0, doc}
+#define B(key, field, doc)                                                                     \
+    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
+#define E(key, field, choices, doc)                                                            \
+    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
+#define FL(key, field, cnt, unit, deftext, maxc, lo, hi, doc)                                  \
+    {key, SQ_PARAM_FLOATS, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, maxc,          \
+     offsetof(S, cnt), 0, doc}
+#define Z SQ_PARAM_ZERO_IS_PHYSICAL
+
+static const sq_param params[] = {
+    E("mode", mode, "desert|urban",
+      "desert: full two-phase simulation (S0 ch. 2); urban: homogeneous dust from the composition "
+      "parameters, no simulation (S0 §3.5)."),
+    {"seed", SQ_PARAM_U64, "", offsetof(S, seed), 0, 0, 0, NULL, NULL, 0, 0, Z,
+     "Seed of the near-field particles."},
+    I("domain.nx", cells[0], "1", 64, 4, 1024, "Grid cells along x (east). S0 used 64^3 or 128^3."),
+    I("domain.ny", cells[1], "1", 64, 4, 1024, "Grid cells along y (north)."),
+    I("domain.nz", cells[2], "1", 32, 4, 1024, "Grid cells along z (up)."),
+    D("domain.cell_size_m", cell_size_m, "m", 40, 0.01, 1e4, 0,
+      "Cubic cell edge. Chosen: 40 m resolves a haboob's km-scale dust wall on 64 cells."),
+    D("domain.center_x_m", center_m[0], "m", 0, -1e7, 1e7, Z, "Domain centre, x."),
+    D("domain.center_y_m", center_m[1], "m", 0, -1e7, 1e7, Z, "Domain centre, y."),
+    FL("wave.pressure_amp_pa", pressure_amp_pa, pressure_amp_count, "Pa", "400 300 150", 16,
+       -1e4, 1e4,
+       "P0 per vertical level, bottom to top (S0 eq. 2.18); a perturbation over the hydrostatic "
+       "background. Chosen: a few hundred Pa, a synoptic trough's scale."),
+    D("wave.kx_per_m", kx_per_m, "1/m", 0, -1, 1, Z,
+      "Horizontal wave number k_x (S0 eq. 2.18); must resolve on the grid (|k| h <= pi/2)."),
+    D("wave.ky_per_m", ky_per_m, "1/m", 0, -1, 1, Z, "Horizontal wave number k_y."),
+    D("wave.phase_rad", phase_rad, "rad", 0, -100, 100, Z, "Time phase sigma of the wave."),
+    D("wind.bernoulli_pa", bernoulli_pa, "Pa", 200, 0.01, 1e5, 0,
+      "Bernoulli constant C_B relative to the surface pressure: |v| = sqrt(2 (C_B - P') / rho) "
+      "(S0 eq. 2.19 over a hydrostatic background). 200 Pa gives 18 m/s where P' = 0."),
+    B("wind.geostrophic", geostrophic,
+      "Rotate the wind 90 deg to run along the isobars (SPEC §1.6 ⚠4); false: down-gradient (S0)."),
+    D("wind.prevailing_dir_deg", prevailing_dir_deg, "deg", 0, -360, 360, Z,
+      "Direction the wind blows toward (deg from east) where the pressure gradient vanishes."),
+    D("wind.ramp_s", ramp_s, "s", 0, 0, 1e5, Z,
+      "The inflow wind rises smoothly from calm over this time (the trough arriving); 0 = none."),
+    D("wind.roughness_m", roughness_m, "m", 5e-4, 1e-6, 10, 0,
+      "Aerodynamic roughness length z0 (desert 1e-4..1e-3 m, SPEC §1.9)."),
+    D("wind.log_layer_m", log_layer_m, "m", 100, 1, 1e4, 0,
+      "Height below which the initial wind follows the log law u ~ ln(z/z0)."),
+    D("temperature.surface_k", surface_temperature_k, "K", 305, 150, 400, 0,
+      "Mean air temperature at the ground."),
+    D("temperature.lapse_k_per_m", lapse_k_per_m, "K/m", 0, -0.1, 0.1, Z,
+      "Mean temperature decrease with height (0.0065 standard, 0.0098 dry adiabatic)."),
+    FL("temperature.amp_k", temperature_amp_k, temperature_amp_count, "K", "", 16, -100, 100,
+       "Temperature wave amplitude T0 per level (S0 eq. 2.35)."),
+    D("temperature.lag_rad", temperature_lag_rad, "rad", 0, -100, 100, Z,
+      "Phase lag sigma0 between the pressure and temperature troughs (S0 eq. 2.35)."),
+    D("temperature.buoyancy_gain", buoyancy_gain, "1", 0, 0, 100, Z,
+      "Boussinesq buoyancy on the air, 1 = physical (replaces S0's negligible thermophoresis, "
+      "SPEC §1.10); 0 = off."),
+    E("solver.pressure", pressure_solver, "mgpcg|multigrid|jacobi",
+      "Pressure solver: multigrid-preconditioned CG (default), multigrid V-cycles, or S0's "
+      "fixed-count Jacobi."),
+    I("solver.jacobi_iterations", jacobi_iterations, "1", 40, 1, 100000,
+      "Jacobi sweeps when solver.pressure = jacobi (S0: 40)."),
+    D("solver.tolerance", pressure_tolerance, "1", 1e-3, 1e-12, 0.5, 0,
+      "Relative residual the pressure solve converges to."),
+    E("solver.advection", advection, "maccormack|semi-lagrangian",
+      "Advection: MacCormack with Selle's limiter (S0 + SPEC §1.4) or semi-Lagrangian."),
+    D("solver.confinement", confinement, "1", 0, 0, 2, Z,
+      "Vorticity-confinement strength eps_h (S0 eq. 2.15); 0 = off."),
+    B("solver.plain_confinement", plain_confinement,
+      "Use Fedkiw's constant-eps confinement instead of S0's helicity-adaptive one."),
+    D("solver.cfl", cfl, "1", 2, 0.1, 20, 0,
+      "Largest |u| dt / h per step; longer frame steps are sub-stepped."),
+    D("dust.median_radius_m", median_radius_m, "m", 5e-6, 1e-8, 1e-3, 0,
+      "Number median radius of the log-normal (S0 'dust main radius'). Chosen: 5 um, emitted "
+      "desert dust."),
+    D("dust.sigma_g", sigma_g, "1", 2.0, 1.0001, 5, 0,
+      "Geometric standard deviation (> 1). S0's eta = ln(sigma_g) (0.5 and 0.8)."),
+    D("dust.density_kg_m3", grain_density_kg_m3, "kg/m3", 2650, 100, 20000, 0,
+      "Grain density (quartz / Met Office UM: 2650)."),
+    I("dust.bins", bins, "1", 4, 1, 8, "Size bins of the distribution (each settles at its own speed)."),
+    D("dust.n_real", n_real, "1", 0, 0, 5, Z,
+      "Real refractive index; 0 = mineral-dust default per wavelength (1.53, SPEC §2.3)."),
+    D("dust.n_imag", n_imag, "1", 0, 0, 10, Z,
+      "Imaginary refractive index (absorption, >= 0); used when dust.n_real is set."),
+    D("dust.inflow_kg_m3", inflow_dust_kg_m3, "kg/m3", 0, 0, 1, Z,
+      "Dust concentration entering with the inflow at the ground (a storm formed upwind)."),
+    D("dust.inflow_height_m", inflow_dust_height_m, "m", 300, 1, 1e5, 0,
+      "E-folding height of the inflow dust profile."),
+    B("dust.no_mass_fix", no_mass_fix,
+      "Skip the global rescaling that makes the dust budget close after advection."),
+    D("surface.u_star_t0_mps", u_star_t0_mps, "m/s", 0.25, 0.01, 5, 0,
+      "Single-grain threshold friction velocity u*_t0 (fine sand 0.2-0.3, Bagnold; SPEC §1.9)."),
+    D("surface.roughness_factor", roughness_factor, "1", 1, 1, 100, 0,
+      "R >= 1 in u*_t = R H M u*_t0 (S0 eq. 2.32): non-erodible roughness raises the threshold."),
+    D("surface.moisture_factor", moisture_factor, "1", 1, 1, 100, 0, "H >= 1: soil moisture."),
+    D("surface.compactness_factor", compactness_factor, "1", 1, 1, 100, 0,
+      "M >= 1: crusting / compactness."),
+    D("surface.emission_coeff", emission_coeff, "kg s2/m5", 0, 0, 1, Z,
+      "C in F = C u*^3 (1 - u*_t^2/u*^2) (S0 eq. 2.33, smooth form); 0 = non-erodible surface."),
+    FL("visibility.heights_m", vis_heights_m, vis_height_count, "m", "2 10", 4, 0, 1e4,
+       "Heights above the ground of the visibility planes (metrics and fields)."),
+    D("visibility.contrast", contrast, "1", 0.05, 1e-4, 0.5, 0,
+      "Koschmieder contrast threshold: 0.05 (S0, WMO MOR) or 0.02 (UM/UPP)."),
+    FL("urban.concentration_kg_m3", urban_conc_kg_m3, urban_conc_count, "kg/m3", "0.005", 8, 0, 1,
+       "Urban mode: dust mass concentration; several values are shown one after another."),
+    D("urban.stage_s", urban_stage_s, "s", 4, 0.01, 1e6, 0, "Urban mode: time per severity."),
+    D("urban.height_m", urban_height_m, "m", 400, 1, 1e5, 0, "Urban mode: depth of the dust layer."),
+    B("near.enabled", near_field, "Soft-particle near field around the camera (S3)."),
+    I("near.particles", near_particles, "1", 4000, 1, 1000000, "Near-field particle count."),
+    D("near.radius_m", near_radius_m, "m", 80, 1, 1e4, 0, "Radius of the region around the camera."),
+    D("near.particle_radius_m", near_particle_radius_m, "m", 4, 0.01, 1e3, 0,
+      "Mean radius of a near-field puff."),
+    D("near.fraction", near_fraction, "1", 0.3, 0.001, 1, 0,
+      "Share of the local extinction drawn by the near-field particles."),
+};
+
+static sq_result p_resolve(void *desc)
+{
+    return sq_sandstorm_desc_resolve((sq_sandstorm_desc *)desc, (sq_sandstorm_desc *)desc);
+}
+static sq_result p_validate(sq_context *ctx, const void *desc, const sq_world *w)
+{
+    return sq_sandstorm_validate(ctx, (const sq_sandstorm_desc *)desc, w);
+}
+static sq_result p_memory(const void *desc, const sq_world *w, uint64_t *bytes)
+{
+    (void)w;
+    *bytes = sq_sandstorm_memory_bytes((const sq_sandstorm_desc *)desc);
+    return SQ_OK;
+}
+static sq_result p_create(sq_context *ctx, const void *desc, const sq_world *w, void **out)
+{
+    return sq_sandstorm_create(ctx, (const sq_sandstorm_desc *)desc, w, (sq_sandstorm **)out);
+}
+static void p_destroy(void *self) { sq_sandstorm_destroy((sq_sandstorm *)self); }
+static double p_dt(const void *self) { return sq_sandstorm_max_stable_dt((const sq_sandstorm *)self); }
+static sq_result p_step(void *self, double dt) { return sq_sandstorm_step((sq_sandstorm *)self, dt); }
+static void p_observe(void *self, const sq_camera *c) { sq__sandstorm_observe((sq_sandstorm *)self, c); }
+static int p_drawables(void *self, sq_drawable *out, int max)
+{
+    return sq__sandstorm_drawables((sq_sandstorm *)self, out, max);
+}
+static int p_metrics(void *self, sq_metric *out, int max)
+{
+    return sq__sandstorm_metrics((sq_sandstorm *)self, out, max);
+}
+static int p_fields(void *self, sq_named_field *out, int max)
+{
+    return sq__sandstorm_fields((sq_sandstorm *)self, out, max);
+}
+
+const sq_phen_plugin sq__sandstorm_plugin = {
+    "sandstorm",
+    "two-phase Eulerian sandstorm: pressure-wave wind, dust emission/settling, Mie optics, "
+    "visibility (S0)",
+    sizeof(sq_sandstorm_desc),
+    params,
+    sizeof params / sizeof params[0],
+    p_resolve,
+    p_validate,
+    p_memory,
+    p_create,
+    p_destroy,
+    p_dt,
+    p_step,
+    p_observe,
+    p_drawables,
+    p_metrics,
+    p_fields,
+};
