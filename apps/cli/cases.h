@@ -6,6 +6,7 @@
 
 int sq_bench_stream_case(const sq_bench_args *a);
 /* helpers: add prototypes here */
+int sq_bench_grid(const sq_bench_args *a);
 int sq_bench_render_volume(const sq_bench_args *a);
 
 #endif

@@ -8,6 +8,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
     {"render-volume", "GL ms per frame: 128^3 dust volume, 10^5 soft particles, neither",
      "--width 1280 --height 720 --size 128 --slices 128 --particles 100000",
      sq_bench_render_volume, NULL},
+    {"grid", "MAC-grid fluid step: MacCormack advection + MGPCG projection + 2 scalars",
+     "--grid 64|128", sq_bench_grid, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
     {NULL, NULL, NULL, NULL, NULL},
 };

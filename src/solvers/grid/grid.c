@@ -150,15 +150,10 @@ uint64_t sq_grid_memory_bytes(const sq_grid_desc *desc)
     const int n[3] = {d.cells.nx, d.cells.ny, d.cells.nz};
     const uint64_t cells = padded(n[0], n[1], n[2]);
     uint64_t b = 0;
-    for (int a = 0; a < 3; a++) {
-        sq_dims e = d.cells;
-        if (a == 0) e.nx++;
-        if (a == 1) e.ny++;
-        if (a == 2) e.nz++;
-        b += sq_field3_bytes(e, 1);
-    }
     int sc = d.scalar_count > 0 ? d.scalar_count : 0;
-    b += (uint64_t)(sc + 1) * sq_field3_bytes(d.cells, 1);     /* scalars + pressure */
+    /* velocity and scalars have scratch capacity (advection swaps its output in) */
+    b += (uint64_t)(3 + sc) * scratch_samples(n) * sizeof(float);
+    b += sq_field3_bytes(d.cells, 1); /* pressure */
     b += cells * (1 + 1 + 1 + 2);                               /* flags, links, diag, below */
     b += (uint64_t)n[0] * (uint64_t)n[1] * (uint64_t)n[2];      /* public solid flags */
     b += (uint64_t)(n[2] + 2) + (uint64_t)(n[2] + 2) * 4 * sizeof(double);
@@ -194,6 +189,23 @@ void sq_grid_destroy(sq_grid *g)
     sq_free(ctx, g);
 }
 
+/* A field with one ghost layer whose allocation holds scratch_count floats, so that an
+ * advection output buffer (a scratch array) can be swapped in instead of copied. */
+static sq_result field_create(sq_grid *g, sq_dims n, sq_field3 *f)
+{
+    memset(f, 0, sizeof *f);
+    float *base = (float *)sq_alloc_zero(g->ctx, g->scratch_count * sizeof(float));
+    if (!base) return SQ_ERR_OUT_OF_MEMORY;
+    f->base = base;
+    f->n = n;
+    f->ghost = 1;
+    f->sy = n.nx + 2;
+    f->sz = f->sy * (ptrdiff_t)(n.ny + 2);
+    f->count = (size_t)f->sz * (size_t)(n.nz + 2);
+    f->origin = base + 1 + f->sy + f->sz;
+    return SQ_OK;
+}
+
 sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **out)
 {
     if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "sq_grid_create: out is NULL");
@@ -219,19 +231,20 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
     g->h = (float)d.cell_size_m;
     for (int a = 0; a < 3; a++) g->periodic[a] = d.boundary[2 * a] == SQ_BOUNDARY_PERIODIC;
 
+    g->scratch_count = (size_t)scratch_samples(g->n);
     for (int a = 0; a < 3 && r == SQ_OK; a++) {
         sq_dims e = d.cells;
         if (a == 0) e.nx++;
         if (a == 1) e.ny++;
         if (a == 2) e.nz++;
-        r = sq_field3_create(ctx, e, 1, &g->vel[a]);
+        r = field_create(g, e, &g->vel[a]);
     }
     if (r == SQ_OK) r = sq_field3_create(ctx, d.cells, 1, &g->p);
     if (r == SQ_OK && d.scalar_count > 0) {
         g->scalar = (sq_field3 *)sq_alloc_zero(ctx, sizeof(sq_field3) * (size_t)d.scalar_count);
         if (!g->scalar) r = SQ_ERR_OUT_OF_MEMORY;
         for (int s = 0; s < d.scalar_count && r == SQ_OK; s++)
-            r = sq_field3_create(ctx, d.cells, 1, &g->scalar[s]);
+            r = field_create(g, d.cells, &g->scalar[s]);
     }
     if (r != SQ_OK) {
         sq_grid_destroy(g);
@@ -248,7 +261,6 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
     g->solid = (uint8_t *)sq_alloc_zero(ctx, N);
     g->plane_solid = (uint8_t *)sq_alloc_zero(ctx, (size_t)g->n[2] + 2);
     g->plane_sum = (double *)sq_alloc_zero(ctx, ((size_t)g->n[2] + 2) * 4 * sizeof(double));
-    g->scratch_count = (size_t)scratch_samples(g->n);
     bool ok = g->flags && g->links && g->diag && g->below && g->solid && g->plane_solid &&
               g->plane_sum;
     for (int s = 0; s < SQ__SCRATCH && ok; s++) {
@@ -495,6 +507,8 @@ static void lattice_dims(const sq_grid *g, int L, int m[3])
     for (int a = 0; a < 3; a++) m[a] = g->n[a] + (L - 1 == a ? 1 : 0);
 }
 
+enum { GH_COPY, GH_NEG, GH_EXTRAP, GH_CONST, GH_INFLOW, GH_PERIODIC };
+
 void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
 {
     int m[3];
@@ -506,33 +520,52 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
         for (int side = 0; side < 2; side++) {
             const int f = 2 * a + side;
             const sq_boundary bc = g->d.boundary[f];
-            const int gi = side ? m[a] : -1;    /* ghost */
-            const int bi = side ? m[a] - 1 : 0; /* boundary sample */
-            const int ii = side ? m[a] - 2 : 1; /* next inward */
-            for (int q = -1; q <= m[tb]; q++)
-                for (int p = -1; p <= m[ta]; p++) {
-                    const ptrdiff_t t = (ptrdiff_t)p * st[ta] + (ptrdiff_t)q * st[tb];
-                    float *gv = o + t + (ptrdiff_t)gi * st[a];
-                    const float bv = o[t + (ptrdiff_t)bi * st[a]];
-                    float v;
-                    if (bc == SQ_BOUNDARY_PERIODIC) {
-                        int src = normal ? (side ? 1 : m[a] - 2) : (side ? 0 : m[a] - 1);
-                        v = o[t + (ptrdiff_t)src * st[a]];
-                    } else if (normal) {
-                        v = is_wall(bc) ? 2.0f * bv - o[t + (ptrdiff_t)ii * st[a]] : bv;
-                    } else if (L == SQ__L_CELL) {
-                        v = (bc == SQ_BOUNDARY_INFLOW && scalar >= 0) ? g->scalar_inflow[scalar]
-                                                                      : bv;
-                    } else if (bc == SQ_BOUNDARY_NO_SLIP) {
-                        v = -bv;
-                    } else if (bc == SQ_BOUNDARY_INFLOW) {
-                        int pc = sq_clampi(p, 0, m[ta]), qc = sq_clampi(q, 0, m[tb]);
-                        v = 2.0f * inflow_at(g, f, L - 1, L, pc, qc) - bv;
-                    } else {
-                        v = bv;
+            const ptrdiff_t gi = (side ? m[a] : -1) * st[a];    /* ghost */
+            const ptrdiff_t bi = (side ? m[a] - 1 : 0) * st[a]; /* boundary sample */
+            const ptrdiff_t ii = (side ? m[a] - 2 : 1) * st[a]; /* next inward */
+            ptrdiff_t src = bi;
+            int mode;
+            float cv = 0.0f;
+            if (bc == SQ_BOUNDARY_PERIODIC) {
+                mode = GH_PERIODIC;
+                src = (normal ? (side ? 1 : m[a] - 2) : (side ? 0 : m[a] - 1)) * st[a];
+            } else if (normal) {
+                mode = is_wall(bc) ? GH_EXTRAP : GH_COPY;
+            } else if (L == SQ__L_CELL) {
+                mode = (bc == SQ_BOUNDARY_INFLOW && scalar >= 0) ? GH_CONST : GH_COPY;
+                if (mode == GH_CONST) cv = g->scalar_inflow[scalar];
+            } else {
+                mode = bc == SQ_BOUNDARY_NO_SLIP ? GH_NEG
+                       : bc == SQ_BOUNDARY_INFLOW ? GH_INFLOW
+                                                  : GH_COPY;
+            }
+            for (int q = -1; q <= m[tb]; q++) {
+                float *row = o + (ptrdiff_t)q * st[tb];
+                const ptrdiff_t sp = st[ta];
+                switch (mode) {
+                case GH_PERIODIC:
+                case GH_COPY:
+                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = row[p * sp + src];
+                    break;
+                case GH_NEG:
+                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = -row[p * sp + bi];
+                    break;
+                case GH_EXTRAP:
+                    for (int p = -1; p <= m[ta]; p++)
+                        row[p * sp + gi] = 2.0f * row[p * sp + bi] - row[p * sp + ii];
+                    break;
+                case GH_CONST:
+                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = cv;
+                    break;
+                default: { /* tangential velocity against an inflow face */
+                    const int qc = sq_clampi(q, 0, m[tb]);
+                    for (int p = -1; p <= m[ta]; p++) {
+                        const int pc = sq_clampi(p, 0, m[ta]);
+                        row[p * sp + gi] = 2.0f * inflow_at(g, f, L - 1, L, pc, qc) - row[p * sp + bi];
                     }
-                    *gv = v;
+                } break;
                 }
+            }
         }
     }
 }
