@@ -617,6 +617,8 @@ static void set_light_uniforms(sq_renderer *r, const sq_volume_view *v, const vo
     u3(prog, "u_e2", p->e2);
     u3a(prog, "u_forward", p->forward);
     glProgramUniform2f(prog, glGetUniformLocation(prog, "u_blur"), p->blur_uv[0], p->blur_uv[1]);
+    const bool wide = fmaxf(p->blur_uv[0], p->blur_uv[1]) * n >= 0.5f;
+    u1i(prog, "u_blur_wide", wide ? 1 : 0);
     u1i(prog, "u_multiple", r->desc.single_scatter_only ? 0 : 1);
 }
 

@@ -53,6 +53,7 @@ void main()
 
     float rho = vol_density(u_density, u_noise, v_world, u_box_lo, u_box_size, u_dims,
                             u_use_noise != 0, u_noise_amp, u_noise_freq, u_noise_offset);
+    if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the eye buffers as they are)
     vec3 beta = rho * u_sigma_ext;
     vec3 T = exp(-beta * len);
 

@@ -26,6 +26,7 @@ uniform vec3 u_box_lo, u_box_size, u_dims;
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_forward;        // F: fraction of scattered light kept in the beam, per channel
 uniform vec2 u_blur;           // blur radius in texture coordinates
+uniform int u_blur_wide;       // 1 if that radius reaches half a texel
 uniform int u_multiple;        // 0: single-scatter ablation (pure attenuation)
 uniform int u_use_noise;
 uniform float u_noise_amp, u_noise_freq;
@@ -52,11 +53,15 @@ void main()
     vec3 T = exp(-rho * u_sigma_ext * len);
     vec3 L = T * L_old;
     if (u_multiple != 0) {
-        // centre 1/4, six taps on a ring 1/8 each (sum 1)
-        vec3 b = 0.25 * L_old;
-        for (int i = 0; i < 6; i++) {
-            float a = float(i) * (VOL_PI / 3.0);
-            b += 0.125 * texture(u_light_old, uv + u_blur * vec2(cos(a), sin(a))).rgb;
+        // centre 1/4, six taps on a ring 1/8 each (sum 1); a ring narrower than half a texel
+        // is below the buffer's resolution and the blur is the centre value
+        vec3 b = L_old;
+        if (u_blur_wide != 0) {
+            b *= 0.25;
+            for (int i = 0; i < 6; i++) {
+                float a = float(i) * (VOL_PI / 3.0);
+                b += 0.125 * texture(u_light_old, uv + u_blur * vec2(cos(a), sin(a))).rgb;
+            }
         }
         L += u_albedo * (1.0 - T) * u_forward * b;
     }
