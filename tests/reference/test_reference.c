@@ -911,7 +911,7 @@ SQ_TEST(progress_and_cancel)
 {
     full_scene fs;
     full_scene_make(&fs);
-    sq_context *ctx = ctx_new(0);
+    sq_context *ctx = ctx_new(1); /* one thread: the reporting thread renders every pixel */
     const int W = 16, H = 70;
     float *img = (float *)malloc(sizeof(float) * W * H * 3);
     int never = 1 << 30;

@@ -340,19 +340,26 @@ sq_result sq__ref_render_scene(sq_context *ctx, const sq_reference_desc *desc,
 
     const int nt = sq_context_threads(ctx);
     const uint64_t seed = desc->seed;
-    /* bands of rows between progress reports */
-    const int band = height >= 64 ? (height + 63) / 64 : 1;
-    long long bad = 0;
+    const int npx = width * height;
+    long long bad = 0, done = 0;
+    int cancel = 0;
+    double reported = 0.0;
     if (desc->progress && !desc->progress(desc->progress_user, 0.0))
         return sq__fail(ctx, SQ_ERR_CANCELLED, MODULE, "reference render cancelled at 0%%");
-    for (int y0 = 0; y0 < height; y0 += band) {
-        const int y1 = y0 + band < height ? y0 + band : height;
-        const int npx = (y1 - y0) * width;
-        long long bad_band = 0;
-        SQ_OMP(omp parallel for schedule(dynamic, 4) num_threads(nt) reduction(+ : bad_band))
+    /* One parallel region over all pixels (dynamic chunks: paths differ wildly in cost). The
+     * calling thread (thread 0) reports progress between its pixels; a false answer raises the
+     * cancel flag that every thread checks before its next pixel. */
+    SQ_OMP(omp parallel num_threads(nt) reduction(+ : bad))
+    {
+        const bool reporter = sq__thread_num() == 0 && desc->progress != NULL;
+        SQ_OMP(omp for schedule(dynamic, 16) nowait)
         for (int k = 0; k < npx; k++) {
-            const int py = y0 + k / width, px = k % width;
-            const uint64_t pixel = (uint64_t)py * (uint64_t)width + (uint64_t)px;
+            int stop;
+            SQ_OMP(omp atomic read)
+            stop = cancel;
+            if (stop) continue;
+            const int py = k / width, px = k % width;
+            const uint64_t pixel = (uint64_t)k;
             double acc[3] = {0.0, 0.0, 0.0};
             for (int smp = 0; smp < spp; smp++) {
                 sq__ref_rng rng;
@@ -362,21 +369,34 @@ sq_result sq__ref_render_scene(sq_context *ctx, const sq_reference_desc *desc,
                 double L[3];
                 trace_path(s, &opt, rc.pos, d, &rng, L);
                 if (!isfinite(L[0]) || !isfinite(L[1]) || !isfinite(L[2])) {
-                    bad_band++;
+                    bad++;
                     continue;
                 }
                 for (int c = 0; c < 3; c++) acc[c] += L[c];
             }
             float *o = rgb_out + 3 * pixel;
             for (int c = 0; c < 3; c++) o[c] = (float)(acc[c] / spp);
+            long long now;
+            SQ_OMP(omp atomic capture)
+            now = ++done;
+            if (reporter) {
+                const double f = (double)now / npx;
+                if (f - reported >= 1.0 / 256.0) {
+                    reported = f;
+                    if (!desc->progress(desc->progress_user, f)) {
+                        SQ_OMP(omp atomic write)
+                        cancel = 1;
+                    }
+                }
+            }
         }
-        bad += bad_band;
-        if (desc->progress && !desc->progress(desc->progress_user, (double)y1 / height)) {
-            memset(rgb_out, 0, (size_t)width * height * 3 * sizeof(float));
-            return sq__fail(ctx, SQ_ERR_CANCELLED, MODULE,
-                            "reference render cancelled at %.0f%% (row %d of %d)",
-                            100.0 * y1 / height, y1, height);
-        }
+    }
+    if (!cancel && desc->progress && !desc->progress(desc->progress_user, 1.0)) cancel = 1;
+    if (cancel) {
+        memset(rgb_out, 0, (size_t)npx * 3 * sizeof(float));
+        return sq__fail(ctx, SQ_ERR_CANCELLED, MODULE,
+                        "reference render cancelled at %.0f%% (%lld of %d pixels done)",
+                        100.0 * (double)done / npx, done, npx);
     }
     if (bad)
         sq_log(ctx, SQ_LOG_WARN, MODULE, "%lld of %lld path samples were not finite and dropped",
