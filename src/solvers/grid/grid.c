@@ -183,7 +183,8 @@ void sq_grid_destroy(sq_grid *g)
     sq_free(ctx, g->solid);
     sq_free(ctx, g->plane_solid);
     sq_free(ctx, g->plane_sum);
-    for (int s = 0; s < SQ__SCRATCH; s++) sq_free(ctx, g->scratch[s]);
+    for (int s = 4; s < SQ__SCRATCH; s++) sq_free(ctx, g->scratch[s]);
+    sq_free(ctx, g->scratch_block);
     for (int f = 0; f < 6; f++) sq_free(ctx, g->inflow[f]);
     sq__grid_free_multigrid(g);
     sq_free(ctx, g);
@@ -263,7 +264,12 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
     g->plane_sum = (double *)sq_alloc_zero(ctx, ((size_t)g->n[2] + 2) * 4 * sizeof(double));
     bool ok = g->flags && g->links && g->diag && g->below && g->solid && g->plane_solid &&
               g->plane_sum;
-    for (int s = 0; s < SQ__SCRATCH && ok; s++) {
+    if (ok) {
+        g->scratch_block = (float *)sq_alloc_zero(ctx, 4 * g->scratch_count * sizeof(float));
+        ok = g->scratch_block != NULL;
+        for (int s = 0; s < 4 && ok; s++) g->scratch[s] = g->scratch_block + s * g->scratch_count;
+    }
+    for (int s = 4; s < SQ__SCRATCH && ok; s++) {
         g->scratch[s] = (float *)sq_alloc_zero(ctx, g->scratch_count * sizeof(float));
         ok = g->scratch[s] != NULL;
     }

@@ -20,13 +20,16 @@ enum { SQ__L_CELL = 0, SQ__L_U = 1, SQ__L_V = 2, SQ__L_W = 3 };
 #define SQ__CF_DIRICHLET 4u /* ghost of an outflow/open face: p = 0 on the face */
 #define SQ__CF_FIXED (SQ__CF_SOLID | SQ__CF_WALL)
 
-/* Scratch arrays: each holds max padded sample count of the four lattices. */
+/* Scratch arrays: each holds scratch_count floats (the largest padded lattice). Arrays 0..3
+ * are one contiguous block (the advection's 4-float cell velocity lives there) and are never
+ * swapped; 4..9 hold the cached cell displacements; 10..12 receive advection results, which
+ * are swapped into the fields. Projection, confinement, diffusion and the topology rebuild
+ * use 0..3 only (and invalidate nothing else: they change the velocity anyway). */
 enum {
-    SQ__S_FWD = 0,   /* 4 arrays: forward trace base index (int32) and fractions */
-    SQ__S_BACK = 4,  /* 4 arrays: backward trace */
-    SQ__S_HAT = 8,   /* forward semi-Lagrangian result */
-    SQ__S_OUT = 9,   /* 3 arrays: advection outputs */
-    SQ__SCRATCH = 12
+    SQ__S_BLOCK = 0, /* 0..3: uc4 (AoS cell velocity), then hat / min / max */
+    SQ__S_DISP = 4,  /* 4..6: backward displacement x,y,z; 7..9: forward (cell units) */
+    SQ__S_OUT = 10,  /* 10..12: advection outputs */
+    SQ__SCRATCH = 13
 };
 
 /* One multigrid level (levels >= 1; level 0 uses the byte link masks of sq_grid). Arrays are
@@ -66,6 +69,7 @@ struct sq_grid {
     uint8_t *solid;     /* nx*ny*nz public solid flags */
     uint8_t *plane_solid; /* per padded z plane (nz + 2): plane contains solid cells */
     float *scratch[SQ__SCRATCH];
+    float *scratch_block; /* allocation behind scratch[0..3] */
     size_t scratch_count;
     float *inflow[6];
     int inflow_n[6][2];
@@ -76,11 +80,14 @@ struct sq_grid {
     bool topology_dirty;
     bool has_dirichlet;
     double last_project_dt;
-    /* cached cell-centre traces for scalars */
+    /* cached RK2 cell displacements (scratch 4..9), shared by the scalars and the next
+     * velocity advection while the velocity does not change */
     uint64_t vel_version;
     bool trace_valid;
+    bool trace_fwd;
     uint64_t trace_version;
     double trace_dt, trace_drift;
+    float trace_cfl;
     sq_grid_stats stats;
 };
 

@@ -248,23 +248,47 @@ static inline float nbsum0(const float *x, ptrdiff_t c, unsigned m, ptrdiff_t sy
     return s;
 }
 
-/* x (padded, level-0 layout) red (colour 0: i+j+k even) or black half-sweep */
-static void smooth0(sq_grid *g, float *x, const float *b, int colour)
+/* x (padded, level-0 layout) red (colour 0: i+j+k even) or black half-sweep. from_zero: the
+ * first half-sweep of a V-cycle started from x = 0 (neighbours are not read; the other colour
+ * is written by the next half-sweep). dot: if not NULL, receives sum b.x over all cells after
+ * the update (per plane, in plane order). */
+static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool from_zero,
+                       double *dot)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *lk = g->links, *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < nz; k++)
+    for (int k = 0; k < nz; k++) {
+        double acc = 0.0;
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            for (int i = (j + k + colour) & 1; i < nx; i += 2) {
-                const ptrdiff_t c = r0 + i;
-                x[c] = inv_lut[dg[c]] * (b[c] + nbsum0(x, c, lk[c], sy, sz));
+            if (from_zero) {
+                for (int i = (j + k + colour) & 1; i < nx; i += 2)
+                    x[r0 + i] = inv_lut[dg[r0 + i]] * b[r0 + i];
+            } else {
+                for (int i = (j + k + colour) & 1; i < nx; i += 2) {
+                    const ptrdiff_t c = r0 + i;
+                    x[c] = inv_lut[dg[c]] * (b[c] + nbsum0(x, c, lk[c], sy, sz));
+                }
+            }
+            if (dot) {
+                float racc = 0.0f;
+                for (int i = 0; i < nx; i++) racc += dg[r0 + i] ? b[r0 + i] * x[r0 + i] : 0.0f;
+                acc += (double)racc;
             }
         }
+        ps[4 * k] = acc;
+    }
     if (any_periodic(g)) exchange(g, x + sq__cidx(g, 0, 0, 0), g->n, sy, sz);
+    if (dot) *dot = sq__grid_sum_planes(g, 0);
+}
+
+static void smooth0(sq_grid *g, float *x, const float *b, int colour)
+{
+    smooth0_ex(g, x, b, colour, false, NULL);
 }
 
 /* out = A x on fluid cells; returns sum x.out (per plane, in plane order) */
@@ -309,15 +333,16 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
             float *cr = C->rhs + lidx(C, 0, J, K);
             for (int I = 0; I < C->n[0]; I++) cr[I] = 0.0f;
         }
+        const int shx = C->b[0] - 1, shy = C->b[1] - 1; /* block 2: shift 1; block 1: 0 */
         for (int k = C->b[2] * K; k < C->b[2] * (K + 1) && k < nz; k++)
             for (int j = 0; j < ny; j++) {
-                float *cr = C->rhs + lidx(C, 0, j / C->b[1], K);
+                float *cr = C->rhs + lidx(C, 0, j >> shy, K);
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < nx; i++) {
                     const ptrdiff_t c = r0 + i;
                     float r = 0.0f;
                     if (dg[c]) r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz));
-                    cr[i / C->b[0]] += r;
+                    cr[i >> shx] += r;
                 }
             }
     }
@@ -403,6 +428,25 @@ static void prolong(sq_grid *g, int lf, float *xf)
             const float *r00 = xc + lidx(C, 0, Py, Pz), *r10 = xc + lidx(C, 0, Ny, Pz),
                         *r01 = xc + lidx(C, 0, Py, Nz), *r11 = xc + lidx(C, 0, Ny, Nz);
             const ptrdiff_t f0 = (ptrdiff_t)(j + 1) * F->sy + (ptrdiff_t)(k + 1) * F->sz + 1;
+            if (C->b[0] == 2 && !(nf0 & 1)) {
+                /* pairs of children: the y-z interpolated coarse row at I-1, I, I+1 */
+                const float w00 = (1.0f - wy) * (1.0f - wz), w10 = wy * (1.0f - wz),
+                            w01 = (1.0f - wy) * wz, w11 = wy * wz;
+                float prev = w00 * r00[-1] + w10 * r10[-1] + w01 * r01[-1] + w11 * r11[-1];
+                float cur = w00 * r00[0] + w10 * r10[0] + w01 * r01[0] + w11 * r11[0];
+                for (int I = 0; 2 * I < nf0; I++) {
+                    const float next = w00 * r00[I + 1] + w10 * r10[I + 1] + w01 * r01[I + 1] +
+                                       w11 * r11[I + 1];
+                    const ptrdiff_t c = f0 + 2 * I;
+                    const bool act0 = dg ? dg[c] != 0 : id[c] != 0.0f;
+                    const bool act1 = dg ? dg[c + 1] != 0 : id[c + 1] != 0.0f;
+                    if (act0) xf[c] += 0.75f * cur + 0.25f * prev;
+                    if (act1) xf[c + 1] += 0.75f * cur + 0.25f * next;
+                    prev = cur;
+                    cur = next;
+                }
+                continue;
+            }
             for (int i = 0; i < nf0; i++) {
                 const ptrdiff_t c = f0 + i;
                 if (dg ? dg[c] == 0 : id[c] == 0.0f) continue;
@@ -461,14 +505,15 @@ static void restrict_c(sq_grid *g, int l)
         for (int k = C->b[2] * K; k < C->b[2] * (K + 1) && k < F->n[2]; k++)
             for (int j = 0; j < F->n[1]; j++) {
                 const ptrdiff_t r0 = lidx(F, 0, j, k);
-                float *cr = C->rhs + lidx(C, 0, j / C->b[1], K);
+                float *cr = C->rhs + lidx(C, 0, j >> (C->b[1] - 1), K);
+                const int shx = C->b[0] - 1;
                 for (int i = 0; i < F->n[0]; i++) {
                     const ptrdiff_t c = r0 + i;
                     if (id[c] == 0.0f) continue;
                     float ax = x[c] / id[c] - (cx[c - 1] * x[c - 1] + cx[c] * x[c + 1] +
                                                cy[c - sy] * x[c - sy] + cy[c] * x[c + sy] +
                                                cz[c - sz] * x[c - sz] + cz[c] * x[c + sz]);
-                    cr[i / C->b[0]] += b[c] - ax;
+                    cr[i >> shx] += b[c] - ax;
                 }
             }
     }
@@ -516,12 +561,22 @@ static void vcycle_c(sq_grid *g, int l, double *work)
     *work += w * 2 * nu;
 }
 
-/* One V-cycle on level 0 improving x for A x = b (x is modified in place). */
-static void vcycle0(sq_grid *g, float *x, const float *b, sq_grid_project_stats *st)
+/* One V-cycle on level 0 improving x for A x = b (x is modified in place), or, from_zero,
+ * computing x = M b from x = 0 (x need not be initialised). dot: if not NULL, receives b.x. */
+static void vcycle0(sq_grid *g, float *x, const float *b, bool from_zero, double *dot,
+                    sq_grid_project_stats *st)
 {
     const int nu = g->d.smoothing_sweeps;
+    /* an odd periodic axis couples same-coloured cells across the wrap: start from real zeros */
+    bool clean = true;
+    for (int a = 0; a < 3; a++)
+        if (g->periodic[a] && (g->n[a] & 1)) clean = false;
+    if (from_zero && !clean) {
+        memset(x, 0, g->cell_count * sizeof(float));
+        from_zero = false;
+    }
     for (int s = 0; s < nu; s++) {
-        smooth0(g, x, b, 0);
+        smooth0_ex(g, x, b, 0, from_zero && s == 0, NULL);
         smooth0(g, x, b, 1);
     }
     if (g->mg_levels > 1) {
@@ -531,7 +586,7 @@ static void vcycle0(sq_grid *g, float *x, const float *b, sq_grid_project_stats 
     }
     for (int s = 0; s < nu; s++) {
         smooth0(g, x, b, 1);
-        smooth0(g, x, b, 0);
+        smooth0_ex(g, x, b, 0, false, s == nu - 1 ? dot : NULL);
     }
     st->fine_sweeps += 2 * nu;
     st->work_units += 2 * nu;
@@ -685,34 +740,16 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
         st->converged = true;
         return;
     }
+    /* ghosts and solid cells of the work vectors must hold finite values */
     memset(z, 0, n * sizeof(float));
     memset(d, 0, n * sizeof(float));
     memset(q, 0, n * sizeof(float));
-    vcycle0(g, z, r, st);
+    double rho;
+    vcycle0(g, z, r, true, &rho, st);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
     double *ps = g->plane_sum;
-    /* rho = r.z, d = z */
-    double rho;
-    {
-        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-        for (int k = 0; k < nz; k++) {
-            double acc = 0.0;
-            for (int j = 0; j < ny; j++) {
-                const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                float ra = 0.0f;
-                for (int i = 0; i < nx; i++) {
-                    const ptrdiff_t c = r0 + i;
-                    d[c] = z[c];
-                    ra += r[c] * z[c];
-                }
-                acc += (double)ra;
-            }
-            ps[4 * k] = acc;
-        }
-        rho = sq__grid_sum_planes(g, 0);
-    }
-    if (any_periodic(g)) exchange(g, d + sq__cidx(g, 0, 0, 0), g->n, g->sy, g->sz);
+    memcpy(d, z, n * sizeof(float)); /* d = z (ghosts included) */
     for (int it = 0; it < g->d.max_iterations; it++) {
         const double dq = apply0(g, d, q);
         if (!(dq > 0.0)) break;
@@ -746,20 +783,8 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
             break;
         }
         if (it + 1 >= g->d.max_iterations) break;
-        memset(z, 0, n * sizeof(float));
-        vcycle0(g, z, r, st);
-        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-        for (int k = 0; k < nz; k++) {
-            double acc = 0.0;
-            for (int j = 0; j < ny; j++) {
-                const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                float ra = 0.0f;
-                for (int i = 0; i < nx; i++) ra += r[r0 + i] * z[r0 + i];
-                acc += (double)ra;
-            }
-            ps[4 * k] = acc;
-        }
-        const double rho_new = sq__grid_sum_planes(g, 0);
+        double rho_new;
+        vcycle0(g, z, r, true, &rho_new, st);
         /* Polak-Ribiere (flexible) beta: the V-cycle is only nearly symmetric */
         double bta = (rho_new - rz_old) / rho;
         const float beta = (float)(bta > 0.0 ? bta : 0.0);
@@ -796,7 +821,7 @@ static void solve_multigrid(sq_grid *g, float *phi, sq_grid_project_stats *st)
         return;
     }
     for (int it = 0; it < g->d.max_iterations; it++) {
-        vcycle0(g, phi, b, st);
+        vcycle0(g, phi, b, false, NULL, st);
         rr = residual_norm2(g, phi, b);
         st->iterations = it + 1;
         st->residual = sqrt(rr) / bn;
