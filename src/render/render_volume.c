@@ -647,7 +647,7 @@ static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_
     set_common_uniforms(r, prog, v, p);
     um4(prog, "u_view_proj", &r->view_proj);
     u3(prog, "u_cam", r->cam_pos);
-    u3(prog, "u_forward", sq_v3_norm(r->cam_forward));
+    u3(prog, "u_cam_forward", sq_v3_norm(r->cam_forward));
     u1f(prog, "u_near", r->near_m);
     const GLuint pb = r->volume->prog_bounds;
     um4(pb, "u_inv_view_proj", &r->inv_view_proj);

@@ -21,7 +21,7 @@ layout(binding = 4) uniform sampler2D u_eye_t;   // running transmittance
 layout(binding = 5) uniform sampler3D u_noise;
 
 uniform vec3 u_cam;
-uniform vec3 u_forward;        // camera view direction
+uniform vec3 u_cam_forward;    // camera view direction
 uniform float u_near;          // near plane distance (m)
 uniform vec3 u_box_lo, u_box_size;
 uniform vec3 u_dims;           // nx, ny, nz
@@ -53,7 +53,7 @@ void main()
     // The nearer neighbour slice along this ray lies at t - dt. If the near plane clips it away
     // (camera inside the volume), this slice also stands for its part of the ray, down to the
     // camera, so that no dust goes missing in front of the first visible slice.
-    float t_clip = u_near / max(dot(dir, u_forward), 1e-4);
+    float t_clip = u_near / max(dot(dir, u_cam_forward), 1e-4);
     float lo = t - dt < t_clip ? bounds.x : max(t - 0.5 * dt, bounds.x);
     float len = min(t + 0.5 * dt, bounds.y) - lo;
     if (len <= 0.0) discard;
