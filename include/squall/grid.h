@@ -30,11 +30,22 @@
  * Solid cells (terrain, obstacles; sq_grid_set_solid*) are no-slip, no-penetration: every face
  * touching a solid cell has zero velocity, dp/dn = 0 there.
  *
- * Memory (bytes per cell, interior cells N = nx*ny*nz, ghosts add a few per cent):
- *   velocity 12, pressure 4, scalars 4 each, flags/links/ground distance 4,
- *   shared scratch 48 (advection traces and outputs; reused by projection, confinement and
- *   diffusion), multigrid coarse levels ~4.2  =>  about 72 + 4 * scalar_count bytes per cell.
- * sq_grid_memory_bytes() returns the exact figure for a desc.
+ * Memory (bytes per interior cell; the ghost layers add (n+2)^3/n^3 - 1, 10 % at 64^3):
+ *   velocity 12, scalars 4 each, pressure 4, flags / links / ground distance / solid 6,
+ *   shared scratch 52 (advection displacements and outputs; reused by the projection's CG
+ *   vectors, confinement and diffusion), multigrid coarse levels ~4.6
+ *   =>  about 79 + 4 * scalar_count bytes per cell.
+ * sq_grid_memory_bytes() returns the exact figure for a desc (what create allocates).
+ *
+ * Views and fields. Advection writes into a spare buffer and swaps it in: sq_field_view data
+ * pointers are valid until the next stage; the sq_field3 pointers returned by
+ * sq_grid_velocity_field / sq_grid_scalar_field stay valid for the grid's life (re-read their
+ * origin after a stage).
+ *
+ * Cost. The RK2 traces are computed once per velocity field at the cell centres and cached:
+ * all scalars advected with one velocity share them, and so does the next velocity advection
+ * if nothing changed the velocity in between. A step that advects its scalars first (with the
+ * projected velocity of the previous step) and then the wind therefore traces once.
  *
  * Threads: kernels run on sq_context_threads() threads (OpenMP over z). Reductions sum per
  * z-plane and then in plane order, so results do not depend on the thread count. */
@@ -104,7 +115,9 @@ typedef struct sq_grid_desc {
     double tolerance;            /* relative residual |b - A phi|_2 / |b|_2; 0 = 1e-3 */
     int max_iterations;          /* cap on CG iterations / V-cycles; 0 = 50 */
     int smoothing_sweeps;        /* red-black Gauss-Seidel sweeps before and after the coarse
-                                    correction on every level; 0 = 1 */
+                                    correction on every level; 0 = 1. Multigrid coarsens by 2
+                                    per axis (ceil(n/2): any size >= 4 works; sizes divisible
+                                    by 8 coarsen best) down to <= 2 cells per axis */
     bool cold_start;             /* false (default): start from the previous pressure */
     sq_advect_scheme advection;  /* 0 = MacCormack */
     sq_advect_limiter limiter;   /* 0 = revert */
@@ -114,7 +127,8 @@ typedef struct sq_grid_desc {
     double confinement_max_cells; /* the confinement force may move a parcel at most this
                                      many cells in one step: |f| dt^2 <= c h; 0 = 0.25 */
     double mixing_length_max_m;  /* cap on the mixing length kappa d; 0 = no cap */
-    int diffusion_iterations;    /* Gauss-Seidel sweeps of the implicit diffusion; 0 = 3 */
+    int diffusion_iterations;    /* Gauss-Seidel sweeps of the implicit molecular diffusion
+                                    (used only when nu_mol dt / h^2 > 1/6); 0 = 3 */
 } sq_grid_desc;
 
 typedef struct sq_grid sq_grid;
@@ -136,8 +150,8 @@ typedef struct sq_grid_stats {
     double ms_advect, ms_forces, ms_confine, ms_diffuse, ms_project;
     int64_t advect_calls, project_calls;
     double last_cfl;              /* max |u| dt / h of the last velocity or scalar advection */
-    double last_diffusion_number; /* max nu dt / h^2 of the last diffusion */
-    bool last_diffusion_implicit; /* the last diffusion used the implicit scheme */
+    double last_diffusion_number; /* max (nu_mol + nu_t) dt / h^2 of the last diffusion */
+    bool last_diffusion_implicit; /* the last diffusion solved implicitly (always when nu_t > 0) */
     sq_grid_project_stats last_project;
     int mg_levels;                /* levels of the multigrid hierarchy */
 } sq_grid_stats;
@@ -226,13 +240,20 @@ SQ_API sq_result sq_grid_add_buoyancy(sq_grid *g, int temperature_idx, const flo
  * dimensionless relative helicity), with |f| dt^2 <= confinement_max_cells * h. */
 SQ_API sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adaptive,
                                            double dt_s);
-/* Diffusion with nu = nu_mol + nu_t, nu_t = (kappa d)^2 |d u_h / dz| (Prandtl mixing length;
- * d = distance above the nearest solid cell or ground wall below; no ground below: nu_t = 0).
- * Explicit when max nu dt / h^2 <= 1/6, otherwise backward Euler by red-black Gauss-Seidel
- * (unconditionally stable: every update is a convex combination). */
+/* Mixing-length Reynolds stress (S0 2.17, SPEC §1.5): du_h/dt = d/dz ((nu_mol + nu_t) du_h/dz)
+ * for the horizontal wind, nu_t = (kappa d)^2 |d u_h / dz| with d the height above the nearest
+ * solid cell or no-slip/free-slip ground below (none below: nu_t = 0), capped by
+ * mixing_length_max_m. Solved exactly by backward Euler per column (tridiagonal): stable and
+ * monotone for any dt. No-slip ground and solids act as u = 0 half a cell below. The isotropic
+ * molecular term nu_mol lap(u) on all components is added only where it matters (nu_mol dt/h^2
+ * > 1e-3): explicit up to 1/6, else backward Euler by red-black Gauss-Seidel sweeps (logged). */
 SQ_API sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol_m2ps, double kappa,
                                       double dt_s);
-/* Makes the velocity divergence-free; stats may be NULL. */
+/* Makes the velocity divergence-free: solves A phi = -h^2 div u* for phi = p dt / rho to the
+ * relative residual tolerance (warm-started from the previous pressure), then u -= grad phi.
+ * The residual reported equals h^2 |div u|_2 / h^2 |div u*|_2 after the correction. Fluid
+ * regions enclosed without an outflow/open face get one pinned cell (exact for a compatible
+ * right-hand side). stats may be NULL. */
 SQ_API sq_result sq_grid_project(sq_grid *g, double dt_s, sq_grid_project_stats *stats);
 
 /* ---- diagnostics ----------------------------------------------------------------------------- */

@@ -190,15 +190,6 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
 }
 
 /* ---- vorticity confinement ------------------------------------------------------------------ */
-/* cell-centred velocity component c at padded cell (i,j,k), -1 <= i <= nx etc. */
-static inline float ucell(const sq_grid *g, int c, int i, int j, int k)
-{
-    const sq_field3 *f = &g->vel[c];
-    const float *p = sq_field3_at(f, i, j, k);
-    const ptrdiff_t s = c == 0 ? 1 : c == 1 ? f->sy : f->sz;
-    return 0.5f * (p[0] + p[s]);
-}
-
 sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adaptive, double dt_s)
 {
     sq_result r = check(g, dt_s, "sq_grid_confine_vorticity");
@@ -212,29 +203,46 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const float h = g->h, i2h = 0.5f / g->h;
     const uint8_t *fl = g->flags;
+    const ptrdiff_t sy = g->sy, sz = g->sz;
     float *wx = g->scratch[0], *wy = g->scratch[1], *wz = g->scratch[2], *wm = g->scratch[3];
+    /* cell-centred velocity (padded, ghosts included) in the displacement-cache arrays */
+    g->trace_valid = false;
+    float *uc[3] = {g->scratch[SQ__S_DISP], g->scratch[SQ__S_DISP + 1],
+                    g->scratch[SQ__S_DISP + 2]};
     const int nt = sq_context_threads(g->ctx);
+    for (int c = 0; c < 3; c++) {
+        const sq_field3 *f = &g->vel[c];
+        const ptrdiff_t st = c == 0 ? 1 : c == 1 ? f->sy : f->sz;
+        float *o = uc[c];
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = -1; k <= nz; k++)
+            for (int j = -1; j <= ny; j++) {
+                const float *p = sq_field3_at(f, 0, j, k);
+                float *q = o + sq__cidx(g, 0, j, k);
+                for (int i = -1; i <= nx; i++) q[i] = 0.5f * (p[i] + p[i + st]);
+            }
+    }
+    const float *ux = uc[0], *uy = uc[1], *uz = uc[2];
     /* pass 1: omega and |omega| at cell centres (central differences of cell velocities) */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
+        for (int j = 0; j < ny; j++) {
+            const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = sq__cidx(g, i, j, k);
+                const ptrdiff_t c = r0 + i;
                 if (fl[c] & SQ__CF_SOLID) {
                     wx[c] = wy[c] = wz[c] = wm[c] = 0.0f;
                     continue;
                 }
-                float ox = (ucell(g, 2, i, j + 1, k) - ucell(g, 2, i, j - 1, k) -
-                            ucell(g, 1, i, j, k + 1) + ucell(g, 1, i, j, k - 1)) * i2h;
-                float oy = (ucell(g, 0, i, j, k + 1) - ucell(g, 0, i, j, k - 1) -
-                            ucell(g, 2, i + 1, j, k) + ucell(g, 2, i - 1, j, k)) * i2h;
-                float oz = (ucell(g, 1, i + 1, j, k) - ucell(g, 1, i - 1, j, k) -
-                            ucell(g, 0, i, j + 1, k) + ucell(g, 0, i, j - 1, k)) * i2h;
+                const float ox = (uz[c + sy] - uz[c - sy] - uy[c + sz] + uy[c - sz]) * i2h;
+                const float oy = (ux[c + sz] - ux[c - sz] - uz[c + 1] + uz[c - 1]) * i2h;
+                const float oz = (uy[c + 1] - uy[c - 1] - ux[c + sy] + ux[c - sy]) * i2h;
                 wx[c] = ox;
                 wy[c] = oy;
                 wz[c] = oz;
                 wm[c] = sqrtf(ox * ox + oy * oy + oz * oz);
             }
+        }
     sq__grid_fill_ghosts(g, wm + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
     /* pass 2: f = eps h (N x omega) [* relative helicity], clamped; written over omega */
     const float e = (float)eps * h;
@@ -248,8 +256,8 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
                 const ptrdiff_t c = sq__cidx(g, i, j, k);
                 if (fl[c] & SQ__CF_SOLID) continue;
                 float ex = (wm[c + 1] - wm[c - 1]) * i2h;
-                float ey = (wm[c + g->sy] - wm[c - g->sy]) * i2h;
-                float ez = (wm[c + g->sz] - wm[c - g->sz]) * i2h;
+                float ey = (wm[c + sy] - wm[c - sy]) * i2h;
+                float ez = (wm[c + sz] - wm[c - sz]) * i2h;
                 float en = sqrtf(ex * ex + ey * ey + ez * ez) + 1e-10f;
                 float Nx = ex / en, Ny = ey / en, Nz = ez / en;
                 float ox = wx[c], oy = wy[c], oz = wz[c];
@@ -257,10 +265,9 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
                 float fy = e * (Nz * ox - Nx * oz);
                 float fz = e * (Nx * oy - Ny * ox);
                 if (helicity_adaptive) {
-                    float ux = ucell(g, 0, i, j, k), uy = ucell(g, 1, i, j, k),
-                          uz = ucell(g, 2, i, j, k);
-                    float un = sqrtf(ux * ux + uy * uy + uz * uz);
-                    float hel = fabsf(ux * ox + uy * oy + uz * oz) / (un * wm[c] + eps0);
+                    const float vx = ux[c], vy = uy[c], vz = uz[c];
+                    float un = sqrtf(vx * vx + vy * vy + vz * vz);
+                    float hel = fabsf(vx * ox + vy * oy + vz * oz) / (un * wm[c] + eps0);
                     fx *= hel;
                     fy *= hel;
                     fz *= hel;
