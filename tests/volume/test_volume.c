@@ -98,6 +98,14 @@ static float *render(sq_renderer *r, const sq_world *w, const sq_camera *c, cons
     return rgb;
 }
 
+/* Sum over pixels of |a - b| in green. */
+static double image_l1(const float *a, const float *b)
+{
+    double s = 0.0;
+    for (size_t k = 1; k < (size_t)3 * IMG_W * IMG_H; k += 3) s += fabs((double)a[k] - b[k]);
+    return s;
+}
+
 /* Ray of pixel (i, j), j counted from the top row, through its centre. */
 static void pixel_ray(const sq_camera *c, int i, int j, sq_vec3 *o, sq_vec3 *d)
 {
@@ -568,6 +576,36 @@ done:
     sq_context_destroy(ctx);
 }
 
+/* The density is uploaded when its version changes (not on every frame): new values under the
+ * same version are not seen, a new version is. */
+SQ_TEST(density_upload_follows_version)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx, 2000.0f, NULL, 0);
+    sq_renderer *r = new_renderer(ctx, 32, false);
+    float *a = NULL, *b = NULL, *c = NULL;
+    if (!w || !r) goto done;
+    const sq_camera cam = camera(sq_v3(0.0f, 0.0f, 20.0f), sq_v3(100.0f, 0.0f, 15.0f), 40.0f);
+    medium m;
+    medium_init(&m, sq_v3(50.0f, -100.0f, -1.0f), sq_v3(100.0f, 200.0f, 60.0f), 0.02f, 0.8f, 0.7f,
+                0.0f);
+    a = render(r, w, &cam, &m.d, 1, 0.0, NULL);
+    for (int i = 0; i < 64; i++) m.density[i] = 1.0f; /* same version: not uploaded */
+    b = render(r, w, &cam, &m.d, 1, 0.0, NULL);
+    m.d.u.volume.version = 2;
+    c = render(r, w, &cam, &m.d, 1, 0.0, NULL);
+    if (!a || !b || !c) goto done;
+    SQ_CHECK(image_l1(a, b) == 0.0);
+    SQ_CHECK(image_l1(a, c) > 0.01 * IMG_W * IMG_H);
+done:
+    free(a);
+    free(b);
+    free(c);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
 /* ---- sun shadow of the dust on the terrain -------------------------------------------------- */
 /* A slab 100-150 m above the ground (beta 0.04 /m, albedo 0.9, g 0.7) covers x < 0; the sun
  * shines from 16.7 degrees off the zenith, (0, 0.3, 1). The camera, below the slab, looks down
@@ -814,14 +852,6 @@ done:
     sq_renderer_destroy(r);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
-}
-
-/* Sum over pixels of |a - b| in green. */
-static double image_l1(const float *a, const float *b)
-{
-    double s = 0.0;
-    for (size_t k = 1; k < (size_t)3 * IMG_W * IMG_H; k += 3) s += fabs((double)a[k] - b[k]);
-    return s;
 }
 
 /* Rotation (SPEC 4.5 fix): a six-fold flake turned by 60 degrees is the same picture (within 3 %
