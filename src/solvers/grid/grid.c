@@ -545,6 +545,8 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
                        : bc == SQ_BOUNDARY_INFLOW ? GH_INFLOW
                                                   : GH_COPY;
             }
+            const int nt = (m[ta] + 2) * (m[tb] + 2) > 16384 ? sq_context_threads(g->ctx) : 1;
+            SQ_OMP(omp parallel for schedule(static) num_threads(nt))
             for (int q = -1; q <= m[tb]; q++) {
                 float *row = o + (ptrdiff_t)q * st[tb];
                 const ptrdiff_t sp = st[ta];
@@ -587,6 +589,8 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
         int m[3];
         lattice_dims(g, c + 1, m);
         /* faces touching solid cells: only planes that contain solids */
+        const int nt = sq_context_threads(g->ctx);
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
         for (int k = 0; k < m[2]; k++) {
             bool any = g->plane_solid[k + 1] || (c == 2 && g->plane_solid[k]);
             if (!any) continue;
