@@ -16,9 +16,11 @@
  *      (volume_light.frag, rendered from the sun with an orthographic projection fitted to
  *      the box) carries the light buffer across the slab (ping-pong).
  *   4. The eye buffers (colour + per-channel transmittance) are composited over the HDR scene.
- * Every fragment clips its slab to the box, to the camera and to the opaque depth, so a
- * homogeneous medium gets exactly exp(-β_ext d) over any path (checked by the Koschmieder
- * test in tests/volume). sq__volume_pass_prepare_shadow runs the light passes alone before
+ * Every fragment clips its slab to the box, to the camera and to the opaque depth (a per-pixel
+ * ray interval computed once per frame by volume_bounds.frag), and the first slice in front of
+ * the near plane also stands for the ray down to the camera, so a homogeneous medium gets
+ * exactly exp(-β_ext d) over any path, camera inside or outside (checked by the Koschmieder
+ * tests in tests/volume). sq__volume_pass_prepare_shadow runs the light passes alone before
  * the opaque passes and leaves the final light buffer (sun transmittance ratio) in
  * r->sun_shadow_tex with r->sun_shadow_matrix (world -> its texture coordinates). */
 #include <math.h>
