@@ -19,8 +19,10 @@
  * - Shadow rays: occlusion by opaque geometry, then ratio tracking per volume with Russian
  *   roulette below transmittance 0.1.
  * - Phase: HG (SPEC §2.6, cos theta = dot of propagation directions, g > 0 forward), optional
- *   second lobe (1 - w2) HG(g) + w2 HG(g2). With per-channel g the direction is drawn from the
- *   channel-averaged mixture and each channel weighted by p_c / p_mix.
+ *   second lobe (1 - w2) HG(g) + w2 HG(g2). With per-channel g every path draws a hero channel
+ *   and samples its directions from that channel's phase function; the channels are combined
+ *   by one-sample MIS over the three hero choices (balance heuristic on the product of phase
+ *   values along the path: weight P_c / mean_k P_k <= 3; Wilkie et al. 2014 "hero wavelength").
  * - Sun: a directional (delta) light of irradiance world->sun_radiance (its angular size is
  *   neglected; it is never seen directly by camera or bounce rays), by next-event estimation.
  *   Sky: the analytic gradient of sq__ref_sky, reached by rays that escape.
@@ -77,23 +79,31 @@ static double phase_channel(const sq__ref_volume *v, int c, double mu)
     return p;
 }
 
-/* Samples a new path direction after scattering in v; multiplies w by p_c / pdf. */
-static sq__dv3 phase_sample(const sq__ref_volume *v, sq__dv3 d, double w[3], sq__ref_rng *rng)
+/* Samples a new path direction after scattering in v from the hero channel's phase function
+ * and multiplies the per-channel phase products P by p_c (renormalised to max 1). */
+static sq__dv3 phase_sample(const sq__ref_volume *v, sq__dv3 d, int hero, double P[3],
+                            sq__ref_rng *rng)
 {
-    double u0 = sq__ref_rand(rng), u1 = sq__ref_rand(rng), u2 = sq__ref_rand(rng);
-    int c = v->same_phase ? 0 : (int)(u0 * 3.0);
-    if (c > 2) c = 2;
-    double g = (v->w2 > 0.0 && u1 < v->w2) ? v->g2 : v->g[c];
+    double u1 = sq__ref_rand(rng), u2 = sq__ref_rand(rng);
+    double g = (v->w2 > 0.0 && u1 < v->w2) ? v->g2 : v->g[v->same_phase ? 0 : hero];
     double mu = sq__hg_sample_cos(g, sq__ref_rand(rng));
     if (!v->same_phase) {
-        double p[3], pdf = 0.0;
+        double mx = 0.0;
         for (int k = 0; k < 3; k++) {
-            p[k] = phase_channel(v, k, mu);
-            pdf += p[k] / 3.0;
+            P[k] *= phase_channel(v, k, mu);
+            if (P[k] > mx) mx = P[k];
         }
-        for (int k = 0; k < 3; k++) w[k] *= p[k] / pdf;
+        if (mx > 0.0)
+            for (int k = 0; k < 3; k++) P[k] /= mx;
     }
     return sq__ref_direction_around(d, mu, u2);
+}
+
+/* One-sample MIS weight of channel c over the three hero strategies (balance heuristic on the
+ * phase-sampling part of the path pdf): P_c / mean_k P_k, at most 3. */
+static inline double hero_weight(const double P[3], int c)
+{
+    return P[c] * 3.0 / (P[0] + P[1] + P[2]);
 }
 
 /* ---- tracking ------------------------------------------------------------------------------ */
@@ -163,7 +173,10 @@ typedef struct trace_opts {
 static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o, sq__dv3 d,
                        sq__ref_rng *rng, double L[3])
 {
-    double w[3] = {1.0, 1.0, 1.0};
+    double w[3] = {1.0, 1.0, 1.0}; /* tracking and albedo weights per channel */
+    double P[3] = {1.0, 1.0, 1.0}; /* phase products per channel (relative) */
+    int hero = (int)(sq__ref_rand(rng) * 3.0);
+    if (hero > 2) hero = 2;
     L[0] = L[1] = L[2] = 0.0;
     double tmin = 0.0;
     for (int bounce = 0;; bounce++) {
@@ -177,7 +190,7 @@ static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o,
         if (ev == TRACK_NONE && !surf) { /* escaped to the sky */
             double sky[3];
             sq__ref_sky(s, d, bounce == 0, sky); /* the sun disc only for camera rays */
-            for (int c = 0; c < 3; c++) L[c] += w[c] * sky[c];
+            for (int c = 0; c < 3; c++) L[c] += w[c] * hero_weight(P, c) * sky[c];
             return;
         }
         if (bounce >= opt->max_bounces) return;
@@ -190,10 +203,11 @@ static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o,
                 if (tr[0] > 0.0 || tr[1] > 0.0 || tr[2] > 0.0) {
                     double mu = sq__dv_dot(d, s->sun_dir);
                     for (int c = 0; c < 3; c++)
-                        L[c] += w[c] * s->sun_e[c] * tr[c] * phase_channel(v, c, mu);
+                        L[c] += w[c] * hero_weight(P, c) * s->sun_e[c] * tr[c] *
+                                phase_channel(v, c, mu);
                 }
             }
-            d = phase_sample(v, d, w, rng);
+            d = phase_sample(v, d, hero, P, rng);
             o = x;
             tmin = 0.0;
         } else { /* opaque Lambertian surface */
@@ -206,7 +220,8 @@ static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o,
                     double tr[3];
                     sun_transmittance(s, xo, rng, tr);
                     for (int c = 0; c < 3; c++)
-                        L[c] += w[c] * hit.albedo[c] / SQ_PI * s->sun_e[c] * cs * tr[c];
+                        L[c] += w[c] * hero_weight(P, c) * hit.albedo[c] / SQ_PI * s->sun_e[c] *
+                                cs * tr[c];
                 }
             }
             /* cosine-weighted hemisphere about the shading normal: weight = albedo */
@@ -218,9 +233,10 @@ static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o,
             d = nd;
             tmin = 0.0;
         }
-        /* Russian roulette from the fourth vertex on */
+        /* Russian roulette from the fourth vertex on, on the weighted throughput */
         if (bounce >= 3) {
-            double q = fmax(fabs(w[0]), fmax(fabs(w[1]), fabs(w[2])));
+            double q = 0.0;
+            for (int c = 0; c < 3; c++) q = fmax(q, fabs(w[c]) * hero_weight(P, c));
             if (q < 0.95) {
                 if (!(q > 0.0) || sq__ref_rand(rng) >= q) return;
                 for (int c = 0; c < 3; c++) w[c] /= q;
