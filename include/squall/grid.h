@@ -28,7 +28,9 @@
  *   OPEN                 as OUTFLOW but backflow is allowed
  *   PERIODIC             must be set on both faces of an axis
  * Solid cells (terrain, obstacles; sq_grid_set_solid*) are no-slip, no-penetration: every face
- * touching a solid cell has zero velocity, dp/dn = 0 there.
+ * touching a solid cell has zero velocity, dp/dn = 0 there. Scalars in solid cells belong to
+ * the caller: advection leaves them unchanged and interpolation near walls reads them (set,
+ * e.g., dust 0 and the ground temperature there).
  *
  * Memory (bytes per interior cell; the ghost layers add (n+2)^3/n^3 - 1, 10 % at 64^3):
  *   velocity 12, scalars 4 each, pressure 4, flags / links / ground distance / solid 6,

@@ -12,7 +12,8 @@
  * The vertical part is solved exactly by backward Euler: one tridiagonal system per column
  * (Thomas algorithm), unconditionally stable and monotone (an M-matrix: no new extrema) for any
  * dt. Faces touching solids keep u = 0 and act as the no-slip wall half a cell below the
- * lowest free face (as does a NO_SLIP ground); FREE_SLIP and open ends have no flux.
+ * lowest free face (as does a NO_SLIP ground); FREE_SLIP and open ends have no flux (so do the
+ * column ends of a periodic z axis: the vertical solve is not cyclic).
  *
  * The isotropic molecular part nu_mol lap(u) is applied to all three components only when its
  * diffusion number nu_mol dt / h^2 exceeds 1e-3 (below that it is orders of magnitude smaller
