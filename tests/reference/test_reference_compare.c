@@ -1,0 +1,207 @@
+/* test_compare.c — the real-time renderer (half-angle slicing with Harris multiple forward
+ * scattering, SPEC 3.3–3.4) against the unbiased reference path tracer on small scenes: a dust
+ * blob over flat terrain, seen with the sun behind the camera and against the sun. Both frames
+ * are tone mapped with the shared curve (sq_tonemap_rgba8) and compared by mean SSIM
+ * (sq_image_ssim). The full renderer must reach a recorded SSIM floor, and each ablation
+ * (single_scatter_only: no forward in-scatter in the light buffer; isotropic_phase: g = 0)
+ * must score worse than the full renderer on the scene where that approximation matters.
+ *
+ * Thresholds were recorded from the first accepted run (see docs/validation.md). Set
+ * SQ_COMPARE_DUMP=<dir> to write the frames as PFM for inspection. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sq_test.h"
+#include "squall/image.h"
+#include "squall/render.h"
+#include "squall/world.h"
+
+SQ_LABEL(render)
+
+#define CW 96
+#define CH 64
+#define REF_SPP 512
+
+static sq_context *new_ctx(void)
+{
+    sq_context_desc cd = {0};
+    cd.threads = 0;
+    cd.log_level = SQ_LOG_NONE;
+    sq_context *ctx = NULL;
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    return ctx;
+}
+
+/* Flat terrain 2 km wide, clean air, sun at 35 degrees elevation and the given azimuth. */
+static sq_world *new_world(sq_context *ctx, float sun_az_deg)
+{
+    sq_world_desc wd = {0};
+    wd.terrain.kind = SQ_TERRAIN_FLAT;
+    wd.terrain.size_m[0] = wd.terrain.size_m[1] = 2000.0f;
+    wd.terrain.resolution[0] = wd.terrain.resolution[1] = 33;
+    wd.sky.turbidity = 2.0f;
+    const double el = 35.0 * SQ_PI / 180.0, az = (double)sun_az_deg * SQ_PI / 180.0;
+    wd.sun.direction = sq_v3((float)(cos(el) * cos(az)), (float)(cos(el) * sin(az)), (float)sin(el));
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
+    return w;
+}
+
+/* A lumpy dust blob, 48^3 cells in a 240 x 240 x 120 m box resting on the ground. */
+typedef struct blob {
+    float *density;
+    sq_drawable drawable;
+} blob;
+
+static void blob_make(blob *b)
+{
+    const int n = 48, nz = 24;
+    b->density = (float *)malloc(sizeof(float) * n * n * nz);
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < n; j++)
+            for (int i = 0; i < n; i++) {
+                double x = (i + 0.5) / n * 2 - 1, y = (j + 0.5) / n * 2 - 1, z = (k + 0.5) / nz;
+                double r2 = x * x + y * y;
+                double lump = 0.75 + 0.25 * sin(9.0 * x + 2.0) * sin(7.0 * y + 1.0) * cos(6.0 * z);
+                double v = exp(-2.5 * r2) * exp(-2.0 * z) * lump - 0.08;
+                b->density[(k * n + j) * n + i] = (float)(v > 0.0 ? v : 0.0);
+            }
+    memset(&b->drawable, 0, sizeof b->drawable);
+    b->drawable.kind = SQ_DRAWABLE_VOLUME;
+    b->drawable.name = "dust";
+    sq_volume_view *v = &b->drawable.u.volume;
+    v->density = b->density;
+    v->nx = v->ny = n;
+    v->nz = nz;
+    v->origin_m = sq_v3(-120, -120, 0);
+    v->size_m = sq_v3(240, 240, 120);
+    /* dust: nearly grey extinction, high single-scattering albedo with absorption in the blue
+     * (SPEC 2.5: beta_sca / beta_ext 0.99-1; 3.6: the colour comes from the albedo), g = 0.7
+     * (SPEC 2.6); optical depth about 12 through the core */
+    for (int c = 0; c < 3; c++) {
+        v->sigma_ext[c] = 0.1f;
+        v->g[c] = 0.7f;
+    }
+    v->albedo[0] = 0.97f;
+    v->albedo[1] = 0.89f;
+    v->albedo[2] = 0.78f;
+    v->density_max = 1.0f;
+    v->version = 1;
+}
+
+static sq_camera camera_for(float view_az_deg)
+{
+    sq_camera c = {0};
+    const double az = (double)view_az_deg * SQ_PI / 180.0;
+    c.target_m = sq_v3(0, 0, 30);
+    c.position_m = sq_v3((float)(-420.0 * cos(az)), (float)(-420.0 * sin(az)), 60.0f);
+    c.fov_y_deg = 45.0f;
+    c.near_m = 0.5f;
+    c.far_m = 20000.0f;
+    return c;
+}
+
+static void dump(const char *name, const float *rgb)
+{
+    const char *dir = getenv("SQ_COMPARE_DUMP");
+    if (!dir) return;
+    char path[512];
+    snprintf(path, sizeof path, "%s/%s.pfm", dir, name);
+    sq_pfm_write(path, CW, CH, rgb, true);
+}
+
+/* GL frame, tone mapped from its linear read-back (the same curve as the reference). */
+static bool gl_frame(sq_context *ctx, bool single, bool iso, const sq_world *w,
+                     const sq_camera *cam, const sq_drawable *d, const char *name, uint8_t *rgba)
+{
+    sq_render_desc rd = {0};
+    rd.width = CW;
+    rd.height = CH;
+    rd.single_scatter_only = single;
+    rd.isotropic_phase = iso;
+    rd.seed = 3;
+    sq_renderer *r = NULL;
+    sq_result res = sq_renderer_create(ctx, &rd, &r);
+    SQ_CHECK_OK(res);
+    if (res != SQ_OK) return false;
+    float *rgb = (float *)malloc(sizeof(float) * CW * CH * 3);
+    SQ_CHECK_OK(sq_renderer_draw(r, w, cam, d, 1, 0.0));
+    SQ_CHECK_OK(sq_renderer_read_linear(r, rgb));
+    dump(name, rgb);
+    sq_tonemap_rgba8(rgb, CW, CH, 1.0f, rgba);
+    free(rgb);
+    sq_renderer_destroy(r);
+    return true;
+}
+
+static void ref_frame(sq_context *ctx, const sq_world *w, const sq_camera *cam,
+                      const sq_drawable *d, const char *name, uint8_t *rgba)
+{
+    sq_reference_desc rd = {0};
+    rd.width = CW;
+    rd.height = CH;
+    rd.samples = REF_SPP;
+    rd.seed = 11;
+    float *rgb = (float *)malloc(sizeof(float) * CW * CH * 3);
+    SQ_CHECK_OK(sq_reference_render(ctx, &rd, w, cam, d, 1, rgb));
+    dump(name, rgb);
+    sq_tonemap_rgba8(rgb, CW, CH, 1.0f, rgba);
+    free(rgb);
+}
+
+typedef struct scores {
+    double full, single, iso;
+} scores;
+
+static scores compare_scene(float sun_az, float view_az, const char *tag)
+{
+    scores s = {0, 0, 0};
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx, sun_az);
+    blob b;
+    blob_make(&b);
+    sq_camera cam = camera_for(view_az);
+    uint8_t *ref = (uint8_t *)malloc(CW * CH * 4), *gl = (uint8_t *)malloc(CW * CH * 4);
+    char name[64];
+    snprintf(name, sizeof name, "%s_ref", tag);
+    ref_frame(ctx, w, &cam, &b.drawable, name, ref);
+    snprintf(name, sizeof name, "%s_gl", tag);
+    if (gl_frame(ctx, false, false, w, &cam, &b.drawable, name, gl)) s.full = sq_image_ssim(gl, ref, CW, CH);
+    snprintf(name, sizeof name, "%s_gl_single", tag);
+    if (gl_frame(ctx, true, false, w, &cam, &b.drawable, name, gl)) s.single = sq_image_ssim(gl, ref, CW, CH);
+    snprintf(name, sizeof name, "%s_gl_iso", tag);
+    if (gl_frame(ctx, false, true, w, &cam, &b.drawable, name, gl)) s.iso = sq_image_ssim(gl, ref, CW, CH);
+    printf("%s: SSIM full %.4f, single-scatter ablation %.4f, isotropic ablation %.4f\n", tag,
+           s.full, s.single, s.iso);
+    free(ref);
+    free(gl);
+    free(b.density);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+    return s;
+}
+
+/* Floors: the first accepted run (2026-11-21, Mesa llvmpipe, 128 slices, reference 512 spp)
+ * measured SSIM 0.935 (sun behind) and 0.945 (against the sun); the floors are those values
+ * rounded down to two decimals. Ablations measured: sun behind 0.935 (single scatter; equal
+ * within noise: forward in-scatter along the sun direction carries light away from this
+ * viewer) and 0.886 (isotropic); against the sun 0.943 (single) and 0.919 (isotropic). */
+SQ_TEST(dust_blob_sun_behind_camera)
+{
+    /* view azimuth 30 deg, sun at azimuth 210 deg behind the camera: back-scatter side */
+    scores s = compare_scene(210.0f, 30.0f, "behind");
+    SQ_CHECK(s.full >= 0.93);
+    SQ_CHECK(s.full > s.iso);
+}
+
+SQ_TEST(dust_blob_against_the_sun)
+{
+    /* view azimuth 30 deg toward a sun at azimuth 30 deg, 35 deg up: forward-scatter side,
+     * where the light buffer's multiple forward scattering matters */
+    scores s = compare_scene(30.0f, 30.0f, "ahead");
+    SQ_CHECK(s.full >= 0.94);
+    SQ_CHECK(s.full > s.single);
+    SQ_CHECK(s.full > s.iso);
+}
