@@ -339,6 +339,7 @@ sq_result sq__ref_render_scene(sq_context *ctx, const sq_reference_desc *desc,
     opt.max_bounces = desc->single_scatter_only ? 1 : (desc->max_bounces ? desc->max_bounces : 64);
     const int spp = desc->samples;
     ref_camera rc;
+    memset(&rc, 0, sizeof rc);
     sq_result r = camera_setup(ctx, camera, width, height, &rc);
     if (r != SQ_OK) return r;
     if (s->has_terrain) {
@@ -355,6 +356,7 @@ sq_result sq__ref_render_scene(sq_context *ctx, const sq_reference_desc *desc,
     }
 
     const int nt = sq_context_threads(ctx);
+    (void)nt; /* unused without OpenMP */
     const uint64_t seed = desc->seed;
     const int npx = width * height;
     long long bad = 0, done = 0;
