@@ -10,11 +10,15 @@ const sq_cli_case sq_cli_bench_cases[] = {
      sq_bench_render_volume, NULL},
     {"grid", "MAC-grid fluid step: MacCormack advection + MGPCG projection + 2 scalars",
      "--grid 64|128", sq_bench_grid, NULL},
+    {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box",
+     "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
     {NULL, NULL, NULL, NULL, NULL},
 };
 
 const sq_cli_case sq_cli_validate_cases[] = {
+    {"lbm-cavity", "lid-driven cavity (D3Q15, TRT): centre-line profiles vs Ghia et al. 1982",
+     "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity},
     /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity}, */
     {NULL, NULL, NULL, NULL, NULL},
 };
