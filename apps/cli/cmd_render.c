@@ -99,8 +99,10 @@ static void format_eta(double s, char *buf, size_t n)
 {
     if (!isfinite(s) || s < 0) s = 0;
     int m = (int)(s / 60.0);
-    snprintf(buf, n, m ? "%dm%02ds" : "%.0fs", m ? m : s, (int)fmod(s, 60.0));
-    if (!m) snprintf(buf, n, "%.0fs", s);
+    if (m)
+        snprintf(buf, n, "%dm%02ds", m, (int)fmod(s, 60.0));
+    else
+        snprintf(buf, n, "%.0fs", s);
 }
 
 /* Checks a frames directory: parent must exist; the directory is created if missing; the first
@@ -168,11 +170,11 @@ static void metrics_store(metrics_log *m, int frame, double t, const sq_metric *
         m->cap = cap;
     }
     for (int i = 0; i < m->count; i++)
-        m->values[(size_t)m->frames * MAX_METRICS + (size_t)i] = i < n ? mv[i].value : NAN;
+        m->values[(size_t)m->frames * MAX_METRICS + (size_t)i] = i < n ? mv[i].value : (double)NAN;
     m->frames++;
     if (m->f) {
         fprintf(m->f, "%d,%.6g", frame, t);
-        for (int i = 0; i < m->count; i++) fprintf(m->f, ",%.9g", i < n ? mv[i].value : NAN);
+        for (int i = 0; i < m->count; i++) fprintf(m->f, ",%.9g", i < n ? mv[i].value : (double)NAN);
         fprintf(m->f, "\n");
     }
 }
@@ -342,6 +344,7 @@ int sq_cmd_render(int argc, char **argv)
 
     /* every output is checked before any work */
     bool frames_dir_created = false;
+    int frame = 0;
     sq_video_writer *vw = NULL;
     sq_renderer *ren = NULL;
     metrics_log ml;
@@ -426,8 +429,7 @@ int sq_cmd_render(int argc, char **argv)
     /* warm-up before the first frame */
     while (r == SQ_OK && sq_scene_time(scene) + 1e-9 < out->warmup_s && !interrupted)
         r = sq_scene_step(scene, frame_dt / spf);
-    int frame = 0;
-    for (; r == SQ_OK && frame < N; frame++) {
+    for (frame = 0; r == SQ_OK && frame < N; frame++) {
         if (interrupted) {
             r = sq__cli_set_error(SQ_ERR_CANCELLED, "interrupted at frame %d of %d", frame, N);
             break;
@@ -476,8 +478,13 @@ int sq_cmd_render(int argc, char **argv)
             int nf = sq_scene_fields(scene, fv, MAX_FIELDS);
             if (nf > 0) {
                 char path[1100];
-                sq_field_file_desc fd = {path, sq_scene_name(scene), "squall " SQ_VERSION_STRING,
-                                         sq_scene_time(scene), overwrite};
+                sq_field_file_desc fd;
+                memset(&fd, 0, sizeof fd);
+                fd.path = path;
+                fd.title = sq_scene_name(scene);
+                fd.source = "squall " SQ_VERSION_STRING;
+                fd.time_s = sq_scene_time(scene);
+                fd.overwrite = overwrite;
                 if (out->fields_format != SQ_FIELDS_VTK) {
                     snprintf(path, sizeof path, "%s_%05d.nc", fields, frame);
                     r = sq_netcdf_write_fields(ctx, &fd, fv, nf);

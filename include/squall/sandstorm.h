@@ -89,6 +89,7 @@ typedef struct sq_sandstorm_desc {
     double n_real, n_imag;          /* refractive index; n_real 0 -> dust default per wavelength */
     double inflow_dust_kg_m3;       /* dust entering with the inflow at the ground; 0 is physical */
     double inflow_dust_height_m;    /* e-folding height of the inflow dust; 0 -> 300 m */
+    double inflow_dust_width_m;     /* Gaussian half-width across the inflow (storm cell); 0 = uniform */
     bool no_mass_fix;              /* false: rescale after advection so the budget closes */
     /* surface (S0 eq. 2.32–2.34) */
     double u_star_t0_mps;           /* single-grain threshold friction velocity; 0 -> 0.25 */

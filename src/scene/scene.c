@@ -589,8 +589,9 @@ int sq_scene_metrics(sq_scene *s, sq_metric *out, int max)
         if (!L->self || !L->plugin->metrics) continue;
         int k = L->plugin->metrics(L->self, out + n, max - n);
         for (int j = 0; j < k; j++) {
-            snprintf(s->metric_names[n + j], sizeof s->metric_names[0], "%s.%s", L->name,
-                     out[n + j].name);
+            char full[sizeof s->metric_names[0]];
+            snprintf(full, sizeof full, "%s.%s", L->name, out[n + j].name);
+            memcpy(s->metric_names[n + j], full, sizeof full);
             out[n + j].name = s->metric_names[n + j];
         }
         n += k;

@@ -445,9 +445,14 @@ static double inflow_dust(sq_sandstorm *s)
         for (int j = 0; j < s->ny; j++) {
             int k0 = s->ground_k[j * s->nx];
             if (k0 < 0) continue;
+            double lateral = 1.0;
+            if (s->d.inflow_dust_width_m > 0.0) {
+                double yc = (j + 0.5 - 0.5 * s->ny) * s->h / s->d.inflow_dust_width_m;
+                lateral = exp(-0.5 * yc * yc);
+            }
             for (int k = k0; k < s->nz; k++) {
                 double zg = (k - k0) * (double)s->h + (double)s->ground_z1[j * s->nx];
-                float want = (float)(ramp * s->d.inflow_dust_kg_m3 *
+                float want = (float)(ramp * lateral * s->d.inflow_dust_kg_m3 *
                                      exp(-zg / s->d.inflow_dust_height_m) * s->bins[b].mass_fraction);
                 float *v = sq_field3_at(c, 0, j, k);
                 if (want > *v) {
@@ -678,12 +683,27 @@ static void update_derived(sq_sandstorm *s)
                 for (int i = 0; i < s->nx; i++)
                     s->density[((size_t)kk * s->ny + j) * s->nx + i] += k * sq_view_get(&c, i, j, kk);
     }
+    /* Display only: the drawable fades to zero over the outer 2.5 cells of the open faces (not
+     * the ground) so the finite domain shows no box edges; metrics and fields use the
+     * untapered values below (the visibility planes are computed before this taper). */
+    for (int v = 0; v < s->d.vis_height_count; v++)
+        sq__sand_visibility_plane(s->density, s->nx, s->ny, s->nz, s->ground_k, s->ground_z1,
+                                  (float)s->h, s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
+    for (int kk = 0; kk < s->nz; kk++)
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) {
+                float dmin = (float)(i < s->nx - 1 - i ? i : s->nx - 1 - i);
+                float dj = (float)(j < s->ny - 1 - j ? j : s->ny - 1 - j);
+                float dk = (float)(s->nz - 1 - kk);
+                dmin = dj < dmin ? dj : dmin;
+                dmin = dk < dmin ? dk : dmin;
+                if (dmin >= 2.5f) continue;
+                float t = (dmin + 0.5f) / 3.0f;
+                s->density[((size_t)kk * s->ny + j) * s->nx + i] *= t * t * (3.0f - 2.0f * t);
+            }
     float mx = 0.0f;
     for (size_t i = 0; i < n; i++) mx = s->density[i] > mx ? s->density[i] : mx;
     s->density_max = mx;
-    for (int v = 0; v < s->d.vis_height_count; v++)
-        sq__sand_visibility_plane(s->density, s->nx, s->ny, s->nz, s->ground_k, s->ground_z1, (float)s->h,
-                                  s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
 }
 
 static int cmp_f(const void *a, const void *b)
@@ -837,12 +857,20 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
     size_t n = (size_t)s->nx * s->ny * s->nz;
     float *conc = s->export_buf[0], *u = s->export_buf[1], *v = s->export_buf[2],
           *w = s->export_buf[3], *T = s->export_buf[4];
+    float *beta = s->export_buf[5];
     memset(conc, 0, n * sizeof(float));
+    memset(beta, 0, n * sizeof(float));
     for (int b = 0; b < s->nbins; b++) {
         sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        const float kb = (float)s->k_ext[b][3];
         for (int k = 0; k < s->nz; k++)
             for (int j = 0; j < s->ny; j++)
-                for (int i = 0; i < s->nx; i++) conc[((size_t)k * s->ny + j) * s->nx + i] += sq_view_get(&c, i, j, k);
+                for (int i = 0; i < s->nx; i++) {
+                    size_t id = ((size_t)k * s->ny + j) * s->nx + i;
+                    float cv = sq_view_get(&c, i, j, k);
+                    conc[id] += cv;
+                    beta[id] += kb * cv; /* untapered, unlike the drawable */
+                }
     }
     sq_field_view tv = sq_grid_scalar_view(s->grid, s->temp_idx);
     for (int k = 0; k < s->nz; k++)
@@ -868,7 +896,7 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
              {"w", "m s-1", "upward air velocity", "upward_air_velocity", w},
              {"air_temperature", "K", "air temperature", "air_temperature", T},
              {"extinction_550", "m-1", "dust extinction coefficient at 550 nm",
-              "volume_extinction_coefficient_in_air_due_to_ambient_aerosol_particles", s->density}};
+              "volume_extinction_coefficient_in_air_due_to_ambient_aerosol_particles", beta}};
     int cnt = 0;
     for (int i = 0; i < 6 && cnt < max; i++)
         out[cnt++] = (sq_named_field){f[i].name, f[i].units, f[i].longn, f[i].stdn, f[i].data,

@@ -97,6 +97,9 @@ static const sq_param params[] = {
       "Dust concentration entering with the inflow at the ground (a storm formed upwind)."),
     D("dust.inflow_height_m", inflow_dust_height_m, "m", 300, 1, 1e5, 0,
       "E-folding height of the inflow dust profile."),
+    D("dust.inflow_width_m", inflow_dust_width_m, "m", 0, 0, 1e6, Z,
+      "Standard deviation across the inflow face of the inflow dust (a storm cell of finite "
+      "width, centred on the domain); 0 = uniform across the face."),
     B("dust.no_mass_fix", no_mass_fix,
       "Skip the global rescaling that makes the dust budget close after advection."),
     D("surface.u_star_t0_mps", u_star_t0_mps, "m/s", 0.25, 0.01, 5, 0,
