@@ -229,3 +229,31 @@ SQ_TEST(section_tables_consistent)
         }
     }
 }
+
+/* STYLE: the table's defaults equal what each plug-in's desc_resolve produces from a zero desc,
+ * so `squall params`, the docs and the C API agree. */
+SQ_TEST(plugin_table_defaults_match_resolve)
+{
+    for (int i = 0; i < sq_plugin_count(); i++) {
+        const sq_phen_plugin *p = sq_plugin_at(i);
+        void *a = calloc(1, p->desc_size), *b = calloc(1, p->desc_size);
+        SQ_CHECK(a && b);
+        sq_params_defaults(p->params, p->param_count, b);
+        if (p->desc_resolve) {
+            SQ_CHECK_OK(p->desc_resolve(a));
+            SQ_CHECK_OK(p->desc_resolve(b));
+        }
+        SQ_CHECK_OK(sq_params_validate(p->params, p->param_count, b, p->name));
+        for (size_t k = 0; k < p->param_count; k++) {
+            char va[512], vb[512];
+            sq_params_format(&p->params[k], a, va, sizeof va);
+            sq_params_format(&p->params[k], b, vb, sizeof vb);
+            SQ_CHECK_MSG(strcmp(va, vb) == 0, "%s.%s: resolve gives %s, the table says %s", p->name,
+                         p->params[k].key, va, vb);
+            SQ_CHECK_MSG(p->params[k].doc && strlen(p->params[k].doc) > 10, "%s.%s has no doc",
+                         p->name, p->params[k].key);
+        }
+        free(a);
+        free(b);
+    }
+}
