@@ -216,10 +216,41 @@ static void metrics_summary_json(const metrics_log *m, sq_json *j)
     sq_json_raw(j, "metrics", buf);
 }
 
+/* A 2D field in metres as a 16-bit grey PNG at 1 mm per unit (0..65.535 m), north up. */
+static sq_result write_depth_png(const char *path, const sq_named_field *f, bool overwrite)
+{
+    uint16_t *g = (uint16_t *)malloc(sizeof(uint16_t) * (size_t)f->nx * (size_t)f->ny);
+    if (!g) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory writing '%s'", path);
+    for (int j = 0; j < f->ny; j++)
+        for (int i = 0; i < f->nx; i++) {
+            double v = (double)f->data[(size_t)j * f->nx + i] * 1000.0;
+            v = !isfinite(v) || v < 0.0 ? 0.0 : v > 65535.0 ? 65535.0 : v;
+            g[(size_t)(f->ny - 1 - j) * f->nx + i] = (uint16_t)(v + 0.5);
+        }
+    sq_result r = sq_png_write_gray16(path, f->nx, f->ny, g, overwrite);
+    free(g);
+    return r;
+}
+
+typedef struct ref_progress {
+    double t0;
+    int frame, frames;
+    bool tty;
+} ref_progress;
+
+/* Progress of the reference path tracer within a frame, with ETA (terminal only). */
 static bool reference_progress(void *user, double fraction)
 {
-    (void)user;
-    (void)fraction;
+    const ref_progress *p = (const ref_progress *)user;
+    if (p->tty && fraction > 0.0) {
+        double el = sq_time_now() - p->t0;
+        double total = el / ((p->frame + fraction) / p->frames);
+        char eta[32];
+        format_eta(total - el, eta, sizeof eta);
+        fprintf(stderr, "\rsquall: reference frame %d/%d  %3.0f%%  ETA %s   ", p->frame + 1,
+                p->frames, 100.0 * fraction, eta);
+        fflush(stderr);
+    }
     return !interrupted;
 }
 
@@ -448,7 +479,9 @@ int sq_cmd_render(int argc, char **argv)
                 rdsc.samples = samples;
                 rdsc.exposure = out->exposure;
                 rdsc.seed = sq_scene_seed(scene) + (uint64_t)frame;
+                ref_progress rp = {t0, frame, N, tty};
                 rdsc.progress = reference_progress;
+                rdsc.progress_user = &rp;
                 r = sq_reference_render(ctx, &rdsc, sq_scene_world(scene), &cam, dr, nd, lin);
                 if (r == SQ_OK) sq_tonemap_rgba8(lin, W, H, out->exposure, rgba);
             } else {
@@ -485,14 +518,37 @@ int sq_cmd_render(int argc, char **argv)
                 fd.source = "squall " SQ_VERSION_STRING;
                 fd.time_s = sq_scene_time(scene);
                 fd.overwrite = overwrite;
-                if (out->fields_format != SQ_FIELDS_VTK) {
-                    snprintf(path, sizeof path, "%s_%05d.nc", fields, frame);
-                    r = sq_netcdf_write_fields(ctx, &fd, fv, nf);
+                /* 3D fields and 2D maps go to separate files (a file holds one grid) */
+                sq_named_field f3[MAX_FIELDS], f2[MAX_FIELDS];
+                int n3 = 0, n2 = 0;
+                for (int q = 0; q < nf; q++) {
+                    if (fv[q].nz == 1)
+                        f2[n2++] = fv[q];
+                    else
+                        f3[n3++] = fv[q];
                 }
-                if (r == SQ_OK && out->fields_format != SQ_FIELDS_NETCDF) {
-                    snprintf(path, sizeof path, "%s_%05d.vti", fields, frame);
-                    r = sq_vtk_write_fields(ctx, &fd, fv, nf);
+                for (int grp = 0; grp < 2 && r == SQ_OK; grp++) {
+                    const sq_named_field *fs = grp ? f2 : f3;
+                    int nfs = grp ? n2 : n3;
+                    if (!nfs) continue;
+                    const char *tag = grp ? "_maps" : "";
+                    if (out->fields_format != SQ_FIELDS_VTK) {
+                        snprintf(path, sizeof path, "%s%s_%05d.nc", fields, tag, frame);
+                        r = sq_netcdf_write_fields(ctx, &fd, fs, nfs);
+                    }
+                    if (r == SQ_OK && out->fields_format != SQ_FIELDS_NETCDF) {
+                        snprintf(path, sizeof path, "%s%s_%05d.vti", fields, tag, frame);
+                        r = sq_vtk_write_fields(ctx, &fd, fs, nfs);
+                    }
                 }
+                /* 2D maps in metres (snow depth, deposit depth) also as 16-bit PNG, 1 mm per
+                 * unit, row 0 = north edge */
+                for (int q = 0; r == SQ_OK && q < nf; q++)
+                    if (fv[q].nz == 1 && fv[q].units && strcmp(fv[q].units, "m") == 0 &&
+                        strstr(fv[q].name, "depth")) {
+                        snprintf(path, sizeof path, "%s_%s_%05d.png", fields, fv[q].name, frame);
+                        r = write_depth_png(path, &fv[q], overwrite);
+                    }
                 if (r != SQ_OK) break;
             }
         }

@@ -852,7 +852,7 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
 
 int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
 {
-    if (!s->grid || max < 6) return 0;
+    if (!s->grid || max < 6 + s->d.vis_height_count) return 0;
     update_derived(s);
     size_t n = (size_t)s->nx * s->ny * s->nz;
     float *conc = s->export_buf[0], *u = s->export_buf[1], *v = s->export_buf[2],
@@ -901,6 +901,15 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
     for (int i = 0; i < 6 && cnt < max; i++)
         out[cnt++] = (sq_named_field){f[i].name, f[i].units, f[i].longn, f[i].stdn, f[i].data,
                                       s->nx, s->ny, s->nz, o, sp};
+    /* visibility planes as 2D maps */
+    for (int q = 0; q < s->d.vis_height_count && cnt < max; q++) {
+        /* the plane's height above the terrain is in its name; the map's z is 0 so that all
+         * planes share one grid in the file */
+        snprintf(s->vis_names[q], sizeof s->vis_names[q], "visibility_%gm", (double)s->d.vis_heights_m[q]);
+        sq_vec3 ov = sq_v3(o.x, o.y, 0.0f);
+        out[cnt++] = (sq_named_field){s->vis_names[q], "m", "horizontal visibility (Koschmieder, 550 nm)",
+                                      "visibility_in_air", s->vis[q], s->nx, s->ny, 1, ov, sp};
+    }
     return cnt;
 }
 

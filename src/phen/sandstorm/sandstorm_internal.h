@@ -45,6 +45,7 @@ struct sq_sandstorm {
     float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
     float density_max;
     float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */
+    char vis_names[SQ_SANDSTORM_MAX_VIS][40];
     float *export_buf[6];                    /* fields for export (conc, u, v, w, T, beta) */
     bool derived_dirty;
     uint64_t version;
