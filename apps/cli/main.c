@@ -6,16 +6,6 @@
 #include "cli.h"
 #include "commands.h"
 
-/* Until apps/cli/cmd_visibility.c is built in, a weak fallback keeps the CLI linkable; the real
- * definition (a strong symbol in another object of this executable) replaces it. */
-__attribute__((weak)) int sq_cmd_visibility(int argc, char **argv)
-{
-    (void)argc;
-    (void)argv;
-    sq_cli_error("visibility: not built into this binary");
-    return SQ_EXIT_RUNTIME;
-}
-
 typedef struct command {
     const char *name;
     int (*fn)(int argc, char **argv);
