@@ -51,6 +51,12 @@ static void cell_macro(const sq_lbm *l, int64_t c, double *rho, double u[3])
     for (int a = 0; a < 3; a++) u[a] = (r != 0 ? j[a] / r : 0.0) + h * l->g_step[a];
 }
 
+/* Whether a pass over all cells is worth a parallel region (thread start-up dominates below). */
+static bool want_parallel(const sq_lbm *l)
+{
+    return (int64_t)l->nx * l->ny * l->nz >= 32768;
+}
+
 static void invalidate(sq_lbm *l)
 {
     l->bc_valid = false;
@@ -270,7 +276,7 @@ static void inject_lu(sq_lbm *l, const double v[3], int64_t *limited, bool equil
     for (int i = 0; i < SQ_LBM_Q; i++)
         k[i] = 3.0 * sq__lbm_w[i] *
                (sq__lbm_c[i][0] * v[0] + sq__lbm_c[i][1] * v[1] + sq__lbm_c[i][2] * v[2]);
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(+:lim))
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)) reduction(+:lim))
     for (int64_t r = 0; r < rows; r++) {
         if (l->row_class[r] == SQ_LBM_ROW_SOLID) continue;
         const int y = (int)(r % l->ny), z = (int)(r / l->ny);
@@ -435,7 +441,7 @@ static sq_result check_stability(sq_lbm *l)
     const int nt = sq_context_threads(l->ctx);
     const int64_t rows = (int64_t)l->ny * l->nz;
     int64_t bad = INT64_MAX;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(min:bad))
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)) reduction(min:bad))
     for (int64_t r = 0; r < rows; r++) {
         if (l->row_class[r] == SQ_LBM_ROW_SOLID) continue;
         const int y = (int)(r % l->ny), z = (int)(r / l->ny);
@@ -676,7 +682,7 @@ static void compute_macro(sq_lbm *l)
     const double us = l->units.u, rs = l->units.rho;
     float *const rho_o = l->macro, *const ux = l->macro + n, *const uy = l->macro + 2 * n;
     float *const uz = l->macro + 3 * n;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
     for (int z = 0; z < l->nz; z++)
         for (int y = 0; y < l->ny; y++)
             for (int x = 0; x < l->nx; x++) {
@@ -722,7 +728,7 @@ sq_result sq_lbm_get_friction_velocity(sq_lbm *l, sq_field_view *out)
         static const int face_of[6] = {SQ_LBM_FACE_ZMIN, SQ_LBM_FACE_XMIN, SQ_LBM_FACE_XMAX,
                                        SQ_LBM_FACE_YMIN, SQ_LBM_FACE_YMAX, SQ_LBM_FACE_ZMAX};
         const int nt = sq_context_threads(l->ctx);
-        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
         for (int z = 0; z < l->nz; z++)
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++) {
@@ -763,7 +769,7 @@ sq_result sq_lbm_get_totals(sq_lbm *l, sq_lbm_totals *out)
     double *part = (double *)sq_alloc_zero(l->ctx, (size_t)nz * 5 * sizeof(double));
     if (!part) return SQ_ERR_OUT_OF_MEMORY;
     const int nt = sq_context_threads(l->ctx);
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
     for (int z = 0; z < nz; z++) {
         double m = 0, p[3] = {0, 0, 0}, nf = 0;
         for (int y = 0; y < l->ny; y++)

@@ -1,0 +1,158 @@
+/* snowdrift_internal.h — snow transport on the wind lattice (SPEC §5.6, S1 §2.2 eqs 8–13):
+ * integer flake counts per cell carried stochastically by the wind, deposition with
+ * stable/roll-off rules, cells that fill up turning solid (bounce-back for the wind), erosion
+ * where the friction velocity exceeds its threshold, snowfall from a rate in mm/h.
+ *
+ * The snow lives on the same nx × ny × nz lattice as the wind (same cell index: x fastest,
+ * then y, then z). Per cell it holds
+ *   air[c]  flakes carried by the air (S1's S_i summed over i: the direction is redrawn every
+ *           step from the local wind, so the 15 per-direction counts are not needed),
+ *   dep[c]  flakes deposited in the cell (resting on the surface below, or the content of a
+ *           cell that filled up and became snow-solid),
+ *   kind[c] 0 air, 1 static solid (terrain, buildings, fences), 2 snow-solid.
+ *
+ * Flake mass: one flake is 1/threshold of a cell of deposited snow, m = ρ_snow Δx³ / threshold
+ * (10 flakes and ρ_snow = 150 kg/m³ on 1 m cells: 15 kg, i.e. 15 mm water equivalent per m²).
+ * Snowfall R (mm/h water equivalent = kg m⁻² h⁻¹) then gives λ = s R Δt Δx² / (3600 m) flakes
+ * per top cell per step, s being an optional time-lapse factor for accumulation.
+ *
+ * Budget (integers, exact every step): fallen = airborne + deposited + left the domain. */
+#ifndef SQ_SNOWDRIFT_INTERNAL_H
+#define SQ_SNOWDRIFT_INTERNAL_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "core/core_internal.h"
+#include "squall/field.h"
+#include "squall/lbm.h"
+
+enum { SQ_SNOW_AIR = 0, SQ_SNOW_STATIC = 1, SQ_SNOW_SOLID = 2 };
+
+/* RNG streams (Philox counter = purpose, step, cell, block): one per stochastic rule. */
+enum {
+    SQ_SNOW_RNG_INJECT = 1,
+    SQ_SNOW_RNG_TRANSPORT = 2,
+    SQ_SNOW_RNG_ROLL = 3,
+    SQ_SNOW_RNG_ERODE = 4
+};
+
+/* Snow parameters (SI). Zero fields are replaced by the defaults noted. */
+typedef struct sq__snow_params {
+    double dx_m;                /* cell size (must equal the wind lattice's) */
+    double dt_s;                /* snow step; max |u − u_fall| dt/dx must stay <= 1 (clamped) */
+    double fall_speed_mps;      /* settling speed u_g of flakes; default 1.0 (SPEC: 0.5–1.5) */
+    int threshold;              /* a cell holding more flakes turns solid; default 10 (S1) */
+    double snow_density_kgm3;   /* deposited snow, fixes the flake mass; default 150 */
+    double snowfall_mmh;        /* water-equivalent rate; 0 is physical (no snowfall) */
+    double speedup;             /* accumulation time-lapse factor; default 1 */
+    /* erosion (S1 eqs 12–13 on the friction velocity): θ = θ_c (C_sat − C_salt),
+     * C_sat = eff (1 − u*_t²/u*²) for u* > u*_t, C_salt = airborne flakes / saltation_capacity
+     * in the cell above the surface; flakes eroded per surface cell per step
+     * = (Δt / t_sat)(C_sat − C_salt) × saltation_capacity */
+    double ustar_threshold_mps; /* u*_t; default 0.25 (dry fresh snow 0.15–0.35, Li & Pomeroy
+                                 * 1997); S1 quotes a wind speed of "4" instead */
+    double erosion_efficiency;  /* eff; default 1 */
+    double saturation_time_s;   /* t_sat; default 1 */
+    int saltation_capacity;     /* airborne flakes per surface cell at C = 1; default 4 */
+    bool periodic[2];           /* flakes leaving through x / y faces wrap around */
+    uint64_t seed;
+} sq__snow_params;
+
+/* Parameters of one snow step in lattice units, for the kernels. */
+typedef struct sq__snow_kparams {
+    int nx, ny, nz;
+    float dt_over_dx;           /* converts m/s to cells per step */
+    float fall_cells;           /* u_fall dt/dx (cells per step, downward) */
+    bool periodic[2];
+    uint64_t seed, step;
+    int threads;
+} sq__snow_kparams;
+
+typedef struct sq__snow_budget {
+    uint64_t fallen;    /* flakes injected by snowfall since create */
+    uint64_t airborne;  /* flakes in the air now */
+    uint64_t deposited; /* flakes deposited now (resting + inside snow-solid cells) */
+    uint64_t left;      /* flakes that left through open faces or the top */
+    uint64_t eroded;    /* flakes lifted by erosion since create (moved deposited -> airborne) */
+    int64_t solid_cells; /* snow-solid cells now */
+} sq__snow_budget;
+
+typedef struct sq__snow {
+    sq_context *ctx;
+    sq__snow_params p;
+    int nx, ny, nz;
+    int64_t n;
+    uint32_t *air, *air_next, *land, *dep;
+    uint8_t *kind;
+    uint8_t *changed;    /* per cell: 1 turned snow-solid, 2 turned fluid in this step */
+    uint64_t step;
+    uint64_t fallen, left, eroded;
+    double flake_mass_kg;
+} sq__snow;
+
+/* ---- kernels (snowdrift_kernels.c): pure functions over arrays ---------------------------- */
+
+/* Adds floor(λ) + Bernoulli(frac λ) flakes to every air cell of the top layer (mean exactly λ
+ * per cell). Returns the number added. */
+uint64_t sq__snow_inject(const sq__snow_kparams *kp, double lambda, const uint8_t *kind,
+                         uint32_t *air);
+
+/* Moves the flakes of air into air_next (which must be zeroed): per axis a flake steps one cell
+ * toward sign(d) with probability |d|, d = (u − u_fall ẑ) dt/dx (clamped to [−1, 1]), so the
+ * mean displacement is exactly d. Counts are split by binomial draws (exact for small counts,
+ * see sq__snow_binomial). Flakes whose step would enter a solid cell or the ground below the
+ * lattice stay and are counted in land (for sq__snow_settle); flakes leaving through the top or
+ * a non-periodic side are counted in *left. u* are SI views on the same lattice. */
+void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float *uy,
+                        const float *uz, const uint8_t *kind, const uint32_t *air,
+                        uint32_t *air_next, uint32_t *land, uint64_t *left);
+
+/* Deposition (SPEC §5.6 (2)): landed flakes rest where the cell below is solid (the 4 stable
+ * configurations); otherwise they roll to a random free cell of the 8 lower diagonal neighbours
+ * (the roll-off configurations), or drop into the hole below when all 8 are solid. Cells whose
+ * deposit exceeds threshold turn snow-solid (changed = 1) and engulf their airborne flakes.
+ * land is cleared. */
+void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, uint32_t *land,
+                     uint32_t *dep, uint32_t *air_next, uint8_t *changed);
+
+/* Erosion (S1 eqs 12–13, see sq__snow_params): lifts flakes from the resting deposit of surface
+ * cells, then from the snow-solid cell below (which turns fluid when emptied, changed = 2), into
+ * the air of the surface cell. Resting flakes that lost their support are released into the air.
+ * ustar: friction velocity (m/s) per cell. Returns the number of flakes lifted. */
+uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
+                        const float *ustar, uint8_t *kind, uint32_t *dep, uint32_t *air_next,
+                        uint8_t *changed);
+
+/* Counter-based generator of uniforms for one (purpose, step, cell): a deterministic sequence
+ * independent of thread scheduling. */
+typedef struct sq__snow_rng {
+    uint64_t seed, stream, index;
+    uint32_t buf[4];
+    int avail;
+} sq__snow_rng;
+void sq__snow_rng_init(sq__snow_rng *r, uint64_t seed, int purpose, uint64_t step, int64_t cell);
+float sq__snow_rng_uniform(sq__snow_rng *r);   /* [0, 1), 24 bits */
+double sq__snow_rng_uniform_d(sq__snow_rng *r); /* [0, 1), 53 bits */
+/* Binomial(n, p): per-flake Bernoulli draws for n <= 32; otherwise inversion when the smaller
+ * of np, n(1−p) is below 25 (exact), else the normal approximation with stochastic rounding
+ * (mean exact up to a clamping bias below 1e-6 flakes). */
+uint32_t sq__snow_binomial(sq__snow_rng *r, uint32_t n, double p);
+
+/* ---- the snow model (snowdrift_snow.c) --------------------------------------------------- */
+sq__snow_params sq__snow_params_resolve(const sq__snow_params *in);
+sq_result sq__snow_create(sq_context *ctx, sq_dims cells, const sq__snow_params *p,
+                          sq__snow **out);
+void sq__snow_destroy(sq__snow *s);
+/* Marks cell (i,j,k) as static solid (terrain, building) or air; not for snow cells. */
+void sq__snow_set_static(sq__snow *s, int i, int j, int k, bool solid);
+/* One snow step (S1 §3.2 steps 6–8): snowfall, transport by the wind u (SI views on the same
+ * lattice), deposition and solidification, erosion by the friction velocity ustar (may be NULL:
+ * no erosion). Cells turning snow-solid or fluid are passed to lbm (may be NULL). */
+sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_view *ustar,
+                        sq_lbm *lbm);
+void sq__snow_get_budget(const sq__snow *s, sq__snow_budget *out);
+/* Flakes per top cell per step for the current parameters (see the header comment). */
+double sq__snow_flakes_per_top_cell(const sq__snow_params *p);
+
+#endif

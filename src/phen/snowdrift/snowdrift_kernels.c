@@ -1,0 +1,333 @@
+/* snowdrift_kernels.c — pure kernels of the snow model on the wind lattice (SPEC §5.6, S1 §2.2):
+ * snowfall injection, stochastic transport with mean displacement (u − u_g)Δt (S1 eqs 8–11),
+ * deposition with stable/roll-off configurations and solidification at a threshold, erosion
+ * by the friction velocity (S1 eqs 12–13). Counts are integers; every rule moves flakes between
+ * arrays without creating or destroying any, so the budget is exact. Randomness is
+ * counter-based (Philox) per (purpose, step, cell): results do not depend on thread count. */
+#include <math.h>
+#include <string.h>
+
+#include "snowdrift_internal.h"
+#include "squall/rng.h"
+
+/* below this many cells the kernels run serially (thread start-up would dominate) */
+#define SQ_SNOW_PAR_MIN 32768
+
+/* ---- random numbers ---------------------------------------------------------------------- */
+
+void sq__snow_rng_init(sq__snow_rng *r, uint64_t seed, int purpose, uint64_t step, int64_t cell)
+{
+    r->seed = seed;
+    /* stream: purpose in the top byte, step below; index: cell in the high bits, block low */
+    r->stream = ((uint64_t)purpose << 56) ^ step;
+    r->index = (uint64_t)cell << 20;
+    r->avail = 0;
+}
+
+static uint32_t rng_u32(sq__snow_rng *r)
+{
+    if (r->avail == 0) {
+        sq_rng_bits(r->seed, r->stream, r->index++, r->buf);
+        r->avail = 4;
+    }
+    return r->buf[--r->avail];
+}
+
+float sq__snow_rng_uniform(sq__snow_rng *r) { return sq_u32_to_unit(rng_u32(r)); }
+
+double sq__snow_rng_uniform_d(sq__snow_rng *r)
+{
+    const uint64_t a = rng_u32(r) >> 5, b = rng_u32(r) >> 6; /* 27 + 26 bits */
+    return ((double)a * 67108864.0 + (double)b) * (1.0 / 9007199254740992.0);
+}
+
+static double rng_normal(sq__snow_rng *r)
+{
+    const double u1 = 1.0 - sq__snow_rng_uniform_d(r); /* (0, 1] */
+    const double u2 = sq__snow_rng_uniform_d(r);
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+uint32_t sq__snow_binomial(sq__snow_rng *r, uint32_t n, double p)
+{
+    if (n == 0 || !(p > 0)) return 0;
+    if (p >= 1) return n;
+    if (n <= 32) {
+        /* one Bernoulli per flake: compare 32-bit uniforms with p in 2^-32 units */
+        const double t = p * 4294967296.0;
+        const uint32_t thr = t >= 4294967295.0 ? 4294967295u : (uint32_t)t;
+        uint32_t k = 0;
+        for (uint32_t i = 0; i < n; i++) k += rng_u32(r) < thr;
+        return k;
+    }
+    const bool flip = p > 0.5;
+    const double q = flip ? 1.0 - p : p;
+    const double mean = n * q;
+    uint32_t k;
+    if (mean < 25.0) {
+        /* inversion: walk the cumulative distribution from k = 0 */
+        const double u = sq__snow_rng_uniform_d(r);
+        const double ratio = q / (1.0 - q);
+        double pk = pow(1.0 - q, (double)n), cdf = pk;
+        k = 0;
+        while (u >= cdf && k < n) {
+            pk *= ratio * (double)(n - k) / (double)(k + 1);
+            k++;
+            cdf += pk;
+            if (pk < 1e-300 && cdf < u) break; /* round-off tail: stop */
+        }
+    } else {
+        /* normal approximation, stochastically rounded (E[floor(x + U)] = x) */
+        const double x =
+            mean + sqrt(mean * (1.0 - q)) * rng_normal(r) + sq__snow_rng_uniform_d(r);
+        k = x <= 0 ? 0 : x >= (double)n ? n : (uint32_t)x;
+    }
+    return flip ? n - k : k;
+}
+
+/* ---- snowfall ---------------------------------------------------------------------------- */
+
+uint64_t sq__snow_inject(const sq__snow_kparams *kp, double lambda, const uint8_t *kind,
+                         uint32_t *air)
+{
+    if (!(lambda > 0)) return 0;
+    const int nx = kp->nx, ny = kp->ny, k = kp->nz - 1;
+    const int64_t base = (int64_t)k * nx * ny;
+    const double whole = floor(lambda), frac = lambda - whole;
+    uint64_t added = 0;
+    for (int64_t q = 0; q < (int64_t)nx * ny; q++) {
+        const int64_t c = base + q;
+        if (kind[c] != SQ_SNOW_AIR) continue;
+        sq__snow_rng r;
+        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_INJECT, kp->step, c);
+        const uint32_t m = (uint32_t)whole + (sq__snow_rng_uniform_d(&r) < frac ? 1u : 0u);
+        air[c] += m;
+        added += m;
+    }
+    return added;
+}
+
+/* ---- transport --------------------------------------------------------------------------- */
+
+static inline void add_atomic(uint32_t *a, uint32_t v)
+{
+    SQ_OMP(omp atomic)
+    *a += v;
+}
+
+void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float *uy,
+                        const float *uz, const uint8_t *kind, const uint32_t *air,
+                        uint32_t *air_next, uint32_t *land, uint64_t *left)
+{
+    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
+    const int64_t sy = nx, sz = (int64_t)nx * ny;
+    const float s = kp->dt_over_dx, fall = kp->fall_cells;
+    const bool par = sz * nz >= SQ_SNOW_PAR_MIN;
+    uint64_t out = 0;
+    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(+:out) if(par))
+    for (int k = 0; k < nz; k++) {
+        for (int j = 0; j < ny; j++) {
+            for (int i = 0; i < nx; i++) {
+                const int64_t c = i + j * sy + k * sz;
+                const uint32_t n = air[c];
+                if (n == 0) continue;
+                /* displacement in cells per step, S1 eq 8 */
+                float d[3] = {ux[c] * s, uy[c] * s, uz[c] * s - fall};
+                int step[3];
+                double pr[3];
+                for (int a = 0; a < 3; a++) {
+                    const float v = d[a] > 1.0f ? 1.0f : d[a] < -1.0f ? -1.0f : d[a];
+                    step[a] = v >= 0 ? 1 : -1;
+                    pr[a] = fabsf(v);
+                }
+                sq__snow_rng r;
+                sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_TRANSPORT, kp->step, c);
+                /* split n into the 8 groups (moves along x?, y?, z?) by binomial draws: the
+                 * axes are independent, as in S1 where one q is drawn per axis */
+                uint32_t g[8];
+                const uint32_t mx = sq__snow_binomial(&r, n, pr[0]);
+                const uint32_t gx[2] = {n - mx, mx};
+                for (int bx = 0; bx < 2; bx++) {
+                    const uint32_t my = sq__snow_binomial(&r, gx[bx], pr[1]);
+                    const uint32_t gy[2] = {gx[bx] - my, my};
+                    for (int by = 0; by < 2; by++) {
+                        const uint32_t mz = sq__snow_binomial(&r, gy[by], pr[2]);
+                        g[bx | by << 1 | 0 << 2] = gy[by] - mz;
+                        g[bx | by << 1 | 1 << 2] = mz;
+                    }
+                }
+                uint32_t stay = 0, landed = 0;
+                for (int m = 0; m < 8; m++) {
+                    const uint32_t cnt = g[m];
+                    if (cnt == 0) continue;
+                    if (m == 0) {
+                        stay += cnt;
+                        continue;
+                    }
+                    int ti = i + ((m & 1) ? step[0] : 0);
+                    int tj = j + ((m & 2) ? step[1] : 0);
+                    const int tk = k + ((m & 4) ? step[2] : 0);
+                    if (tk < 0) { /* the ground below the lattice */
+                        landed += cnt;
+                        continue;
+                    }
+                    if (tk >= nz) { /* out through the top */
+                        out += cnt;
+                        continue;
+                    }
+                    if (ti < 0 || ti >= nx) {
+                        if (!kp->periodic[0]) {
+                            out += cnt;
+                            continue;
+                        }
+                        ti = (ti + nx) % nx;
+                    }
+                    if (tj < 0 || tj >= ny) {
+                        if (!kp->periodic[1]) {
+                            out += cnt;
+                            continue;
+                        }
+                        tj = (tj + ny) % ny;
+                    }
+                    const int64_t t = ti + tj * sy + tk * sz;
+                    if (kind[t] != SQ_SNOW_AIR) {
+                        landed += cnt; /* hit a surface: deposition decides */
+                        continue;
+                    }
+                    add_atomic(&air_next[t], cnt);
+                }
+                if (stay) add_atomic(&air_next[c], stay);
+                land[c] = landed; /* only this iteration writes land[c] */
+            }
+        }
+    }
+    *left += out;
+}
+
+/* ---- deposition and solidification ------------------------------------------------------- */
+
+void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, uint32_t *land,
+                     uint32_t *dep, uint32_t *air_next, uint8_t *changed)
+{
+    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
+    const int64_t sy = nx, sz = (int64_t)nx * ny;
+    const bool par = sz * nz >= SQ_SNOW_PAR_MIN;
+    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) if(par))
+    for (int k = 0; k < nz; k++) {
+        for (int j = 0; j < ny; j++) {
+            for (int i = 0; i < nx; i++) {
+                const int64_t c = i + j * sy + k * sz;
+                const uint32_t m = land[c];
+                if (m == 0) continue;
+                land[c] = 0;
+                const bool below_solid = k == 0 || kind[c - sz] != SQ_SNOW_AIR;
+                if (below_solid) {
+                    dep[c] += m; /* stable: supported from below */
+                    continue;
+                }
+                /* roll-off: the free cells among the 8 lower diagonal neighbours */
+                int64_t freec[8];
+                int nf = 0;
+                for (int b = -1; b <= 1; b++)
+                    for (int a = -1; a <= 1; a++) {
+                        if (a == 0 && b == 0) continue;
+                        int ti = i + a, tj = j + b;
+                        if (ti < 0 || ti >= nx) {
+                            if (!kp->periodic[0]) continue;
+                            ti = (ti + nx) % nx;
+                        }
+                        if (tj < 0 || tj >= ny) {
+                            if (!kp->periodic[1]) continue;
+                            tj = (tj + ny) % ny;
+                        }
+                        const int64_t t = ti + tj * sy + (k - 1) * sz;
+                        if (kind[t] == SQ_SNOW_AIR) freec[nf++] = t;
+                    }
+                if (nf == 0) { /* every lower diagonal solid: drop into the hole below */
+                    add_atomic(&air_next[c - sz], m);
+                    continue;
+                }
+                sq__snow_rng r;
+                sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ROLL, kp->step, c);
+                /* uniform choice among the free ones: sequential binomial splitting */
+                uint32_t rest = m;
+                for (int q = 0; q < nf && rest > 0; q++) {
+                    const uint32_t take =
+                        q == nf - 1 ? rest : sq__snow_binomial(&r, rest, 1.0 / (nf - q));
+                    if (take) add_atomic(&air_next[freec[q]], take);
+                    rest -= take;
+                }
+            }
+        }
+    }
+    /* cells that filled up become snow-solid and engulf the flakes in their air */
+    const int64_t n = (int64_t)nx * ny * nz;
+    const uint32_t thr = (uint32_t)threshold;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(par))
+    for (int64_t c = 0; c < n; c++) {
+        if (kind[c] == SQ_SNOW_AIR && dep[c] > thr) {
+            kind[c] = SQ_SNOW_SOLID;
+            dep[c] += air_next[c];
+            air_next[c] = 0;
+            changed[c] = 1;
+        }
+    }
+}
+
+/* ---- erosion ----------------------------------------------------------------------------- */
+
+uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
+                        const float *ustar, uint8_t *kind, uint32_t *dep, uint32_t *air_next,
+                        uint8_t *changed)
+{
+    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
+    const int64_t sz = (int64_t)nx * ny, n = sz * nz;
+    const bool par = n >= SQ_SNOW_PAR_MIN;
+    const double ut = sp->ustar_threshold_mps, eff = sp->erosion_efficiency;
+    const double rate = sp->dt_s / sp->saturation_time_s;
+    const double nsat = sp->saltation_capacity;
+    uint64_t lifted = 0;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(+:lifted) if(par))
+    for (int64_t c = 0; c < n; c++) {
+        if (kind[c] != SQ_SNOW_AIR) continue;
+        const int64_t b = c - sz; /* the cell below (b < 0: the ground) */
+        const bool supported = b < 0 || kind[b] != SQ_SNOW_AIR;
+        if (!supported) {
+            /* resting flakes whose support eroded away fall again */
+            if (dep[c]) {
+                air_next[c] += dep[c];
+                dep[c] = 0;
+            }
+            continue;
+        }
+        if (!ustar) continue;
+        const double us = ustar[c];
+        if (!(us > ut)) continue;
+        const uint32_t avail = dep[c] + (b >= 0 && kind[b] == SQ_SNOW_SOLID ? dep[b] : 0u);
+        if (avail == 0) continue;
+        const double csat = eff * (1.0 - (ut * ut) / (us * us));
+        const double csalt = air_next[c] / nsat;
+        if (!(csat > csalt)) continue;
+        const double e = rate * (csat - csalt) * nsat; /* expected flakes this step */
+        sq__snow_rng r;
+        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ERODE, kp->step, c);
+        const double x = e + sq__snow_rng_uniform_d(&r);
+        uint32_t k = x >= (double)avail ? avail : (uint32_t)x;
+        if (k == 0) continue;
+        air_next[c] += k;
+        lifted += k;
+        /* resting flakes first, then the snow-solid cell below */
+        const uint32_t from_rest = k < dep[c] ? k : dep[c];
+        dep[c] -= from_rest;
+        k -= from_rest;
+        if (k > 0) {
+            dep[b] -= k;
+            if (dep[b] == 0) changed[b] = 2; /* the last flake eroded: back to air (below) */
+        }
+    }
+    /* kinds change only now, so every decision above saw the same state (thread-independent) */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(par))
+    for (int64_t c = 0; c < n; c++)
+        if (changed[c] == 2) kind[c] = SQ_SNOW_AIR;
+    return lifted;
+}
