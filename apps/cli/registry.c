@@ -12,6 +12,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "--grid 64|128", sq_bench_grid, NULL},
     {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box",
      "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL},
+    {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
+     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
     {NULL, NULL, NULL, NULL, NULL},
 };

@@ -1,0 +1,209 @@
+/* bench_sandstorm.c — `squall bench sandstorm --grid 64|128|NXxNYxNZ [--world dunes|flat]`:
+ * the full two-phase desert-sandstorm step (sq_sandstorm_step: MacCormack wind advection, dust
+ * loading, buoyancy, helicity confinement, mixing-length diffusion, MGPCG projection to the
+ * desc's tolerance 1e-3, emission, inflow dust, MacCormack transport of 4 dust bins and the
+ * temperature, mass fix, settling with deposition) on a 2560 m wide domain over a dune or flat
+ * world, with emission, inflow dust and confinement on. The step dt is a frame step at the
+ * sandstorm's own CFL limit (0.95 x sq_sandstorm_max_stable_dt, so nothing is sub-stepped).
+ * After a spin-up (--spinup, default 10 steps: the first projections of the Bernoulli
+ * initial wind are not representative) and --warmup, --reps steps are timed. One JSON line:
+ * the common keys plus the per-stage medians from sq_sandstorm_get_stats, the last
+ * projection's residual and iterations, and the memory per cell. SPEC §1.11 (step recipe). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cases.h"
+#include "squall/sandstorm.h"
+#include "squall/world.h"
+
+enum { ST_ADVECT, ST_FORCES, ST_DIFFUSE, ST_PROJECT, ST_EMISSION, ST_DUST, ST_COUNT };
+
+typedef struct sand_bench {
+    sq_sandstorm *s;
+    double *t[ST_COUNT];
+    int rep, cap;
+    sq_result err;
+} sand_bench;
+
+static void stage_ms(const sq_sandstorm_stats *st, double out[ST_COUNT])
+{
+    out[ST_ADVECT] = st->ms_advect;
+    out[ST_FORCES] = st->ms_forces;
+    out[ST_DIFFUSE] = st->ms_diffuse;
+    out[ST_PROJECT] = st->ms_project;
+    out[ST_EMISSION] = st->ms_emission;
+    out[ST_DUST] = st->ms_dust;
+}
+
+/* one frame step at 0.95 of the CFL limit (never sub-stepped) */
+static sq_result frame_step(sq_sandstorm *s)
+{
+    double dt = 0.95 * sq_sandstorm_max_stable_dt(s);
+    if (!(dt > 0.0)) dt = 1.0;
+    return sq_sandstorm_step(s, dt);
+}
+
+static int step(void *user)
+{
+    sand_bench *b = (sand_bench *)user;
+    sq_sandstorm_stats s0, s1;
+    sq_sandstorm_get_stats(b->s, &s0);
+    b->err = frame_step(b->s);
+    if (b->err != SQ_OK) return 1;
+    sq_sandstorm_get_stats(b->s, &s1);
+    if (b->rep < b->cap) {
+        double m0[ST_COUNT], m1[ST_COUNT];
+        stage_ms(&s0, m0);
+        stage_ms(&s1, m1);
+        for (int q = 0; q < ST_COUNT; q++) b->t[q][b->rep] = m1[q] - m0[q];
+    }
+    b->rep++;
+    return 0;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n)
+{
+    if (n <= 0) return NAN;
+    qsort(v, (size_t)n, sizeof *v, cmp);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static bool parse_grid(const char *s, int n[3])
+{
+    int a = 0, b = 0, c = 0;
+    char tail;
+    if (sscanf(s, "%dx%dx%d%c", &a, &b, &c, &tail) == 3) {
+        n[0] = a;
+        n[1] = b;
+        n[2] = c;
+    } else if (sscanf(s, "%d%c", &a, &tail) == 1) {
+        n[0] = n[1] = n[2] = a;
+    } else {
+        return false;
+    }
+    for (int q = 0; q < 3; q++)
+        if (n[q] < 8 || n[q] > 1024) return false;
+    return true;
+}
+
+int sq_bench_sandstorm(const sq_bench_args *a)
+{
+    const char *gs = sq_cli_value(a->argc, a->argv, "--grid");
+    if (!gs) gs = "64";
+    int n[3];
+    if (!parse_grid(gs, n)) {
+        sq_cli_error("--grid %s: expected N or NXxNYxNZ with every axis in 8..1024", gs);
+        return SQ_EXIT_USAGE;
+    }
+    const char *wname = sq_cli_value(a->argc, a->argv, "--world");
+    if (!wname) wname = "dunes";
+    bool dunes = strcmp(wname, "dunes") == 0;
+    if (!dunes && strcmp(wname, "flat") != 0) {
+        sq_cli_error("--world %s: expected dunes or flat", wname);
+        return SQ_EXIT_USAGE;
+    }
+    int spinup;
+    if (!sq_cli_int(a->argc, a->argv, "--spinup", 10, 0, 100000, &spinup)) return SQ_EXIT_USAGE;
+
+    /* a domain 2560 m wide at any resolution (40 m cells at 64), over a 4 km world */
+    const double h = 2560.0 / n[0];
+    sq_world_desc wd;
+    memset(&wd, 0, sizeof wd);
+    wd.terrain.kind = dunes ? SQ_TERRAIN_DUNES : SQ_TERRAIN_FLAT;
+    const double extent = h * (n[1] > n[0] ? n[1] : n[0]);
+    wd.terrain.size_m[0] = wd.terrain.size_m[1] = (float)(1.6 * extent);
+    wd.terrain.resolution[0] = wd.terrain.resolution[1] = 257;
+    wd.terrain.relief_m = 18.0f;
+    wd.terrain.feature_m = 160.0f;
+    wd.terrain.seed = 5;
+    sq_world *world = NULL;
+    sq_result r = sq_world_create(a->ctx, &wd, &world);
+    if (r != SQ_OK) {
+        sq_cli_error("bench sandstorm: world: %s", sq_last_error());
+        return sq_cli_exit_code(r);
+    }
+    /* the desert-sandstorm preset's storm, without the wind ramp (a steady storm) */
+    sq_sandstorm_desc d;
+    memset(&d, 0, sizeof d);
+    d.mode = SQ_SANDSTORM_DESERT;
+    d.seed = 7;
+    for (int q = 0; q < 3; q++) d.cells[q] = n[q];
+    d.cell_size_m = h;
+    d.bernoulli_pa = 200.0;
+    d.roughness_m = 5e-4;
+    d.median_radius_m = 4e-6;
+    d.sigma_g = 2.0;
+    d.bins = 4;
+    d.inflow_dust_kg_m3 = 4e-4;
+    d.inflow_dust_height_m = 250.0;
+    d.inflow_dust_width_m = 700.0;
+    d.u_star_t0_mps = 0.25;
+    d.moisture_factor = 1.6;
+    d.emission_coeff = 2e-4;
+    d.surface_temperature_k = 310.0;
+    d.lapse_k_per_m = 0.0098;
+    d.buoyancy_gain = 1.0;
+    d.confinement = 0.15;
+    d.pressure_tolerance = 1e-3;
+    sand_bench b;
+    memset(&b, 0, sizeof b);
+    r = sq_sandstorm_create(a->ctx, &d, world, &b.s);
+    if (r != SQ_OK) {
+        sq_cli_error("bench sandstorm: %s", sq_last_error());
+        sq_world_destroy(a->ctx, world);
+        return sq_cli_exit_code(r);
+    }
+    for (int q = 0; q < spinup && r == SQ_OK; q++) r = frame_step(b.s);
+    int code = SQ_EXIT_OK;
+    b.cap = a->warmup + a->reps + 1;
+    for (int q = 0; q < ST_COUNT; q++) b.t[q] = (double *)calloc((size_t)b.cap, sizeof(double));
+    bool ok = true;
+    for (int q = 0; q < ST_COUNT; q++) ok = ok && b.t[q];
+    if (r != SQ_OK) {
+        sq_cli_error("bench sandstorm: spin-up: %s", sq_last_error());
+        code = sq_cli_exit_code(r);
+    } else if (!ok) {
+        sq_cli_error("bench sandstorm: out of memory");
+        code = SQ_EXIT_RUNTIME;
+    } else {
+        sq_bench_stats st = sq_bench_time(step, &b, a->warmup, a->reps);
+        if (b.err != SQ_OK) {
+            sq_cli_error("bench sandstorm: %s", sq_last_error());
+            code = sq_cli_exit_code(b.err);
+        } else {
+            int w = a->warmup < b.rep ? a->warmup : b.rep, m = b.rep - w;
+            if (m > b.cap - w) m = b.cap - w;
+            sq_sandstorm_stats ss;
+            sq_sandstorm_get_stats(b.s, &ss);
+            const double cells = (double)n[0] * n[1] * n[2];
+            char grid[64];
+            snprintf(grid, sizeof grid, "%dx%dx%d", n[0], n[1], n[2]);
+            static const char *const keys[ST_COUNT] = {"ms_advect",  "ms_forces",   "ms_diffuse",
+                                                       "ms_project", "ms_emission", "ms_dust"};
+            sq_json j;
+            sq_json_begin(&j);
+            sq_bench_json_common(&j, "sandstorm", a, &st);
+            sq_json_str(&j, "grid", grid);
+            sq_json_str(&j, "world", dunes ? "dunes" : "flat");
+            sq_json_num(&j, "cells", cells);
+            for (int q = 0; q < ST_COUNT; q++) sq_json_num(&j, keys[q], median(b.t[q] + w, m));
+            sq_json_num(&j, "pressure_residual", ss.pressure_residual);
+            sq_json_int(&j, "pressure_iterations", ss.pressure_iterations);
+            sq_json_num(&j, "max_wind_mps", ss.max_wind_mps);
+            sq_json_num(&j, "bytes_per_cell", (double)sq_sandstorm_memory_bytes(&d) / cells);
+            sq_json_end(&j, stdout);
+        }
+    }
+    for (int q = 0; q < ST_COUNT; q++) free(b.t[q]);
+    sq_sandstorm_destroy(b.s);
+    sq_world_destroy(a->ctx, world);
+    return code;
+}
