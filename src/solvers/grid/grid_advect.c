@@ -84,21 +84,6 @@ static inline float trilerp(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t
 static inline float mn2(float a, float b) { return a < b ? a : b; }
 static inline float mx2(float a, float b) { return a > b ? a : b; }
 
-/* trilinear sample and the range of its 8 source values */
-static inline float trilerp_range(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz,
-                                  float fx, float fy, float fz, float *mn, float *mx)
-{
-    const float *q = o + b;
-    const float v0 = q[0], v1 = q[1], v2 = q[sy], v3 = q[sy + 1], v4 = q[sz], v5 = q[sz + 1],
-                v6 = q[sy + sz], v7 = q[sy + sz + 1];
-    *mn = mn2(mn2(mn2(v0, v1), mn2(v2, v3)), mn2(mn2(v4, v5), mn2(v6, v7)));
-    *mx = mx2(mx2(mx2(v0, v1), mx2(v2, v3)), mx2(mx2(v4, v5), mx2(v6, v7)));
-    float c00 = v0 + fx * (v1 - v0), c10 = v2 + fx * (v3 - v2);
-    float c01 = v4 + fx * (v5 - v4), c11 = v6 + fx * (v7 - v6);
-    float c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
-    return c0 + fz * (c1 - c0);
-}
-
 float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
                       float X, float Y, float Z)
 {
@@ -106,6 +91,95 @@ float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdi
     float f[3];
     ptrdiff_t b = locate(&l, X, Y, Z, f);
     return trilerp(origin, b, sy, sz, f[0], f[1], f[2]);
+}
+
+/* ---- chunked locating ---------------------------------------------------------------------------- */
+/* Samples are processed in row chunks of CH: the positions of a chunk are located in
+ * vectorisable loops (per axis, with the periodic/clamped choice hoisted out), then every field
+ * on the lattice is interpolated from the same corner offsets and fractions. */
+enum { CH = 64 };
+
+typedef struct chunk {
+    int32_t b[CH]; /* offset of the lower corner in the lattice array */
+    float fx[CH], fy[CH], fz[CH];
+} chunk;
+
+/* t[q] (lattice units) -> lower index ii[q] and fraction (written back to t[q]); wrapped on a
+ * periodic axis, else clamped into the ghost layer [-1, m] (NaN maps to -1). Same arithmetic
+ * as axis_locate. */
+static inline void axis_chunk(float *restrict t, int32_t *restrict ii, int n, int m, int period)
+{
+    if (period) {
+        const float P = (float)period;
+        for (int q = 0; q < n; q++) {
+            float v = t[q];
+            float w = v / P + 4.0f; /* traces never go 4 periods back */
+            w = w > 0.0f ? w : 0.0f;
+            v -= P * (float)((int)w - 4);
+            v = v >= P ? v - P : v;
+            v = v > 0.0f ? v : 0.0f;
+            int i = (int)(v + 1.0f) - 1;
+            i = i < m - 1 ? i : m - 1;
+            ii[q] = i;
+            t[q] = v - (float)i;
+        }
+    } else {
+        const float hi = (float)m;
+        for (int q = 0; q < n; q++) {
+            float v = t[q];
+            v = v > -1.0f ? v : -1.0f;
+            v = v < hi ? v : hi;
+            int i = (int)(v + 1.0f) - 1; /* floor for v >= -1 */
+            i = i < m - 1 ? i : m - 1;
+            ii[q] = i;
+            t[q] = v - (float)i;
+        }
+    }
+}
+
+/* Positions in cell units in c->fx/fy/fz -> corner offsets and fractions on lattice F. */
+static inline void locate_chunk(const lat *F, chunk *restrict c, int n)
+{
+    int32_t ix[CH], iy[CH], iz[CH];
+    const float ox = F->off[0], oy = F->off[1], oz = F->off[2];
+    for (int q = 0; q < n; q++) {
+        c->fx[q] -= ox;
+        c->fy[q] -= oy;
+        c->fz[q] -= oz;
+    }
+    axis_chunk(c->fx, ix, n, F->m[0], F->period[0]);
+    axis_chunk(c->fy, iy, n, F->m[1], F->period[1]);
+    axis_chunk(c->fz, iz, n, F->m[2], F->period[2]);
+    const int32_t sy = (int32_t)F->sy, sz = (int32_t)F->sz;
+    for (int q = 0; q < n; q++) c->b[q] = ix[q] + iy[q] * sy + iz[q] * sz;
+}
+
+/* Traces of samples i0 .. i0+n-1 of row (j, k) of lattice F: sample position plus the mean of
+ * the cached displacements of the sample's two cells (h and h - off; the same cell on the cell
+ * lattice). q0: padded offset of cell (0, j, k) from cell (0, 0, 0). */
+static inline void trace_chunk(const lat *F, ptrdiff_t off, const float *dx, const float *dy,
+                               const float *dz, int i0, int n, int j, int k, ptrdiff_t q0,
+                               chunk *restrict c)
+{
+    const float *hx = dx + q0 + i0, *hy = dy + q0 + i0, *hz = dz + q0 + i0;
+    const float Y = (float)j + F->off[1], Z = (float)k + F->off[2];
+    for (int q = 0; q < n; q++) {
+        c->fx[q] = (float)(i0 + q) + F->off[0] + 0.5f * (hx[q - off] + hx[q]);
+        c->fy[q] = Y + 0.5f * (hy[q - off] + hy[q]);
+        c->fz[q] = Z + 0.5f * (hz[q - off] + hz[q]);
+    }
+    locate_chunk(F, c, n);
+}
+
+/* min and max of the 8 corner values at offset b */
+static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float *mn,
+                          float *mx)
+{
+    const float *q = o + b;
+    const float v0 = q[0], v1 = q[1], v2 = q[sy], v3 = q[sy + 1], v4 = q[sz], v5 = q[sz + 1],
+                v6 = q[sy + sz], v7 = q[sy + sz + 1];
+    *mn = mn2(mn2(mn2(v0, v1), mn2(v2, v3)), mn2(mn2(v4, v5), mn2(v6, v7)));
+    *mx = mx2(mx2(mx2(v0, v1), mx2(v2, v3)), mx2(mx2(v4, v5), mx2(v6, v7)));
 }
 
 /* ---- displacements ------------------------------------------------------------------------------ */
@@ -116,6 +190,7 @@ static void build_uc4(sq_grid *g, float *uc4)
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
     const sq_field3 *U = &g->vel[0], *V = &g->vel[1], *W = &g->vel[2];
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = -1; k <= nz; k++)
         for (int j = -1; j <= ny; j++) {
@@ -139,20 +214,18 @@ static inline v4f ld4(const float *p)
     return v;
 }
 
-/* velocity (m/s) at a point (cell units): trilinear in uc4, all components at once */
-static inline v4f vel_at(const lat *C, const float *uc4, float X, float Y, float Z)
+/* trilinear uc4 (all components at once) at corner offset b with fractions f */
+static inline v4f vel_lerp(const float *uc4, int32_t b, ptrdiff_t sy4, ptrdiff_t sz4, float fx,
+                           float fy, float fz)
 {
-    float f[3];
-    const ptrdiff_t b = locate(C, X, Y, Z, f);
-    const float *q = uc4 + 4 * b;
-    const ptrdiff_t sy = 4 * C->sy, sz = 4 * C->sz;
-    const v4f a0 = ld4(q), a1 = ld4(q + 4), a2 = ld4(q + sy), a3 = ld4(q + sy + 4),
-              a4 = ld4(q + sz), a5 = ld4(q + sz + 4), a6 = ld4(q + sy + sz),
-              a7 = ld4(q + sy + sz + 4);
-    const v4f c00 = a0 + f[0] * (a1 - a0), c10 = a2 + f[0] * (a3 - a2);
-    const v4f c01 = a4 + f[0] * (a5 - a4), c11 = a6 + f[0] * (a7 - a6);
-    const v4f c0 = c00 + f[1] * (c10 - c00), c1 = c01 + f[1] * (c11 - c01);
-    return c0 + f[2] * (c1 - c0);
+    const float *q = uc4 + 4 * (ptrdiff_t)b;
+    const v4f a0 = ld4(q), a1 = ld4(q + 4), a2 = ld4(q + sy4), a3 = ld4(q + sy4 + 4),
+              a4 = ld4(q + sz4), a5 = ld4(q + sz4 + 4), a6 = ld4(q + sy4 + sz4),
+              a7 = ld4(q + sy4 + sz4 + 4);
+    const v4f c00 = a0 + fx * (a1 - a0), c10 = a2 + fx * (a3 - a2);
+    const v4f c01 = a4 + fx * (a5 - a4), c11 = a6 + fx * (a7 - a6);
+    const v4f c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
+    return c0 + fz * (c1 - c0);
 }
 
 /* RK2 (midpoint) displacements, in cell units, of every padded cell centre: db = x_back - x
@@ -163,32 +236,56 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
     const lat C = make_lat(g, NULL, g->sy, g->sz, SQ__L_CELL);
-    const float s = dt / g->h;
+    const float s = dt / g->h, hs = 0.5f * s;
     const v4f dv = {0.0f, 0.0f, drift, 0.0f};
+    const ptrdiff_t sy4 = 4 * g->sy, sz4 = 4 * g->sz;
     double *pmax = g->plane_sum;
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = -1; k <= nz; k++) {
         float vmax = 0.0f;
-        for (int j = -1; j <= ny; j++)
-            for (int i = -1; i <= nx; i++) {
-                const ptrdiff_t c = (ptrdiff_t)i + (ptrdiff_t)j * g->sy + (ptrdiff_t)k * g->sz;
-                const float X = (float)i + 0.5f, Y = (float)j + 0.5f, Z = (float)k + 0.5f;
-                const v4f u0 = ld4(uc4_origin + 4 * c) + dv;
-                if (i >= 0 && j >= 0 && k >= 0 && i < nx && j < ny && k < nz) {
-                    const float sp = fabsf(u0[0]) + fabsf(u0[1]) + fabsf(u0[2]);
-                    vmax = sp > vmax ? sp : vmax;
+        float ux[CH], uy[CH], uz[CH];
+        chunk cm;
+        const float Z = (float)k + 0.5f;
+        for (int j = -1; j <= ny; j++) {
+            const float Y = (float)j + 0.5f;
+            const ptrdiff_t row = (ptrdiff_t)j * g->sy + (ptrdiff_t)k * g->sz;
+            const bool inner = j >= 0 && j < ny && k >= 0 && k < nz;
+            for (int i0 = -1; i0 <= nx; i0 += CH) {
+                const int n = nx + 1 - i0 < CH ? nx + 1 - i0 : CH;
+                const float *u = uc4_origin + 4 * (row + i0);
+                for (int q = 0; q < n; q++) {
+                    ux[q] = u[4 * q];
+                    uy[q] = u[4 * q + 1];
+                    uz[q] = u[4 * q + 2] + drift;
                 }
-                const float hs = 0.5f * s;
-                v4f u1 = vel_at(&C, uc4_origin, X - hs * u0[0], Y - hs * u0[1], Z - hs * u0[2]) + dv;
-                db[0][c] = -s * u1[0];
-                db[1][c] = -s * u1[1];
-                db[2][c] = -s * u1[2];
-                if (!fwd) continue;
-                u1 = vel_at(&C, uc4_origin, X + hs * u0[0], Y + hs * u0[1], Z + hs * u0[2]) + dv;
-                df[0][c] = s * u1[0];
-                df[1][c] = s * u1[1];
-                df[2][c] = s * u1[2];
+                if (inner)
+                    for (int q = 0; q < n; q++) {
+                        const int i = i0 + q;
+                        const float sp = fabsf(ux[q]) + fabsf(uy[q]) + fabsf(uz[q]);
+                        vmax = (i >= 0 && i < nx && sp > vmax) ? sp : vmax;
+                    }
+                for (int pass = 0; pass < (fwd ? 2 : 1); pass++) {
+                    const float sg = pass ? hs : -hs;
+                    for (int q = 0; q < n; q++) {
+                        cm.fx[q] = ((float)(i0 + q) + 0.5f) + sg * ux[q];
+                        cm.fy[q] = Y + sg * uy[q];
+                        cm.fz[q] = Z + sg * uz[q];
+                    }
+                    locate_chunk(&C, &cm, n);
+                    float *ox = (pass ? df : db)[0] + row + i0, *oy = (pass ? df : db)[1] + row + i0,
+                          *oz = (pass ? df : db)[2] + row + i0;
+                    const float ss = pass ? s : -s;
+                    for (int q = 0; q < n; q++) {
+                        const v4f u1 = vel_lerp(uc4_origin, cm.b[q], sy4, sz4, cm.fx[q], cm.fy[q],
+                                                cm.fz[q]) + dv;
+                        ox[q] = ss * u1[0];
+                        oy[q] = ss * u1[1];
+                        oz[q] = ss * u1[2];
+                    }
+                }
             }
+        }
         if (k >= 0 && k < nz) pmax[k] = (double)vmax;
     }
     double m = 0.0;
@@ -220,17 +317,20 @@ static void ensure_displacements(sq_grid *g, float dt, float drift, bool fwd)
 }
 
 /* ---- the two passes ------------------------------------------------------------------------------ */
-/* Pass 1 over lattice L (for the cell lattice off = 0 and the "two cells" are the same cell):
- * hat = F at the backward trace, and for MacCormack the range of the 8 values used. Pass 2:
- * out = hat + (F - hat at the forward trace) / 2, limited. Solid cells (cell lattice) keep
- * their value. */
-static void advect_field(sq_grid *g, int L, int scalar, const lat *F, float *hat, float *mn,
-                         float *mx, float *out, bool mac, bool nonneg)
+/* Advects nf fields src[f] of lattice L (all in F's layout) into out[f], sharing the traces.
+ * Pass 1: hat = F at the backward trace (semi-Lagrangian: the result). Pass 2 (MacCormack):
+ * out = hat + (F - hat at the forward trace) / 2, limited to the range of the 8 values hat
+ * was interpolated from (recomputed from the backward trace: no range arrays are stored).
+ * On the cell lattice solid cells keep their value and bit f of nonneg clamps field f at 0.
+ * scalar0: scalar index of src[0] (src[f] is scalar scalar0 + f, for the inflow ghosts of
+ * hat), or -1 for a velocity component. */
+static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
+                          const float *const *src, float *const *hat, float *const *out, bool mac,
+                          unsigned nonneg)
 {
     const int mxn = F->m[0], myn = F->m[1], mzn = F->m[2];
     const ptrdiff_t sy = F->sy, sz = F->sz, csy = g->sy, csz = g->sz;
     const ptrdiff_t off = L == SQ__L_U ? 1 : L == SQ__L_V ? csy : L == SQ__L_W ? csz : 0;
-    const float *o = F->o;
     const ptrdiff_t c00 = sq__cidx(g, 0, 0, 0);
     const uint8_t *fl = g->flags + c00;
     const bool cell = L == SQ__L_CELL;
@@ -239,56 +339,75 @@ static void advect_field(sq_grid *g, int L, int scalar, const lat *F, float *hat
     const float *fx = g->scratch[SQ__S_DISP + 3] + c00, *fy = g->scratch[SQ__S_DISP + 4] + c00,
                 *fz = g->scratch[SQ__S_DISP + 5] + c00;
     const int nt = sq_context_threads(g->ctx);
-    float *dst1 = mac ? hat : out;
+    float *const *dst1 = mac ? hat : out;
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < mzn; k++)
+    for (int k = 0; k < mzn; k++) {
+        chunk cb;
         for (int j = 0; j < myn; j++) {
             const ptrdiff_t r0 = (ptrdiff_t)j * sy + (ptrdiff_t)k * sz;
             const ptrdiff_t q0 = (ptrdiff_t)j * csy + (ptrdiff_t)k * csz;
-            for (int i = 0; i < mxn; i++) {
-                const ptrdiff_t h = q0 + i, l = h - off, p = r0 + i;
-                const float X = (float)i + F->off[0] + 0.5f * (bx[l] + bx[h]);
-                const float Y = (float)j + F->off[1] + 0.5f * (by[l] + by[h]);
-                const float Z = (float)k + F->off[2] + 0.5f * (bz[l] + bz[h]);
-                float f[3];
-                const ptrdiff_t b = locate(F, X, Y, Z, f);
-                float v;
-                if (mac)
-                    v = trilerp_range(o, b, sy, sz, f[0], f[1], f[2], &mn[p], &mx[p]);
-                else
-                    v = trilerp(o, b, sy, sz, f[0], f[1], f[2]);
-                if (cell) {
-                    if (!mac && nonneg && v < 0.0f) v = 0.0f;
-                    if (fl[h] & SQ__CF_SOLID) v = o[p];
+            for (int i0 = 0; i0 < mxn; i0 += CH) {
+                const int n = mxn - i0 < CH ? mxn - i0 : CH;
+                trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
+                for (int f = 0; f < nf; f++) {
+                    const float *o = src[f];
+                    float *d = dst1[f] + r0 + i0;
+                    for (int q = 0; q < n; q++)
+                        d[q] = trilerp(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q], cb.fz[q]);
+                    if (!cell) continue;
+                    if (!mac && ((nonneg >> f) & 1u))
+                        for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
+                    const float *oc = o + r0 + i0;
+                    const uint8_t *fc = fl + q0 + i0;
+                    for (int q = 0; q < n; q++) d[q] = (fc[q] & SQ__CF_SOLID) ? oc[q] : d[q];
                 }
-                dst1[p] = v;
             }
         }
+    }
     if (!mac) return;
-    sq__grid_fill_ghosts(g, hat, sy, sz, L, scalar);
+    for (int f = 0; f < nf; f++)
+        sq__grid_fill_ghosts(g, hat[f], sy, sz, L, scalar0 >= 0 ? scalar0 + f : -1);
     const bool clamp = g->d.limiter == SQ_LIMITER_CLAMP;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < mzn; k++)
+    for (int k = 0; k < mzn; k++) {
+        chunk cb, cf;
+        float lo[CH], hi[CH];
         for (int j = 0; j < myn; j++) {
             const ptrdiff_t r0 = (ptrdiff_t)j * sy + (ptrdiff_t)k * sz;
             const ptrdiff_t q0 = (ptrdiff_t)j * csy + (ptrdiff_t)k * csz;
-            for (int i = 0; i < mxn; i++) {
-                const ptrdiff_t h = q0 + i, l = h - off, p = r0 + i;
-                const float X = (float)i + F->off[0] + 0.5f * (fx[l] + fx[h]);
-                const float Y = (float)j + F->off[1] + 0.5f * (fy[l] + fy[h]);
-                const float Z = (float)k + F->off[2] + 0.5f * (fz[l] + fz[h]);
-                float f[3];
-                const ptrdiff_t b = locate(F, X, Y, Z, f);
-                const float h1 = hat[p], lo = mn[p], hi = mx[p];
-                float v = h1 + 0.5f * (o[p] - trilerp(hat, b, sy, sz, f[0], f[1], f[2]));
-                if (v < lo || v > hi) v = clamp ? (v < lo ? lo : hi) : h1;
-                if (cell) {
-                    if (nonneg && v < 0.0f) v = 0.0f;
-                    if (fl[h] & SQ__CF_SOLID) v = o[p];
+            for (int i0 = 0; i0 < mxn; i0 += CH) {
+                const int n = mxn - i0 < CH ? mxn - i0 : CH;
+                trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
+                trace_chunk(F, off, fx, fy, fz, i0, n, j, k, q0, &cf);
+                for (int f = 0; f < nf; f++) {
+                    const float *o = src[f], *ht = hat[f];
+                    const float *oc = o + r0 + i0, *hc = ht + r0 + i0;
+                    float *d = out[f] + r0 + i0;
+                    for (int q = 0; q < n; q++) range8(o, (ptrdiff_t)cb.b[q], sy, sz, &lo[q], &hi[q]);
+                    for (int q = 0; q < n; q++)
+                        d[q] = trilerp(ht, (ptrdiff_t)cf.b[q], sy, sz, cf.fx[q], cf.fy[q], cf.fz[q]);
+                    if (clamp) {
+                        for (int q = 0; q < n; q++) {
+                            float v = hc[q] + 0.5f * (oc[q] - d[q]);
+                            v = v > lo[q] ? v : lo[q];
+                            d[q] = v < hi[q] ? v : hi[q];
+                        }
+                    } else {
+                        for (int q = 0; q < n; q++) {
+                            const float v = hc[q] + 0.5f * (oc[q] - d[q]);
+                            d[q] = (v < lo[q] || v > hi[q]) ? hc[q] : v;
+                        }
+                    }
+                    if (!cell) continue;
+                    if ((nonneg >> f) & 1u)
+                        for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
+                    const uint8_t *fc = fl + q0 + i0;
+                    for (int q = 0; q < n; q++) d[q] = (fc[q] & SQ__CF_SOLID) ? oc[q] : d[q];
                 }
-                out[p] = v;
             }
         }
+    }
 }
 
 /* Makes scratch array s (holding a result in f's layout) the storage of f; f's old storage
@@ -315,9 +434,10 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];
         lat F = make_lat(g, f->origin, f->sy, f->sz, c + 1);
-        advect_field(g, c + 1, -1, &F, scratch_origin(g, SQ__S_BLOCK, f),
-                     scratch_origin(g, SQ__S_BLOCK + 1, f), scratch_origin(g, SQ__S_BLOCK + 2, f),
-                     scratch_origin(g, SQ__S_OUT + c, f), mac, false);
+        const float *src[1] = {f->origin};
+        float *hat[1] = {scratch_origin(g, SQ__S_BLOCK, f)};
+        float *out[1] = {scratch_origin(g, SQ__S_OUT + c, f)};
+        advect_fields(g, c + 1, -1, &F, 1, src, hat, out, mac, 0u);
     }
     for (int c = 0; c < 3; c++) swap_in(g, &g->vel[c], SQ__S_OUT + c);
     g->stats.last_cfl = (double)g->trace_cfl;
@@ -327,20 +447,35 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
     return SQ_OK;
 }
 
-sq_result sq__grid_advect_scalar(sq_grid *g, int idx, float dt, float drift)
+/* Advects scalars s0 .. s0+count-1 with one trace (same dt and drift), in batches of up to
+ * three (the hats live in scratch 0..2, the results in 10..12 and are swapped in). */
+sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float drift)
 {
     const bool mac = g->d.advection == SQ_ADVECT_MACCORMACK;
-    const bool nonneg = (g->d.scalar_nonnegative >> idx) & 1u;
     ensure_displacements(g, dt, drift, mac);
     g->stats.last_cfl = (double)g->trace_cfl;
-    sq_field3 *f = &g->scalar[idx];
-    sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, idx);
-    lat F = make_lat(g, f->origin, f->sy, f->sz, SQ__L_CELL);
-    advect_field(g, SQ__L_CELL, idx, &F, scratch_origin(g, SQ__S_BLOCK, f),
-                 scratch_origin(g, SQ__S_BLOCK + 1, f), scratch_origin(g, SQ__S_BLOCK + 2, f),
-                 scratch_origin(g, SQ__S_OUT, f), mac, nonneg);
-    swap_in(g, f, SQ__S_OUT);
-    sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, idx);
+    for (int b0 = s0; b0 < s0 + count; b0 += 3) {
+        const int nb = s0 + count - b0 < 3 ? s0 + count - b0 : 3;
+        const float *src[3];
+        float *hat[3], *out[3];
+        unsigned nonneg = 0;
+        for (int q = 0; q < nb; q++) {
+            sq_field3 *f = &g->scalar[b0 + q];
+            sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+            src[q] = f->origin;
+            hat[q] = scratch_origin(g, SQ__S_BLOCK + q, f);
+            out[q] = scratch_origin(g, SQ__S_OUT + q, f);
+            if ((g->d.scalar_nonnegative >> (b0 + q)) & 1u) nonneg |= 1u << q;
+        }
+        const sq_field3 *f0 = &g->scalar[b0];
+        lat F = make_lat(g, f0->origin, f0->sy, f0->sz, SQ__L_CELL);
+        advect_fields(g, SQ__L_CELL, b0, &F, nb, src, hat, out, mac, nonneg);
+        for (int q = 0; q < nb; q++) {
+            sq_field3 *f = &g->scalar[b0 + q];
+            swap_in(g, f, SQ__S_OUT + q);
+            sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+        }
+    }
     return SQ_OK;
 }
 
@@ -378,7 +513,7 @@ sq_result sq_grid_advect_scalar_drift(sq_grid *g, int idx, double dt_s, double d
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, "grid", "drift_w_mps = %g; must be finite",
                         drift_w_mps);
     double t0 = sq_time_now();
-    r = sq__grid_advect_scalar(g, idx, (float)dt_s, (float)drift_w_mps);
+    r = sq__grid_advect_scalars(g, idx, 1, (float)dt_s, (float)drift_w_mps);
     g->stats.ms_advect += (sq_time_now() - t0) * 1e3;
     g->stats.advect_calls++;
     return r;
@@ -392,6 +527,10 @@ sq_result sq_grid_advect_scalar(sq_grid *g, int idx, double dt_s)
 sq_result sq_grid_advect_scalars(sq_grid *g, double dt_s)
 {
     sq_result r = check_dt(g, dt_s, "sq_grid_advect_scalars");
-    for (int s = 0; r == SQ_OK && s < g->d.scalar_count; s++) r = sq_grid_advect_scalar(g, s, dt_s);
+    if (r != SQ_OK || g->d.scalar_count == 0) return r;
+    double t0 = sq_time_now();
+    r = sq__grid_advect_scalars(g, 0, g->d.scalar_count, (float)dt_s, 0.0f);
+    g->stats.ms_advect += (sq_time_now() - t0) * 1e3;
+    g->stats.advect_calls += g->d.scalar_count;
     return r;
 }

@@ -130,7 +130,8 @@ double sq__grid_sum_planes(const sq_grid *g, int slot);
 
 /* ---- grid_advect.c ------------------------------------------------------------------------ */
 sq_result sq__grid_advect_velocity(sq_grid *g, float dt);
-sq_result sq__grid_advect_scalar(sq_grid *g, int idx, float dt, float drift);
+/* Advects scalars s0 .. s0+count-1 sharing one trace (velocity + drift_w on w). */
+sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float drift);
 /* Trilinear sample of a lattice-L field at a point in cell units (x/h), wrapped on periodic
  * axes and clamped into the ghost layer elsewhere. */
 float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
