@@ -528,3 +528,113 @@ SQ_TEST(deposition_asymmetric_with_wind)
     sq_lbm_destroy(l);
     sq_context_destroy(ctx);
 }
+
+/* ---- the phenomenon (public API and plug-in) --------------------------------------------- */
+
+#include "squall/plugin.h"
+#include "squall/snowdrift.h"
+
+static sq_world *village(sq_context *ctx)
+{
+    static sq_obstacle house;
+    memset(&house, 0, sizeof house);
+    house.kind = SQ_OBSTACLE_HOUSE;
+    house.center_m = sq_v3(0.0f, 0.0f, NAN);
+    house.size_m = sq_v3(8.0f, 6.0f, 4.0f);
+    house.roof_m = 2.0f;
+    sq_world_desc wd;
+    memset(&wd, 0, sizeof wd);
+    wd.terrain.kind = SQ_TERRAIN_FLAT;
+    wd.terrain.size_m[0] = wd.terrain.size_m[1] = 200.0f;
+    wd.terrain.resolution[0] = wd.terrain.resolution[1] = 33;
+    wd.obstacles = &house;
+    wd.obstacle_count = 1;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
+    return w;
+}
+
+SQ_TEST(phenomenon_snows_on_a_village)
+{
+    sq_context *ctx = make_ctx(0);
+    sq_world *w = village(ctx);
+    if (!w) return;
+    sq_snowdrift_desc d;
+    memset(&d, 0, sizeof d);
+    d.cells[0] = 40;
+    d.cells[1] = 24;
+    d.cells[2] = 16;
+    d.wind_speed_mps = 6;
+    d.beaufort = 4;
+    d.snowfall_mmh = 5;
+    d.speedup = 20000; /* one flake is 15 kg of snow: time-lapse so that drifts appear */
+    d.visual_flakes = 500;
+    sq_snowdrift *s = NULL;
+    SQ_CHECK_OK(sq_snowdrift_create(ctx, &d, w, &s));
+    if (!s) {
+        sq_world_destroy(ctx, w);
+        return;
+    }
+    /* the house is solid for the wind: the cell at its centre, 2 m up */
+    SQ_CHECK(sq_lbm_is_solid(s->lbm, 20, 12, (int)floor(2.0 - s->origin[2])));
+    for (int f = 0; f < 25; f++) { /* 25 s: flakes need 15 s to fall from the top */
+        SQ_CHECK_OK(sq_snowdrift_step(s, 1.0));
+        sq_snowdrift_budget b;
+        sq_snowdrift_get_budget(s, &b);
+        SQ_CHECK(b.fallen_flakes == b.airborne_flakes + b.deposited_flakes + b.left_flakes);
+    }
+    sq_snowdrift_budget b;
+    sq_snowdrift_get_budget(s, &b);
+    printf("village: %llu flakes fell (%.1f kg), %llu deposited, depth mean %.4f m max %.3f m, "
+           "snow every %d wind steps of %.4f s\n",
+           (unsigned long long)b.fallen_flakes, b.fallen_kg,
+           (unsigned long long)b.deposited_flakes, b.depth_mean_m, b.depth_max_m, s->sub,
+           s->lbm_dt);
+    SQ_CHECK(b.fallen_flakes > 0 && b.deposited_flakes > 0);
+    SQ_CHECK_REL(b.fallen_kg, (double)b.fallen_flakes * b.flake_mass_kg, 1e-12);
+    /* flake mass = 150 kg/m³ · 1 m³ / 10 */
+    SQ_CHECK_REL(b.flake_mass_kg, 15.0, 1e-12);
+    /* the plug-in publishes the snow cover and the falling flakes, metrics and fields */
+    const sq_phen_plugin *pl = sq_plugin_find("snowdrift");
+    SQ_CHECK(pl != NULL);
+    if (pl) {
+        sq_drawable dr[4];
+        const int nd = pl->drawables(s, dr, 4);
+        SQ_CHECK(nd == 2);
+        SQ_CHECK(dr[0].kind == SQ_DRAWABLE_SURFACE && dr[0].u.surface.nx == 40);
+        SQ_CHECK(dr[1].kind == SQ_DRAWABLE_PARTICLES && dr[1].u.particles.count == 500);
+        for (int f = 0; f < 500; f++) {
+            const float *p = &dr[1].u.particles.position[3 * f];
+            SQ_CHECK(p[0] >= -20.0f && p[0] <= 20.0f && p[1] >= -12.0f && p[1] <= 12.0f);
+        }
+        sq_metric m[16];
+        const int nm = pl->metrics(s, m, 16);
+        SQ_CHECK(nm >= 6);
+        for (int k = 0; k < nm; k++) SQ_CHECK(isfinite(m[k].value));
+        sq_named_field fl[8];
+        SQ_CHECK(pl->fields(s, fl, 8) == 5);
+    }
+    sq_snowdrift_destroy(s);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(phenomenon_bad_desc_named)
+{
+    sq_context *ctx = make_ctx(0);
+    sq_snowdrift *s = (sq_snowdrift *)1;
+    sq_snowdrift_desc d;
+    memset(&d, 0, sizeof d);
+    d.threshold = -3;
+    SQ_CHECK_ERR(sq_snowdrift_create(ctx, &d, NULL, &s), SQ_ERR_INVALID_ARG,
+                 "snow.threshold = -3");
+    SQ_CHECK(s == NULL);
+    memset(&d, 0, sizeof d);
+    d.roughness_m = 50;
+    SQ_CHECK_ERR(sq_snowdrift_create(ctx, &d, NULL, &s), SQ_ERR_INVALID_ARG,
+                 "wind.roughness_m = 50");
+    memset(&d, 0, sizeof d);
+    d.cells[0] = 2;
+    SQ_CHECK_ERR(sq_snowdrift_create(ctx, &d, NULL, &s), SQ_ERR_INVALID_ARG, "domain.cells");
+    sq_context_destroy(ctx);
+}

@@ -24,8 +24,11 @@
 #include <stdint.h>
 
 #include "core/core_internal.h"
+#include "squall/drawable.h"
 #include "squall/field.h"
 #include "squall/lbm.h"
+#include "squall/snowdrift.h"
+#include "squall/world.h"
 
 enum { SQ_SNOW_AIR = 0, SQ_SNOW_STATIC = 1, SQ_SNOW_SOLID = 2 };
 
@@ -154,5 +157,35 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
 void sq__snow_get_budget(const sq__snow *s, sq__snow_budget *out);
 /* Flakes per top cell per step for the current parameters (see the header comment). */
 double sq__snow_flakes_per_top_cell(const sq__snow_params *p);
+
+/* ---- the phenomenon (snowdrift.c) ------------------------------------------------------- */
+struct sq_snowdrift {
+    sq_context *ctx;
+    sq_snowdrift_desc d;         /* resolved */
+    const sq_world *world;
+    sq_lbm *lbm;
+    sq__snow *snow;
+    int nx, ny, nz;
+    double h;
+    double origin[3];            /* lower corner of the lattice (m) */
+    double lbm_dt;               /* wind step (s) */
+    int sub;                     /* wind steps per snow step */
+    double t_acc;                /* time not yet stepped (s) */
+    double time_s;
+    int64_t snow_steps;
+    /* visual flakes */
+    int nflakes;
+    float *fpos, *frot, *fspin;
+    uint64_t spawn_counter;
+    /* derived drawables and fields */
+    float *depth, *surf_h, *cover; /* nx*ny */
+    float *air_kgm3;               /* nx*ny*nz */
+    bool derived_dirty;
+    uint64_t version;
+};
+
+int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max);
+int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max);
+int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);
 
 #endif
