@@ -224,6 +224,9 @@ static sq_result create_grid(sq_sandstorm *s)
     s->ground_k = (int *)xalloc(s, cols * sizeof(int), &ok);
     s->ground_z1 = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->accel_z = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->keep = (float *)xalloc(s, cols * sizeof(float), &ok);
+    s->row_acc = (double *)xalloc(s, (size_t)s->ny * 4 * sizeof(double), &ok);
+    s->plane_mass = (double *)xalloc(s, (size_t)s->nz * SQ_SANDSTORM_MAX_BINS * sizeof(double), &ok);
     s->density = (float *)xalloc(s, n * sizeof(float), &ok);
     for (int v = 0; v < d->vis_height_count; v++) s->vis[v] = (float *)xalloc(s, cols * sizeof(float), &ok);
     for (int e = 0; e < 6; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
@@ -331,6 +334,9 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
+    sq_free(ctx, s->keep);
+    sq_free(ctx, s->row_acc);
+    sq_free(ctx, s->plane_mass);
     sq_free(ctx, s->density);
     for (int v = 0; v < SQ_SANDSTORM_MAX_VIS; v++) sq_free(ctx, s->vis[v]);
     for (int e = 0; e < 6; e++) sq_free(ctx, s->export_buf[e]);
@@ -340,57 +346,95 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
 }
 
 /* ---- the step ------------------------------------------------------------------------------ */
-static double dust_mass(const sq_sandstorm *s, int b)
+/* The per-step dust passes below run on sq_context_threads() threads (OpenMP over z-planes or
+ * y-rows) with their reductions kept as per-plane / per-row partial sums in double that are
+ * added in a fixed order, so budgets do not depend on the thread count. */
+
+/* Suspended mass of every bin (kg) in one pass. */
+static void dust_masses(const sq_sandstorm *s, double *mass)
 {
-    sq_field_view v = sq_grid_scalar_view(s->grid, b);
-    double m = 0.0;
-    for (int k = 0; k < s->nz; k++) {
-        double plane = 0.0;
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) plane += (double)sq_view_get(&v, i, j, k);
-        m += plane;
+    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nt = sq_context_threads(s->ctx);
+    sq_field_view c[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(s->grid, b);
+    double *pm = s->plane_mass;
+    (void)nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int b = 0; b < nb; b++) {
+            double acc = 0.0;
+            for (int j = 0; j < ny; j++) {
+                const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
+                for (int i = 0; i < nx; i++) acc += (double)row[i];
+            }
+            pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b] = acc;
+        }
+    const double vol = s->h * s->h * s->h;
+    for (int b = 0; b < nb; b++) {
+        double m = 0.0;
+        for (int k = 0; k < nz; k++) m += pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b];
+        mass[b] = m * vol;
     }
-    return m * (double)s->h * s->h * s->h;
 }
 
-/* Dust carried out through the open faces during dt by the face velocities (upwind). */
-static double boundary_outflow(const sq_sandstorm *s, int b, double dt)
+/* Dust carried out through the open faces during dt by the face velocities (upwind), per
+ * bin. */
+static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
 {
-    sq_field_view c = sq_grid_scalar_view(s->grid, b);
     sq_field_view u = sq_grid_velocity_view(s->grid, 0), v = sq_grid_velocity_view(s->grid, 1),
                   w = sq_grid_velocity_view(s->grid, 2);
-    double out = 0.0;
-    for (int k = 0; k < s->nz; k++)
-        for (int j = 0; j < s->ny; j++) {
-            out += fmax(0.0, (double)sq_view_get(&u, s->nx, j, k)) * (double)sq_view_get(&c, s->nx - 1, j, k);
-            out += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
+    const int nx = s->nx, ny = s->ny, nz = s->nz;
+    for (int b = 0; b < s->nbins; b++) {
+        sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        double o = 0.0;
+        for (int k = 0; k < nz; k++)
+            for (int j = 0; j < ny; j++) {
+                o += fmax(0.0, (double)sq_view_get(&u, nx, j, k)) * (double)sq_view_get(&c, nx - 1, j, k);
+                o += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
+            }
+        for (int k = 0; k < nz; k++) {
+            const float *vl = v.data + (ptrdiff_t)k * v.sz, *vh = vl + (ptrdiff_t)ny * v.sy;
+            const float *cl = c.data + (ptrdiff_t)k * c.sz, *ch = cl + (ptrdiff_t)(ny - 1) * c.sy;
+            for (int i = 0; i < nx; i++) {
+                o += fmax(0.0, (double)vh[i]) * (double)ch[i];
+                o += fmax(0.0, -(double)vl[i]) * (double)cl[i];
+            }
         }
-    for (int k = 0; k < s->nz; k++)
-        for (int i = 0; i < s->nx; i++) {
-            out += fmax(0.0, (double)sq_view_get(&v, i, s->ny, k)) * (double)sq_view_get(&c, i, s->ny - 1, k);
-            out += fmax(0.0, -(double)sq_view_get(&v, i, 0, k)) * (double)sq_view_get(&c, i, 0, k);
+        for (int j = 0; j < ny; j++) {
+            const float *wt = w.data + (ptrdiff_t)j * w.sy + (ptrdiff_t)nz * w.sz;
+            const float *ct = c.data + (ptrdiff_t)j * c.sy + (ptrdiff_t)(nz - 1) * c.sz;
+            for (int i = 0; i < nx; i++) o += fmax(0.0, (double)wt[i]) * (double)ct[i];
         }
-    for (int j = 0; j < s->ny; j++)
-        for (int i = 0; i < s->nx; i++)
-            out += fmax(0.0, (double)sq_view_get(&w, i, j, s->nz)) * (double)sq_view_get(&c, i, j, s->nz - 1);
-    return out * dt * (double)s->h * s->h;
+        out[b] = o * dt * (double)s->h * s->h;
+    }
 }
 
 /* Dust emission in the ground layer (SPEC §1.9) with the momentum the new grains take from the
- * air (two-way exchange); returns the emitted mass (kg). */
+ * air (two-way exchange); returns the emitted mass (kg). Every column's friction velocity is
+ * taken from the wind before any of this step's emission (phase 1, per column); then the
+ * momentum factors are applied to the faces (phase 2, per face row: a face between two
+ * emitting columns takes both factors). */
 static double emit_dust(sq_sandstorm *s, double dt)
 {
     if (s->d.emission_coeff <= 0.0) {
         s->stats.max_u_star_mps = 0.0;
         return 0.0;
     }
-    double total = 0.0, max_us = 0.0;
-    int emitting = 0, cols = 0;
+    const int nx = s->nx, ny = s->ny, nb = s->nbins;
+    const int nt = sq_context_threads(s->ctx);
     sq_field3 *fu = sq_grid_velocity_field(s->grid, 0), *fv = sq_grid_velocity_field(s->grid, 1);
-    for (int j = 0; j < s->ny; j++)
-        for (int i = 0; i < s->nx; i++) {
-            size_t col = (size_t)j * s->nx + i;
-            int k0 = s->ground_k[col];
+    sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_field(s->grid, b);
+    double *acc = s->row_acc;
+    (void)nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++) {
+        double total = 0.0, max_us = 0.0;
+        int emitting = 0, cols = 0;
+        for (int i = 0; i < nx; i++) {
+            const size_t col = (size_t)j * nx + i;
+            const int k0 = s->ground_k[col];
+            s->keep[col] = 1.0f;
             if (k0 < 0) continue;
             cols++;
             sq_vec3 uc = sq_grid_cell_velocity(s->grid, i, j, k0);
@@ -401,113 +445,183 @@ static double emit_dust(sq_sandstorm *s, double dt)
             if (F <= 0.0) continue;
             emitting++;
             double dc = F * dt / s->h; /* kg/m³ added to the ground cell */
-            for (int b = 0; b < s->nbins; b++)
-                *sq_field3_at(sq_grid_scalar_field(s->grid, b), i, j, k0) +=
-                    (float)(dc * s->bins[b].mass_fraction);
+            for (int b = 0; b < nb; b++)
+                *sq_field3_at(c[b], i, j, k0) += (float)(dc * s->bins[b].mass_fraction);
             total += dc;
             /* grains start at rest: the air gives them momentum dc*u (exact mixing) */
-            float keep = (float)(1.0 - 0.5 * dc / (SQ_SAND_AIR_DENSITY + dc));
-            *sq_field3_at(fu, i, j, k0) *= keep;
-            *sq_field3_at(fu, i + 1, j, k0) *= keep;
-            *sq_field3_at(fv, i, j, k0) *= keep;
-            *sq_field3_at(fv, i, j + 1, k0) *= keep;
+            s->keep[col] = (float)(1.0 - 0.5 * dc / (SQ_SAND_AIR_DENSITY + dc));
         }
+        acc[4 * j] = total;
+        acc[4 * j + 1] = max_us;
+        acc[4 * j + 2] = emitting;
+        acc[4 * j + 3] = cols;
+    }
+    /* u faces: a row's faces belong to that row only */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            const size_t col = (size_t)j * nx + i;
+            const float kp = s->keep[col];
+            if (kp == 1.0f) continue;
+            const int k0 = s->ground_k[col];
+            *sq_field3_at(fu, i, j, k0) *= kp;
+            *sq_field3_at(fu, i + 1, j, k0) *= kp;
+        }
+    /* v faces: face row jf takes the factors of columns jf - 1 (its upper face) and jf */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int jf = 0; jf <= ny; jf++)
+        for (int i = 0; i < nx; i++) {
+            if (jf > 0) {
+                const size_t col = (size_t)(jf - 1) * nx + i;
+                if (s->keep[col] != 1.0f) *sq_field3_at(fv, i, jf, s->ground_k[col]) *= s->keep[col];
+            }
+            if (jf < ny) {
+                const size_t col = (size_t)jf * nx + i;
+                if (s->keep[col] != 1.0f) *sq_field3_at(fv, i, jf, s->ground_k[col]) *= s->keep[col];
+            }
+        }
+    double total = 0.0, max_us = 0.0, emitting = 0.0, cols = 0.0;
+    for (int j = 0; j < ny; j++) {
+        total += acc[4 * j];
+        max_us = acc[4 * j + 1] > max_us ? acc[4 * j + 1] : max_us;
+        emitting += acc[4 * j + 2];
+        cols += acc[4 * j + 3];
+    }
     s->stats.max_u_star_mps = max_us;
-    s->stats.emitting_fraction = cols ? (double)emitting / cols : 0.0;
+    s->stats.emitting_fraction = cols > 0.0 ? emitting / cols : 0.0;
     return total * (double)s->h * s->h * s->h;
 }
 
 /* The weight of the settling dust acts on the air through drag (SPEC §1.8: F_air = -F_cell):
- * a_z = -g sum_b c_b / rho_air. */
-static sq_result add_dust_loading(sq_sandstorm *s, double dt)
+ * a_z = -g sum_b c_b / rho_air. The same pass measures the suspended mass of every bin
+ * (before[b], kg) for the budget. */
+static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
 {
-    size_t n = (size_t)s->nx * s->ny * s->nz;
-    memset(s->accel_z, 0, n * sizeof(float));
+    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nt = sq_context_threads(s->ctx);
     const float gr = (float)(SQ_SAND_GRAVITY / SQ_SAND_AIR_DENSITY);
-    for (int b = 0; b < s->nbins; b++) {
-        sq_field_view c = sq_grid_scalar_view(s->grid, b);
-        for (int k = 0; k < s->nz; k++)
-            for (int j = 0; j < s->ny; j++)
-                for (int i = 0; i < s->nx; i++)
-                    s->accel_z[((size_t)k * s->ny + j) * s->nx + i] -= gr * sq_view_get(&c, i, j, k);
+    sq_field_view c[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(s->grid, b);
+    double *pm = s->plane_mass;
+    (void)nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++) {
+        double m[SQ_SANDSTORM_MAX_BINS] = {0};
+        for (int j = 0; j < ny; j++) {
+            float *az = s->accel_z + ((size_t)k * ny + j) * nx;
+            for (int i = 0; i < nx; i++) az[i] = 0.0f;
+            for (int b = 0; b < nb; b++) {
+                const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
+                double acc = 0.0;
+                for (int i = 0; i < nx; i++) {
+                    az[i] -= gr * row[i];
+                    acc += (double)row[i];
+                }
+                m[b] += acc;
+            }
+        }
+        for (int b = 0; b < nb; b++) pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b] = m[b];
     }
-    sq_field_view az = {s->accel_z, {s->nx, s->ny, s->nz}, 1, s->nx, (ptrdiff_t)s->nx * s->ny};
+    const double vol = s->h * s->h * s->h;
+    for (int b = 0; b < nb; b++) {
+        double m = 0.0;
+        for (int k = 0; k < nz; k++) m += pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b];
+        before[b] = m * vol;
+    }
+    sq_field_view az = {s->accel_z, {nx, ny, nz}, 1, nx, (ptrdiff_t)nx * ny};
     return sq_grid_add_acceleration_field(s->grid, NULL, NULL, &az, dt);
 }
 
-/* The upwind dust entering with the inflow: the westmost cell layer holds the inflow profile. */
+/* The upwind dust entering with the inflow: the westmost cell layer holds the inflow profile.
+ * Returns the mass added (kg). */
 static double inflow_dust(sq_sandstorm *s)
 {
     if (s->d.inflow_dust_kg_m3 <= 0.0) return 0.0;
-    double ramp = ramp_factor(s, s->time_s), added = 0.0;
-    for (int b = 0; b < s->nbins; b++) {
-        sq_field3 *c = sq_grid_scalar_field(s->grid, b);
-        for (int j = 0; j < s->ny; j++) {
-            int k0 = s->ground_k[j * s->nx];
-            if (k0 < 0) continue;
+    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nt = sq_context_threads(s->ctx);
+    const double ramp = ramp_factor(s, s->time_s);
+    sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_field(s->grid, b);
+    double *acc = s->row_acc;
+    (void)nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++) {
+        double added = 0.0;
+        const int k0 = s->ground_k[(size_t)j * nx];
+        if (k0 >= 0) {
             double lateral = 1.0;
             if (s->d.inflow_dust_width_m > 0.0) {
-                double yc = (j + 0.5 - 0.5 * s->ny) * s->h / s->d.inflow_dust_width_m;
+                double yc = (j + 0.5 - 0.5 * ny) * s->h / s->d.inflow_dust_width_m;
                 lateral = exp(-0.5 * yc * yc);
             }
-            for (int k = k0; k < s->nz; k++) {
-                double zg = (k - k0) * (double)s->h + (double)s->ground_z1[j * s->nx];
-                float want = (float)(ramp * lateral * s->d.inflow_dust_kg_m3 *
-                                     exp(-zg / s->d.inflow_dust_height_m) * s->bins[b].mass_fraction);
-                float *v = sq_field3_at(c, 0, j, k);
-                if (want > *v) {
-                    added += (double)(want - *v);
-                    *v = want;
+            for (int k = k0; k < nz; k++) {
+                const double zg = (k - k0) * (double)s->h + (double)s->ground_z1[(size_t)j * nx];
+                const double prof =
+                    ramp * lateral * s->d.inflow_dust_kg_m3 * exp(-zg / s->d.inflow_dust_height_m);
+                for (int b = 0; b < nb; b++) {
+                    const float want = (float)(prof * s->bins[b].mass_fraction);
+                    float *v = sq_field3_at(c[b], 0, j, k);
+                    if (want > *v) {
+                        added += (double)(want - *v);
+                        *v = want;
+                    }
                 }
             }
         }
+        acc[4 * j] = added;
     }
+    double added = 0.0;
+    for (int j = 0; j < ny; j++) added += acc[4 * j];
     return added * (double)s->h * s->h * s->h;
 }
 
-static double settle_dust(sq_sandstorm *s, double dt)
+/* Mass fix (global conservation for the non-conservative semi-Lagrangian/MacCormack transport:
+ * each bin is rescaled so its suspended mass equals the budget's prediction), then settling
+ * at the terminal speed with deposition, per y-row over all bins. scale[b]: the factors.
+ * Returns the deposited mass (kg). */
+static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
 {
     const uint8_t *solid = sq_grid_solid(s->grid);
-    const ptrdiff_t plane = (ptrdiff_t)s->nx * s->ny;
-    double dep = 0.0;
-    for (int b = 0; b < s->nbins; b++) {
-        double frac_total = s->w_settle[b] * dt / s->h;
-        int sub = (int)ceil(frac_total);
-        if (sub < 1) sub = 1;
-        double frac = frac_total / sub;
-        sq_field3 *c = sq_grid_scalar_field(s->grid, b);
-        for (int it = 0; it < sub; it++)
-            for (int j = 0; j < s->ny; j++)
-                for (int i = 0; i < s->nx; i++)
-                    dep += sq__sand_column_settle(sq_field3_at(c, i, j, 0), c->sz,
-                                                  solid + (size_t)j * s->nx + i, plane, s->nz, frac);
+    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const ptrdiff_t plane = (ptrdiff_t)nx * ny;
+    const int nt = sq_context_threads(s->ctx);
+    int sub[SQ_SANDSTORM_MAX_BINS];
+    double frac[SQ_SANDSTORM_MAX_BINS];
+    sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) {
+        const double frac_total = s->w_settle[b] * dt / s->h;
+        sub[b] = (int)ceil(frac_total);
+        if (sub[b] < 1) sub[b] = 1;
+        frac[b] = frac_total / sub[b];
+        c[b] = sq_grid_scalar_field(s->grid, b);
     }
+    double *acc = s->row_acc;
+    (void)nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++) {
+        double dep = 0.0;
+        for (int b = 0; b < nb; b++)
+            dep += sq__sand_slab_settle(sq_field3_at(c[b], 0, j, 0), c[b]->sz,
+                                        solid + (size_t)j * nx, plane, nx, nz, scale[b], sub[b],
+                                        frac[b]);
+        acc[4 * j] = dep;
+    }
+    double dep = 0.0;
+    for (int j = 0; j < ny; j++) dep += acc[4 * j];
     return dep * (double)s->h * s->h * s->h;
-}
-
-/* Rescales the bins so the suspended mass equals the budget's prediction (global conservation
- * fix for the non-conservative semi-Lagrangian/MacCormack transport). Returns the correction. */
-static double fix_mass(sq_sandstorm *s, int b, double expected, double actual)
-{
-    if (s->d.no_mass_fix || actual <= 0.0 || expected < 0.0) return 0.0;
-    float scale = (float)(expected / actual);
-    sq_field3 *c = sq_grid_scalar_field(s->grid, b);
-    for (int k = 0; k < s->nz; k++)
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) *sq_field3_at(c, i, j, k) *= scale;
-    return expected - actual;
 }
 
 static sq_result step_desert(sq_sandstorm *s, double dt)
 {
     sq_result r = SQ_OK;
     double t0 = sq_time_now();
+    double before[SQ_SANDSTORM_MAX_BINS], out[SQ_SANDSTORM_MAX_BINS], after[SQ_SANDSTORM_MAX_BINS];
     /* wind (W1–W5; SPEC §1.11) */
     if (s->d.ramp_s > 0.0 && s->time_s < s->d.ramp_s + dt)
         r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s); /* the trough arrives */
     if (r == SQ_OK) r = sq_grid_advect_velocity(s->grid, dt);             /* MacCormack + limiter */
     double t1 = sq_time_now();
-    if (r == SQ_OK) r = add_dust_loading(s, dt);                           /* dust weight on air */
+    if (r == SQ_OK) r = add_dust_loading(s, dt, before);                   /* dust weight on air */
     if (r == SQ_OK && s->d.buoyancy_gain > 0.0)                            /* thermal updraft */
         r = sq_grid_add_buoyancy(s->grid, s->temp_idx, NULL, s->d.buoyancy_gain, SQ_SAND_GRAVITY, dt);
     if (r == SQ_OK && s->d.confinement > 0.0)                              /* helicity confinement */
@@ -521,34 +635,40 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     double t4 = sq_time_now();
     if (r != SQ_OK) return r;
     /* dust (D1–D5) */
-    double before[SQ_SANDSTORM_MAX_BINS], out[SQ_SANDSTORM_MAX_BINS];
-    for (int b = 0; b < s->nbins; b++) before[b] = dust_mass(s, b);
     double emitted = emit_dust(s, dt);                                     /* u* > u*_t: F ~ u*^3 */
     double t5 = sq_time_now();
     double inflow = inflow_dust(s);                                        /* storm from upwind */
-    for (int b = 0; b < s->nbins; b++) out[b] = boundary_outflow(s, b, dt);
+    boundary_outflow(s, dt, out);
+    double t6 = sq_time_now();
     r = sq_grid_advect_scalars(s->grid, dt);                               /* dust bins and T */
     if (r != SQ_OK) return r;
+    double t7 = sq_time_now();
+    dust_masses(s, after);
     double corr = 0.0, outflow = 0.0;
+    float scale[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < s->nbins; b++) {
         double expected = before[b] + emitted * s->bins[b].mass_fraction +
                           inflow * s->bins[b].mass_fraction - out[b];
-        corr += fix_mass(s, b, expected, dust_mass(s, b));
+        scale[b] = 1.0f;
+        if (!s->d.no_mass_fix && after[b] > 0.0 && expected >= 0.0) {
+            scale[b] = (float)(expected / after[b]);
+            corr += expected - after[b];
+        }
         outflow += out[b];
     }
-    double deposited = settle_dust(s, dt);                                 /* terminal speed per bin */
-    double t6 = sq_time_now();
+    double deposited = settle_dust(s, dt, scale);                          /* terminal speed per bin */
+    double t8 = sq_time_now();
     s->budget.emitted_kg += emitted;
     s->budget.inflow_kg += inflow;
     s->budget.outflow_kg += outflow;
     s->budget.deposited_kg += deposited;
     s->budget.advection_correction_kg += corr;
-    s->stats.ms_advect += (t1 - t0 + (t6 - t5) * 0.5) * 1e3;
+    s->stats.ms_advect += (t1 - t0 + t7 - t6) * 1e3;
     s->stats.ms_forces += (t2 - t1) * 1e3;
     s->stats.ms_diffuse += (t3 - t2) * 1e3;
     s->stats.ms_project += (t4 - t3) * 1e3;
     s->stats.ms_emission += (t5 - t4) * 1e3;
-    s->stats.ms_dust += (t6 - t5) * 0.5e3;
+    s->stats.ms_dust += (t6 - t5 + t8 - t7) * 1e3;
     s->stats.pressure_residual = ps.residual;
     s->stats.pressure_iterations = ps.iterations;
     return sq_grid_check_finite(s->grid, s->step);
@@ -656,8 +776,11 @@ void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
 {
     *out = s->budget;
     out->suspended_kg = 0.0;
-    if (s->grid)
-        for (int b = 0; b < s->nbins; b++) out->suspended_kg += dust_mass(s, b);
+    if (s->grid) {
+        double m[SQ_SANDSTORM_MAX_BINS];
+        dust_masses(s, m);
+        for (int b = 0; b < s->nbins; b++) out->suspended_kg += m[b];
+    }
 }
 
 void sq_sandstorm_get_stats(const sq_sandstorm *s, sq_sandstorm_stats *out)

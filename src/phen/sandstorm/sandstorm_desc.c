@@ -130,6 +130,8 @@ uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *in)
     g.scalar_count = d.bins + 1;
     uint64_t n = (uint64_t)d.cells[0] * d.cells[1] * d.cells[2];
     uint64_t cols = (uint64_t)d.cells[0] * d.cells[1];
-    return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 8u +
-           cols * 4u * (uint64_t)d.vis_height_count + (uint64_t)d.near_particles * 40u;
+    /* accel_z, density, 6 export buffers; ground_k, ground_z1, keep; row and plane sums */
+    return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 12u +
+           cols * 4u * (uint64_t)d.vis_height_count + (uint64_t)d.near_particles * 40u +
+           (uint64_t)d.cells[1] * 32u + (uint64_t)d.cells[2] * 8u * SQ_SANDSTORM_MAX_BINS;
 }

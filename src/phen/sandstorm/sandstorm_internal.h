@@ -30,6 +30,9 @@ struct sq_sandstorm {
     int *ground_k;    /* nx*ny: first fluid cell above the ground in each column (-1: none) */
     float *ground_z1; /* nx*ny: height of that cell's centre above the terrain (m) */
     float *accel_z;   /* nx*ny*nz scratch: dust-loading acceleration */
+    float *keep;      /* nx*ny: per-column momentum factor of this step's emission */
+    double *row_acc;  /* 4 * ny per-row partial sums (fixed-order reductions) */
+    double *plane_mass; /* nz * SQ_SANDSTORM_MAX_BINS per-plane partial dust masses */
     /* dust */
     int nbins;
     sq_size_bin bins[SQ_SANDSTORM_MAX_BINS];
@@ -69,6 +72,8 @@ struct sq_sandstorm {
 /* kernels (sandstorm_kernels.c): pure functions over arrays */
 double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nz,
                               double frac);
+double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nx,
+                            int nz, float scale, int substeps, double frac);
 void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
                                const float *ground_z1, float h, float height_m, double contrast,
                                float *out);
