@@ -55,7 +55,7 @@ typedef struct sq_snowdrift_desc {
     double smagorinsky_c;        /* Smagorinsky constant; 0 -> 0.16 */
     /* snow (SPEC §5.6) */
     double snowfall_mmh;         /* water-equivalent snowfall rate; 0 is physical (none) */
-    double speedup;              /* accumulation time-lapse factor; 0 -> 1 (real time) */
+    double speedup;              /* time-lapse factor of snowfall and erosion; 0 -> 1 */
     double fall_speed_mps;       /* settling speed of flakes; 0 -> 1.0 m/s */
     int threshold;               /* flakes that fill a cell (more: solid); 0 -> 10 (S1) */
     double snow_density_kgm3;    /* deposited snow density (flake mass); 0 -> 150 kg/m³ */
@@ -63,7 +63,7 @@ typedef struct sq_snowdrift_desc {
     double ustar_threshold_mps;  /* erosion threshold friction velocity; 0 -> 0.25 m/s */
     double erosion_efficiency;   /* eff in S1 eq 13, in (0, 1]; 0 -> 1 */
     double saturation_time_s;    /* t_sat in S1 eq 12; 0 -> 1 s */
-    int saltation_capacity;      /* airborne flakes per surface cell at saturation; 0 -> 4 */
+    double saltation_kgm3;       /* airborne snow in a surface cell at saturation; 0 -> 0.05 */
     double snow_cfl;             /* largest flake displacement per snow step, cells; 0 -> 0.5 */
     /* drawables */
     int visual_flakes;           /* falling-snow particles drawn; 0 -> 20000 */

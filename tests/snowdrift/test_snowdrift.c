@@ -274,7 +274,7 @@ SQ_TEST(erosion_above_threshold_only)
     sq_context *ctx = make_ctx(0);
     const int nx = 40, ny = 40, nz = 3;
     sq__snow_params p = {.dx_m = 1, .dt_s = 0.05, .ustar_threshold_mps = 0.3,
-                         .saturation_time_s = 2.0, .saltation_capacity = 5,
+                         .saturation_time_s = 2.0, .saltation_kgm3 = 75, /* 5 flakes */
                          .erosion_efficiency = 0.8, .periodic = {1, 1}};
     sq__snow *s = NULL;
     SQ_CHECK_OK(sq__snow_create(ctx, (sq_dims){nx, ny, nz}, &p, &s));

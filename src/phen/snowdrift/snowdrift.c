@@ -196,7 +196,7 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
     sp.ustar_threshold_mps = d.ustar_threshold_mps;
     sp.erosion_efficiency = d.erosion_efficiency;
     sp.saturation_time_s = d.saturation_time_s;
-    sp.saltation_capacity = d.saltation_capacity;
+    sp.saltation_kgm3 = d.saltation_kgm3;
     sp.periodic[0] = d.boundary == SQ_SNOWDRIFT_RECYCLE;
     sp.periodic[1] = true;
     sp.seed = d.seed;
@@ -249,6 +249,21 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
         return r;
     }
     for (int f = 0; f < s->nflakes; f++) spawn_flake(s, f, true);
+    /* as if it had been snowing for a while: the air holds the steady falling concentration,
+     * λ flakes per top cell per step spread over the fall of (u_g dt/dx) cells per step
+     * (counted as fallen, so the budget holds from the start) */
+    {
+        sq__snow *sn = s->snow;
+        const double lambda = sq__snow_flakes_per_top_cell(&sn->p);
+        const double per_cell = lambda / (d.fall_speed_mps * sn->p.dt_s / s->h);
+        for (int64_t c = 0; c < sn->n && per_cell > 0; c++) {
+            if (sn->kind[c] != SQ_SNOW_AIR) continue;
+            const double x = per_cell + sq_rng_uniform_d(d.seed, FLAKE_STREAM + 1, (uint64_t)c);
+            const uint32_t m = (uint32_t)x;
+            sn->air[c] += m;
+            sn->fallen += m;
+        }
+    }
     s->derived_dirty = true;
     sq_log(ctx, SQ_LOG_INFO, "snowdrift",
            "lattice %dx%dx%d of %g m, wind step %.4g s, snow every %d wind steps, flake %.3g kg",

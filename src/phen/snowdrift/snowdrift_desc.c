@@ -31,7 +31,7 @@ sq_result sq_snowdrift_desc_resolve(const sq_snowdrift_desc *in, sq_snowdrift_de
     DEF(d.ustar_threshold_mps, 0.25);
     DEF(d.erosion_efficiency, 1.0);
     DEF(d.saturation_time_s, 1.0);
-    DEF(d.saltation_capacity, 4);
+    DEF(d.saltation_kgm3, 0.05);
     DEF(d.snow_cfl, 0.5);
     DEF(d.visual_flakes, 20000);
     DEF(d.flake_radius_m, 0.03);
@@ -93,8 +93,8 @@ sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *in, co
         BAD("%ssnow.erosion_efficiency = %g; must be in (0, 1]", P, d.erosion_efficiency);
     if (!pos(d.saturation_time_s))
         BAD("%ssnow.saturation_time_s = %g; must be > 0 s", P, d.saturation_time_s);
-    if (d.saltation_capacity < 1)
-        BAD("%ssnow.saltation_capacity = %d; must be >= 1 flake", P, d.saltation_capacity);
+    if (!(pos(d.saltation_kgm3) && d.saltation_kgm3 <= 1000))
+        BAD("%ssnow.saltation_kgm3 = %g; must be in (0, 1000] kg/m3", P, d.saltation_kgm3);
     if (!(pos(d.snow_cfl) && d.snow_cfl <= 1))
         BAD("%ssnow.cfl = %g; must be in (0, 1] cells per snow step", P, d.snow_cfl);
     if (d.visual_flakes < 0 || d.visual_flakes > 2000000)

@@ -50,14 +50,16 @@ typedef struct sq__snow_params {
     double snowfall_mmh;        /* water-equivalent rate; 0 is physical (no snowfall) */
     double speedup;             /* accumulation time-lapse factor; default 1 */
     /* erosion (S1 eqs 12–13 on the friction velocity): θ = θ_c (C_sat − C_salt),
-     * C_sat = eff (1 − u*_t²/u*²) for u* > u*_t, C_salt = airborne flakes / saltation_capacity
-     * in the cell above the surface; flakes eroded per surface cell per step
-     * = (Δt / t_sat)(C_sat − C_salt) × saltation_capacity */
+     * C_sat = eff (1 − u*_t²/u*²) for u* > u*_t, C_salt = airborne snow mass concentration in
+     * the cell above the surface / saltation_kgm3; flakes eroded per surface cell per step
+     * = speedup (Δt / t_sat)(C_sat − C_salt) n_sat with n_sat = saltation_kgm3 Δx³ / m_flake
+     * (the time-lapse factor applies to erosion as to snowfall, keeping their ratio) */
     double ustar_threshold_mps; /* u*_t; default 0.25 (dry fresh snow 0.15–0.35, Li & Pomeroy
                                  * 1997); S1 quotes a wind speed of "4" instead */
     double erosion_efficiency;  /* eff; default 1 */
     double saturation_time_s;   /* t_sat; default 1 */
-    int saltation_capacity;     /* airborne flakes per surface cell at C = 1; default 4 */
+    double saltation_kgm3;      /* airborne snow in a surface cell at C = 1; default 0.05 kg/m³
+                                 * (saltation layers carry ~0.1–1 kg/m³ in their lowest 10 cm) */
     bool periodic[2];           /* flakes leaving through x / y faces wrap around */
     uint64_t seed;
 } sq__snow_params;

@@ -284,8 +284,9 @@ uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
     const int64_t sz = (int64_t)nx * ny, n = sz * nz;
     const bool par = n >= SQ_SNOW_PAR_MIN;
     const double ut = sp->ustar_threshold_mps, eff = sp->erosion_efficiency;
-    const double rate = sp->dt_s / sp->saturation_time_s;
-    const double nsat = sp->saltation_capacity;
+    const double rate = sp->speedup * sp->dt_s / sp->saturation_time_s;
+    const double mflake = sp->snow_density_kgm3 * sp->dx_m * sp->dx_m * sp->dx_m / sp->threshold;
+    const double nsat = sp->saltation_kgm3 * sp->dx_m * sp->dx_m * sp->dx_m / mflake;
     uint64_t lifted = 0;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(+:lifted) if(par))
     for (int64_t c = 0; c < n; c++) {

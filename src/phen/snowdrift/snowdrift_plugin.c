@@ -54,8 +54,8 @@ static const sq_param params[] = {
     D("snow.snowfall_mmh", snowfall_mmh, "mm/h", 0, 0, 1000, Z,
       "Snowfall rate as water equivalent (1 mm/h = 1 kg m-2 h-1); 0 = no snowfall."),
     D("snow.speedup", speedup, "1", 1, 1e-6, 1e9, 0,
-      "Time-lapse factor on the snowfall: drifts build this many times faster than real "
-      "time while the wind stays real-time."),
+      "Time-lapse factor on snowfall and erosion: drifts build this many times faster than "
+      "real time while the wind stays real-time (one flake is 15 kg on 1 m cells)."),
     D("snow.fall_speed_mps", fall_speed_mps, "m/s", 1, 0.01, 10, 0,
       "Settling speed u_g of flakes (SPEC 5.6: 0.5-1.5 m/s)."),
     I("snow.threshold", threshold, "1", 10, 1, 1000000,
@@ -71,8 +71,9 @@ static const sq_param params[] = {
       "Transport efficiency eff in C_sat = eff (1 - u*_t^2/u*^2) (S1 eq 13)."),
     D("snow.saturation_time_s", saturation_time_s, "s", 1, 1e-4, 1e6, 0,
       "Saturation time t_sat of the saltation layer (S1 eq 12)."),
-    I("snow.saltation_capacity", saltation_capacity, "1", 4, 1, 1000000,
-      "Airborne flakes in a surface cell at saturation (C_salt = 1)."),
+    D("snow.saltation_kgm3", saltation_kgm3, "kg/m3", 0.05, 1e-6, 1000, 0,
+      "Airborne snow in a surface cell at saturation, C_salt = 1 (saltation layers carry "
+      "0.1-1 kg/m3 in their lowest 10 cm; averaged over a metre cell, a few 0.01)."),
     D("snow.cfl", snow_cfl, "1", 0.5, 0.01, 1, 0,
       "Largest flake displacement per snow step, in cells; sets how many wind steps a snow "
       "step spans."),

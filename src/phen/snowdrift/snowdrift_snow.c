@@ -20,7 +20,7 @@ sq__snow_params sq__snow_params_resolve(const sq__snow_params *in)
     if (p.ustar_threshold_mps == 0) p.ustar_threshold_mps = 0.25;
     if (p.erosion_efficiency == 0) p.erosion_efficiency = 1.0;
     if (p.saturation_time_s == 0) p.saturation_time_s = 1.0;
-    if (p.saltation_capacity == 0) p.saltation_capacity = 4;
+    if (p.saltation_kgm3 == 0) p.saltation_kgm3 = 0.05;
     return p;
 }
 
@@ -39,7 +39,8 @@ static sq_result validate(sq_context *ctx, sq_dims n, const sq__snow_params *p)
                {"speedup", p->speedup},
                {"ustar_threshold_mps", p->ustar_threshold_mps},
                {"erosion_efficiency", p->erosion_efficiency},
-               {"saturation_time_s", p->saturation_time_s}};
+               {"saturation_time_s", p->saturation_time_s},
+               {"saltation_kgm3", p->saltation_kgm3}};
     for (size_t i = 0; i < sizeof pos / sizeof pos[0]; i++)
         if (!(isfinite(pos[i].v) && pos[i].v > 0))
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift", "%s = %g; must be > 0",
@@ -50,9 +51,6 @@ static sq_result validate(sq_context *ctx, sq_dims n, const sq__snow_params *p)
     if (p->threshold < 1 || p->threshold > 1000000)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
                         "threshold = %d; must be in 1..1000000 flakes", p->threshold);
-    if (p->saltation_capacity < 1)
-        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
-                        "saltation_capacity = %d; must be >= 1 flake", p->saltation_capacity);
     if (p->erosion_efficiency > 1)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
                         "erosion_efficiency = %g; must be in (0, 1]", p->erosion_efficiency);

@@ -677,28 +677,13 @@ static sq_field_view interior_view(const sq_lbm *l, const float *data)
 static void compute_macro(sq_lbm *l)
 {
     ensure_boundaries(l);
-    const int nt = sq_context_threads(l->ctx);
     const int64_t n = (int64_t)l->nx * l->ny * l->nz;
-    const double us = l->units.u, rs = l->units.rho;
-    float *const rho_o = l->macro, *const ux = l->macro + n, *const uy = l->macro + 2 * n;
-    float *const uz = l->macro + 3 * n;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
-    for (int z = 0; z < l->nz; z++)
-        for (int y = 0; y < l->ny; y++)
-            for (int x = 0; x < l->nx; x++) {
-                const int64_t c = sq__lbm_cell(l, x, y, z);
-                const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z);
-                if (l->solid[c]) {
-                    rho_o[o] = ux[o] = uy[o] = uz[o] = 0.0f;
-                    continue;
-                }
-                double rho, u[3];
-                cell_macro(l, c, &rho, u);
-                rho_o[o] = (float)(rho * rs);
-                ux[o] = (float)(u[0] * us);
-                uy[o] = (float)(u[1] * us);
-                uz[o] = (float)(u[2] * us);
-            }
+    const int parity = (int)(l->step & 1);
+    const float h = parity == 0 ? 0.5f : -0.5f;
+    const float gh[3] = {h * (float)l->g_step[0], h * (float)l->g_step[1],
+                         h * (float)l->g_step[2]};
+    sq__lbm_macro(l, parity, gh, (float)l->units.rho, (float)l->units.u, l->macro,
+                  l->macro + n, l->macro + 2 * n, l->macro + 3 * n);
     l->macro_valid = true;
 }
 

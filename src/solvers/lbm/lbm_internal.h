@@ -139,6 +139,9 @@ void sq__lbm_fold_periodic(sq_lbm *l, int parity);
 void sq__lbm_gather(const sq_lbm *l, int64_t c, int parity, double f[SQ_LBM_Q]);
 /* Writes f_i as the populations of padded cell c in the layout of parity (stored shifted). */
 void sq__lbm_scatter(sq_lbm *l, int64_t c, int parity, const double f[SQ_LBM_Q]);
+/* Density and velocity of all interior cells, scaled (0 in solid cells); see lbm_kernels.c. */
+void sq__lbm_macro(const sq_lbm *l, int parity, const float gh[3], float rho_scale,
+                   float u_scale, float *rho_out, float *ux_out, float *uy_out, float *uz_out);
 /* D3Q15 equilibrium (SPEC §5.2 corrected). */
 void sq__lbm_feq(double rho, const double u[3], double feq[SQ_LBM_Q]);
 

@@ -325,6 +325,58 @@ void sq__lbm_fold_periodic(sq_lbm *l, int parity)
     }
 }
 
+/* One row of macroscopic fields: q[i] points at f_i of the row's first cell. */
+static void macro_row(const float *const *q, const uint8_t *restrict solid, int nx,
+                      const float gh[3], float rho_scale, float u_scale, float *restrict ro,
+                      float *restrict uo, float *restrict vo, float *restrict wo)
+{
+    const float *restrict q0 = q[0], *restrict q1 = q[1], *restrict q2 = q[2];
+    const float *restrict q3 = q[3], *restrict q4 = q[4], *restrict q5 = q[5];
+    const float *restrict q6 = q[6], *restrict q7 = q[7], *restrict q8 = q[8];
+    const float *restrict q9 = q[9], *restrict q10 = q[10], *restrict q11 = q[11];
+    const float *restrict q12 = q[12], *restrict q13 = q[13], *restrict q14 = q[14];
+    const float gx = gh[0], gy = gh[1], gz = gh[2];
+    for (int x = 0; x < nx; x++) {
+        const float s1 = q1[x] + q2[x], s3 = q3[x] + q4[x], s5 = q5[x] + q6[x];
+        const float s7 = q7[x] + q8[x], s9 = q9[x] + q10[x];
+        const float s11 = q11[x] + q12[x], s13 = q13[x] + q14[x];
+        const float d1 = q1[x] - q2[x], d3 = q3[x] - q4[x], d5 = q5[x] - q6[x];
+        const float d7 = q7[x] - q8[x], d9 = q9[x] - q10[x];
+        const float d11 = q11[x] - q12[x], d13 = q13[x] - q14[x];
+        const float rho = 1.0f + (q0[x] + (s1 + s3) + (s5 + s7) + (s9 + s11) + s13);
+        const float ir = 1.0f / rho;
+        const float keep = 1.0f - (float)solid[x]; /* flags are 0 or 1 */
+        ro[x] = keep * rho * rho_scale;
+        uo[x] = keep * ((d1 + d7 + d9 + d11 - d13) * ir + gx) * u_scale;
+        vo[x] = keep * ((d3 + d7 + d9 - d11 + d13) * ir + gy) * u_scale;
+        wo[x] = keep * ((d5 + d7 - d9 + d11 + d13) * ir + gz) * u_scale;
+    }
+}
+
+/* Macroscopic fields of all interior cells (vectorised rows). parity 0: pre-collision
+ * populations, u = j/ρ + g/2; parity 1: post-collision, u = j/ρ − g/2 (gh holds ±g/2).
+ * Outputs (x fastest, nx*ny*nz): density × rho_scale, velocity × u_scale; 0 in solid cells. */
+void sq__lbm_macro(const sq_lbm *l, int parity, const float gh[3], float rho_scale,
+                   float u_scale, float *rho_out, float *ux_out, float *uy_out, float *uz_out)
+{
+    const int nt = sq_context_threads(l->ctx);
+    const int nx = l->nx, ny = l->ny;
+    const int64_t rows = (int64_t)ny * l->nz;
+    const int64_t S = l->stride;
+    int64_t so[SQ_LBM_Q];
+    for (int i = 0; i < SQ_LBM_Q; i++) so[i] = (int64_t)(parity == 0 ? i : sq__lbm_opp[i]) * S;
+    const int64_t work = rows * nx;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(work > 32768))
+    for (int64_t r = 0; r < rows; r++) {
+        const int y = (int)(r % ny), z = (int)(r / ny);
+        const int64_t base = sq__lbm_cell(l, 0, y, z);
+        const float *q[SQ_LBM_Q];
+        for (int i = 0; i < SQ_LBM_Q; i++) q[i] = l->f + so[i] + base;
+        macro_row(q, l->solid + base, nx, gh, rho_scale, u_scale, rho_out + r * nx,
+                  ux_out + r * nx, uy_out + r * nx, uz_out + r * nx);
+    }
+}
+
 void sq__lbm_gather(const sq_lbm *l, int64_t c, int parity, double f[SQ_LBM_Q])
 {
     for (int i = 0; i < SQ_LBM_Q; i++) {
