@@ -74,19 +74,18 @@ LBM_INLINE void trt_pair(float fi, float fo, float s, float d, float cu, float r
     *oo = fo - a + b;
 }
 
-/* The row kernel. rd[i] points at f_i of the row's first cell, wr[i] where f*_i goes. In place:
- * each location is read and written by the same iteration only (hence ivdep). masked: solid
- * holds the row's flags; smag: per-cell Smagorinsky rates. */
-LBM_INLINE void row_kernel(const float *const *rd, float *const *wr, const uint8_t *solid, int n,
+/* The row kernel. q[i] points at f_i of the row's first cell; f*_i goes to q[opp(i)] (in both
+ * AA steps the location f*_i is written to is the one f_opp(i) was read from, so 15 pointers
+ * serve for reading and writing). In place: each location is read and written by the same
+ * iteration only (hence ivdep). masked: solid holds the row's flags; smag: per-cell
+ * Smagorinsky rates. */
+LBM_INLINE void row_kernel(float *const *q, const uint8_t *solid, int n,
                            const sq__lbm_kparams *p, const float kg[8], const int masked,
-                           const int smag)
+                           const int smag, const int force)
 {
-    const float *r0 = rd[0], *r1 = rd[1], *r2 = rd[2], *r3 = rd[3], *r4 = rd[4];
-    const float *r5 = rd[5], *r6 = rd[6], *r7 = rd[7], *r8 = rd[8], *r9 = rd[9];
-    const float *r10 = rd[10], *r11 = rd[11], *r12 = rd[12], *r13 = rd[13], *r14 = rd[14];
-    float *w0 = wr[0], *w1 = wr[1], *w2 = wr[2], *w3 = wr[3], *w4 = wr[4];
-    float *w5 = wr[5], *w6 = wr[6], *w7 = wr[7], *w8 = wr[8], *w9 = wr[9];
-    float *w10 = wr[10], *w11 = wr[11], *w12 = wr[12], *w13 = wr[13], *w14 = wr[14];
+    float *r0 = q[0], *r1 = q[1], *r2 = q[2], *r3 = q[3], *r4 = q[4];
+    float *r5 = q[5], *r6 = q[6], *r7 = q[7], *r8 = q[8], *r9 = q[9];
+    float *r10 = q[10], *r11 = q[11], *r12 = q[12], *r13 = q[13], *r14 = q[14];
     const float hgx = 0.5f * p->g[0], hgy = 0.5f * p->g[1], hgz = 0.5f * p->g[2];
     const float op_c = p->omega_p, om_c = p->omega_m;
     const float d0 = p->d0, tau0 = p->tau0, sk = p->smag_k, lam = p->magic;
@@ -110,7 +109,9 @@ LBM_INLINE void row_kernel(const float *const *rd, float *const *wr, const uint8
         const float jx = d1 + d7 + d9 + d11 - d13;
         const float jy = d3 + d7 + d9 - d11 + d13;
         const float jz = d5 + d7 - d9 + d11 + d13;
-        const float ux = jx * ir + hgx, uy = jy * ir + hgy, uz = jz * ir + hgz;
+        const float ux = force ? jx * ir + hgx : jx * ir;
+        const float uy = force ? jy * ir + hgy : jy * ir;
+        const float uz = force ? jz * ir + hgz : jz * ir;
         const float usq = ux * ux + uy * uy + uz * uz;
         float op = op_c, om = om_c, sf = sf_c;
         if (smag) {
@@ -123,9 +124,9 @@ LBM_INLINE void row_kernel(const float *const *rd, float *const *wr, const uint8
             const float pxy = (s7 + s9) - (s11 + s13) - rho * ux * uy;
             const float pxz = (s7 + s11) - (s9 + s13) - rho * ux * uz;
             const float pyz = (s7 + s13) - (s9 + s11) - rho * uy * uz;
-            const float q = pxx * pxx + pyy * pyy + pzz * pzz +
+            const float qn = pxx * pxx + pyy * pyy + pzz * pzz +
                             2.0f * (pxy * pxy + pxz * pxz + pyz * pyz);
-            const float xs = sk * vsqrt(2.0f * q + 1e-30f) * ir;
+            const float xs = sk * vsqrt(2.0f * qn + 1e-30f) * ir;
             /* τ_eff − ½ without cancellation */
             const float d = d0 + xs / (2.0f * (vsqrt(tau0 * tau0 + xs) + tau0));
             op = 1.0f / (0.5f + d);
@@ -134,7 +135,8 @@ LBM_INLINE void row_kernel(const float *const *rd, float *const *wr, const uint8
         }
         const float base = drho - 1.5f * rho * usq;
         const float rw1 = W1 * rho, rw7 = W7 * rho, wb1 = W1 * base, wb7 = W7 * base;
-        const float sr1 = sf * rw1, sr7 = sf * rw7;
+        /* the source S_i = sf 3 w_i ρ (c_i·g); exactly 0 without a body force */
+        const float sr1 = force ? sf * rw1 : 0.0f, sr7 = force ? sf * rw7 : 0.0f;
         float o0 = f0 - op * (f0 - W0 * base);
         float o1, o2, o3, o4, o5, o6, o7, o8, o9, o10, o11, o12, o13, o14;
         trt_pair(f1, f2, s1, d1, ux, rw1, wb1, op, om, sr1 * g1, &o1, &o2);
@@ -163,43 +165,55 @@ LBM_INLINE void row_kernel(const float *const *rd, float *const *wr, const uint8
             o13 = sel(m, f14, o13);
             o14 = sel(m, f13, o14);
         }
-        w0[x] = o0;
-        w1[x] = o1;
-        w2[x] = o2;
-        w3[x] = o3;
-        w4[x] = o4;
-        w5[x] = o5;
-        w6[x] = o6;
-        w7[x] = o7;
-        w8[x] = o8;
-        w9[x] = o9;
-        w10[x] = o10;
-        w11[x] = o11;
-        w12[x] = o12;
-        w13[x] = o13;
-        w14[x] = o14;
+        r0[x] = o0;
+        r2[x] = o1;
+        r1[x] = o2;
+        r4[x] = o3;
+        r3[x] = o4;
+        r6[x] = o5;
+        r5[x] = o6;
+        r8[x] = o7;
+        r7[x] = o8;
+        r10[x] = o9;
+        r9[x] = o10;
+        r12[x] = o11;
+        r11[x] = o12;
+        r14[x] = o13;
+        r13[x] = o14;
     }
 }
 
-static void row_fluid(const float *const *rd, float *const *wr, const uint8_t *solid, int n,
-                      const sq__lbm_kparams *p, const float kg[8])
+static void row_fluid(float *const *q, const uint8_t *solid, int n, const sq__lbm_kparams *p,
+                       const float kg[8], int force)
 {
-    row_kernel(rd, wr, solid, n, p, kg, 0, 0);
+    if (force)
+        row_kernel(q, solid, n, p, kg, 0, 0, 1);
+    else
+        row_kernel(q, solid, n, p, kg, 0, 0, 0);
 }
-static void row_mixed(const float *const *rd, float *const *wr, const uint8_t *solid, int n,
-                      const sq__lbm_kparams *p, const float kg[8])
+static void row_mixed(float *const *q, const uint8_t *solid, int n, const sq__lbm_kparams *p,
+                       const float kg[8], int force)
 {
-    row_kernel(rd, wr, solid, n, p, kg, 1, 0);
+    if (force)
+        row_kernel(q, solid, n, p, kg, 1, 0, 1);
+    else
+        row_kernel(q, solid, n, p, kg, 1, 0, 0);
 }
-static void row_fluid_smag(const float *const *rd, float *const *wr, const uint8_t *solid, int n,
-                           const sq__lbm_kparams *p, const float kg[8])
+static void row_fluid_smag(float *const *q, const uint8_t *solid, int n, const sq__lbm_kparams *p,
+                            const float kg[8], int force)
 {
-    row_kernel(rd, wr, solid, n, p, kg, 0, 1);
+    if (force)
+        row_kernel(q, solid, n, p, kg, 0, 1, 1);
+    else
+        row_kernel(q, solid, n, p, kg, 0, 1, 0);
 }
-static void row_mixed_smag(const float *const *rd, float *const *wr, const uint8_t *solid, int n,
-                           const sq__lbm_kparams *p, const float kg[8])
+static void row_mixed_smag(float *const *q, const uint8_t *solid, int n, const sq__lbm_kparams *p,
+                            const float kg[8], int force)
 {
-    row_kernel(rd, wr, solid, n, p, kg, 1, 1);
+    if (force)
+        row_kernel(q, solid, n, p, kg, 1, 1, 1);
+    else
+        row_kernel(q, solid, n, p, kg, 1, 1, 0);
 }
 
 void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
@@ -221,18 +235,12 @@ void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
                          3.0f * (gx - gy + gz),
                          3.0f * (gy + gz - gx),
                          p->src};
-    int64_t roff[SQ_LBM_Q], woff[SQ_LBM_Q];
-    for (int i = 0; i < SQ_LBM_Q; i++) {
-        const int o = sq__lbm_opp[i];
-        if (parity == 0) {
-            roff[i] = (int64_t)i * S;
-            woff[i] = (int64_t)o * S;
-        } else {
-            roff[i] = (int64_t)o * S - l->off[i];
-            woff[i] = (int64_t)i * S + l->off[i];
-        }
-    }
+    /* even step: f_i from slot i of the cell; odd step: from slot opp(i) of x − c_i */
+    int64_t roff[SQ_LBM_Q];
+    for (int i = 0; i < SQ_LBM_Q; i++)
+        roff[i] = parity == 0 ? (int64_t)i * S : (int64_t)sq__lbm_opp[i] * S - l->off[i];
     const int smag = p->smagorinsky;
+    const int force = gx != 0.0f || gy != 0.0f || gz != 0.0f;
     const int64_t work = rows * nx;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(work > 16384))
     for (int64_t r = 0; r < rows; r++) {
@@ -240,22 +248,18 @@ void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
         if (c == SQ_LBM_ROW_SOLID) continue;
         const int y = (int)(r % ny), z = (int)(r / ny);
         const int64_t base = sq__lbm_cell(l, 0, y, z);
-        const float *rd[SQ_LBM_Q];
-        float *wr[SQ_LBM_Q];
-        for (int i = 0; i < SQ_LBM_Q; i++) {
-            rd[i] = f + roff[i] + base;
-            wr[i] = f + woff[i] + base;
-        }
+        float *q[SQ_LBM_Q];
+        for (int i = 0; i < SQ_LBM_Q; i++) q[i] = f + roff[i] + base;
         if (c == SQ_LBM_ROW_FLUID) {
             if (smag)
-                row_fluid_smag(rd, wr, solid + base, nx, p, kg);
+                row_fluid_smag(q, solid + base, nx, p, kg, force);
             else
-                row_fluid(rd, wr, solid + base, nx, p, kg);
+                row_fluid(q, solid + base, nx, p, kg, force);
         } else {
             if (smag)
-                row_mixed_smag(rd, wr, solid + base, nx, p, kg);
+                row_mixed_smag(q, solid + base, nx, p, kg, force);
             else
-                row_mixed(rd, wr, solid + base, nx, p, kg);
+                row_mixed(q, solid + base, nx, p, kg, force);
         }
     }
 }
