@@ -2,6 +2,7 @@
  * field views, solid cells, boundary conditions (SPEC §1.12: walls, inflow, outflow, open,
  * periodic; ghost filling and fixed faces), topology (link masks, pins of closed regions,
  * ground distance), diagnostics (finite check, CFL, divergence) and sampling. */
+#include <float.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -846,28 +847,38 @@ double sq__grid_sum_planes(const sq_grid *g, int slot)
 /* ---- diagnostics ---------------------------------------------------------------------------- */
 static const char *vel_name(int c) { return c == 0 ? "u (x-face)" : c == 1 ? "v (y-face)" : "w (z-face)"; }
 
+/* First sample of row j of plane k of f outside the finite range (|v| <= lim fails: NaN,
+ * infinities, or beyond lim), or -1; vectorisable test first, position only when bad. */
+static int row_first_bad(const sq_field3 *f, int j, int k, float lim)
+{
+    const float *row = sq_field3_at(f, 0, j, k);
+    const int mx = f->n.nx;
+    int bad = 0;
+    for (int i = 0; i < mx; i++) bad |= !(fabsf(row[i]) <= lim);
+    if (!bad) return -1;
+    for (int i = 0; i < mx; i++)
+        if (!(fabsf(row[i]) <= lim)) return i;
+    return -1;
+}
+
 sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
 {
     if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_check_finite: grid is NULL");
     const int nt = sq_context_threads(g->ctx);
     const int nfields = 3 + g->d.scalar_count + 1;
+    (void)nt;
     for (int fi = 0; fi < nfields; fi++) {
         const sq_field3 *f = fi < 3 ? &g->vel[fi] : fi < nfields - 1 ? &g->scalar[fi - 3] : &g->p;
         const bool is_vel = fi < 3;
+        const float lim = is_vel ? 1e8f : FLT_MAX;
         const int mx = f->n.nx, my = f->n.ny, mz = f->n.nz;
         int64_t *first = (int64_t *)(void *)g->plane_sum; /* per plane: first bad index or -1 */
         SQ_OMP(omp parallel for schedule(static) num_threads(nt))
         for (int k = 0; k < mz; k++) {
             int64_t bad = -1;
             for (int j = 0; j < my && bad < 0; j++) {
-                const float *row = sq_field3_at(f, 0, j, k);
-                for (int i = 0; i < mx; i++) {
-                    float v = row[i];
-                    if (!isfinite(v) || (is_vel && fabsf(v) > 1e8f)) {
-                        bad = (int64_t)i + (int64_t)mx * j;
-                        break;
-                    }
-                }
+                const int i = row_first_bad(f, j, k, lim);
+                if (i >= 0) bad = (int64_t)i + (int64_t)mx * j;
             }
             first[k] = bad;
         }
@@ -900,15 +911,30 @@ double sq_grid_max_speed(const sq_grid *g)
 {
     if (!g) return 0.0;
     float m = 0.0f;
+    const int nt = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2] > 32768
+                       ? sq_context_threads(g->ctx)
+                       : 1;
+    (void)nt;
     for (int c = 0; c < 3; c++) {
         const sq_field3 *f = &g->vel[c];
-        for (int k = 0; k < f->n.nz; k++)
-            for (int j = 0; j < f->n.ny; j++) {
+        const int mx = f->n.nx, my = f->n.ny, mz = f->n.nz;
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : m))
+        for (int k = 0; k < mz; k++)
+            for (int j = 0; j < my; j++) {
                 const float *row = sq_field3_at(f, 0, j, k);
-                for (int i = 0; i < f->n.nx; i++) {
-                    float a = fabsf(row[i]);
-                    if (a > m && isfinite(a)) m = a;
+                /* |v| as its bit pattern: integer order = float order for non-negative
+                 * values, and >= 0x7f800000 for infinities and NaN (skipped) */
+                int32_t rm = 0;
+                for (int i = 0; i < mx; i++) {
+                    int32_t b;
+                    memcpy(&b, &row[i], sizeof b);
+                    b &= 0x7fffffff;
+                    b = b < 0x7f800000 ? b : 0;
+                    rm = b > rm ? b : rm;
                 }
+                float a;
+                memcpy(&a, &rm, sizeof a);
+                m = a > m ? a : m;
             }
     }
     return (double)m;

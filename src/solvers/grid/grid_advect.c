@@ -11,6 +11,9 @@
  * sample takes the mean of its two cells' displacements, which is exact for linear velocity
  * fields (the RK2 displacement is then linear in x), so face traces stay second order. */
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "solvers/grid/grid_internal.h"
 
@@ -171,7 +174,47 @@ static inline void trace_chunk(const lat *F, ptrdiff_t off, const float *dx, con
     locate_chunk(F, c, n);
 }
 
-/* min and max of the 8 corner values at offset b */
+/* Chunk kernels: the trilinear sample (tri8) and the range of the 8 corner values (range8) at
+ * corner offset b. With SSE2 each sample loads its corners as four x-pairs into two vectors
+ * (y0/y1 at z0, y0/y1 at z1) and interpolates z, then y, then x across the lanes. */
+#if defined(__SSE2__)
+static inline __m128 ld_pairs(const float *a, const float *b)
+{
+    const __m128 lo = _mm_castsi128_ps(_mm_loadl_epi64((const __m128i *)(const void *)a));
+    return _mm_loadh_pi(lo, (const __m64 *)(const void *)b);
+}
+
+static inline float tri8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
+                         float fy, float fz)
+{
+    const float *q = o + b;
+    const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
+    const __m128 m = _mm_add_ps(lo, _mm_mul_ps(_mm_set1_ps(fz), _mm_sub_ps(hi, lo)));
+    const __m128 n = _mm_add_ps(m, _mm_mul_ps(_mm_set1_ps(fy), _mm_sub_ps(_mm_movehl_ps(m, m), m)));
+    const __m128 n1 = _mm_shuffle_ps(n, n, _MM_SHUFFLE(1, 1, 1, 1));
+    return _mm_cvtss_f32(_mm_add_ss(n, _mm_mul_ss(_mm_set_ss(fx), _mm_sub_ss(n1, n))));
+}
+
+static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float *mn,
+                          float *mx)
+{
+    const float *q = o + b;
+    const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
+    __m128 a = _mm_min_ps(lo, hi), c = _mm_max_ps(lo, hi);
+    a = _mm_min_ps(a, _mm_movehl_ps(a, a));
+    c = _mm_max_ps(c, _mm_movehl_ps(c, c));
+    a = _mm_min_ss(a, _mm_shuffle_ps(a, a, _MM_SHUFFLE(1, 1, 1, 1)));
+    c = _mm_max_ss(c, _mm_shuffle_ps(c, c, _MM_SHUFFLE(1, 1, 1, 1)));
+    *mn = _mm_cvtss_f32(a);
+    *mx = _mm_cvtss_f32(c);
+}
+#else
+static inline float tri8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
+                         float fy, float fz)
+{
+    return trilerp(o, b, sy, sz, fx, fy, fz);
+}
+
 static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float *mn,
                           float *mx)
 {
@@ -181,6 +224,7 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
     *mn = mn2(mn2(mn2(v0, v1), mn2(v2, v3)), mn2(mn2(v4, v5), mn2(v6, v7)));
     *mx = mx2(mx2(mx2(v0, v1), mx2(v2, v3)), mx2(mx2(v4, v5), mx2(v6, v7)));
 }
+#endif
 
 /* ---- displacements ------------------------------------------------------------------------------ */
 /* uc4: the cell-centred velocity as 4 floats per padded cell (x, y, z, 0), the mean of each
@@ -354,7 +398,7 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
                     const float *o = src[f];
                     float *d = dst1[f] + r0 + i0;
                     for (int q = 0; q < n; q++)
-                        d[q] = trilerp(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q], cb.fz[q]);
+                        d[q] = tri8(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q], cb.fz[q]);
                     if (!cell) continue;
                     if (!mac && ((nonneg >> f) & 1u))
                         for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
@@ -386,7 +430,7 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
                     float *d = out[f] + r0 + i0;
                     for (int q = 0; q < n; q++) range8(o, (ptrdiff_t)cb.b[q], sy, sz, &lo[q], &hi[q]);
                     for (int q = 0; q < n; q++)
-                        d[q] = trilerp(ht, (ptrdiff_t)cf.b[q], sy, sz, cf.fx[q], cf.fy[q], cf.fz[q]);
+                        d[q] = tri8(ht, (ptrdiff_t)cf.b[q], sy, sz, cf.fx[q], cf.fy[q], cf.fz[q]);
                     if (clamp) {
                         for (int q = 0; q < n; q++) {
                             float v = hc[q] + 0.5f * (oc[q] - d[q]);

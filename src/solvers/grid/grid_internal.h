@@ -5,8 +5,10 @@
 #define SQ_GRID_INTERNAL_H
 
 #include <math.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "core/core_internal.h"
 #include "squall/grid.h"
@@ -100,6 +102,35 @@ static inline ptrdiff_t sq__cidx(const sq_grid *g, int i, int j, int k)
 static inline float sq__lattice_off(int L, int axis)
 {
     return (L == SQ__L_CELL || L - 1 != axis) ? 0.5f : 0.0f;
+}
+
+/* c ? a : b through bit masks. Kernels use it for selects in their inner loops: with the
+ * default -ftrapping-math GCC does not if-convert a floating-point ?: whose operands are
+ * conditional loads or arithmetic, and the loop is then not vectorised. Evaluate both sides
+ * and combine conditions with | and &, not || and &&. */
+static inline float sq__fsel(bool c, float a, float b)
+{
+    int32_t ia, ib;
+    memcpy(&ia, &a, sizeof ia);
+    memcpy(&ib, &b, sizeof ib);
+    const int32_t m = -(int32_t)c;
+    const int32_t r = (ia & m) | (ib & ~m);
+    float f;
+    memcpy(&f, &r, sizeof f);
+    return f;
+}
+
+/* sum a[i] b[i], i < n, in float with 8 interleaved partial sums (a fixed order that
+ * vectorises; GCC does not vectorise a plain float reduction without -fassociative-math). */
+static inline float sq__dotf(const float *a, const float *b, int n)
+{
+    float p[8] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    int i = 0;
+    for (; i + 8 <= n; i += 8)
+        for (int l = 0; l < 8; l++) p[l] += a[i + l] * b[i + l];
+    float t = 0.0f;
+    for (; i < n; i++) t += a[i] * b[i];
+    return ((p[0] + p[4]) + (p[1] + p[5])) + ((p[2] + p[6]) + (p[3] + p[7])) + t;
 }
 
 /* Coefficient of the Poisson link between two adjacent cells of the padded lattice: 1 between

@@ -238,15 +238,25 @@ static float *org(const sq__mg_level *L, float *base) { return base + lidx(L, 0,
 /* ---- level 0 (byte links) ---------------------------------------------------------------------- */
 static inline float nbsum0(const float *x, ptrdiff_t c, unsigned m, ptrdiff_t sy, ptrdiff_t sz)
 {
+    /* every neighbour is loaded (the arrays are padded) and selected by mask: vectorisable */
     float s = 0.0f;
-    s += (m & 1u) ? x[c - 1] : 0.0f;
-    s += (m & 2u) ? x[c + 1] : 0.0f;
-    s += (m & 4u) ? x[c - sy] : 0.0f;
-    s += (m & 8u) ? x[c + sy] : 0.0f;
-    s += (m & 16u) ? x[c - sz] : 0.0f;
-    s += (m & 32u) ? x[c + sz] : 0.0f;
+    s += sq__fsel(m & 1u, x[c - 1], 0.0f);
+    s += sq__fsel(m & 2u, x[c + 1], 0.0f);
+    s += sq__fsel(m & 4u, x[c - sy], 0.0f);
+    s += sq__fsel(m & 8u, x[c + sy], 0.0f);
+    s += sq__fsel(m & 16u, x[c - sz], 0.0f);
+    s += sq__fsel(m & 32u, x[c + sz], 0.0f);
     return s;
 }
+
+/* 1 / diag (0 for a solid cell), the same value as inv_lut[d] */
+static inline float inv_diag0(uint8_t d)
+{
+    const float inv = 1.0f / (float)(d + (d == 0)); /* no division by zero */
+    return sq__fsel(d != 0, inv, 0.0f);
+}
+
+enum { ROW = 256 }; /* row chunk of the level-0 kernels */
 
 /* x (padded, level-0 layout) red (colour 0: i+j+k even) or black half-sweep. from_zero: the
  * first half-sweep of a V-cycle started from x = 0 (neighbours are not read; the other colour
@@ -260,25 +270,31 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
     const uint8_t *lk = g->links, *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     double *ps = g->plane_sum;
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double acc = 0.0;
+        float t[ROW];
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            if (from_zero) {
-                for (int i = (j + k + colour) & 1; i < nx; i += 2)
-                    x[r0 + i] = inv_lut[dg[r0 + i]] * b[r0 + i];
-            } else {
-                for (int i = (j + k + colour) & 1; i < nx; i += 2) {
-                    const ptrdiff_t c = r0 + i;
-                    x[c] = inv_lut[dg[c]] * (b[c] + nbsum0(x, c, lk[c], sy, sz));
+            const int par = (j + k + colour) & 1; /* cells with (i & 1) == par are updated */
+            /* the update of every cell of the row (vectorised), kept for this colour only:
+             * the other colour's values are what this colour reads */
+            for (int i0 = 0; i0 < nx; i0 += ROW) {
+                const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                const ptrdiff_t c0 = r0 + i0;
+                if (from_zero) {
+                    for (int q = 0; q < n; q++) t[q] = inv_diag0(dg[c0 + q]) * b[c0 + q];
+                } else {
+                    for (int q = 0; q < n; q++) {
+                        const ptrdiff_t c = c0 + q;
+                        t[q] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, lk[c], sy, sz));
+                    }
                 }
+                float *xr = x + c0;
+                for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
             }
-            if (dot) {
-                float racc = 0.0f;
-                for (int i = 0; i < nx; i++) racc += dg[r0 + i] ? b[r0 + i] * x[r0 + i] : 0.0f;
-                acc += (double)racc;
-            }
+            if (dot) acc += (double)sq__dotf(b + r0, x + r0, nx); /* b = 0 in solid cells */
         }
         ps[4 * k] = acc;
     }
@@ -304,15 +320,12 @@ static double apply0(sq_grid *g, const float *x, float *out)
         double acc = 0.0;
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            float racc = 0.0f;
             for (int i = 0; i < nx; i++) {
                 const ptrdiff_t c = r0 + i;
-                float v = 0.0f;
-                if (dg[c]) v = (float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz);
-                out[c] = v;
-                racc += dg[c] ? v * x[c] : 0.0f;
+                const float a = (float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz);
+                out[c] = sq__fsel(dg[c] != 0, a, 0.0f);
             }
-            acc += (double)racc;
+            acc += (double)sq__dotf(out + r0, x + r0, nx); /* out = 0 in solid cells */
         }
         ps[4 * k] = acc;
     }
@@ -329,6 +342,7 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int K = 0; K < C->n[2]; K++) {
+        float t[ROW];
         for (int J = 0; J < C->n[1]; J++) {
             float *cr = C->rhs + lidx(C, 0, J, K);
             for (int I = 0; I < C->n[0]; I++) cr[I] = 0.0f;
@@ -338,11 +352,20 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
             for (int j = 0; j < ny; j++) {
                 float *cr = C->rhs + lidx(C, 0, j >> shy, K);
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                for (int i = 0; i < nx; i++) {
-                    const ptrdiff_t c = r0 + i;
-                    float r = 0.0f;
-                    if (dg[c]) r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz));
-                    cr[i >> shx] += r;
+                for (int i0 = 0; i0 < nx; i0 += ROW) {
+                    const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                    for (int q = 0; q < n; q++) {
+                        const ptrdiff_t c = r0 + i0 + q;
+                        const float r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz));
+                        t[q] = sq__fsel(dg[c] != 0, r, 0.0f);
+                    }
+                    if (shx) { /* ROW is even: pairs never straddle chunks */
+                        float *cc = cr + (i0 >> 1);
+                        for (int q = 0; q + 1 < n; q += 2) cc[q >> 1] += t[q] + t[q + 1];
+                        if (n & 1) cc[(n - 1) >> 1] += t[n - 1];
+                    } else {
+                        for (int q = 0; q < n; q++) cr[i0 + q] += t[q];
+                    }
                 }
             }
     }
@@ -612,21 +635,23 @@ static void rhs_and_residual(sq_grid *g, const float *phi, float *b, float *r, d
             const float *u = sq_field3_at(U, 0, j, k), *v0 = sq_field3_at(V, 0, j, k),
                         *v1 = sq_field3_at(V, 0, j + 1, k), *w0 = sq_field3_at(W, 0, j, k),
                         *w1 = sq_field3_at(W, 0, j, k + 1);
-            float rb = 0.0f, rrr = 0.0f;
-            for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = r0 + i;
-                float bv = 0.0f, rv = 0.0f;
-                if (dg[c]) {
-                    bv = -h * (u[i + 1] - u[i] + v1[i] - v0[i] + w1[i] - w0[i]);
-                    rv = bv - ((float)dg[c] * phi[c] - nbsum0(phi, c, lk[c], sy, sz));
+            float tb[ROW];
+            for (int i0 = 0; i0 < nx; i0 += ROW) {
+                const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                for (int q = 0; q < n; q++) {
+                    const int i = i0 + q;
+                    const ptrdiff_t c = r0 + i;
+                    const bool fluid = dg[c] != 0;
+                    const float bv =
+                        sq__fsel(fluid, -h * (u[i + 1] - u[i] + v1[i] - v0[i] + w1[i] - w0[i]), 0.0f);
+                    const float rv = bv - ((float)dg[c] * phi[c] - nbsum0(phi, c, lk[c], sy, sz));
+                    tb[q] = bv;
+                    r[c] = sq__fsel(fluid, rv, 0.0f);
                 }
-                if (b) b[c] = bv;
-                r[c] = rv;
-                rb += bv * bv;
-                rrr += rv * rv;
+                if (b) memcpy(b + r0 + i0, tb, (size_t)n * sizeof(float));
+                sb += (double)sq__dotf(tb, tb, n);
+                sr += (double)sq__dotf(r + r0 + i0, r + r0 + i0, n);
             }
-            sb += (double)rb;
-            sr += (double)rrr;
         }
         ps[4 * k] = sb;
         ps[4 * k + 1] = sr;
@@ -704,8 +729,8 @@ static void correct_velocity(sq_grid *g, const float *phi)
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < mx; i++) {
                     const ptrdiff_t hi = r0 + i, lo = hi - off;
-                    if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
-                    u[i] -= (phi[hi] - phi[lo]) * ih;
+                    const bool fixed = ((fl[lo] | fl[hi]) & SQ__CF_FIXED) != 0;
+                    u[i] = sq__fsel(fixed, u[i], u[i] - (phi[hi] - phi[lo]) * ih);
                 }
             }
     }
@@ -760,16 +785,13 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
             double acc = 0.0, acz = 0.0;
             for (int j = 0; j < ny; j++) {
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                float ra = 0.0f, rz = 0.0f;
                 for (int i = 0; i < nx; i++) {
                     const ptrdiff_t c = r0 + i;
                     phi[c] += alpha * d[c];
                     r[c] -= alpha * q[c];
-                    ra += r[c] * r[c];
-                    rz += r[c] * z[c];
                 }
-                acc += (double)ra;
-                acz += (double)rz;
+                acc += (double)sq__dotf(r + r0, r + r0, nx);
+                acz += (double)sq__dotf(r + r0, z + r0, nx);
             }
             ps[4 * k] = acc;
             ps[4 * k + 1] = acz;
