@@ -1,0 +1,870 @@
+/* sph_passes.c — the per-step passes of the SPH solver (SPEC §7.6 and §7.8):
+ *   sort     cell ids, counting sort, reorder of the structure of arrays (§7.6 steps 2–6);
+ *   density  neighbour lists from the 27 neighbour cells (3 x-contiguous cells per row, so 9
+ *            ranges), mirror images at walls, ρ_i = Σ_j m W_ij including j = i (§7.2 ⚠ 1),
+ *            pressure from the EOS (eq. 3.38 or Tait);
+ *   strain   renormalisation matrix L_i = (Σ_j V_j (x_j − x_i) ⊗ ∇W_ij)⁻¹ (Bonet & Lok 1999),
+ *            velocity gradient (∇v)_i = [Σ_j V_j (v_j − v_i) ⊗ ∇W_ij] L_i (eq. 3.34 with the
+ *            correction), D = ½(∇v + ∇vᵀ), |γ̇| = sqrt(2 D:D) (eq. 3.30 as corrected in the SPEC),
+ *            μ(|γ̇|), τ = 2 μ D (eq. 3.56 with the factor 2);
+ *   forces   a_i = −Σ m (p_i/ρ_i² + p_j/ρ_j²) ∇̃W + Σ m (τ_i + τ_j)/(ρ_i ρ_j) · ∇̃W + g
+ *            (eqs 3.44, 3.57) with ∇̃W = ½(L_i + L_j) ∇W; Newtonian viscosity by the
+ *            viscosity-kernel Laplacian (eq. 3.39, symmetrised) or Morris's form (cubic set);
+ *            XSPH ε Σ 2m/(ρ_i + ρ_j) (v_j − v_i) W_ij (eq. 3.47).
+ * Every loop writes only its own particle i, so results do not depend on the thread count.
+ * Neighbour-list entries are j | mask << 29, mask = the axes across whose walls j is mirrored;
+ * plain entries come first (nb_plain of them), image entries after. */
+/* The passes take square roots of sums of squares only, so errno is never needed; without
+ * this GCC cannot vectorise the neighbour loops (sqrtf "clobbers memory" through errno).
+ * It comes before the includes so that the header's inline kernels get the same options
+ * (GCC does not inline across differing optimize settings). */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC optimize("no-math-errno")
+#endif
+
+#include <string.h>
+
+#include "solvers/sph/sph_internal.h"
+
+/* The hot block functions are compiled twice on x86-64 Linux (AVX2 and baseline) and the
+ * loader picks the one the CPU supports. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(SQ_SPH_NO_CLONES)
+#define SQ__SPH_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define SQ__SPH_CLONES
+#endif
+#define SQ__SPH_BLOCK 256
+
+#if defined(__GNUC__)
+#define SQ__INLINE static inline __attribute__((always_inline))
+#else
+#define SQ__INLINE static inline
+#endif
+
+/* ---- kernels for tests ------------------------------------------------------------------- */
+
+void sq__sph_kern_init(sq__sph_kern *k, float H, int cubic)
+{
+    const double h = H, pi = 3.14159265358979323846;
+    memset(k, 0, sizeof *k);
+    k->cubic = cubic;
+    k->H = H;
+    k->H2 = H * H;
+    k->inv_H = (float)(1.0 / h);
+    k->inv_H2 = (float)(1.0 / (h * h));
+    k->poly6_c = (float)(315.0 / (64.0 * pi * h * h * h));
+    k->spiky_w_c = (float)(15.0 / (pi * h * h * h));
+    k->spiky_g_c = (float)(45.0 / (pi * h * h * h * h));
+    k->visc_w_c = (float)(15.0 / (2.0 * pi * h * h * h));
+    k->visc_lap_c = (float)(45.0 / (pi * h * h * h * h * h));
+    const double ell = 0.5 * h;
+    k->cubic_c = (float)(1.0 / (pi * ell * ell * ell));
+    k->cubic_g_c = (float)(1.0 / (pi * ell * ell * ell * ell));
+    k->ell = (float)ell;
+    k->ell2 = (float)(ell * ell);
+}
+
+float sq__sph_kernel_w(const sq__sph_kern *k, sq__sph_kernel_fn fn, float r)
+{
+    switch (fn) {
+    case SQ__SPH_W_POLY6: return sq__sph_w_poly6(k, r * r);
+    case SQ__SPH_W_SPIKY: return sq__sph_w_spiky(k, r);
+    case SQ__SPH_W_VISC: return sq__sph_w_visc(k, r);
+    case SQ__SPH_W_CUBIC: return sq__sph_w_cubic(k, r);
+    }
+    return 0.0f;
+}
+
+void sq__sph_kernel_grad(const sq__sph_kern *k, sq__sph_kernel_fn fn, const float d[3], float g[3])
+{
+    const float r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    const float r = sqrtf(r2);
+    float f = 0.0f;
+    switch (fn) {
+    case SQ__SPH_W_POLY6: f = sq__sph_gradf_poly6(k, r2); break;
+    case SQ__SPH_W_SPIKY: {
+        sq__sph_kern kk = *k;
+        kk.cubic = 0;
+        f = sq__sph_gradf(&kk, r);
+        break;
+    }
+    case SQ__SPH_W_VISC: {
+        /* dW/dr of the viscosity kernel: 15/(2π H³) (−3q²/(2H) + 2q/H − 1/(2 q² H)) */
+        float q = r * k->inv_H;
+        if (q > 0.0f && q < 1.0f)
+            f = k->visc_w_c * k->inv_H * (-1.5f * q * q + 2.0f * q - 0.5f / (q * q)) / r;
+        break;
+    }
+    case SQ__SPH_W_CUBIC: {
+        sq__sph_kern kk = *k;
+        kk.cubic = 1;
+        f = sq__sph_gradf(&kk, r);
+        break;
+    }
+    }
+    g[0] = f * d[0];
+    g[1] = f * d[1];
+    g[2] = f * d[2];
+}
+
+/* ---- grid and sort ---------------------------------------------------------------------- */
+
+static inline int clamp_cell(float f, int n)
+{
+    int i = 0;
+    if (f >= 0.0f) i = f < (float)n ? (int)f : n - 1;
+    if (i > n - 1) i = n - 1;
+    return i;
+}
+
+uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z)
+{
+    const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], s->n[0]);
+    const int cy = clamp_cell((y - s->lo[1]) * s->inv_cell[1], s->n[1]);
+    const int cz = clamp_cell((z - s->lo[2]) * s->inv_cell[2], s->n[2]);
+    return ((uint32_t)cz * (uint32_t)s->n[1] + (uint32_t)cy) * (uint32_t)s->n[0] + (uint32_t)cx;
+}
+
+static void gather_f(sq_sph *s, float **arr, size_t n)
+{
+    float *restrict dst = (float *)s->scratch;
+    const float *restrict src = *arr;
+    const uint32_t *restrict perm = s->perm;
+    const int nt = s->nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
+    s->scratch = *arr;
+    *arr = dst;
+}
+
+static void gather_u(sq_sph *s, uint32_t **arr, size_t n)
+{
+    uint32_t *restrict dst = (uint32_t *)s->scratch;
+    const uint32_t *restrict src = *arr;
+    const uint32_t *restrict perm = s->perm;
+    const int nt = s->nt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
+    s->scratch = *arr;
+    *arr = dst;
+}
+
+size_t sq__sph_sort(sq_sph *s)
+{
+    const size_t N = s->count;
+    const uint32_t dead = s->ncell; /* bucket of particles that left through open faces */
+    const int nt = s->nt;
+    uint32_t *restrict cid = s->cellid;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int64_t i = 0; i < (int64_t)N; i++) {
+        const float p[3] = {s->x[i], s->y[i], s->z[i]};
+        int out = 0;
+        for (int a = 0; a < 3; a++) {
+            if (p[a] < s->lo[a] && s->face[2 * a] == SQ_SPH_BOUNDARY_OPEN) out = 1;
+            if (p[a] >= s->hi[a] && s->face[2 * a + 1] == SQ_SPH_BOUNDARY_OPEN) out = 1;
+        }
+        cid[i] = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
+    }
+    /* counting sort (serial and stable: the order within a cell is the previous order) */
+    uint32_t *restrict h = s->hist;
+    memset(h, 0, sizeof(uint32_t) * ((size_t)dead + 2));
+    for (size_t i = 0; i < N; i++) h[cid[i]]++;
+    uint32_t sum = 0;
+    for (uint32_t c = 0; c <= dead; c++) {
+        const uint32_t t = h[c];
+        s->cell_start[c] = sum;
+        h[c] = sum;
+        sum += t;
+    }
+    s->cell_start[dead + 1] = sum;
+    for (size_t i = 0; i < N; i++) s->perm[h[cid[i]]++] = (uint32_t)i;
+    const size_t alive = s->cell_start[dead];
+    gather_f(s, &s->x, alive);
+    gather_f(s, &s->y, alive);
+    gather_f(s, &s->z, alive);
+    gather_f(s, &s->vx, alive);
+    gather_f(s, &s->vy, alive);
+    gather_f(s, &s->vz, alive);
+    gather_f(s, &s->hx, alive);
+    gather_f(s, &s->hy, alive);
+    gather_f(s, &s->hz, alive);
+    gather_u(s, &s->id, alive);
+    s->count = alive;
+    return N - alive;
+}
+
+/* ---- neighbour search and density --------------------------------------------------------- */
+
+/* 0: no wall within H on axis a; 1: the low wall; 2: the high wall. */
+SQ__INLINE int near_wall(const sq_sph *s, int a, float xa)
+{
+    if (s->face[2 * a] <= SQ_SPH_BOUNDARY_FREE_SLIP && xa - s->lo[a] < s->k.H) return 1;
+    if (s->face[2 * a + 1] <= SQ_SPH_BOUNDARY_FREE_SLIP && s->hi[a] - xa < s->k.H) return 2;
+    return 0;
+}
+
+typedef struct scan_acc {
+    int cnt;
+    float wsum; /* Σ (1 − q²)³ over candidates (poly6 density) */
+} scan_acc;
+
+/* Candidates j in [b, e) seen from the query point q (already shifted for periodicity), in
+ * chunks: a vectorisable loop computes r² (and the poly6 sum, whose (1 − q²) is clamped so it
+ * needs no test), then a branch-free loop appends the accepted ones (r < H, j ≠ self). */
+#define SQ__SPH_SCAN_CHUNK 64
+SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, float qx, float qy,
+                           float qz, uint32_t self, uint32_t tag, uint32_t *restrict nb,
+                           int capm1, scan_acc *acc, int poly6)
+{
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    const float H2 = s->k.H2, iH2 = s->k.inv_H2;
+    float r2b[SQ__SPH_SCAN_CHUNK];
+    int cnt = acc->cnt;
+    for (uint32_t b0 = b; b0 < e; b0 += SQ__SPH_SCAN_CHUNK) {
+        const int n = (int)(e - b0 < SQ__SPH_SCAN_CHUNK ? e - b0 : SQ__SPH_SCAN_CHUNK);
+        const float *restrict x = X + b0, *restrict y = Y + b0, *restrict z = Z + b0;
+        float ws = 0.0f;
+        SQ_OMP(omp simd reduction(+ : ws))
+        for (int t = 0; t < n; t++) {
+            const float dx = qx - x[t], dy = qy - y[t], dz = qz - z[t];
+            const float r2 = dx * dx + dy * dy + dz * dz;
+            r2b[t] = r2;
+            const float w = sq__maxf(1.0f - r2 * iH2, 0.0f);
+            ws += w * w * w;
+        }
+        if (poly6) acc->wsum += ws;
+        for (int t = 0; t < n; t++) {
+            const uint32_t j = b0 + (uint32_t)t;
+            const int slot = cnt < capm1 ? cnt : capm1;
+            nb[slot] = j | tag;
+            cnt += (int)((r2b[t] < H2) & (j != self));
+        }
+    }
+    acc->cnt = cnt;
+}
+
+/* Distance from v to the interval [a, a + w] (0 inside). */
+static inline float gap(float v, float a, float w)
+{
+    return sq__maxf(sq__maxf(a - v, v - (a + w)), 0.0f);
+}
+
+/* All candidates in the 27 cells around the query point (x, y, z); rows (and the end cells of
+ * each x-row) farther than H from the query are skipped. Axes in fixmask (the mirrored axes of
+ * an image query, which lies outside the domain) scan only the wall cell. */
+SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, uint32_t self,
+                           uint32_t tag, uint32_t *restrict nb, int capm1, scan_acc *acc,
+                           int poly6, int fixmask)
+{
+    const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
+    const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], nx);
+    const int cy = clamp_cell((y - s->lo[1]) * s->inv_cell[1], ny);
+    const int cz = clamp_cell((z - s->lo[2]) * s->inv_cell[2], nz);
+    const float H2 = s->k.H2;
+    const float *cell = s->cell;
+    const uint32_t *restrict st = s->cell_start;
+    const int zl = (fixmask & 4) ? 0 : -1, zh = (fixmask & 4) ? 0 : 1;
+    const int yl = (fixmask & 2) ? 0 : -1, yh = (fixmask & 2) ? 0 : 1;
+    const int xl = (fixmask & 1) ? 0 : -1, xh = (fixmask & 1) ? 0 : 1;
+    for (int dz = zl; dz <= zh; dz++) {
+        int kz = cz + dz;
+        float qz = z;
+        if (kz < 0) {
+            if (!s->periodic[2]) continue;
+            kz += nz;
+            qz = z + s->len[2];
+        } else if (kz >= nz) {
+            if (!s->periodic[2]) continue;
+            kz -= nz;
+            qz = z - s->len[2];
+        }
+        const float ez = gap(qz, s->lo[2] + (float)kz * cell[2], cell[2]);
+        const float remz = H2 - ez * ez;
+        if (remz <= 0.0f) continue;
+        for (int dy = yl; dy <= yh; dy++) {
+            int ky = cy + dy;
+            float qy = y;
+            if (ky < 0) {
+                if (!s->periodic[1]) continue;
+                ky += ny;
+                qy = y + s->len[1];
+            } else if (ky >= ny) {
+                if (!s->periodic[1]) continue;
+                ky -= ny;
+                qy = y - s->len[1];
+            }
+            const float ey = gap(qy, s->lo[1] + (float)ky * cell[1], cell[1]);
+            const float rem = remz - ey * ey;
+            if (rem <= 0.0f) continue;
+            const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
+            int xa = cx + xl, xb = cx + xh;
+            if (s->periodic[0] && (xa < 0 || xb >= nx)) {
+                for (int dx = xl; dx <= xh; dx++) {
+                    int kx = cx + dx;
+                    float qx = x;
+                    if (kx < 0) {
+                        kx += nx;
+                        qx = x + s->len[0];
+                    } else if (kx >= nx) {
+                        kx -= nx;
+                        qx = x - s->len[0];
+                    }
+                    const float ex = gap(qx, s->lo[0] + (float)kx * cell[0], cell[0]);
+                    if (ex * ex >= rem) continue;
+                    scan_range(s, st[row + (uint32_t)kx], st[row + (uint32_t)kx + 1], qx, qy, qz,
+                               self, tag, nb, capm1, acc, poly6);
+                }
+            } else {
+                if (xa < 0) xa = 0;
+                if (xb >= nx) xb = nx - 1;
+                /* trim the end cells of the row when the sphere does not reach them */
+                if (xa < cx) {
+                    const float ex = gap(x, s->lo[0] + (float)xa * cell[0], cell[0]);
+                    if (ex * ex >= rem) xa = cx;
+                }
+                if (xb > cx) {
+                    const float ex = gap(x, s->lo[0] + (float)xb * cell[0], cell[0]);
+                    if (ex * ex >= rem) xb = cx;
+                }
+                scan_range(s, st[row + (uint32_t)xa], st[row + (uint32_t)xb + 1], x, qy, qz, self,
+                           tag, nb, capm1, acc, poly6);
+            }
+        }
+    }
+}
+
+/* Displacement x_i − x_j for a plain entry (minimum image on periodic axes). */
+SQ__INLINE void d_plain(const sq_sph *restrict s, size_t i, uint32_t j, float d[3])
+{
+    d[0] = s->x[i] - s->x[j];
+    d[1] = s->y[i] - s->y[j];
+    d[2] = s->z[i] - s->z[j];
+    if (s->any_periodic) {
+        for (int a = 0; a < 3; a++) {
+            if (!s->periodic[a]) continue;
+            if (d[a] > s->half_len[a]) d[a] -= s->len[a];
+            else if (d[a] < -s->half_len[a]) d[a] += s->len[a];
+        }
+    }
+}
+
+static inline float coord(const sq_sph *s, int a, size_t i)
+{
+    return a == 0 ? s->x[i] : a == 1 ? s->y[i] : s->z[i];
+}
+
+/* Density pass for particles [i0, i1); returns the largest neighbour count. */
+SQ__SPH_CLONES static int density_block(sq_sph *restrict s, size_t i0, size_t i1)
+{
+    const int cap = s->nb_cap, capm1 = cap - 1;
+    const int poly6 = !s->k.cubic;
+    int maxcnt = 0;
+    for (size_t i = i0; i < i1; i++) {
+        uint32_t *restrict nb = s->nb + i * (size_t)cap;
+        const float xi = s->x[i], yi = s->y[i], zi = s->z[i];
+        scan_acc acc = {0, 0.0f};
+        scan_cells(s, xi, yi, zi, (uint32_t)i, 0u, nb, capm1, &acc, poly6, 0);
+        const int plain = acc.cnt;
+        if (s->any_wall) {
+            const float xyz[3] = {xi, yi, zi};
+            int side[3], near = 0;
+            for (int a = 0; a < 3; a++) {
+                side[a] = near_wall(s, a, xyz[a]);
+                if (side[a]) near |= 1 << a;
+            }
+            /* every non-empty subset of the near walls: single mirrors, edges, corners */
+            for (int m = 1; m < 8; m++) {
+                if ((m & near) != m) continue;
+                float q[3];
+                for (int a = 0; a < 3; a++) {
+                    q[a] = xyz[a];
+                    if (m & (1 << a)) {
+                        const float w = side[a] == 1 ? s->lo[a] : s->hi[a];
+                        q[a] = 2.0f * w - xyz[a];
+                    }
+                }
+                scan_cells(s, q[0], q[1], q[2], UINT32_MAX, (uint32_t)m << SQ__SPH_IMAGE_SHIFT, nb,
+                           capm1, &acc, poly6, m);
+            }
+        }
+        const int cnt = acc.cnt;
+        if (cnt > maxcnt) maxcnt = cnt;
+        s->nb_count[i] = (uint16_t)(cnt < cap ? cnt : cap);
+        s->nb_plain[i] = (uint16_t)(plain < cap ? plain : cap);
+        float rho;
+        if (poly6) {
+            rho = s->mass * s->k.poly6_c * acc.wsum;
+        } else {
+            /* cubic spline: self term plus the list */
+            float w = sq__sph_w_cubic(&s->k, 0.0f);
+            const int n = cnt < cap ? cnt : cap;
+            for (int k = 0; k < n; k++) {
+                const uint32_t e = nb[k];
+                const uint32_t j = e & SQ__SPH_INDEX_MASK;
+                const uint32_t m = e >> SQ__SPH_IMAGE_SHIFT;
+                float d[3];
+                d_plain(s, i, j, d);
+                for (int a = 0; a < 3; a++) {
+                    if (!(m & (1u << a))) continue;
+                    const int sd = near_wall(s, a, coord(s, a, i));
+                    const float wl = sd == 1 ? s->lo[a] : s->hi[a];
+                    d[a] = coord(s, a, i) + coord(s, a, j) - 2.0f * wl;
+                }
+                w += sq__sph_w_cubic(&s->k, sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+            }
+            rho = s->mass * w;
+        }
+        const float p = sq__sph_eos(s, rho);
+        s->rho[i] = rho;
+        s->p[i] = p;
+        s->vol[i] = s->mass / rho;
+        s->pr2[i] = p / (rho * rho);
+    }
+    return maxcnt;
+}
+
+int sq__sph_pass_density(sq_sph *s)
+{
+    const size_t N = s->count;
+    const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
+    const int nt = s->nt;
+    int maxcnt = 0;
+    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : maxcnt))
+    for (int64_t b = 0; b < nblk; b++) {
+        const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
+        const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
+        const int m = density_block(s, i0, i1);
+        if (m > maxcnt) maxcnt = m;
+    }
+    return maxcnt;
+}
+
+/* ---- mirror images -------------------------------------------------------------------------- */
+
+typedef struct image {
+    float d[3];     /* x_i − x_j' */
+    float v[3];
+    float rho, vol, pr2;
+    float L[6];
+    float tau[6];
+} image;
+
+static inline int tidx(int a, int b) /* symmetric 6-vector index: xx yy zz xy xz yz */
+{
+    if (a == b) return a;
+    if (a > b) {
+        int t = a;
+        a = b;
+        b = t;
+    }
+    return a == 0 ? (b == 1 ? 3 : 4) : 5;
+}
+
+/* The state of the mirror image of j seen by i (entry e carries the mirror mask).
+ * tensors = 0: geometry, velocity and density only (the strain pass, which is still writing
+ * L and G); 1: also L; 2: also L and τ (recomputed from the mirrored velocity gradient). */
+static void image_state(const sq_sph *restrict s, size_t i, uint32_t e, int tensors, image *o)
+{
+    const uint32_t j = e & SQ__SPH_INDEX_MASK;
+    const uint32_t m = e >> SQ__SPH_IMAGE_SHIFT;
+    d_plain(s, i, j, o->d);
+    o->v[0] = s->vx[j];
+    o->v[1] = s->vy[j];
+    o->v[2] = s->vz[j];
+    float G[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    if (tensors >= 2)
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++) G[a][b] = s->G[9 * (size_t)j + 3 * (size_t)a + (size_t)b];
+    float sgn[3] = {1.0f, 1.0f, 1.0f};
+    float dpot = 0.0f; /* g · (x_j' − x_j) */
+    for (int a = 0; a < 3; a++) {
+        if (!(m & (1u << a))) continue;
+        const float xi = coord(s, a, i), xj = coord(s, a, j);
+        const int sd = near_wall(s, a, xi);
+        const float w = sd == 1 ? s->lo[a] : s->hi[a];
+        o->d[a] = xi + xj - 2.0f * w;
+        dpot += s->g[a] * 2.0f * (w - xj);
+        sgn[a] = -1.0f;
+        const int kind = s->face[2 * a + (sd == 2)];
+        if (kind == SQ_SPH_BOUNDARY_NO_SLIP) {
+            for (int b = 0; b < 3; b++) {
+                o->v[b] = -o->v[b];
+                for (int c = 0; c < 3; c++) G[b][c] = -G[b][c];
+            }
+        } else {
+            o->v[a] = -o->v[a];
+            for (int c = 0; c < 3; c++) G[a][c] = -G[a][c];
+        }
+        for (int b = 0; b < 3; b++) G[b][a] = -G[b][a];
+    }
+    const float rho_j = s->rho[j];
+    const float rho = rho_j * (1.0f + dpot / s->c2);
+    float p = s->p[j] + rho_j * dpot;
+    if (!s->tensile && p < 0.0f) p = 0.0f;
+    o->rho = rho;
+    o->vol = s->mass / rho;
+    o->pr2 = p / (rho * rho);
+    if (tensors >= 1)
+        for (int a = 0; a < 3; a++)
+            for (int b = a; b < 3; b++) {
+                const int t = tidx(a, b);
+                o->L[t] = sgn[a] * sgn[b] * s->L[6 * (size_t)j + (size_t)t];
+            }
+    if (tensors >= 2) {
+        float D[6];
+        for (int a = 0; a < 3; a++)
+            for (int b = a; b < 3; b++) D[tidx(a, b)] = 0.5f * (G[a][b] + G[b][a]);
+        const float dd = D[0] * D[0] + D[1] * D[1] + D[2] * D[2] +
+                         2.0f * (D[3] * D[3] + D[4] * D[4] + D[5] * D[5]);
+        const float mu = sq__sph_rheo_mu(&s->rheo, sqrtf(2.0f * dd));
+        for (int t = 0; t < 6; t++) o->tau[t] = 2.0f * mu * D[t];
+    }
+}
+
+/* ---- strain pass --------------------------------------------------------------------------- */
+
+/* Inverse of the symmetric matrix B (xx yy zz xy xz yz); identity if det < SQ__SPH_DET_MIN. */
+static inline void sym_inverse(const float B[6], float L[6])
+{
+    const float a = B[0], b = B[1], c = B[2], d = B[3], e = B[4], f = B[5];
+    const float cxx = b * c - f * f, cyy = a * c - e * e, czz = a * b - d * d;
+    const float cxy = e * f - d * c, cxz = d * f - b * e, cyz = d * e - a * f;
+    const float det = a * cxx + d * cxy + e * cxz;
+    if (!(det >= SQ__SPH_DET_MIN)) {
+        L[0] = L[1] = L[2] = 1.0f;
+        L[3] = L[4] = L[5] = 0.0f;
+        return;
+    }
+    const float id = 1.0f / det;
+    L[0] = cxx * id;
+    L[1] = cyy * id;
+    L[2] = czz * id;
+    L[3] = cxy * id;
+    L[4] = cxz * id;
+    L[5] = cyz * id;
+}
+
+/* Minimum-image wrap of one displacement component (h = +inf on non-periodic axes). */
+SQ__INLINE float wrap1(float d, float h, float L)
+{
+    d = d > h ? d - L : d;
+    return d < -h ? d + L : d;
+}
+
+SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtonian,
+                                 const int corrected)
+{
+    const int cap = s->nb_cap;
+    const uint32_t *restrict nb = s->nb + i * (size_t)cap;
+    const int nplain = s->nb_plain[i], ntot = s->nb_count[i];
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    const float *restrict VX = s->vx, *restrict VY = s->vy, *restrict VZ = s->vz;
+    const float *restrict VOL = s->vol;
+    const float hx = s->wrap_h[0], hy = s->wrap_h[1], hz = s->wrap_h[2];
+    const float Lx = s->len[0], Ly = s->len[1], Lz = s->len[2];
+    const sq__sph_kern kk = s->k;
+    const float xi = X[i], yi = Y[i], zi = Z[i];
+    const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
+    float b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0;
+    float g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0, g5 = 0, g6 = 0, g7 = 0, g8 = 0;
+    SQ_OMP(omp simd reduction(+ : b0, b1, b2, b3, b4, b5, g0, g1, g2, g3, g4, g5, g6, g7, g8))
+    for (int k = 0; k < nplain; k++) {
+        const uint32_t j = nb[k];
+        const float dx = wrap1(xi - X[j], hx, Lx), dy = wrap1(yi - Y[j], hy, Ly),
+                    dz = wrap1(zi - Z[j], hz, Lz);
+        const float r2 = dx * dx + dy * dy + dz * dz;
+        const float ir = r2 > 0.0f ? 1.0f / sqrtf(r2) : 0.0f;
+        const float f = sq__sph_gradf_r(&kk, r2 * ir, ir) * VOL[j]; /* V_j ∇W = f d */
+        const float gx = f * dx, gy = f * dy, gz = f * dz;
+        /* B += V_j (x_j − x_i) ⊗ ∇W = −(d ⊗ f d) */
+        b0 -= dx * gx;
+        b1 -= dy * gy;
+        b2 -= dz * gz;
+        b3 -= dx * gy;
+        b4 -= dx * gz;
+        b5 -= dy * gz;
+        const float ux = VX[j] - vxi, uy = VY[j] - vyi, uz = VZ[j] - vzi;
+        g0 += ux * gx;
+        g1 += ux * gy;
+        g2 += ux * gz;
+        g3 += uy * gx;
+        g4 += uy * gy;
+        g5 += uy * gz;
+        g6 += uz * gx;
+        g7 += uz * gy;
+        g8 += uz * gz;
+    }
+    float B[6] = {b0, b1, b2, b3, b4, b5};
+    float Gr[9] = {g0, g1, g2, g3, g4, g5, g6, g7, g8};
+    for (int k = nplain; k < ntot; k++) {
+        image im;
+        image_state(s, i, nb[k], 0, &im);
+        const float *d = im.d;
+        const float r = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        const float f = sq__sph_gradf(&kk, r) * im.vol;
+        const float gx = f * d[0], gy = f * d[1], gz = f * d[2];
+        B[0] -= d[0] * gx;
+        B[1] -= d[1] * gy;
+        B[2] -= d[2] * gz;
+        B[3] -= d[0] * gy;
+        B[4] -= d[0] * gz;
+        B[5] -= d[1] * gz;
+        const float ux = im.v[0] - vxi, uy = im.v[1] - vyi, uz = im.v[2] - vzi;
+        Gr[0] += ux * gx; Gr[1] += ux * gy; Gr[2] += ux * gz;
+        Gr[3] += uy * gx; Gr[4] += uy * gy; Gr[5] += uy * gz;
+        Gr[6] += uz * gx; Gr[7] += uz * gy; Gr[8] += uz * gz;
+    }
+    float L[6] = {1, 1, 1, 0, 0, 0};
+    if (corrected) sym_inverse(B, L);
+    float *restrict Ls = s->L + 6 * i;
+    for (int t = 0; t < 6; t++) Ls[t] = L[t];
+    /* G = Gr L (L symmetric) */
+    const float Lm[3][3] = {{L[0], L[3], L[4]}, {L[3], L[1], L[5]}, {L[4], L[5], L[2]}};
+    float *restrict G = s->G + 9 * i;
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++)
+            G[3 * a + b] = Gr[3 * a] * Lm[0][b] + Gr[3 * a + 1] * Lm[1][b] + Gr[3 * a + 2] * Lm[2][b];
+    const float D[6] = {G[0], G[4], G[8], 0.5f * (G[1] + G[3]), 0.5f * (G[2] + G[6]),
+                        0.5f * (G[5] + G[7])};
+    const float dd = D[0] * D[0] + D[1] * D[1] + D[2] * D[2] +
+                     2.0f * (D[3] * D[3] + D[4] * D[4] + D[5] * D[5]);
+    const float gam = sqrtf(2.0f * dd);
+    s->gam[i] = gam;
+    float mu;
+    if (newtonian) {
+        mu = s->rheo.mu;
+    } else {
+        mu = sq__sph_rheo_mu(&s->rheo, gam);
+        float *restrict tau = s->tau + 6 * i;
+        for (int t = 0; t < 6; t++) tau[t] = 2.0f * mu * D[t];
+    }
+    s->mu[i] = mu;
+    return mu;
+}
+
+#define SQ__SPH_STRAIN_BLOCK(NAME, NEWT, CORR)                                               \
+    SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
+    {                                                                                       \
+        float m = 0.0f;                                                                     \
+        for (size_t i = i0; i < i1; i++) {                                                  \
+            const float mu = strain_particle(s, i, NEWT, CORR);                             \
+            m = mu > m ? mu : m;                                                            \
+        }                                                                                   \
+        return m;                                                                           \
+    }
+SQ__SPH_STRAIN_BLOCK(strain_block_00, 0, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_01, 0, 1)
+SQ__SPH_STRAIN_BLOCK(strain_block_10, 1, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_11, 1, 1)
+
+float sq__sph_pass_strain(sq_sph *s)
+{
+    const size_t N = s->count;
+    const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
+    const int nt = s->nt;
+    const int mode = (s->newtonian ? 2 : 0) | (s->corrected ? 1 : 0);
+    float mumax = 0.0f;
+    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : mumax))
+    for (int64_t b = 0; b < nblk; b++) {
+        const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
+        const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
+        float m;
+        switch (mode) {
+        case 0: m = strain_block_00(s, i0, i1); break;
+        case 1: m = strain_block_01(s, i0, i1); break;
+        case 2: m = strain_block_10(s, i0, i1); break;
+        default: m = strain_block_11(s, i0, i1); break;
+        }
+        if (m > mumax) mumax = m;
+    }
+    return mumax;
+}
+
+/* ---- force pass ------------------------------------------------------------------------------ */
+
+/* One pair's acceleration and XSPH contributions to particle i (d = x_i − x_j, r² = |d|²);
+ * the j-side quantities are passed in. Branch-free so that the neighbour loop vectorises. */
+typedef struct pair_out {
+    float a0, a1, a2, x0, x1, x2;
+} pair_out;
+
+SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float avc, float mu_n,
+                               float dx, float dy, float dz, float r2, float ux, float uy,
+                               float uz, float rho_i, float irho_i, float rho_j, float vol_j,
+                               float pr2_i, float pr2_j, const float Li[6], const float *Lj,
+                               const float ti[6], const float *tj, const int newtonian,
+                               const int corrected, const int cubic)
+{
+    const float ir = r2 > 0.0f ? 1.0f / sqrtf(r2) : 0.0f;
+    const float r = r2 * ir;
+    const float f = sq__sph_gradf_r(kk, r, ir);
+    float gx = f * dx, gy = f * dy, gz = f * dz;
+    if (corrected) {
+        const float l0 = 0.5f * (Li[0] + Lj[0]), l1 = 0.5f * (Li[1] + Lj[1]);
+        const float l2 = 0.5f * (Li[2] + Lj[2]), l3 = 0.5f * (Li[3] + Lj[3]);
+        const float l4 = 0.5f * (Li[4] + Lj[4]), l5 = 0.5f * (Li[5] + Lj[5]);
+        const float tx = l0 * gx + l3 * gy + l4 * gz;
+        const float ty = l3 * gx + l1 * gy + l5 * gz;
+        const float tz = l4 * gx + l5 * gy + l2 * gz;
+        gx = tx;
+        gy = ty;
+        gz = tz;
+    }
+    /* pressure −m (p_i/ρ_i² + p_j/ρ_j²) ∇̃W and Monaghan's artificial viscosity −m Π_ij ∇̃W */
+    const float vr = -(ux * dx + uy * dy + uz * dz); /* v_ij · x_ij */
+    const float pi = vr < 0.0f ? -avc * vr / ((r2 + 0.01f * kk->ell2) * 0.5f * (rho_i + rho_j))
+                               : 0.0f;
+    const float cp = -m * (pr2_i + pr2_j + pi);
+    pair_out o;
+    o.a0 = cp * gx;
+    o.a1 = cp * gy;
+    o.a2 = cp * gz;
+    const float cv = vol_j * irho_i; /* m / (ρ_i ρ_j) */
+    if (newtonian) {
+        float c;
+        if (cubic) {
+            /* Morris 1997: 2μ m/(ρ_i ρ_j) (d·∇̃W)/(r² + 0.01 ℓ²) (v_i − v_j) */
+            const float dg = dx * gx + dy * gy + dz * gz;
+            c = -2.0f * mu_n * cv * dg / (r2 + 0.01f * kk->ell2);
+        } else {
+            /* Müller 2003 (symmetrised): μ m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) */
+            c = mu_n * cv * sq__sph_lap_visc(kk, r);
+        }
+        o.a0 += c * ux;
+        o.a1 += c * uy;
+        o.a2 += c * uz;
+    } else {
+        /* stress m (τ_i + τ_j)/(ρ_i ρ_j) · ∇̃W */
+        const float t0 = ti[0] + tj[0], t1 = ti[1] + tj[1], t2 = ti[2] + tj[2];
+        const float t3 = ti[3] + tj[3], t4 = ti[4] + tj[4], t5 = ti[5] + tj[5];
+        o.a0 += cv * (t0 * gx + t3 * gy + t4 * gz);
+        o.a1 += cv * (t3 * gx + t1 * gy + t5 * gz);
+        o.a2 += cv * (t4 * gx + t5 * gy + t2 * gz);
+    }
+    /* XSPH 2m/(ρ_i + ρ_j) W (v_j − v_i) */
+    const float w = cubic ? sq__sph_w_cubic(kk, r) : sq__sph_w_poly6(kk, r2);
+    const float cx = 2.0f * m * w / (rho_i + rho_j);
+    o.x0 = cx * ux;
+    o.x1 = cx * uy;
+    o.x2 = cx * uz;
+    return o;
+}
+
+SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int newtonian,
+                                const int corrected, const int cubic)
+{
+    const int cap = s->nb_cap;
+    const uint32_t *restrict nb = s->nb + i * (size_t)cap;
+    const int nplain = s->nb_plain[i], ntot = s->nb_count[i];
+    static const float I6[6] = {1, 1, 1, 0, 0, 0};
+    static const float Z6[6] = {0, 0, 0, 0, 0, 0};
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    const float *restrict VX = s->vx, *restrict VY = s->vy, *restrict VZ = s->vz;
+    const float *restrict RHO = s->rho, *restrict VOL = s->vol, *restrict PR2 = s->pr2;
+    const float *restrict LL = s->L, *restrict TT = s->tau;
+    const float hx = s->wrap_h[0], hy = s->wrap_h[1], hz = s->wrap_h[2];
+    const float Lx = s->len[0], Ly = s->len[1], Lz = s->len[2];
+    const sq__sph_kern kk = s->k;
+    const float m = s->mass, avc = s->av_c, mu_n = s->rheo.mu;
+    const float xi = X[i], yi = Y[i], zi = Z[i];
+    const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
+    const float rho_i = RHO[i], irho_i = 1.0f / rho_i, pr2_i = PR2[i];
+    float Li[6], ti[6];
+    for (int t = 0; t < 6; t++) {
+        Li[t] = corrected ? LL[6 * i + (size_t)t] : I6[t];
+        ti[t] = newtonian ? 0.0f : TT[6 * i + (size_t)t];
+    }
+    float a0 = 0, a1 = 0, a2 = 0, x0 = 0, x1 = 0, x2 = 0;
+    SQ_OMP(omp simd reduction(+ : a0, a1, a2, x0, x1, x2))
+    for (int k = 0; k < nplain; k++) {
+        const uint32_t j = nb[k];
+        const float dx = wrap1(xi - X[j], hx, Lx), dy = wrap1(yi - Y[j], hy, Ly),
+                    dz = wrap1(zi - Z[j], hz, Lz);
+        const float r2 = dx * dx + dy * dy + dz * dz;
+        const pair_out o = pair_force(&kk, m, avc, mu_n, dx, dy, dz, r2, VX[j] - vxi,
+                                      VY[j] - vyi, VZ[j] - vzi, rho_i, irho_i, RHO[j], VOL[j],
+                                      pr2_i, PR2[j], Li, corrected ? LL + 6 * (size_t)j : I6, ti,
+                                      newtonian ? Z6 : TT + 6 * (size_t)j, newtonian, corrected,
+                                      cubic);
+        a0 += o.a0;
+        a1 += o.a1;
+        a2 += o.a2;
+        x0 += o.x0;
+        x1 += o.x1;
+        x2 += o.x2;
+    }
+    for (int k = nplain; k < ntot; k++) {
+        image im;
+        image_state(s, i, nb[k], newtonian ? 1 : 2, &im);
+        const float r2 = im.d[0] * im.d[0] + im.d[1] * im.d[1] + im.d[2] * im.d[2];
+        const pair_out o = pair_force(&kk, m, avc, mu_n, im.d[0], im.d[1], im.d[2], r2,
+                                      im.v[0] - vxi, im.v[1] - vyi, im.v[2] - vzi, rho_i, irho_i,
+                                      im.rho, im.vol, pr2_i, im.pr2, Li, corrected ? im.L : I6, ti,
+                                      newtonian ? Z6 : im.tau, newtonian, corrected, cubic);
+        a0 += o.a0;
+        a1 += o.a1;
+        a2 += o.a2;
+        x0 += o.x0;
+        x1 += o.x1;
+        x2 += o.x2;
+    }
+    a0 += s->g[0];
+    a1 += s->g[1];
+    a2 += s->g[2];
+    s->ax[i] = a0;
+    s->ay[i] = a1;
+    s->az[i] = a2;
+    const float eps = s->xsph_eps;
+    s->sx[i] = eps * x0;
+    s->sy[i] = eps * x1;
+    s->sz[i] = eps * x2;
+    return a0 * a0 + a1 * a1 + a2 * a2;
+}
+
+#define SQ__SPH_FORCE_BLOCK(NAME, NEWT, CORR, CUBIC)                                          \
+    SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
+    {                                                                                       \
+        float m = 0.0f;                                                                     \
+        for (size_t i = i0; i < i1; i++) {                                                  \
+            const float a2 = force_particle(s, i, NEWT, CORR, CUBIC);                       \
+            m = a2 > m ? a2 : m;                                                            \
+            if (!(a2 == a2)) m = a2; /* NaN: reported by the integrator */                  \
+        }                                                                                   \
+        return m;                                                                           \
+    }
+SQ__SPH_FORCE_BLOCK(force_block_000, 0, 0, 0)
+SQ__SPH_FORCE_BLOCK(force_block_001, 0, 0, 1)
+SQ__SPH_FORCE_BLOCK(force_block_010, 0, 1, 0)
+SQ__SPH_FORCE_BLOCK(force_block_011, 0, 1, 1)
+SQ__SPH_FORCE_BLOCK(force_block_100, 1, 0, 0)
+SQ__SPH_FORCE_BLOCK(force_block_101, 1, 0, 1)
+SQ__SPH_FORCE_BLOCK(force_block_110, 1, 1, 0)
+SQ__SPH_FORCE_BLOCK(force_block_111, 1, 1, 1)
+
+float sq__sph_pass_forces(sq_sph *s)
+{
+    const size_t N = s->count;
+    const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
+    const int nt = s->nt;
+    const int mode = (s->newtonian ? 4 : 0) | (s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0);
+    float a2max = 0.0f;
+    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : a2max))
+    for (int64_t b = 0; b < nblk; b++) {
+        const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
+        const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
+        float a2;
+        switch (mode) {
+        case 0: a2 = force_block_000(s, i0, i1); break;
+        case 1: a2 = force_block_001(s, i0, i1); break;
+        case 2: a2 = force_block_010(s, i0, i1); break;
+        case 3: a2 = force_block_011(s, i0, i1); break;
+        case 4: a2 = force_block_100(s, i0, i1); break;
+        case 5: a2 = force_block_101(s, i0, i1); break;
+        case 6: a2 = force_block_110(s, i0, i1); break;
+        default: a2 = force_block_111(s, i0, i1); break;
+        }
+        if (a2 > a2max) a2max = a2;
+    }
+    return sqrtf(a2max);
+}
