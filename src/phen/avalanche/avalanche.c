@@ -1,0 +1,481 @@
+/* avalanche.c — the snow avalanche phenomenon (SPEC §7, S2 ch. 3): lifecycle, the step recipe,
+ * diagnostics (front, run-out, α angle, moving fraction, deposit depth map), drawables (lit
+ * snow spheres, the deposit surface, an optional powder cloud), metrics and export fields.
+ * The flow itself is the SPH solver (include/squall/sph.h): summation density with the self
+ * term, linear EOS, Cross/Newtonian/power-law/Bingham stress through the velocity-gradient
+ * tensor, XSPH, kick-drift-kick leap-frog with CFL/viscous/force limits, and the terrain as a
+ * heightfield collider with kinetic Coulomb friction (SPEC §7.2–7.8). SI units throughout; the
+ * only conversion is the deposit's volume per cell to a depth (here). */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "avalanche_internal.h"
+
+#define MOD "avalanche"
+
+/* ---- lifecycle ----------------------------------------------------------------------------- */
+
+void sq_avalanche_destroy(sq_avalanche *a)
+{
+    if (!a) return;
+    sq_context *ctx = a->ctx;
+    sq_sph_destroy(a->sph);
+    sq_free(ctx, a->scratch);
+    sq_free(ctx, a->dep_acc);
+    sq_free(ctx, a->dep_depth);
+    sq_free(ctx, a->dep_smooth);
+    sq_free(ctx, a->dep_terrain);
+    sq_free(ctx, a->dep_height);
+    sq_free(ctx, a->dep_cover);
+    sq_free(ctx, a->pos);
+    sq_free(ctx, a->pw_density);
+    sq_free(ctx, a->pw_tmp);
+    sq_free(ctx, a);
+}
+
+/* The world's obstacles as box colliders: the axis-aligned bounds of each (rotated) footprint,
+ * from below the lowest terrain under it to its top (ridge included). */
+static sq_result add_obstacles(sq_avalanche *a)
+{
+    const sq_world *w = a->world;
+    for (int i = 0; i < w->obstacle_count; i++) {
+        const sq_obstacle *o = &w->obstacles[i];
+        const float yaw = o->yaw_deg * (float)(SQ_PI / 180.0);
+        const float c = fabsf(cosf(yaw)), s = fabsf(sinf(yaw));
+        const float ex = 0.5f * (c * o->size_m.x + s * o->size_m.y);
+        const float ey = 0.5f * (s * o->size_m.x + c * o->size_m.y);
+        float zlo = o->center_m.z;
+        for (int k = 0; k < 4; k++) {
+            float h = sq_world_height_at(w, o->center_m.x + ((k & 1) ? ex : -ex),
+                                         o->center_m.y + ((k & 2) ? ey : -ey));
+            if (h < zlo) zlo = h;
+        }
+        const float top = o->center_m.z + o->size_m.z +
+                          (o->kind == SQ_OBSTACLE_HOUSE ? o->roof_m : 0.0f);
+        sq_sph_box_desc b;
+        memset(&b, 0, sizeof b);
+        b.min_m[0] = (double)(o->center_m.x - ex);
+        b.max_m[0] = (double)(o->center_m.x + ex);
+        b.min_m[1] = (double)(o->center_m.y - ey);
+        b.max_m[1] = (double)(o->center_m.y + ey);
+        b.min_m[2] = (double)zlo - 1.0;
+        b.max_m[2] = (double)top;
+        b.contact.friction = a->plan.d.friction;
+        b.contact.restitution = a->plan.d.restitution;
+        sq_result r = sq_sph_add_box_obstacle(a->sph, &b);
+        if (r != SQ_OK) return r;
+    }
+    return SQ_OK;
+}
+
+static sq_result alloc_buffers(sq_avalanche *a)
+{
+    sq_context *ctx = a->ctx;
+    const sq__aval_plan *pl = &a->plan;
+    const size_t cells = (size_t)pl->dep_nx * (size_t)pl->dep_ny;
+    a->scratch = (float *)sq_alloc(ctx, pl->count * sizeof(float));
+    a->pos = (float *)sq_alloc_zero(ctx, 3 * pl->count * sizeof(float));
+    a->dep_acc = (double *)sq_alloc_zero(ctx, cells * sizeof(double));
+    a->dep_depth = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
+    a->dep_smooth = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
+    a->dep_terrain = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
+    a->dep_height = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
+    a->dep_cover = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
+    if (!a->scratch || !a->pos || !a->dep_acc || !a->dep_depth || !a->dep_smooth ||
+        !a->dep_terrain || !a->dep_height || !a->dep_cover)
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for %zu particles",
+                        pl->count);
+    if (pl->pw_n[0] > 0) {
+        const size_t nv = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1] * (size_t)pl->pw_n[2];
+        a->pw_density = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
+        a->pw_tmp = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
+        if (!a->pw_density || !a->pw_tmp)
+            return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for the powder grid");
+    }
+    for (int j = 0; j < pl->dep_ny; j++)
+        for (int i = 0; i < pl->dep_nx; i++)
+            a->dep_terrain[(size_t)j * pl->dep_nx + i] =
+                sq_world_height_at(a->world, (float)(pl->dep_origin[0] + (i + 0.5) * pl->dep_cell),
+                                   (float)(pl->dep_origin[1] + (j + 0.5) * pl->dep_cell));
+    return SQ_OK;
+}
+
+sq_result sq_avalanche_create(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *world,
+                              sq_avalanche **out)
+{
+    if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "out is NULL");
+    *out = NULL;
+    if (!world) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "a world is required");
+    sq_result r = sq_avalanche_validate(ctx, desc, world); /* refuses before allocating */
+    if (r != SQ_OK) return r;
+    sq_avalanche *a = (sq_avalanche *)sq_alloc_zero(ctx, sizeof *a);
+    if (!a) return SQ_ERR_OUT_OF_MEMORY;
+    a->ctx = ctx;
+    a->world = world;
+    r = sq__avalanche_plan(ctx, desc, world, true, &a->plan, NULL);
+    if (r == SQ_OK) r = alloc_buffers(a);
+    /* the release slab (positions into the drawable buffer, which is free until the first
+     * evaluation) */
+    if (r == SQ_OK) r = sq__avalanche_plan(ctx, desc, world, false, &a->plan, a->pos);
+    if (r == SQ_OK) r = sq_sph_create(ctx, &a->plan.sph, &a->sph);
+    if (r == SQ_OK) {
+        sq_sph_terrain_desc t;
+        memset(&t, 0, sizeof t);
+        t.origin_m[0] = world->origin.x;
+        t.origin_m[1] = world->origin.y;
+        t.spacing_m[0] = world->dx;
+        t.spacing_m[1] = world->dy;
+        t.nx = world->nx;
+        t.ny = world->ny;
+        t.heights_m = world->heights;
+        t.contact.friction = a->plan.d.friction;
+        t.contact.restitution = a->plan.d.restitution;
+        r = sq_sph_set_terrain(a->sph, &t);
+    }
+    if (r == SQ_OK) r = add_obstacles(a);
+    if (r == SQ_OK) r = sq_sph_add_particles(a->sph, a->plan.count, a->pos, NULL);
+    if (r != SQ_OK) {
+        sq_avalanche_destroy(a);
+        return r;
+    }
+    const sq_sph_info info = sq_sph_get_info(a->sph);
+    a->particle_mass = info.particle_mass_kg;
+    a->memory_bytes = sq_context_bytes_in_use(ctx);
+    a->dirty = true;
+    sq_log(ctx, SQ_LOG_INFO, MOD,
+           "release of %zu particles (%.4g m3 of snow at %g kg/m3, spacing %g m, H = %g m, "
+           "c_s = %.4g m/s) on a %dx%dx%d neighbour grid; fall line (%.3f, %.3f)",
+           a->plan.count, a->plan.volume_m3, a->plan.d.density_kgm3, a->plan.spacing,
+           a->plan.support, a->plan.sph.speed_of_sound_mps, info.cells[0], info.cells[1],
+           info.cells[2], a->plan.fall_dir[0], a->plan.fall_dir[1]);
+    *out = a;
+    return SQ_OK;
+}
+
+/* ---- the step ------------------------------------------------------------------------------- */
+
+sq_result sq_avalanche_step(sq_avalanche *a, double dt_s)
+{
+    if (!a) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "avalanche is NULL");
+    if (!(dt_s > 0.0) || !isfinite(dt_s))
+        return sq__fail(a->ctx, SQ_ERR_INVALID_ARG, MOD, "step dt = %g s; must be > 0", dt_s);
+    /* density, strain rate and rheology, pressure + stress + gravity, XSPH, leap-frog and the
+     * terrain/obstacle colliders with Coulomb friction (SPEC §7.8), sub-stepped at the stable
+     * dt (CFL, viscous and force limits, §7.5) */
+    sq_result r = sq_sph_step(a->sph, dt_s);
+    a->time_s += dt_s;
+    a->dirty = true;
+    return r;
+}
+
+double sq_avalanche_max_stable_dt(const sq_avalanche *a)
+{
+    return a ? sq_sph_max_stable_dt(a->sph) : 0.0;
+}
+
+sq_sph *sq__avalanche_sph(sq_avalanche *a) { return a ? a->sph : NULL; }
+
+/* ---- diagnostics ---------------------------------------------------------------------------- */
+
+static void evaluate_deposit(sq_avalanche *a, const sq_sph_view *v)
+{
+    const sq__aval_plan *pl = &a->plan;
+    const size_t cells = (size_t)pl->dep_nx * (size_t)pl->dep_ny;
+    memset(a->dep_acc, 0, cells * sizeof(double));
+    sq__aval_deposit_accumulate(v->x, v->y, v->density, v->count, a->particle_mass,
+                                pl->d.density_kgm3, pl->dep_origin[0], pl->dep_origin[1],
+                                pl->dep_cell, pl->dep_nx, pl->dep_ny, a->dep_acc);
+    const double inv_area = 1.0 / (pl->dep_cell * pl->dep_cell);
+    double vol = 0.0, dmax = 0.0;
+    size_t covered = 0;
+    for (size_t c = 0; c < cells; c++) {
+        const double depth = a->dep_acc[c] * inv_area;
+        a->dep_depth[c] = (float)depth;
+        if (depth > 0.0) {
+            covered++;
+            vol += a->dep_acc[c];
+            if (depth > dmax) dmax = depth;
+        }
+    }
+    const double area = (double)covered * pl->dep_cell * pl->dep_cell;
+    a->st.deposit_volume_m3 = vol;
+    a->st.deposit_area_m2 = area;
+    a->st.deposit_max_m = dmax;
+    a->st.deposit_mean_m = area > 0.0 ? vol / area : 0.0;
+}
+
+static void evaluate(sq_avalanche *a)
+{
+    if (!a->dirty) return;
+    const sq__aval_plan *pl = &a->plan;
+    const sq_sph_view v = sq_sph_particles(a->sph);
+    const sq_sph_stats ss = sq_sph_get_stats(a->sph);
+    const size_t n = v.count;
+    const float dx = (float)pl->fall_dir[0], dy = (float)pl->fall_dir[1];
+    const double vmove2 = pl->d.moving_speed_mps * pl->d.moving_speed_mps;
+    size_t moving = 0, airborne = 0;
+    double vmax2 = 0.0, vsum = 0.0, hmax = -DBL_MAX, below = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        a->scratch[i] = v.x[i] * dx + v.y[i] * dy;
+        const double ux = v.vx[i], uy = v.vy[i], uz = v.vz[i];
+        const double v2 = ux * ux + uy * uy + uz * uz;
+        if (v2 > vmove2) moving++;
+        if (v2 > vmax2) vmax2 = v2;
+        vsum += sqrt(v2);
+        const double above = (double)v.z[i] - (double)sq_world_height_at(a->world, v.x[i], v.y[i]);
+        if (above > hmax) hmax = above;
+        if (above > pl->d.airborne_m) airborne++;
+        if (-above > below) below = -above;
+        a->pos[3 * i] = v.x[i];
+        a->pos[3 * i + 1] = v.y[i];
+        a->pos[3 * i + 2] = v.z[i];
+    }
+    sq_avalanche_state *st = &a->st;
+    st->time_s = a->time_s;
+    st->particles = n;
+    st->released = pl->count;
+    st->removed = ss.removed;
+    st->release_volume_m3 = pl->volume_m3;
+    st->mass_kg = (double)n * a->particle_mass;
+    st->fall_dir[0] = pl->fall_dir[0];
+    st->fall_dir[1] = pl->fall_dir[1];
+    st->moving_fraction = n ? (double)moving / (double)n : 0.0;
+    st->airborne_fraction = n ? (double)airborne / (double)n : 0.0;
+    st->max_speed_mps = sqrt(vmax2);
+    st->mean_speed_mps = n ? vsum / (double)n : 0.0;
+    st->max_height_m = n ? hmax : 0.0;
+    st->below_terrain_m = below;
+    st->substeps = (int)(ss.steps - a->steps_at_eval);
+    a->steps_at_eval = ss.steps;
+    st->dt_s = ss.dt_s;
+    if (n > 0) {
+        /* the front: the q-quantile of the fall-line coordinate, and the particle that holds it */
+        const size_t k = (size_t)floor(pl->d.front_percentile * (double)(n - 1) + 0.5);
+        const float sf = sq__aval_select(a->scratch, n, k);
+        size_t fi = 0;
+        float best = FLT_MAX;
+        for (size_t i = 0; i < n; i++) {
+            const float e = fabsf(v.x[i] * dx + v.y[i] * dy - sf);
+            if (e < best) {
+                best = e;
+                fi = i;
+            }
+        }
+        st->front_m = sf;
+        st->runout_m = (double)sf - pl->edge_s;
+        if (a->have_prev_front && a->time_s > a->prev_front_t)
+            st->front_speed_mps = (st->front_m - a->prev_front_m) / (a->time_s - a->prev_front_t);
+        else
+            st->front_speed_mps = 0.0;
+        if (!a->have_prev_front || a->time_s > a->prev_front_t) {
+            a->prev_front_m = st->front_m;
+            a->prev_front_t = a->time_s;
+            a->have_prev_front = true;
+        }
+        /* α: from the top of the release zone to the front, on the terrain */
+        const double zf = sq_world_height_at(a->world, v.x[fi], v.y[fi]);
+        const double L = hypot((double)v.x[fi] - pl->crown[0], (double)v.y[fi] - pl->crown[1]);
+        st->drop_m = pl->crown[2] - zf;
+        st->alpha_deg = atan2(st->drop_m, L) * (180.0 / SQ_PI);
+    }
+    evaluate_deposit(a, &v);
+    a->version++;
+    a->dirty = false;
+}
+
+sq_result sq_avalanche_get_state(sq_avalanche *a, sq_avalanche_state *out)
+{
+    if (!a || !out) return sq__fail(a ? a->ctx : NULL, SQ_ERR_INVALID_ARG, MOD, "NULL argument");
+    evaluate(a);
+    *out = a->st;
+    return SQ_OK;
+}
+
+const float *sq_avalanche_deposit(sq_avalanche *a, int *nx, int *ny, double origin_m[2],
+                                  double *cell_m)
+{
+    if (!a) return NULL;
+    evaluate(a);
+    if (nx) *nx = a->plan.dep_nx;
+    if (ny) *ny = a->plan.dep_ny;
+    if (origin_m) {
+        origin_m[0] = a->plan.dep_origin[0];
+        origin_m[1] = a->plan.dep_origin[1];
+    }
+    if (cell_m) *cell_m = a->plan.dep_cell;
+    return a->dep_depth;
+}
+
+const float *sq_avalanche_positions(sq_avalanche *a, size_t *count)
+{
+    if (!a) return NULL;
+    evaluate(a);
+    if (count) *count = a->st.particles;
+    return a->pos;
+}
+
+/* ---- drawables, metrics, fields -------------------------------------------------------------- */
+
+/* The powder cloud: fast particles shed suspended snow into a coarse grid, which diffuses
+ * (turbulent diffusivity) and settles out (exponential decay) — a visual model. */
+#define POWDER_DIFFUSIVITY 8.0  /* m²/s */
+#define POWDER_DECAY_S 6.0      /* s */
+#define POWDER_SHED 2.0e-3      /* kg/m³ per (m/s of excess speed) per particle-volume share per s */
+static void update_powder(sq_avalanche *a)
+{
+    const sq__aval_plan *pl = &a->plan;
+    if (!a->pw_density) return;
+    double dt = a->time_s - a->pw_time_s;
+    if (!(dt > 0.0)) return;
+    a->pw_time_s = a->time_s;
+    const sq_sph_view v = sq_sph_particles(a->sph);
+    const double share = pl->spacing * pl->spacing * pl->spacing /
+                         (pl->pw_cell * pl->pw_cell * pl->pw_cell);
+    sq__aval_powder_source(v.x, v.y, v.z, v.vx, v.vy, v.vz, v.count, (float)pl->d.powder_speed_mps,
+                           (float)(POWDER_SHED * share * dt * pl->d.density_kgm3), pl->pw_n,
+                           pl->pw_origin, pl->pw_cell, a->pw_density);
+    const double kmax = 1.0 / 6.0;
+    const double ktot = POWDER_DIFFUSIVITY * dt / (pl->pw_cell * pl->pw_cell);
+    int nsub = (int)ceil(ktot / kmax);
+    if (nsub < 1) nsub = 1;
+    if (nsub > 16) nsub = 16; /* beyond that the frame step only smooths further */
+    const float k = (float)(ktot / nsub > kmax ? kmax : ktot / nsub);
+    const float decay = (float)exp(-dt / POWDER_DECAY_S / nsub);
+    for (int s = 0; s < nsub; s++) {
+        sq__aval_powder_diffuse(a->pw_density, a->pw_tmp, pl->pw_n, k, decay);
+        float *t = a->pw_density;
+        a->pw_density = a->pw_tmp;
+        a->pw_tmp = t;
+    }
+    const size_t nv = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1] * (size_t)pl->pw_n[2];
+    float mx = 0.0f;
+    for (size_t c = 0; c < nv; c++) mx = a->pw_density[c] > mx ? a->pw_density[c] : mx;
+    a->pw_max = mx;
+}
+
+int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
+{
+    evaluate(a);
+    const sq__aval_plan *pl = &a->plan;
+    int n = 0;
+    if (n < max) {
+        sq_drawable *d = &out[n++];
+        memset(d, 0, sizeof *d);
+        d->kind = SQ_DRAWABLE_PARTICLES;
+        d->name = "avalanche-snow";
+        sq_particles_view *p = &d->u.particles;
+        p->count = (int)a->st.particles;
+        p->position = a->pos;
+        p->radius_default_m = (float)(pl->d.radius_factor * pl->spacing);
+        p->tau_default = 1.0f;
+        p->sigma_rel[0] = p->sigma_rel[1] = p->sigma_rel[2] = 1.0f;
+        p->albedo[0] = p->albedo[1] = p->albedo[2] = (float)pl->d.albedo;
+        p->g = 0.0f;
+        p->sprite = SQ_SPRITE_SPHERE;
+        p->softness_m = 0.0f;
+        p->version = a->version;
+    }
+    if (!pl->d.no_deposit_surface && n < max) {
+        const int nx = pl->dep_nx, ny = pl->dep_ny;
+        const size_t cells = (size_t)nx * (size_t)ny;
+        sq__aval_smooth3(a->dep_depth, a->dep_smooth, nx, ny);
+        const float full = (float)(0.5 * pl->spacing); /* full coverage from half a layer */
+        for (size_t c = 0; c < cells; c++) {
+            const float h = a->dep_smooth[c];
+            a->dep_height[c] = a->dep_terrain[c] + h;
+            float f = h / full;
+            a->dep_cover[c] = f > 1.0f ? 1.0f : f < 0.0f ? 0.0f : f;
+        }
+        sq_drawable *d = &out[n++];
+        memset(d, 0, sizeof *d);
+        d->kind = SQ_DRAWABLE_SURFACE;
+        d->name = "avalanche-deposit";
+        sq_surface_view *s = &d->u.surface;
+        s->nx = nx;
+        s->ny = ny;
+        s->origin_m = sq_v3((float)(pl->dep_origin[0] + 0.5 * pl->dep_cell),
+                            (float)(pl->dep_origin[1] + 0.5 * pl->dep_cell), 0.0f);
+        s->dx_m = s->dy_m = (float)pl->dep_cell;
+        s->height_m = a->dep_height;
+        s->coverage = a->dep_cover;
+        s->material = SQ_MATERIAL_SNOW;
+        s->albedo = sq_v3((float)pl->d.albedo, (float)pl->d.albedo, (float)pl->d.albedo);
+        s->version = a->version;
+    }
+    if (a->pw_density && n < max) {
+        update_powder(a);
+        sq_drawable *d = &out[n++];
+        memset(d, 0, sizeof *d);
+        d->kind = SQ_DRAWABLE_VOLUME;
+        d->name = "avalanche-powder";
+        sq_volume_view *vv = &d->u.volume;
+        vv->density = a->pw_density;
+        vv->nx = pl->pw_n[0];
+        vv->ny = pl->pw_n[1];
+        vv->nz = pl->pw_n[2];
+        vv->origin_m = sq_v3((float)pl->pw_origin[0], (float)pl->pw_origin[1], (float)pl->pw_origin[2]);
+        vv->size_m = sq_v3((float)(pl->pw_n[0] * pl->pw_cell), (float)(pl->pw_n[1] * pl->pw_cell),
+                           (float)(pl->pw_n[2] * pl->pw_cell));
+        /* ice grains of ~100 µm radius: geometric-optics extinction Q ≈ 2, mass extinction
+         * 3 Q / (4 ρ_ice r) ≈ 16 m²/kg, grey; nearly conservative scattering, forward peaked */
+        for (int c = 0; c < 3; c++) {
+            vv->sigma_ext[c] = 16.0f;
+            vv->albedo[c] = 0.99f;
+            vv->g[c] = 0.8f;
+        }
+        vv->density_max = a->pw_max;
+        vv->version = a->version;
+    }
+    return n;
+}
+
+int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max)
+{
+    evaluate(a);
+    const sq_avalanche_state *s = &a->st;
+    const sq_metric m[] = {
+        {"front_m", s->front_m, "m"},
+        {"front_speed_mps", s->front_speed_mps, "m/s"},
+        {"runout_m", s->runout_m, "m"},
+        {"alpha_deg", s->alpha_deg, "deg"},
+        {"drop_m", s->drop_m, "m"},
+        {"moving_fraction", s->moving_fraction, "1"},
+        {"max_speed_mps", s->max_speed_mps, "m/s"},
+        {"mean_speed_mps", s->mean_speed_mps, "m/s"},
+        {"max_height_m", s->max_height_m, "m"},
+        {"airborne_fraction", s->airborne_fraction, "1"},
+        {"deposit_depth_mean_m", s->deposit_mean_m, "m"},
+        {"deposit_depth_max_m", s->deposit_max_m, "m"},
+        {"deposit_volume_m3", s->deposit_volume_m3, "m3"},
+        {"particles", (double)s->particles, "1"},
+        {"substeps", (double)s->substeps, "1"},
+        {"dt_s", s->dt_s, "s"},
+    };
+    int n = 0;
+    for (size_t i = 0; i < sizeof m / sizeof m[0] && n < max; i++) out[n++] = m[i];
+    return n;
+}
+
+int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max)
+{
+    evaluate(a);
+    if (max < 1) return 0;
+    const sq__aval_plan *pl = &a->plan;
+    sq_named_field *f = &out[0];
+    memset(f, 0, sizeof *f);
+    f->name = "deposit_depth";
+    f->units = "m";
+    f->long_name = "avalanche snow depth (snow volume per unit area at max(rho, rho0))";
+    f->standard_name = NULL;
+    f->data = a->dep_depth;
+    f->nx = pl->dep_nx;
+    f->ny = pl->dep_ny;
+    f->nz = 1;
+    f->origin_m = sq_v3((float)(pl->dep_origin[0] + 0.5 * pl->dep_cell),
+                        (float)(pl->dep_origin[1] + 0.5 * pl->dep_cell),
+                        0.0f);
+    f->spacing_m = sq_v3((float)pl->dep_cell, (float)pl->dep_cell, 1.0f);
+    return 1;
+}

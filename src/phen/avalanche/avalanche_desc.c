@@ -1,0 +1,426 @@
+/* avalanche_desc.c — the avalanche desc: defaults (resolve), validation with messages that name
+ * the key (layers.avalanche.<key>), its value and the rule, and the plan that everything else
+ * derives from the desc and the world before anything is allocated: the release slab on the
+ * terrain (SPEC §7.7 terrain, S2 §3.6 release), the fall line, the domain box, the SPH desc
+ * (SPEC §7.2–7.5 through include/squall/sph.h), the deposit and powder grids, the particle
+ * count and the memory it needs. */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "avalanche_internal.h"
+
+#define MOD "avalanche"
+#define P "layers.avalanche."
+
+sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_desc *out)
+{
+    sq_avalanche_desc d;
+    memset(&d, 0, sizeof d);
+    if (in) d = *in;
+    if (d.spacing_m == 0.0) d.spacing_m = 1.0;
+    if (d.density_kgm3 == 0.0) d.density_kgm3 = 300.0;
+    if (d.release_length_m == 0.0) d.release_length_m = 40.0;
+    if (d.release_width_m == 0.0) d.release_width_m = 30.0;
+    if (d.release_depth_m == 0.0) d.release_depth_m = 2.0;
+    if (d.mu_pa_s == 0.0) d.mu_pa_s = 1.0;
+    if (d.mu0_pa_s == 0.0) d.mu0_pa_s = 100.0;
+    if (d.mu_inf_pa_s == 0.0) d.mu_inf_pa_s = 1.0;
+    if (d.cross_k_s == 0.0) d.cross_k_s = 3000.0;
+    if (d.cross_n == 0.0) d.cross_n = 2.0;
+    if (d.power_k == 0.0) d.power_k = 1.5;
+    if (d.power_n == 0.0) d.power_n = 0.5;
+    if (d.bingham_mu_pa_s == 0.0) d.bingham_mu_pa_s = 1.5;
+    if (d.xsph_epsilon == 0.0) d.xsph_epsilon = 0.5;
+    if (d.artificial_viscosity == 0.0) d.artificial_viscosity = 0.1;
+    if (d.friction == 0.0) d.friction = 0.2;
+    if (d.moving_speed_mps == 0.0) d.moving_speed_mps = 0.5;
+    if (d.front_percentile == 0.0) d.front_percentile = 0.99;
+    if (d.airborne_m == 0.0) d.airborne_m = 2.0;
+    if (d.radius_factor == 0.0) d.radius_factor = 0.6;
+    if (d.albedo == 0.0) d.albedo = 0.9;
+    if (d.powder_speed_mps == 0.0) d.powder_speed_mps = 10.0;
+    if (d.powder_cell_m == 0.0) d.powder_cell_m = 4.0;
+    if (out) *out = d;
+    return SQ_OK;
+}
+
+#define BAD(...) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, __VA_ARGS__)
+
+static bool pos_finite(double v) { return v > 0.0 && isfinite(v); }
+
+/* Scalar rules (before the world is looked at). */
+static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
+{
+    if (!pos_finite(d->spacing_m))
+        BAD("%sparticles.spacing_m = %g; the particle spacing must be > 0 m", P, d->spacing_m);
+    if (!(d->support_radius_m >= 0.0) || !isfinite(d->support_radius_m))
+        BAD("%sparticles.support_radius_m = %g; the kernel support must be > 0 m (0 = 2 x "
+            "spacing)", P, d->support_radius_m);
+    if (d->support_radius_m > 0.0) {
+        double ratio = d->support_radius_m / d->spacing_m;
+        if (!(ratio >= 1.5 && ratio <= 4.0))
+            BAD("%sparticles.support_radius_m = %g m is %.3g x the spacing %g m; must be 1.5 to "
+                "4 x the spacing (about 14 to 270 neighbours)", P, d->support_radius_m, ratio,
+                d->spacing_m);
+    }
+    if (!pos_finite(d->density_kgm3))
+        BAD("%ssnow.density_kgm3 = %g; the rest density must be > 0 kg/m3", P, d->density_kgm3);
+    if (!(d->speed_of_sound_mps >= 0.0) || !isfinite(d->speed_of_sound_mps))
+        BAD("%snumerics.speed_of_sound_mps = %g; must be > 0 m/s (0 = auto)", P,
+            d->speed_of_sound_mps);
+    if (!isfinite(d->release_x_m) || !isfinite(d->release_y_m))
+        BAD("%srelease.x_m, y_m = (%g, %g); must be finite", P, d->release_x_m, d->release_y_m);
+    if (!pos_finite(d->release_length_m))
+        BAD("%srelease.length_m = %g; must be > 0 m", P, d->release_length_m);
+    if (!pos_finite(d->release_width_m))
+        BAD("%srelease.width_m = %g; must be > 0 m", P, d->release_width_m);
+    if (!pos_finite(d->release_depth_m))
+        BAD("%srelease.depth_m = %g; the slab thickness must be > 0 m", P, d->release_depth_m);
+    if (d->release_length_m < d->spacing_m || d->release_width_m < d->spacing_m ||
+        d->release_depth_m < d->spacing_m)
+        BAD("%srelease: %g x %g m, %g m deep, is smaller than one particle spacing (%g m) along "
+            "an axis; enlarge the slab or lower particles.spacing_m", P, d->release_length_m,
+            d->release_width_m, d->release_depth_m, d->spacing_m);
+    switch (d->rheology) {
+    case SQ_AVALANCHE_RHEOLOGY_CROSS:
+        if (!(d->mu_inf_pa_s >= 0.0) || !isfinite(d->mu_inf_pa_s))
+            BAD("%srheology.mu_inf_pa_s = %g; the infinite-shear viscosity must be >= 0 Pa s", P,
+                d->mu_inf_pa_s);
+        if (!(d->mu0_pa_s >= d->mu_inf_pa_s) || !isfinite(d->mu0_pa_s))
+            BAD("%srheology.mu0_pa_s = %g is below mu_inf_pa_s = %g; the Cross model needs "
+                "mu0 >= mu_inf (zero-shear above infinite-shear viscosity; SPEC §7.4 ⚠ corrects "
+                "the reversed bound of the OCR)", P, d->mu0_pa_s, d->mu_inf_pa_s);
+        if (!pos_finite(d->cross_k_s))
+            BAD("%srheology.cross_k_s = %g; the Cross time constant must be > 0 s", P,
+                d->cross_k_s);
+        if (!pos_finite(d->cross_n))
+            BAD("%srheology.cross_n = %g; the Cross exponent must be > 0", P, d->cross_n);
+        break;
+    case SQ_AVALANCHE_RHEOLOGY_NEWTONIAN:
+        if (!(d->mu_pa_s >= 0.0) || !isfinite(d->mu_pa_s))
+            BAD("%srheology.mu_pa_s = %g; the viscosity must be >= 0 Pa s", P, d->mu_pa_s);
+        break;
+    case SQ_AVALANCHE_RHEOLOGY_POWER_LAW:
+        if (!pos_finite(d->power_k))
+            BAD("%srheology.power_k = %g; the consistency must be > 0 Pa s^n", P, d->power_k);
+        if (!pos_finite(d->power_n))
+            BAD("%srheology.power_n = %g; the flow index must be > 0", P, d->power_n);
+        break;
+    case SQ_AVALANCHE_RHEOLOGY_BINGHAM:
+        if (!(d->bingham_mu_pa_s >= 0.0) || !isfinite(d->bingham_mu_pa_s))
+            BAD("%srheology.bingham_mu_pa_s = %g; the plastic viscosity must be >= 0 Pa s", P,
+                d->bingham_mu_pa_s);
+        if (!(d->yield_stress_pa >= 0.0) || !isfinite(d->yield_stress_pa))
+            BAD("%srheology.yield_stress_pa = %g; the yield stress must be >= 0 Pa", P,
+                d->yield_stress_pa);
+        break;
+    default:
+        BAD("%srheology.model = %d; must be cross (0), newtonian (1), power-law (2) or bingham (3)",
+            P, d->rheology);
+    }
+    if (!(d->mu_max_pa_s >= 0.0) || !isfinite(d->mu_max_pa_s))
+        BAD("%srheology.mu_max_pa_s = %g; must be >= 0 Pa s (0 = no cap)", P, d->mu_max_pa_s);
+    if (!(d->xsph_epsilon >= 0.0 && d->xsph_epsilon <= 1.0))
+        BAD("%snumerics.xsph_epsilon = %g; must be in [0, 1] (S2 uses 0.5)", P, d->xsph_epsilon);
+    if (!(d->artificial_viscosity >= 0.0 && d->artificial_viscosity <= 1.0))
+        BAD("%snumerics.artificial_viscosity = %g; Monaghan's alpha must be in [0, 1]", P,
+            d->artificial_viscosity);
+    if (!(d->dt_max_s >= 0.0) || !isfinite(d->dt_max_s))
+        BAD("%snumerics.dt_max_s = %g; must be >= 0 s (0 = none)", P, d->dt_max_s);
+    if (!(d->friction >= 0.0) || !isfinite(d->friction))
+        BAD("%sterrain.friction = %g; the kinetic Coulomb coefficient must be >= 0", P,
+            d->friction);
+    if (!(d->restitution >= 0.0 && d->restitution <= 1.0))
+        BAD("%sterrain.restitution = %g; must be in [0, 1]", P, d->restitution);
+    if (!(d->deposit_cell_m >= 0.0) || !isfinite(d->deposit_cell_m))
+        BAD("%sdeposit.cell_m = %g; must be > 0 m (0 = 2 x spacing)", P, d->deposit_cell_m);
+    if (!pos_finite(d->moving_speed_mps))
+        BAD("%smetrics.moving_speed_mps = %g; must be > 0 m/s", P, d->moving_speed_mps);
+    if (!(d->front_percentile > 0.0 && d->front_percentile <= 1.0))
+        BAD("%smetrics.front_percentile = %g; must be in (0, 1]", P, d->front_percentile);
+    if (!pos_finite(d->airborne_m))
+        BAD("%smetrics.airborne_m = %g; must be > 0 m", P, d->airborne_m);
+    if (!pos_finite(d->radius_factor))
+        BAD("%srender.radius_factor = %g; must be > 0", P, d->radius_factor);
+    if (!(d->albedo > 0.0 && d->albedo <= 1.0))
+        BAD("%srender.albedo = %g; must be in (0, 1]", P, d->albedo);
+    if (!pos_finite(d->powder_speed_mps))
+        BAD("%spowder.speed_mps = %g; must be > 0 m/s", P, d->powder_speed_mps);
+    if (!pos_finite(d->powder_cell_m))
+        BAD("%spowder.cell_m = %g; must be > 0 m", P, d->powder_cell_m);
+    for (int a = 0; a < 3; a++)
+        if (!isfinite(d->domain_min_m[a]) || !isfinite(d->domain_max_m[a]))
+            BAD("%sdomain.min_m/max_m: not finite", P);
+    return SQ_OK;
+}
+
+static sq_sph_rheology rheology_of(const sq_avalanche_desc *d)
+{
+    sq_sph_rheology r;
+    memset(&r, 0, sizeof r);
+    switch (d->rheology) {
+    case SQ_AVALANCHE_RHEOLOGY_NEWTONIAN:
+        r.kind = SQ_SPH_RHEOLOGY_NEWTONIAN;
+        r.mu_pa_s = d->mu_pa_s;
+        break;
+    case SQ_AVALANCHE_RHEOLOGY_POWER_LAW:
+        r.kind = SQ_SPH_RHEOLOGY_POWER_LAW;
+        r.k = d->power_k;
+        r.n = d->power_n;
+        break;
+    case SQ_AVALANCHE_RHEOLOGY_BINGHAM:
+        r.kind = SQ_SPH_RHEOLOGY_BINGHAM;
+        r.k = d->bingham_mu_pa_s;
+        r.yield_stress_pa = d->yield_stress_pa;
+        break;
+    default:
+        r.kind = SQ_SPH_RHEOLOGY_CROSS;
+        r.mu0_pa_s = d->mu0_pa_s;
+        r.mu_inf_pa_s = d->mu_inf_pa_s;
+        r.k = d->cross_k_s;
+        r.n = d->cross_n;
+        break;
+    }
+    r.mu_max_pa_s = d->mu_max_pa_s;
+    return r;
+}
+
+/* Release columns: calls back for each particle (positions may be NULL: count only). */
+static void release_slab(const sq__aval_plan *pl, const sq_world *w, float *pos, size_t *count,
+                         double *volume, double *top_z)
+{
+    const double dx = pl->spacing, depth = pl->d.release_depth_m;
+    const int ni = (int)floor(pl->d.release_length_m / dx + 1e-9);
+    const int nj = (int)floor(pl->d.release_width_m / dx + 1e-9);
+    const double x0 = pl->d.release_x_m - 0.5 * ni * dx, y0 = pl->d.release_y_m - 0.5 * nj * dx;
+    size_t n = 0;
+    double vol = 0.0, top = -DBL_MAX;
+    for (int j = 0; j < nj; j++)
+        for (int i = 0; i < ni; i++) {
+            const float x = (float)(x0 + (i + 0.5) * dx), y = (float)(y0 + (j + 0.5) * dx);
+            const double h = sq_world_height_at(w, x, y);
+            double nz = sq_world_normal_at(w, x, y).z;
+            if (!(nz > 0.05)) nz = 0.05; /* a cliff: cap the column at 20 x the depth */
+            const double D = depth / nz; /* vertical extent of the slab */
+            vol += dx * dx * D;
+            const int m = (int)floor(D / dx + sq__aval_dither(i, j));
+            const double zb = h + 0.5 * dx / nz;
+            for (int k = 0; k < m; k++) {
+                const double z = zb + k * dx;
+                if (pos) {
+                    pos[3 * n] = x;
+                    pos[3 * n + 1] = y;
+                    pos[3 * n + 2] = (float)z;
+                }
+                if (z > top) top = z;
+                n++;
+            }
+        }
+    *count = n;
+    *volume = vol;
+    *top_z = top;
+}
+
+sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
+                             bool count_only, sq__aval_plan *out, float *positions)
+{
+    sq__aval_plan pl;
+    memset(&pl, 0, sizeof pl);
+    if (!desc) BAD("desc is NULL");
+    if (!w || !w->heights || w->nx < 2 || w->ny < 2)
+        BAD("%sthe avalanche needs a world with a terrain heightfield", P);
+    sq_avalanche_desc_resolve(desc, &pl.d);
+    const sq_avalanche_desc *d = &pl.d;
+    sq_result r = check_scalars(ctx, d);
+    if (r != SQ_OK) return r;
+    pl.spacing = d->spacing_m;
+    pl.support = d->support_radius_m > 0.0 ? d->support_radius_m : 2.0 * d->spacing_m;
+
+    /* the release rectangle must lie on the terrain */
+    sq_vec3 lo, hi;
+    sq_world_bounds(w, &lo, &hi);
+    pl.release_lo[0] = d->release_x_m - 0.5 * d->release_length_m;
+    pl.release_hi[0] = d->release_x_m + 0.5 * d->release_length_m;
+    pl.release_lo[1] = d->release_y_m - 0.5 * d->release_width_m;
+    pl.release_hi[1] = d->release_y_m + 0.5 * d->release_width_m;
+    if (pl.release_lo[0] < (double)lo.x || pl.release_hi[0] > (double)hi.x ||
+        pl.release_lo[1] < (double)lo.y || pl.release_hi[1] > (double)hi.y)
+        BAD("%srelease: x [%g, %g] m, y [%g, %g] m (release.x_m = %g, y_m = %g, length_m = %g, "
+            "width_m = %g) lies outside the terrain x [%g, %g] m, y [%g, %g] m",
+            P, pl.release_lo[0], pl.release_hi[0], pl.release_lo[1], pl.release_hi[1],
+            d->release_x_m, d->release_y_m, d->release_length_m, d->release_width_m,
+            (double)lo.x, (double)hi.x, (double)lo.y, (double)hi.y);
+
+    /* fall line: the horizontal part of the terrain normal averaged over the release zone */
+    double gx = 0.0, gy = 0.0;
+    for (int j = 0; j < 5; j++)
+        for (int i = 0; i < 5; i++) {
+            float x = (float)(pl.release_lo[0] + (i + 0.5) / 5.0 * d->release_length_m);
+            float y = (float)(pl.release_lo[1] + (j + 0.5) / 5.0 * d->release_width_m);
+            sq_vec3 n = sq_world_normal_at(w, x, y);
+            gx += (double)n.x;
+            gy += (double)n.y;
+        }
+    double gl = sqrt(gx * gx + gy * gy);
+    pl.fall_dir[0] = gl > 1e-6 ? gx / gl : 1.0;
+    pl.fall_dir[1] = gl > 1e-6 ? gy / gl : 0.0;
+    const double hx = 0.5 * d->release_length_m, hy = 0.5 * d->release_width_m;
+    const double reach = fabs(pl.fall_dir[0]) * hx + fabs(pl.fall_dir[1]) * hy;
+    pl.edge_s = d->release_x_m * pl.fall_dir[0] + d->release_y_m * pl.fall_dir[1] + reach;
+    pl.crown[0] = d->release_x_m - pl.fall_dir[0] * reach;
+    pl.crown[1] = d->release_y_m - pl.fall_dir[1] * reach;
+    pl.crown[2] = sq_world_height_at(w, (float)pl.crown[0], (float)pl.crown[1]);
+
+    /* the slab */
+    release_slab(&pl, w, count_only ? NULL : positions, &pl.count, &pl.volume_m3,
+                 &pl.release_top_z);
+    if (pl.count == 0)
+        BAD("%srelease: %g x %g m, %g m deep, produces no particles at spacing %g m", P,
+            d->release_length_m, d->release_width_m, d->release_depth_m, d->spacing_m);
+
+    /* the domain box */
+    double dmin[3], dmax[3];
+    bool auto_domain = true;
+    for (int a = 0; a < 3; a++)
+        auto_domain = auto_domain && d->domain_min_m[a] == 0.0f && d->domain_max_m[a] == 0.0f;
+    if (auto_domain) {
+        dmin[0] = lo.x;
+        dmax[0] = hi.x;
+        dmin[1] = lo.y;
+        dmax[1] = hi.y;
+        dmin[2] = (double)w->height_min - 2.0 * pl.support;
+        dmax[2] = pl.release_top_z + 20.0 + 10.0 * pl.support;
+    } else {
+        for (int a = 0; a < 3; a++) {
+            dmin[a] = d->domain_min_m[a];
+            dmax[a] = d->domain_max_m[a];
+            if (!(dmax[a] > dmin[a]))
+                BAD("%sdomain: min_m[%d] = %g >= max_m[%d] = %g; every axis needs max > min", P,
+                    a, dmin[a], a, dmax[a]);
+        }
+        const double top = pl.release_top_z + 0.5 * pl.spacing;
+        if (pl.release_lo[0] < dmin[0] || pl.release_hi[0] > dmax[0] ||
+            pl.release_lo[1] < dmin[1] || pl.release_hi[1] > dmax[1] || top > dmax[2] ||
+            (double)sq_world_height_at(w, (float)d->release_x_m, (float)d->release_y_m) < dmin[2])
+            BAD("%sdomain: [%g, %g] x [%g, %g] x [%g, %g] m does not hold the release slab "
+                "(x [%g, %g], y [%g, %g], top z %g m)", P, dmin[0], dmax[0], dmin[1], dmax[1],
+                dmin[2], dmax[2], pl.release_lo[0], pl.release_hi[0], pl.release_lo[1],
+                pl.release_hi[1], top);
+    }
+
+    /* speed of sound: 5 x the free-fall speed over the possible drop (Mach <= 0.2,
+     * density fluctuations ~ Ma² <= 4 %) unless given */
+    double drop = pl.release_top_z - (double)w->height_min;
+    if (drop < pl.spacing) drop = pl.spacing;
+    const double v_fall = sqrt(2.0 * SQ_AVAL_GRAVITY * drop);
+    const double c_s = d->speed_of_sound_mps > 0.0 ? d->speed_of_sound_mps : 5.0 * v_fall;
+
+    sq_sph_desc *s = &pl.sph;
+    memset(s, 0, sizeof *s);
+    s->spacing_m = pl.spacing;
+    s->support_radius_m = pl.support;
+    s->rest_density_kgm3 = d->density_kgm3;
+    s->eos = SQ_SPH_EOS_LINEAR;
+    s->tensile_pressure = d->cohesion;
+    s->speed_of_sound_mps = c_s;
+    s->max_speed_mps = v_fall;
+    s->kernel = SQ_SPH_KERNEL_MULLER;
+    s->gradient = SQ_SPH_GRADIENT_CORRECTED;
+    s->rheology = rheology_of(d);
+    s->artificial_viscosity = d->no_artificial_viscosity ? 0.0 : d->artificial_viscosity;
+    s->xsph_epsilon = d->xsph_epsilon;
+    s->gravity_mps2[2] = -SQ_AVAL_GRAVITY;
+    for (int a = 0; a < 3; a++) {
+        s->domain_min_m[a] = dmin[a];
+        s->domain_max_m[a] = dmax[a];
+    }
+    for (int f = 0; f < 6; f++) s->boundary[f] = SQ_SPH_BOUNDARY_OPEN;
+    s->max_particles = pl.count;
+    s->dt_max_s = d->dt_max_s;
+    if (sq_sph_desc_validate(s) != SQ_OK) {
+        char why[512];
+        snprintf(why, sizeof why, "%s", sq_last_error());
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "layers.avalanche: the SPH solver refuses the derived set-up (%zu "
+                        "particles): %s",
+                        pl.count, why);
+    }
+
+    /* deposit grid over the domain's footprint */
+    pl.dep_cell = d->deposit_cell_m > 0.0 ? d->deposit_cell_m : 2.0 * pl.spacing;
+    double nxd = ceil((dmax[0] - dmin[0]) / pl.dep_cell), nyd = ceil((dmax[1] - dmin[1]) / pl.dep_cell);
+    if (nxd * nyd > 16.0 * 1024 * 1024 || nxd < 1 || nyd < 1)
+        BAD("%sdeposit.cell_m = %g m gives a %.0f x %.0f deposit grid over the domain; at most "
+            "16 Mi cells", P, pl.dep_cell, nxd, nyd);
+    pl.dep_nx = nxd < 2 ? 2 : (int)nxd;
+    pl.dep_ny = nyd < 2 ? 2 : (int)nyd;
+    pl.dep_origin[0] = dmin[0];
+    pl.dep_origin[1] = dmin[1];
+
+    /* powder grid: at most 128 cells per axis (the cell grows to fit) */
+    if (d->powder) {
+        double c = d->powder_cell_m;
+        for (int a = 0; a < 3; a++) {
+            double need = (dmax[a] - dmin[a]) / 128.0;
+            if (need > c) c = need;
+        }
+        pl.pw_cell = c;
+        for (int a = 0; a < 3; a++) {
+            int n = (int)ceil((dmax[a] - dmin[a]) / c);
+            pl.pw_n[a] = n < 2 ? 2 : n;
+            pl.pw_origin[a] = dmin[a];
+        }
+    }
+    *out = pl;
+    return SQ_OK;
+}
+
+static uint64_t plan_bytes(const sq__aval_plan *pl)
+{
+    uint64_t b = sq_sph_memory_bytes(&pl->sph, pl->count);
+    const uint64_t cells = (uint64_t)pl->dep_nx * (uint64_t)pl->dep_ny;
+    b += cells * (8u + 5u * 4u);
+    b += (uint64_t)pl->count * (4u + 12u);
+    b += 2u * 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1] * (uint64_t)pl->pw_n[2];
+    return b + 4096u;
+}
+
+size_t sq_avalanche_release_count(const sq_avalanche_desc *desc, const sq_world *world,
+                                  double *volume_m3)
+{
+    sq__aval_plan pl;
+    if (volume_m3) *volume_m3 = 0.0;
+    if (sq__avalanche_plan(NULL, desc, world, true, &pl, NULL) != SQ_OK) return 0;
+    if (volume_m3) *volume_m3 = pl.volume_m3;
+    return pl.count;
+}
+
+uint64_t sq_avalanche_memory_bytes(const sq_avalanche_desc *desc, const sq_world *world)
+{
+    sq__aval_plan pl;
+    if (sq__avalanche_plan(NULL, desc, world, true, &pl, NULL) != SQ_OK) return 0;
+    return plan_bytes(&pl);
+}
+
+/* Plans (count only) and refuses a release the memory limit cannot hold, before allocating. */
+static sq_result validate_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
+                               sq__aval_plan *pl)
+{
+    sq_result r = sq__avalanche_plan(ctx, desc, w, true, pl, NULL);
+    if (r != SQ_OK) return r;
+    const uint64_t bytes = plan_bytes(pl);
+    char what[256];
+    snprintf(what, sizeof what,
+             "layers.avalanche: a release of %zu particles (%.4g m3 at spacing %g m, %llu bytes)",
+             pl->count, pl->volume_m3, pl->spacing, (unsigned long long)bytes);
+    return sq_context_check_memory(ctx, bytes, what);
+}
+
+sq_result sq_avalanche_validate(sq_context *ctx, const sq_avalanche_desc *desc,
+                                const sq_world *world)
+{
+    sq__aval_plan pl;
+    return validate_plan(ctx, desc, world, &pl);
+}

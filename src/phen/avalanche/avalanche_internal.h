@@ -1,0 +1,91 @@
+/* avalanche_internal.h — state of the snow avalanche phenomenon (SPEC §7) and its kernels. */
+#ifndef SQ_AVALANCHE_INTERNAL_H
+#define SQ_AVALANCHE_INTERNAL_H
+
+#include "core/core_internal.h"
+#include "squall/avalanche.h"
+#include "squall/sph.h"
+
+#define SQ_AVAL_GRAVITY 9.81 /* m/s² */
+
+/* Everything create derives from the desc and the world before allocating: the SPH desc,
+ * the fall line, the release geometry and the grids. */
+typedef struct sq__aval_plan {
+    sq_avalanche_desc d;          /* resolved */
+    sq_sph_desc sph;              /* complete, with max_particles = the release count */
+    double spacing, support;      /* dx, H (m) */
+    double release_lo[2], release_hi[2]; /* the release rectangle (m) */
+    double release_top_z;         /* highest particle of the slab (m) */
+    double fall_dir[2];           /* horizontal unit vector downhill */
+    double edge_s;                /* fall-line coordinate of the release's lower edge */
+    double crown[3];              /* centre of the upslope edge, on the terrain */
+    size_t count;                 /* particles of the release */
+    double volume_m3;             /* release volume */
+    int dep_nx, dep_ny;           /* deposit grid */
+    double dep_origin[2], dep_cell;
+    int pw_n[3];                  /* powder grid (0 when off) */
+    double pw_origin[3], pw_cell;
+} sq__aval_plan;
+
+struct sq_avalanche {
+    sq_context *ctx;
+    const sq_world *world;
+    sq__aval_plan plan;
+    sq_sph *sph;
+    double particle_mass;
+    double time_s;
+    uint64_t memory_bytes;
+    /* diagnostics, evaluated lazily */
+    bool dirty;
+    uint64_t version;
+    uint64_t steps_at_eval;       /* solver sub-steps counted at the previous evaluation */
+    double prev_front_m, prev_front_t;
+    bool have_prev_front;
+    sq_avalanche_state st;
+    float *scratch;               /* count: fall-line coordinates for the front quantile */
+    /* deposit map */
+    double *dep_acc;              /* dep_nx*dep_ny: volume per cell (m³) */
+    float *dep_depth;             /* depth (m) */
+    float *dep_smooth;            /* display: smoothed depth */
+    float *dep_terrain;           /* terrain height at the cell centres */
+    float *dep_height;            /* terrain + smoothed depth (surface drawable) */
+    float *dep_cover;             /* coverage of the surface drawable */
+    /* particles drawable */
+    float *pos;                   /* 3*count */
+    /* powder cloud */
+    float *pw_density, *pw_tmp;   /* pw_n[0]*pw_n[1]*pw_n[2] */
+    float pw_max;
+    double pw_time_s;             /* time up to which the powder has been advanced */
+};
+
+/* ---- kernels (avalanche_kernels.c): pure functions over arrays -------------------------- */
+
+/* The k-th smallest of a[0..n) (0-based); a is reordered. n ≥ 1, k < n. */
+float sq__aval_select(float *a, size_t n, size_t k);
+/* Adds each particle's volume m / max(ρ_i, ρ₀) (m³) to the cell of the grid (x0, y0, cell,
+ * nx, ny) that holds it (particles outside the grid are skipped). Serial, fixed order. */
+void sq__aval_deposit_accumulate(const float *x, const float *y, const float *rho, size_t n,
+                                 double mass, double rho0, double x0, double y0, double cell,
+                                 int nx, int ny, double *acc);
+/* 3x3 binomial smoothing (1 2 1)²/16 with clamped edges; dst and src must not overlap. */
+void sq__aval_smooth3(const float *src, float *dst, int nx, int ny);
+/* Ordered-dither threshold in [0, 1) of the 4x4 Bayer matrix at lattice column (i, j). */
+double sq__aval_dither(int i, int j);
+/* Powder cloud: adds rate*dt per unit speed excess of each particle faster than v_min into
+ * the cell holding it (grid n[3], origin o, cell c); serial. */
+void sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
+                            const float *vy, const float *vz, size_t n, float v_min, float amount,
+                            const int nn[3], const double o[3], double c, float *density);
+/* One explicit diffusion step (7-point, coefficient k = D dt / c² ≤ 1/6) with a decay factor;
+ * zero outside the grid. dst and src must not overlap. */
+void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay);
+
+/* ---- used by the plug-in (avalanche_plugin.c) and tests ----------------------------------- */
+sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
+                             bool count_only, sq__aval_plan *out, float *positions);
+int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max);
+int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max);
+int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max);
+sq_sph *sq__avalanche_sph(sq_avalanche *a);
+
+#endif

@@ -1,0 +1,114 @@
+/* avalanche_kernels.c — pure kernels of the avalanche phenomenon: quantile selection for the
+ * front position, the deposit depth map (snow volume per unit area), display smoothing, the
+ * ordered dither of the release columns, and the powder cloud's source and diffusion.
+ * No allocation, no logging, no globals except const tables. */
+#include <math.h>
+#include <stddef.h>
+
+#include "avalanche_internal.h"
+
+float sq__aval_select(float *a, size_t n, size_t k)
+{
+    /* Hoare's quickselect with a median-of-three pivot: expected O(n). Values must be finite. */
+    ptrdiff_t lo = 0, hi = (ptrdiff_t)n - 1;
+    const ptrdiff_t kk = (ptrdiff_t)k;
+    while (lo < hi) {
+        const float x = a[lo], y = a[lo + (hi - lo) / 2], z = a[hi];
+        const float piv = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));
+        ptrdiff_t i = lo, j = hi;
+        while (i <= j) {
+            while (a[i] < piv) i++;
+            while (a[j] > piv) j--;
+            if (i <= j) {
+                const float t = a[i];
+                a[i] = a[j];
+                a[j] = t;
+                i++;
+                j--;
+            }
+        }
+        /* a[lo..j] <= piv, a[i..hi] >= piv, a[j+1..i-1] == piv */
+        if (kk <= j)
+            hi = j;
+        else if (kk >= i)
+            lo = i;
+        else
+            return a[kk];
+    }
+    return a[kk];
+}
+
+void sq__aval_deposit_accumulate(const float *x, const float *y, const float *rho, size_t n,
+                                 double mass, double rho0, double x0, double y0, double cell,
+                                 int nx, int ny, double *acc)
+{
+    const double inv = 1.0 / cell;
+    for (size_t p = 0; p < n; p++) {
+        const double fx = ((double)x[p] - x0) * inv, fy = ((double)y[p] - y0) * inv;
+        if (!(fx >= 0.0 && fy >= 0.0 && fx < (double)nx && fy < (double)ny)) continue;
+        const double r = rho && (double)rho[p] > rho0 ? (double)rho[p] : rho0;
+        acc[(size_t)fy * (size_t)nx + (size_t)fx] += mass / r;
+    }
+}
+
+void sq__aval_smooth3(const float *src, float *dst, int nx, int ny)
+{
+    for (int j = 0; j < ny; j++) {
+        const int j0 = j > 0 ? j - 1 : 0, j1 = j < ny - 1 ? j + 1 : ny - 1;
+        for (int i = 0; i < nx; i++) {
+            const int i0 = i > 0 ? i - 1 : 0, i1 = i < nx - 1 ? i + 1 : nx - 1;
+            const float *r0 = src + (size_t)j0 * nx, *r1 = src + (size_t)j * nx,
+                        *r2 = src + (size_t)j1 * nx;
+            float s = (r0[i0] + 2.0f * r0[i] + r0[i1]) + 2.0f * (r1[i0] + 2.0f * r1[i] + r1[i1]) +
+                      (r2[i0] + 2.0f * r2[i] + r2[i1]);
+            dst[(size_t)j * nx + i] = s * (1.0f / 16.0f);
+        }
+    }
+}
+
+double sq__aval_dither(int i, int j)
+{
+    static const unsigned char bayer[4][4] = {
+        {0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
+    return ((double)bayer[j & 3][i & 3] + 0.5) / 16.0;
+}
+
+void sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
+                            const float *vy, const float *vz, size_t n, float v_min, float amount,
+                            const int nn[3], const double o[3], double c, float *density)
+{
+    const double inv = 1.0 / c;
+    const float v2min = v_min * v_min;
+    for (size_t p = 0; p < n; p++) {
+        const float v2 = vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p];
+        if (!(v2 > v2min)) continue;
+        const double f[3] = {((double)x[p] - o[0]) * inv, ((double)y[p] - o[1]) * inv,
+                             ((double)z[p] - o[2]) * inv};
+        if (!(f[0] >= 0.0 && f[1] >= 0.0 && f[2] >= 0.0 && f[0] < nn[0] && f[1] < nn[1] &&
+              f[2] < nn[2]))
+            continue;
+        const size_t idx = ((size_t)f[2] * (size_t)nn[1] + (size_t)f[1]) * (size_t)nn[0] + (size_t)f[0];
+        density[idx] += amount * (sqrtf(v2) - v_min);
+    }
+}
+
+void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay)
+{
+    const int nx = nn[0], ny = nn[1], nz = nn[2];
+    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
+    for (int kz = 0; kz < nz; kz++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const size_t c = (size_t)kz * sz + (size_t)j * sy + (size_t)i;
+                const float v = src[c];
+                float s = -6.0f * v;
+                s += i > 0 ? src[c - 1] : 0.0f;
+                s += i < nx - 1 ? src[c + 1] : 0.0f;
+                s += j > 0 ? src[c - sy] : 0.0f;
+                s += j < ny - 1 ? src[c + sy] : 0.0f;
+                s += kz > 0 ? src[c - sz] : 0.0f;
+                s += kz < nz - 1 ? src[c + sz] : 0.0f;
+                const float out = (v + k * s) * decay;
+                dst[c] = out > 0.0f ? out : 0.0f;
+            }
+}

@@ -1,0 +1,168 @@
+/* avalanche_plugin.c — the snow avalanche's parameter table (scene keys, units, defaults,
+ * ranges, docs) and its plug-in vtable. Values S2 leaves open are chosen and justified here and
+ * in docs/phen/avalanche.md. */
+#include <stddef.h>
+
+#include "avalanche_internal.h"
+#include "squall/plugin.h"
+
+#define S sq_avalanche_desc
+#define D(key, field, unit, def, lo, hi, flags, doc)                                           \
+    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
+#define B(key, field, doc)                                                                     \
+    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
+#define E(key, field, choices, doc)                                                            \
+    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
+#define V3(key, field, unit, deftext, lo, hi, doc)                                             \
+    {key, SQ_PARAM_VEC3, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, 0, 0, 0, doc}
+#define Z SQ_PARAM_ZERO_IS_PHYSICAL
+#define A SQ_PARAM_ADVANCED
+
+static const sq_param params[] = {
+    D("particles.spacing_m", spacing_m, "m", 1.0, 1e-3, 100, 0,
+      "Initial particle spacing dx; the particle count is the release volume / dx^3 (S2 leaves "
+      "the resolution open; chosen: 1 m resolves a slab a few metres thick)."),
+    D("particles.support_radius_m", support_radius_m, "m", 0, 0, 400, Z,
+      "Kernel support H of every kernel and cell of the neighbour grid (SPEC §7.3 ⚠: one "
+      "support for all kernels); 0 = 2 x spacing (about 33 neighbours)."),
+    D("snow.density_kgm3", density_kgm3, "kg/m3", 300, 10, 1000, 0,
+      "Rest density rho0 of the flowing snow. Chosen: 300, inside S2's 150-500 kg/m3 for "
+      "wet/dense flowing snow."),
+    B("snow.cohesion", cohesion,
+      "Keep negative SPH pressure as cohesion (SPEC §7.2 ⚠ 2). Off by default: a slab a few "
+      "particles thick has a 30-50 % kernel deficit at its surfaces, and c_s^2 (rho - rho0) then "
+      "pulls it apart (tensile instability; measured: run-away at 700 m/s within 0.7 s)."),
+    D("release.x_m", release_x_m, "m", 0, -1e7, 1e7, Z,
+      "World x of the centre of the release rectangle."),
+    D("release.y_m", release_y_m, "m", 0, -1e7, 1e7, Z,
+      "World y of the centre of the release rectangle."),
+    D("release.length_m", release_length_m, "m", 40, 1e-3, 1e5, 0,
+      "Horizontal extent of the release rectangle along x."),
+    D("release.width_m", release_width_m, "m", 30, 1e-3, 1e5, 0,
+      "Horizontal extent of the release rectangle along y."),
+    D("release.depth_m", release_depth_m, "m", 2, 1e-3, 1e3, 0,
+      "Slab thickness measured normal to the slope (typical slab fracture depths 0.5-3 m); "
+      "the release volume is sum(dx^2 depth / n_z) over the columns."),
+    E("rheology.model", rheology, "cross|newtonian|power-law|bingham",
+      "Effective viscosity model (S2 eqs 3.26-3.29): cross (S2's avalanche), newtonian, "
+      "power-law (Ostwald-de Waele) or bingham (Papanastasiou-regularised)."),
+    D("rheology.mu0_pa_s", mu0_pa_s, "Pa s", 100, 1e-9, 1e9, 0,
+      "Cross zero-shear viscosity mu0 >= mu_inf (S2 Fig. 3.20: 100; SPEC §7.4 ⚠ on the bound)."),
+    D("rheology.mu_inf_pa_s", mu_inf_pa_s, "Pa s", 1, 1e-9, 1e9, 0,
+      "Cross infinite-shear viscosity mu_inf (S2 Fig. 3.20: 1)."),
+    D("rheology.cross_k_s", cross_k_s, "s", 3000, 1e-9, 1e9, 0,
+      "Cross time constant K (S2 Fig. 3.20: 3000, units unstated, read as s; SPEC §7.9 ⚠: "
+      "mu is within 10 % of mu_inf above |shear rate| = 0.01 1/s)."),
+    D("rheology.cross_n", cross_n, "1", 2, 1e-6, 20, 0, "Cross exponent n > 0 (S2 Fig. 3.20: 2)."),
+    D("rheology.mu_pa_s", mu_pa_s, "Pa s", 1, 1e-9, 1e9, 0,
+      "Newtonian dynamic viscosity (water at 0 C: 1.79e-3, S2 §3.2)."),
+    D("rheology.power_k", power_k, "Pa s^n", 1.5, 1e-9, 1e9, 0,
+      "Power-law consistency K (S2 Fig. 3.7: 1.5)."),
+    D("rheology.power_n", power_n, "1", 0.5, 1e-6, 20, 0,
+      "Power-law flow index n > 0: < 1 shear-thinning (S2 Fig. 3.7: 0.5, 1, 1.5)."),
+    D("rheology.bingham_mu_pa_s", bingham_mu_pa_s, "Pa s", 1.5, 1e-9, 1e9, 0,
+      "Bingham plastic viscosity K (S2 Fig. 3.8: 1.5)."),
+    D("rheology.yield_stress_pa", yield_stress_pa, "Pa", 0, 0, 1e7, Z,
+      "Bingham yield stress tau_y (0 = Newtonian with the plastic viscosity)."),
+    D("rheology.mu_max_pa_s", mu_max_pa_s, "Pa s", 0, 0, 1e9, Z | A,
+      "Cap on the effective viscosity (bounds the viscous time-step limit); 0 = none."),
+    D("terrain.friction", friction, "1", 0.2, 1e-6, 5, 0,
+      "Kinetic Coulomb friction mu_k of the terrain and obstacles (S2 §3.6: 0.2), applied at "
+      "each contact as v_t *= max(0, 1 - mu_k |dv_n| / |v_t|) (SPEC §7.7)."),
+    D("terrain.restitution", restitution, "1", 0, 0, 1, Z,
+      "Restitution e of the normal velocity at a contact (SPEC §7.7: e ~ 0 for snow)."),
+    D("numerics.speed_of_sound_mps", speed_of_sound_mps, "m/s", 0, 0, 1e5, Z,
+      "Speed of sound c_s of the linear EOS p = c_s^2 (rho - rho0) (S2 eq. 3.38); 0 = 5 x the "
+      "free-fall speed over the possible drop (Mach <= 0.2, density fluctuations ~ 4 %)."),
+    D("numerics.xsph_epsilon", xsph_epsilon, "1", 0.5, 1e-6, 1, 0,
+      "XSPH velocity smoothing epsilon (S2 eq. 3.47: 0.5)."),
+    D("numerics.artificial_viscosity", artificial_viscosity, "1", 0.1, 1e-6, 1, A,
+      "Monaghan artificial viscosity alpha for approaching pairs. Chosen: 0.1 damps the acoustic "
+      "noise of weakly compressible SPH that otherwise ejects free-surface particles (measured: "
+      "max speed 30 m/s instead of 15 m/s 1.5 s after release); not in S2."),
+    B("numerics.no_artificial_viscosity", no_artificial_viscosity,
+      "Switch the artificial viscosity off (alpha = 0)."),
+    D("numerics.dt_max_s", dt_max_s, "s", 0, 0, 10, Z | A,
+      "Cap on the solver's sub-step (the CFL, viscous and force limits apply anyway); 0 = none."),
+    V3("domain.min_m", domain_min_m, "m", "0 0 0", -1e7, 1e7,
+       "Lower corner of the simulation box; with domain.max_m all zero = the terrain's "
+       "footprint from below its lowest point. Particles leaving the box are removed."),
+    V3("domain.max_m", domain_max_m, "m", "0 0 0", -1e7, 1e7,
+       "Upper corner of the simulation box; all zero (with domain.min_m) = auto, up to 10 H + "
+       "20 m above the release top."),
+    D("deposit.cell_m", deposit_cell_m, "m", 0, 0, 1e4, Z,
+      "Cell of the deposit depth map over the domain's footprint; 0 = 2 x spacing."),
+    D("metrics.moving_speed_mps", moving_speed_mps, "m/s", 0.5, 1e-6, 1e3, 0,
+      "A particle faster than this counts as moving (moving_fraction). Chosen: 0.5 m/s."),
+    D("metrics.front_percentile", front_percentile, "1", 0.99, 1e-6, 1, 0,
+      "Quantile of the particles' fall-line coordinate taken as the front (robust against "
+      "single splashed particles)."),
+    D("metrics.airborne_m", airborne_m, "m", 2, 1e-6, 1e4, 0,
+      "A particle this far above the terrain counts as airborne (airborne_fraction)."),
+    D("render.radius_factor", radius_factor, "1", 0.6, 0.01, 10, 0,
+      "Radius of the drawn snow spheres in particle spacings."),
+    D("render.albedo", albedo, "1", 0.9, 0.01, 1, 0,
+      "Albedo of the snow spheres and the deposit (fresh/wet snow ~0.8-0.9)."),
+    B("render.no_deposit_surface", no_deposit_surface,
+      "Do not draw the deposit surface (terrain + depth, material snow) under the particles."),
+    B("powder.enabled", powder,
+      "Draw a powder cloud: fast particles shed suspended snow into a coarse grid that "
+      "diffuses and settles (a visual model; S2 does not simulate the powder cloud)."),
+    D("powder.speed_mps", powder_speed_mps, "m/s", 10, 1e-3, 1e3, 0,
+      "Particles faster than this feed the powder cloud (shedding grows with the excess)."),
+    D("powder.cell_m", powder_cell_m, "m", 4, 0.01, 1e4, 0,
+      "Cell of the powder grid (grown to keep at most 128 cells per axis)."),
+};
+
+static sq_result p_resolve(void *desc)
+{
+    return sq_avalanche_desc_resolve((sq_avalanche_desc *)desc, (sq_avalanche_desc *)desc);
+}
+static sq_result p_validate(sq_context *ctx, const void *desc, const sq_world *w)
+{
+    return sq_avalanche_validate(ctx, (const sq_avalanche_desc *)desc, w);
+}
+static sq_result p_memory(const void *desc, const sq_world *w, uint64_t *bytes)
+{
+    *bytes = sq_avalanche_memory_bytes((const sq_avalanche_desc *)desc, w);
+    return SQ_OK;
+}
+static sq_result p_create(sq_context *ctx, const void *desc, const sq_world *w, void **out)
+{
+    return sq_avalanche_create(ctx, (const sq_avalanche_desc *)desc, w, (sq_avalanche **)out);
+}
+static void p_destroy(void *self) { sq_avalanche_destroy((sq_avalanche *)self); }
+static double p_dt(const void *self) { return sq_avalanche_max_stable_dt((const sq_avalanche *)self); }
+static sq_result p_step(void *self, double dt) { return sq_avalanche_step((sq_avalanche *)self, dt); }
+static int p_drawables(void *self, sq_drawable *out, int max)
+{
+    return sq__avalanche_drawables((sq_avalanche *)self, out, max);
+}
+static int p_metrics(void *self, sq_metric *out, int max)
+{
+    return sq__avalanche_metrics((sq_avalanche *)self, out, max);
+}
+static int p_fields(void *self, sq_named_field *out, int max)
+{
+    return sq__avalanche_fields((sq_avalanche *)self, out, max);
+}
+
+const sq_phen_plugin sq__avalanche_plugin = {
+    "avalanche",
+    "dense snow avalanche: SPH slab release on the terrain, Cross rheology, Coulomb friction, "
+    "run-out and deposit (S2 ch. 3)",
+    sizeof(sq_avalanche_desc),
+    params,
+    sizeof params / sizeof params[0],
+    p_resolve,
+    p_validate,
+    p_memory,
+    p_create,
+    p_destroy,
+    p_dt,
+    p_step,
+    NULL,
+    p_drawables,
+    p_metrics,
+    p_fields,
+};
