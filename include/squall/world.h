@@ -24,8 +24,18 @@ typedef enum sq_terrain_kind {
     SQ_TERRAIN_HEIGHTMAP = 5  /* 16-bit PNG heightmap (loaded by the io layer) */
 } sq_terrain_kind;
 
+typedef enum sq_terrain_material {
+    SQ_GROUND_DEFAULT = 0, /* by terrain kind: sand on dunes, meadow elsewhere */
+    SQ_GROUND_SAND = 1,
+    SQ_GROUND_SNOW = 2,
+    SQ_GROUND_ROCK = 3,
+    SQ_GROUND_GRASS = 4,
+    SQ_GROUND_ASPHALT = 5
+} sq_terrain_material;
+
 typedef struct sq_terrain_desc {
     sq_terrain_kind kind;
+    sq_terrain_material material; /* surface cover; 0 = by kind */
     float size_m[2];        /* extent along x and y; 0 -> 2000 x 2000 (heightmap: from pixels) */
     int resolution[2];      /* samples along x and y; 0 -> 257 x 257 (heightmap: pixels) */
     float origin_m[2];      /* world x, y of sample (0,0); NaN/0 -> centred on the origin */
@@ -94,6 +104,7 @@ typedef struct sq_world {
     float *normals;        /* 3*nx*ny, unit normals */
     float height_min, height_max;
     sq_terrain_kind terrain_kind;
+    sq_terrain_material terrain_material;
     /* obstacles */
     sq_obstacle obstacles[SQ_MAX_OBSTACLES];
     int obstacle_count;

@@ -104,7 +104,7 @@ sq_result sq__gl_check_framebuffer(sq_context *ctx, GLuint fbo, const char *what
 
 /* ---- renderer.c ------------------------------------------------------------------------- */
 /* Terrain colours by kind: on gentle slopes and on slopes steeper than ~40 degrees. */
-void sq__terrain_albedo(sq_terrain_kind kind, sq_vec3 *flat, sq_vec3 *steep);
+void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);
 /* Default albedo of a surface drawable's material. */
 sq_vec3 sq__material_albedo(sq_material m);
 

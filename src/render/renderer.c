@@ -52,10 +52,21 @@ typedef struct mesh_vertex {
 } mesh_vertex;
 
 /* ---- materials -------------------------------------------------------------------------- */
-void sq__terrain_albedo(sq_terrain_kind kind, sq_vec3 *flat, sq_vec3 *steep)
+void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep)
 {
     *steep = sq_v3(0.30f, 0.28f, 0.26f); /* weathered rock */
-    switch (kind) {
+    switch (w->terrain_material) {
+    case SQ_GROUND_SAND: *flat = *steep = sq_v3(0.58f, 0.45f, 0.30f); return;
+    case SQ_GROUND_SNOW: /* snow on the flats, wind-scoured snow/rock on steep slopes */
+        *flat = sq_v3(0.88f, 0.90f, 0.94f);
+        *steep = sq_v3(0.62f, 0.64f, 0.68f);
+        return;
+    case SQ_GROUND_ROCK: *flat = sq_v3(0.32f, 0.30f, 0.28f); return;
+    case SQ_GROUND_GRASS: *flat = sq_v3(0.21f, 0.23f, 0.11f); return;
+    case SQ_GROUND_ASPHALT: *flat = *steep = sq_v3(0.12f, 0.12f, 0.12f); return;
+    default: break;
+    }
+    switch (w->terrain_kind) {
     case SQ_TERRAIN_DUNES: /* desert sand on every slope */
         *flat = sq_v3(0.58f, 0.45f, 0.30f);
         *steep = sq_v3(0.52f, 0.40f, 0.27f);
@@ -625,7 +636,7 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
     glDepthMask(GL_TRUE);
     if (r->terrain_index_count > 0) {
         sq_vec3 flat, steep;
-        sq__terrain_albedo(w->terrain_kind, &flat, &steep);
+        sq__terrain_albedo(w, &flat, &steep);
         glProgramUniform3f(r->prog_terrain, 0, flat.x, flat.y, flat.z);
         glProgramUniform3f(r->prog_terrain, 1, steep.x, steep.y, steep.z);
         glUseProgram(r->prog_terrain);

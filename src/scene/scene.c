@@ -224,6 +224,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     }
     sq_world_desc wd = {0};
     wd.terrain.kind = (sq_terrain_kind)ws.terrain_kind;
+    wd.terrain.material = (sq_terrain_material)ws.terrain_material;
     if (ws.size_count == 2) {
         wd.terrain.size_m[0] = ws.size_m[0];
         wd.terrain.size_m[1] = ws.size_m[1];

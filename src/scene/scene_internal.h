@@ -6,6 +6,7 @@
 
 typedef struct sq__world_section {
     int terrain_kind;
+    int terrain_material;
     float size_m[2];
     int size_count;
     float resolution[2];

@@ -33,6 +33,9 @@ const sq_param sq__world_params[] = {
     E("terrain.kind", terrain_kind, 2, "default|flat|hills|dunes|mountain|heightmap",
       "Terrain generator: flat, hills (fBm noise), dunes (transverse dunes with slip faces), "
       "mountain (a release slope into a run-out plain), or heightmap (16-bit PNG)."),
+    E("terrain.material", terrain_material, 0, "default|sand|snow|rock|grass|asphalt",
+      "Ground cover: default follows the kind (sand on dunes, meadow elsewhere); snow for winter "
+      "scenes, asphalt for cities."),
     FL("terrain.size_m", size_m, size_count, "m", "2000 2000", 2, 1, 1e6,
        "Extent of a procedural terrain along x (east) and y (north)."),
     FL("terrain.resolution", resolution, resolution_count, "1", "257 257", 2, 2, 8192,

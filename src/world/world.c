@@ -279,6 +279,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
     else
         w->origin = sq_v3(-0.5f * ex, -0.5f * ey, 0.0f);
     w->terrain_kind = t->kind;
+    w->terrain_material = t->material;
     generate(t, w);
     compute_normals(w);
     w->obstacle_count = d.obstacle_count;
@@ -297,7 +298,8 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->sun_dir = sq_sun_direction(d.sun.day_of_year, d.sun.hour_solar, d.sun.latitude_deg);
     w->turbidity = d.sky.turbidity;
     w->ground_albedo = sq_v3_len(d.sky.ground_albedo) > 0.0f ? d.sky.ground_albedo
-                                                               : sq_v3(0.35f, 0.3f, 0.25f);
+                       : t->material == SQ_GROUND_SNOW ? sq_v3(0.85f, 0.87f, 0.9f)
+                                                       : sq_v3(0.35f, 0.3f, 0.25f);
     sky_model(w, d.sky.turbidity, d.sun.irradiance_w_m2);
     w->generation = 1;
     *out = w;

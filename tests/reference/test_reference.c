@@ -752,7 +752,10 @@ SQ_TEST(terrain_albedo_follows_gl_shading)
     /* terrain.frag: kind colour on gentle slopes, rock above ~40 degrees, detail noise of mean
      * about 1 */
     sq_vec3 flat, steep;
-    sq__terrain_albedo(SQ_TERRAIN_HILLS, &flat, &steep);
+    sq_world kw;
+    memset(&kw, 0, sizeof kw);
+    kw.terrain_kind = SQ_TERRAIN_HILLS;
+    sq__terrain_albedo(&kw, &flat, &steep);
     const double f[3] = {flat.x, flat.y, flat.z}, st[3] = {steep.x, steep.y, steep.z};
     double sum = 0.0, a[3];
     const int n = 20000;

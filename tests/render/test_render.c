@@ -213,7 +213,10 @@ SQ_TEST(ground_follows_cosine_law)
     SQ_CHECK(worst < 0.01);
     /* absolute level: mean detail ~1, haze < 1 % at these distances */
     sq_vec3 flat, steep;
-    sq__terrain_albedo(SQ_TERRAIN_FLAT, &flat, &steep);
+    sq_world kw;
+    memset(&kw, 0, sizeof kw);
+    kw.terrain_kind = SQ_TERRAIN_FLAT;
+    sq__terrain_albedo(&kw, &flat, &steep);
     const double cos20 = cos(20.0 * SQ_PI / 180.0);
     const double mean_g = mean_rect(img[0], W, 0, H / 2 + 10, W, H, 1);
     printf("ground green %.4f, albedo * E * cos = %.4f\n", mean_g,
@@ -239,7 +242,10 @@ SQ_TEST(ground_below_sky_above)
     SQ_CHECK_REL(sky[2], w->sky_horizon.z, 0.03);
     /* ground: mean over the lower rows against albedo * (E cos + sky ambient) */
     sq_vec3 flat, steep;
-    sq__terrain_albedo(SQ_TERRAIN_FLAT, &flat, &steep);
+    sq_world kw;
+    memset(&kw, 0, sizeof kw);
+    kw.terrain_kind = SQ_TERRAIN_FLAT;
+    sq__terrain_albedo(&kw, &flat, &steep);
     const sq_vec3 amb = sq_v3_lerp(w->sky_horizon, w->sky_zenith, 0.35f);
     const double eg = flat.y * (w->sun_radiance.y * w->sun_dir.z + amb.y);
     const double g = mean_rect(rgb, W, 0, H - 40, W, H, 1);

@@ -793,7 +793,7 @@ sq_result sq__ref_scene_create(sq_context *ctx, const sq_world *world,
         hf->h = world->heights;
         hf->normals = world->normals;
         sq_vec3 flat, steep;
-        sq__terrain_albedo(world->terrain_kind, &flat, &steep);
+        sq__terrain_albedo(world, &flat, &steep);
         hf->shade = SQ__REF_SHADE_TERRAIN;
         for (int c = 0; c < 3; c++) {
             hf->albedo[c] = vc(flat, c);

@@ -178,7 +178,7 @@ double sq__ref_value_noise(double x, double y);
 double sq__ref_fbm(double x, double y);
 
 /* Colour tables of the GL renderer (renderer.c). */
-void sq__terrain_albedo(sq_terrain_kind kind, sq_vec3 *flat, sq_vec3 *steep);
+void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);
 sq_vec3 sq__material_albedo(sq_material m);
 
 /* Renders a prepared scene with an already validated desc (the body of sq_reference_render;
