@@ -582,30 +582,32 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
 /* ---- fixed faces --------------------------------------------------------------------------- */
 void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
 {
-    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const uint8_t *fl = g->flags;
+    const int nt = sq_context_threads(g->ctx);
+    (void)nt;
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];
         const ptrdiff_t off = c == 0 ? 1 : c == 1 ? g->sy : g->sz; /* cell lo -> hi */
         int m[3];
         lattice_dims(g, c + 1, m);
         /* faces touching solid cells: only planes that contain solids */
-        const int nt = sq_context_threads(g->ctx);
         SQ_OMP(omp parallel for schedule(static) num_threads(nt))
         for (int k = 0; k < m[2]; k++) {
             bool any = g->plane_solid[k + 1] || (c == 2 && g->plane_solid[k]);
             if (!any) continue;
-            for (int j = 0; j < m[1]; j++)
-                for (int i = 0; i < m[0]; i++) {
-                    /* face (i,j,k) lies between cell (i,j,k) - e_c and cell (i,j,k) */
-                    ptrdiff_t hi = sq__cidx(g, i, j, k), lo = hi - off;
-                    if ((fl[lo] | fl[hi]) & SQ__CF_SOLID) *sq_field3_at(f, i, j, k) = 0.0f;
-                }
+            for (int j = 0; j < m[1]; j++) {
+                float *u = sq_field3_at(f, 0, j, k);
+                const uint8_t *fh = fl + sq__cidx(g, 0, j, k), *fo = fh - off;
+                for (int i = 0; i < m[0]; i++)
+                    u[i] = sq__fsel(((fo[i] | fh[i]) & SQ__CF_SOLID) != 0, 0.0f, u[i]);
+            }
         }
-        /* the two domain faces normal to c */
+        /* the two domain faces normal to c (open faces, and outflow faces unless backflow is
+         * clipped, keep their values; faces of solid cells were zeroed above) */
         for (int side = 0; side < 2; side++) {
             const int face = 2 * c + side;
             const sq_boundary bc = g->d.boundary[face];
+            if (bc == SQ_BOUNDARY_OPEN || (bc == SQ_BOUNDARY_OUTFLOW && !clip_backflow)) continue;
             const int ta = c == 0 ? 1 : 0, tb = c == 2 ? 1 : 2;
             const int bi = side ? g->n[c] : 0;
             for (int q = 0; q < g->n[tb]; q++)
@@ -631,19 +633,15 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
                         const float *d = g->inflow[face];
                         *u = d[3 * ((size_t)p + (size_t)g->inflow_n[face][0] * q) + c];
                     } else if (bc == SQ_BOUNDARY_OUTFLOW) {
-                        if (!clip_backflow) continue;
                         if (side == 0 && *u > 0.0f) *u = 0.0f;
                         if (side == 1 && *u < 0.0f) *u = 0.0f;
-                    } else if (bc != SQ_BOUNDARY_OPEN) {
+                    } else {
                         *u = 0.0f;
                     }
                 }
         }
         sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
     }
-    (void)nx;
-    (void)ny;
-    (void)nz;
 }
 
 void sq_grid_apply_boundary(sq_grid *g)

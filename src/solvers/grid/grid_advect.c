@@ -307,7 +307,7 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
                     for (int q = 0; q < n; q++) {
                         const int i = i0 + q;
                         const float sp = fabsf(ux[q]) + fabsf(uy[q]) + fabsf(uz[q]);
-                        vmax = (i >= 0 && i < nx && sp > vmax) ? sp : vmax;
+                        vmax = sq__fsel((i >= 0) & (i < nx) & (sp > vmax), sp, vmax);
                     }
                 for (int pass = 0; pass < (fwd ? 2 : 1); pass++) {
                     const float sg = pass ? hs : -hs;
@@ -404,7 +404,7 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
                         for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
                     const float *oc = o + r0 + i0;
                     const uint8_t *fc = fl + q0 + i0;
-                    for (int q = 0; q < n; q++) d[q] = (fc[q] & SQ__CF_SOLID) ? oc[q] : d[q];
+                    for (int q = 0; q < n; q++) d[q] = sq__fsel(fc[q] & SQ__CF_SOLID, oc[q], d[q]);
                 }
             }
         }
@@ -440,14 +440,14 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
                     } else {
                         for (int q = 0; q < n; q++) {
                             const float v = hc[q] + 0.5f * (oc[q] - d[q]);
-                            d[q] = (v < lo[q] || v > hi[q]) ? hc[q] : v;
+                            d[q] = sq__fsel((v < lo[q]) | (v > hi[q]), hc[q], v);
                         }
                     }
                     if (!cell) continue;
                     if ((nonneg >> f) & 1u)
                         for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
                     const uint8_t *fc = fl + q0 + i0;
-                    for (int q = 0; q < n; q++) d[q] = (fc[q] & SQ__CF_SOLID) ? oc[q] : d[q];
+                    for (int q = 0; q < n; q++) d[q] = sq__fsel(fc[q] & SQ__CF_SOLID, oc[q], d[q]);
                 }
             }
         }

@@ -45,7 +45,8 @@ sq_result sq_grid_add_acceleration(sq_grid *g, double ax, double ay, double az, 
                 float *u = sq_field3_at(f, 0, j, k);
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < f->n.nx; i++)
-                    if (!((fl[r0 + i - off] | fl[r0 + i]) & SQ__CF_FIXED)) u[i] += d;
+                    u[i] = sq__fsel(((fl[r0 + i - off] | fl[r0 + i]) & SQ__CF_FIXED) != 0, u[i],
+                                    u[i] + d);
             }
     }
     sq__grid_enforce_velocity(g);
@@ -68,9 +69,9 @@ static sq_result check_view(sq_grid *g, const sq_field_view *v, const char *name
 /* Face value of a cell-centred quantity: mean of the two cells, or the one fluid cell. */
 static inline float face_mean(const uint8_t *fl, ptrdiff_t lo, ptrdiff_t hi, float a, float b)
 {
-    bool ua = !(fl[lo] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
-    bool ub = !(fl[hi] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
-    return ua && ub ? 0.5f * (a + b) : ua ? a : ub ? b : 0.0f;
+    const bool ua = !(fl[lo] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
+    const bool ub = !(fl[hi] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
+    return sq__fsel(ua & ub, 0.5f * (a + b), sq__fsel(ua, a, sq__fsel(ub, b, 0.0f)));
 }
 
 sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
@@ -98,18 +99,28 @@ sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
             for (int j = 0; j < f->n.ny; j++) {
                 float *u = sq_field3_at(f, 0, j, k);
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                for (int i = 0; i < f->n.nx; i++) {
-                    const ptrdiff_t hi = r0 + i, lo = hi - off;
-                    if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
-                    int x[3] = {i, j, k};
-                    int xl[3] = {i, j, k};
+                /* cells below/above the faces along c: periodic neighbours wrap, domain faces
+                 * use the inner cell */
+                int x[3] = {0, j, k}, xl[3] = {-1, j, k};
+                if (c > 0) {
                     xl[c]--;
-                    /* periodic neighbours wrap, domain faces use the inner cell */
                     if (xl[c] < 0) xl[c] = g->periodic[c] ? nc - 1 : 0;
                     if (x[c] >= nc) x[c] = g->periodic[c] ? 0 : nc - 1;
-                    float va = sq_view_get(v, xl[0], xl[1], xl[2]);
-                    float vb = sq_view_get(v, x[0], x[1], x[2]);
-                    u[i] += dt * face_mean(fl, lo, hi, va, vb);
+                }
+                const float *ra = v->data + (ptrdiff_t)xl[1] * v->sy + (ptrdiff_t)xl[2] * v->sz;
+                const float *rb = v->data + (ptrdiff_t)x[1] * v->sy + (ptrdiff_t)x[2] * v->sz;
+                const ptrdiff_t sx = v->sx;
+                const int mx = f->n.nx;
+                for (int i = 0; i < mx; i++) {
+                    const ptrdiff_t hi = r0 + i, lo = hi - off;
+                    int ia = i, ib = i;
+                    if (c == 0) { /* along the row */
+                        ia = i - 1 < 0 ? (g->periodic[0] ? nc - 1 : 0) : i - 1;
+                        ib = i >= nc ? (g->periodic[0] ? 0 : nc - 1) : i;
+                    }
+                    const float va = ra[(ptrdiff_t)ia * sx], vb = rb[(ptrdiff_t)ib * sx];
+                    const bool fixed = ((fl[lo] | fl[hi]) & SQ__CF_FIXED) != 0;
+                    u[i] = sq__fsel(fixed, u[i], u[i] + dt * face_mean(fl, lo, hi, va, vb));
                 }
             }
     }
@@ -173,12 +184,12 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
         for (int j = 0; j < ny; j++) {
             float *w = sq_field3_at(W, 0, j, k);
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+            const float *tl = sq_field3_at(T, 0, j, kl), *th = sq_field3_at(T, 0, j, kh);
             for (int i = 0; i < nx; i++) {
                 const ptrdiff_t hi = r0 + i, lo = hi - g->sz;
-                if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
-                float bl = (*sq_field3_at(T, i, j, kl) - rl) * il;
-                float bh = (*sq_field3_at(T, i, j, kh) - rh) * ihh;
-                w[i] += bg * face_mean(fl, lo, hi, bl, bh);
+                const bool fixed = ((fl[lo] | fl[hi]) & SQ__CF_FIXED) != 0;
+                const float bl = (tl[i] - rl) * il, bh = (th[i] - rh) * ihh;
+                w[i] = sq__fsel(fixed, w[i], w[i] + bg * face_mean(fl, lo, hi, bl, bh));
             }
         }
     }
@@ -230,17 +241,14 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             for (int i = 0; i < nx; i++) {
                 const ptrdiff_t c = r0 + i;
-                if (fl[c] & SQ__CF_SOLID) {
-                    wx[c] = wy[c] = wz[c] = wm[c] = 0.0f;
-                    continue;
-                }
+                const bool solid = (fl[c] & SQ__CF_SOLID) != 0;
                 const float ox = (uz[c + sy] - uz[c - sy] - uy[c + sz] + uy[c - sz]) * i2h;
                 const float oy = (ux[c + sz] - ux[c - sz] - uz[c + 1] + uz[c - 1]) * i2h;
                 const float oz = (uy[c + 1] - uy[c - 1] - ux[c + sy] + ux[c - sy]) * i2h;
-                wx[c] = ox;
-                wy[c] = oy;
-                wz[c] = oz;
-                wm[c] = sqrtf(ox * ox + oy * oy + oz * oz);
+                wx[c] = sq__fsel(solid, 0.0f, ox);
+                wy[c] = sq__fsel(solid, 0.0f, oy);
+                wz[c] = sq__fsel(solid, 0.0f, oz);
+                wm[c] = sq__fsel(solid, 0.0f, sqrtf(ox * ox + oy * oy + oz * oz));
             }
         }
     sq__grid_fill_ghosts(g, wm + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
@@ -251,38 +259,37 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
     const float eps0 = 1e-6f; /* m/s^2: keeps the relative helicity finite at rest */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++)
+        for (int j = 0; j < ny; j++) {
+            const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = sq__cidx(g, i, j, k);
-                if (fl[c] & SQ__CF_SOLID) continue;
-                float ex = (wm[c + 1] - wm[c - 1]) * i2h;
-                float ey = (wm[c + sy] - wm[c - sy]) * i2h;
-                float ez = (wm[c + sz] - wm[c - sz]) * i2h;
-                float en = sqrtf(ex * ex + ey * ey + ez * ez) + 1e-10f;
-                float Nx = ex / en, Ny = ey / en, Nz = ez / en;
-                float ox = wx[c], oy = wy[c], oz = wz[c];
+                const ptrdiff_t c = r0 + i;
+                const bool solid = (fl[c] & SQ__CF_SOLID) != 0;
+                const float ex = (wm[c + 1] - wm[c - 1]) * i2h;
+                const float ey = (wm[c + sy] - wm[c - sy]) * i2h;
+                const float ez = (wm[c + sz] - wm[c - sz]) * i2h;
+                const float en = sqrtf(ex * ex + ey * ey + ez * ez) + 1e-10f;
+                const float Nx = ex / en, Ny = ey / en, Nz = ez / en;
+                const float ox = wx[c], oy = wy[c], oz = wz[c];
                 float fx = e * (Ny * oz - Nz * oy);
                 float fy = e * (Nz * ox - Nx * oz);
                 float fz = e * (Nx * oy - Ny * ox);
                 if (helicity_adaptive) {
                     const float vx = ux[c], vy = uy[c], vz = uz[c];
-                    float un = sqrtf(vx * vx + vy * vy + vz * vz);
-                    float hel = fabsf(vx * ox + vy * oy + vz * oz) / (un * wm[c] + eps0);
+                    const float un = sqrtf(vx * vx + vy * vy + vz * vz);
+                    const float hel = fabsf(vx * ox + vy * oy + vz * oz) / (un * wm[c] + eps0);
                     fx *= hel;
                     fy *= hel;
                     fz *= hel;
                 }
-                float fn = sqrtf(fx * fx + fy * fy + fz * fz);
-                if (fn > fmax) {
-                    float s = fmax / fn;
-                    fx *= s;
-                    fy *= s;
-                    fz *= s;
-                }
-                wx[c] = fx;
-                wy[c] = fy;
-                wz[c] = fz;
+                const float fn = sqrtf(fx * fx + fy * fy + fz * fz);
+                /* |f| <= fmax: scale = min(1, fmax / |f|) (no division by zero) */
+                const float sc = sq__fsel(fn > fmax, fmax / (fn + (fn == 0.0f)), 1.0f);
+                /* solid cells keep their zero */
+                wx[c] = sq__fsel(solid, ox, fx * sc);
+                wy[c] = sq__fsel(solid, oy, fy * sc);
+                wz[c] = sq__fsel(solid, oz, fz * sc);
             }
+        }
     float *fc[3] = {wx, wy, wz};
     for (int c = 0; c < 3; c++)
         sq__grid_fill_ghosts(g, fc[c] + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
@@ -298,10 +305,10 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < f->n.nx; i++) {
                     const ptrdiff_t hi = r0 + i, lo = hi - off;
-                    if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
-                    bool sa = (fl[lo] & SQ__CF_SOLID) != 0, sb = (fl[hi] & SQ__CF_SOLID) != 0;
-                    float v = sa ? F[hi] : sb ? F[lo] : 0.5f * (F[lo] + F[hi]);
-                    u[i] += dt * v;
+                    const bool fixed = ((fl[lo] | fl[hi]) & SQ__CF_FIXED) != 0;
+                    const bool sa = (fl[lo] & SQ__CF_SOLID) != 0, sb = (fl[hi] & SQ__CF_SOLID) != 0;
+                    const float v = sq__fsel(sa, F[hi], sq__fsel(sb, F[lo], 0.5f * (F[lo] + F[hi])));
+                    u[i] = sq__fsel(fixed, u[i], u[i] + dt * v);
                 }
             }
     }

@@ -274,25 +274,19 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double acc = 0.0;
-        float t[ROW];
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             const int par = (j + k + colour) & 1; /* cells with (i & 1) == par are updated */
-            /* the update of every cell of the row (vectorised), kept for this colour only:
-             * the other colour's values are what this colour reads */
-            for (int i0 = 0; i0 < nx; i0 += ROW) {
-                const int n = nx - i0 < ROW ? nx - i0 : ROW;
-                const ptrdiff_t c0 = r0 + i0;
-                if (from_zero) {
-                    for (int q = 0; q < n; q++) t[q] = inv_diag0(dg[c0 + q]) * b[c0 + q];
-                } else {
-                    for (int q = 0; q < n; q++) {
-                        const ptrdiff_t c = c0 + q;
-                        t[q] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, lk[c], sy, sz));
-                    }
+            /* stride-2 loops: with the mask selects and no table lookup GCC vectorises them
+             * (even/odd lanes by permutation) */
+            if (from_zero) {
+                for (int i = par; i < nx; i += 2)
+                    x[r0 + i] = inv_diag0(dg[r0 + i]) * b[r0 + i];
+            } else {
+                for (int i = par; i < nx; i += 2) {
+                    const ptrdiff_t c = r0 + i;
+                    x[c] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, lk[c], sy, sz));
                 }
-                float *xr = x + c0;
-                for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
             }
             if (dot) acc += (double)sq__dotf(b + r0, x + r0, nx); /* b = 0 in solid cells */
         }
@@ -445,6 +439,7 @@ static void prolong(sq_grid *g, int lf, float *xf)
     for (int k = 0; k < nf2; k++) {
         int Pz, Nz, Py, Ny, Px, Nx;
         float wz, wy, wx;
+        float yz[ROW + 2];
         pweights(k, C->b[2], nf2, &Pz, &Nz, &wz);
         for (int j = 0; j < nf1; j++) {
             pweights(j, C->b[1], nf1, &Py, &Ny, &wy);
@@ -452,21 +447,24 @@ static void prolong(sq_grid *g, int lf, float *xf)
                         *r01 = xc + lidx(C, 0, Py, Nz), *r11 = xc + lidx(C, 0, Ny, Nz);
             const ptrdiff_t f0 = (ptrdiff_t)(j + 1) * F->sy + (ptrdiff_t)(k + 1) * F->sz + 1;
             if (C->b[0] == 2 && !(nf0 & 1)) {
-                /* pairs of children: the y-z interpolated coarse row at I-1, I, I+1 */
+                /* pairs of children: the y-z interpolated coarse row yz[I] (I from -1), then
+                 * child 2I takes 3/4 yz[I] + 1/4 yz[I-1], child 2I+1 3/4 yz[I] + 1/4 yz[I+1] */
                 const float w00 = (1.0f - wy) * (1.0f - wz), w10 = wy * (1.0f - wz),
                             w01 = (1.0f - wy) * wz, w11 = wy * wz;
-                float prev = w00 * r00[-1] + w10 * r10[-1] + w01 * r01[-1] + w11 * r11[-1];
-                float cur = w00 * r00[0] + w10 * r10[0] + w01 * r01[0] + w11 * r11[0];
-                for (int I = 0; 2 * I < nf0; I++) {
-                    const float next = w00 * r00[I + 1] + w10 * r10[I + 1] + w01 * r01[I + 1] +
-                                       w11 * r11[I + 1];
-                    const ptrdiff_t c = f0 + 2 * I;
-                    const bool act0 = dg ? dg[c] != 0 : id[c] != 0.0f;
-                    const bool act1 = dg ? dg[c + 1] != 0 : id[c + 1] != 0.0f;
-                    if (act0) xf[c] += 0.75f * cur + 0.25f * prev;
-                    if (act1) xf[c + 1] += 0.75f * cur + 0.25f * next;
-                    prev = cur;
-                    cur = next;
+                for (int I0 = 0; 2 * I0 < nf0; I0 += ROW) {
+                    const int nI = (nf0 / 2 - I0) < ROW ? nf0 / 2 - I0 : ROW;
+                    for (int q = 0; q < nI + 2; q++) {
+                        const int I = I0 - 1 + q;
+                        yz[q] = w00 * r00[I] + w10 * r10[I] + w01 * r01[I] + w11 * r11[I];
+                    }
+                    const ptrdiff_t c0 = f0 + 2 * I0;
+                    for (int q = 0; q < nI; q++) {
+                        const ptrdiff_t c = c0 + 2 * q;
+                        const bool act0 = dg ? dg[c] != 0 : id[c] != 0.0f;
+                        const bool act1 = dg ? dg[c + 1] != 0 : id[c + 1] != 0.0f;
+                        xf[c] += sq__fsel(act0, 0.75f * yz[q + 1] + 0.25f * yz[q], 0.0f);
+                        xf[c + 1] += sq__fsel(act1, 0.75f * yz[q + 1] + 0.25f * yz[q + 2], 0.0f);
+                    }
                 }
                 continue;
             }
@@ -904,10 +902,16 @@ sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
     float *phi = g->p.base; /* padded, level-0 layout */
     const size_t n = g->cell_count;
     /* warm start: phi = p dt from the previous step */
+    const int nt = sq_context_threads(g->ctx);
+    const int planes = g->n[2] + 2;
+    const ptrdiff_t sz = g->sz;
+    (void)nt;
     if (g->d.cold_start) {
         memset(phi, 0, n * sizeof(float));
     } else {
-        for (size_t c = 0; c < n; c++) phi[c] *= dt;
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = 0; k < planes; k++)
+            for (ptrdiff_t c = k * sz; c < (k + 1) * sz; c++) phi[c] *= dt;
     }
     if (any_periodic(g)) exchange(g, g->p.origin, g->n, g->sy, g->sz);
     switch (g->d.pressure) {
@@ -918,7 +922,9 @@ sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
     pressure_ghosts(g, phi);
     correct_velocity(g, phi);
     const float idt = 1.0f / dt;
-    for (size_t c = 0; c < n; c++) phi[c] *= idt;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < planes; k++)
+        for (ptrdiff_t c = k * sz; c < (k + 1) * sz; c++) phi[c] *= idt;
     g->trace_valid = false;
     g->vel_version++;
     sq__grid_enforce_velocity(g);
