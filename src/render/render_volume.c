@@ -4,26 +4,38 @@
  *
  * Per frame, for the camera and the sun:
  *   1. slice axis s: the half-angle vector between the view direction ω_v and the light
- *      propagation direction ω_l (both propagation directions): s = normalize(ω_v + ω_l) with
- *      front-to-back eye compositing when ω_v·ω_l >= 0 (light behind the viewer), else
- *      s = normalize(ω_l - ω_v) with back-to-front. In both cases s·ω_l > 0, so visiting the
- *      planes s·x = d in increasing d is the light-propagation order.
+ *      propagation direction ω_l (both propagation directions): s = normalize(ω_v + ω_l) when
+ *      ω_v·ω_l >= 0 (light behind the viewer), else s = normalize(ω_l - ω_v). In both cases
+ *      s·ω_l > 0, so visiting the planes s·x = d in increasing d is the light-propagation order.
  *   2. K = desc.volume_slices planes across the box (spacing = extent of the box along s / K,
  *      jittered per frame from desc.seed and the time), clipped to the box (grown by two
  *      spacings so that the slabs of boundary planes are not lost) on the CPU.
- *   3. For each plane in light order: the eye pass (volume_eye.frag) composites the plane's
- *      slab into the eye buffers using the light buffer, then the light pass
- *      (volume_light.frag, rendered from the sun with an orthographic projection fitted to
- *      the box) carries the light buffer across the slab (ping-pong).
- *   4. The eye buffers (colour + per-channel transmittance) are composited over the HDR scene.
+ *   3. Light passes, once per frame, before the opaque passes (sq__volume_pass_prepare_shadow):
+ *      for each plane in light order, volume_light.frag (rendered from the sun with an
+ *      orthographic projection fitted to the box) carries the light buffer across the plane's
+ *      slab into the next layer of a 2D array texture, so that every plane's incoming light
+ *      stays available. The last layer is the sun shadow of the opaque and particle passes.
+ *   4. Eye pass (sq__volume_pass_draw): all slice polygons in ONE draw, back to front for the
+ *      eye, each fragment reading its plane's layer (volume_eye.frag) and compositing its slab
+ *      "over" the scene per channel with dual-source blending (C = C_i + T_i C) into an RGBA32F
+ *      copy of the HDR target, which is copied back at the end. Because the light of every
+ *      plane is stored, the eye order need not follow the light order, and nothing is read
+ *      back and rewritten per slice (no texture barriers between slices).
  * Every fragment clips its slab to the box, to the camera and to the opaque depth (a per-pixel
  * ray interval computed once per frame by volume_bounds.frag), and the first slice in front of
  * the near plane also stands for the ray down to the camera, so a homogeneous medium gets
  * exactly exp(-β_ext d) over any path, camera inside or outside (checked by the Koschmieder
- * tests in tests/volume). sq__volume_pass_prepare_shadow runs the light passes alone before
- * the opaque passes and leaves the final light buffer (sun transmittance ratio) in
- * r->sun_shadow_tex with r->sun_shadow_matrix (world -> its texture coordinates). */
+ * tests in tests/volume).
+ *
+ * Memory: the light array holds one layer (light_size^2 RGBA16F) per in-box slab, e.g. 68 MB
+ * for 128 slices at 256^2. Above VOL_LIGHT_BUDGET_BYTES the planes are processed in chunks:
+ * the light sweep keeps one checkpoint layer per chunk plus the layers of one chunk, and the
+ * eye pass recomputes a chunk's layers from its checkpoint when it needs them (at most one
+ * more light sweep). With render.volume_noise on, the noise perturbation of the density is
+ * baked once per frame into a 3D texture (volume_bake.comp) so the passes fetch one texel
+ * set per sample. */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "render/render_internal.h"
@@ -38,6 +50,9 @@
 #define VOL_NOISE_AMP_VOXELS 1.0f  /* perturbation amplitude (S0 Fig 3.12) */
 #define VOL_NOISE_FREQ 0.25f       /* noise cells per voxel */
 #define VOL_RNG_STREAM 0x766f6c756d65ull /* "volume" */
+#define VOL_LIGHT_BUDGET_BYTES ((uint64_t)256 << 20) /* light array above which it is chunked */
+#define VOL_VERT_FLOATS 4          /* slice vertex: world xyz, light layer */
+#define VOL_MAX_TRI_VERTS 12       /* a hexagon as 4 triangles */
 
 typedef struct vol_plan {
     sq_vec3 lo, size, hi;
@@ -55,26 +70,49 @@ typedef struct vol_plan {
     float noise_offset[3];
 } vol_plan;
 
+/* What the light layers were computed for: the plan and every input of the light passes. */
+typedef struct vol_key {
+    vol_plan plan;
+    const float *data;
+    uint64_t version;
+    int nx, ny, nz;
+    float sigma_ext[3], albedo[3];
+    int light_size;
+    bool noise, multiple;
+} vol_key;
+
 struct sq__volume_pass {
-    GLuint prog_eye, prog_light, prog_comp, prog_bounds;
+    GLuint prog_eye, prog_bounds, prog_bake;
+    GLuint prog_light[3];  /* by VOL_LIGHT_MODE: single scatter, narrow forward, blurred */
+    GLint loc_plane[3], loc_src[3];
+    int light_mode;        /* variant of the current plan */
     GLuint vao_slices, vbo_slices, vao_empty;
-    size_t vbo_bytes;
-    GLuint density_tex, noise_tex;
+    GLuint density_tex, noise_tex, baked_tex;
     int dnx, dny, dnz;
     uint64_t version;
     const float *data;
     bool have_data;
-    GLuint light_tex[2], light_fbo[2], shadow_tex;
-    int light_size;
-    GLuint eye_c, eye_t, eye_fbo, bounds_tex, bounds_fbo;
+    /* noise-perturbed density of the current frame (render.volume_noise) */
+    bool baked_valid;
+    const float *baked_data;
+    uint64_t baked_version;
+    float baked_offset[3];
+    /* light array: layers [0, chunks) are checkpoints (layer 0: the unattenuated sun, all
+     * ones), layers [chunks, chunks + chunk_steps) the light after each in-box slab of the
+     * resident chunk */
+    GLuint light_arr, light_fbo, shadow_tex;
+    int light_size, light_layers;
+    int chunk_len, chunks, chunk_steps, resident;
+    int *slot;          /* per plane: layer holding the light that arrives at it */
+    bool key_valid;
+    vol_key key;
+    /* eye pass */
+    GLuint bounds_tex, bounds_fbo, acc_tex, acc_fbo, comp_fbo, comp_color;
     int eye_w, eye_h;
-    GLuint comp_fbo, comp_color;
     int max_3d;
-    /* slice polygons of the current plan */
-    float *verts;      /* 3 floats per vertex, up to 6 vertices per plane */
-    int *first, *count;
+    float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
+    int *vfirst, *vcount; /* per plane: its triangles in the vertex buffer */
     int plane_cap;
-    GLint loc_plane;
 };
 
 /* ---- GL state the pass changes, restored on exit ------------------------------------------ */
@@ -329,19 +367,11 @@ static sq_result make_noise_texture(sq_renderer *r, sq__volume_pass *vp)
     return SQ_OK;
 }
 
-static sq_result make_light_buffers(sq_renderer *r, sq__volume_pass *vp)
+/* The shadow texture: the last light layer copied out, read by the opaque and particle passes;
+ * outside the box's footprint the sun is unobstructed (border 1). */
+static void make_shadow_texture(sq_renderer *r, sq__volume_pass *vp)
 {
     const int n = r->desc.light_buffer_size;
-    glCreateTextures(GL_TEXTURE_2D, 2, vp->light_tex);
-    glCreateFramebuffers(2, vp->light_fbo);
-    for (int i = 0; i < 2; i++) {
-        glTextureStorage2D(vp->light_tex[i], 1, GL_RGBA16F, n, n);
-        set_linear_clamp(vp->light_tex[i]);
-        glNamedFramebufferTexture(vp->light_fbo[i], GL_COLOR_ATTACHMENT0, vp->light_tex[i], 0);
-        sq_result res = sq__gl_check_framebuffer(r->ctx, vp->light_fbo[i], "volume light buffer");
-        if (res != SQ_OK) return res;
-    }
-    /* the shadow copy: outside the box's footprint the sun is unobstructed (border 1) */
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->shadow_tex);
     glTextureStorage2D(vp->shadow_tex, 1, GL_RGBA16F, n, n);
     glTextureParameteri(vp->shadow_tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -350,19 +380,67 @@ static sq_result make_light_buffers(sq_renderer *r, sq__volume_pass *vp)
     glTextureParameteri(vp->shadow_tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_BORDER);
     const float one[4] = {1.0f, 1.0f, 1.0f, 1.0f};
     glTextureParameterfv(vp->shadow_tex, GL_TEXTURE_BORDER_COLOR, one);
+    glCreateFramebuffers(1, &vp->light_fbo);
     vp->light_size = n;
-    return SQ_OK;
+}
+
+static uint64_t layer_bytes(int light_size) { return (uint64_t)light_size * light_size * 8u; }
+
+/* Light array layers for `steps` in-box slabs in n planes: one chunk if it fits the budget,
+ * else chunks of chunk_len planes with one checkpoint each (the fewest layers that fit, or
+ * ~2 sqrt(n) when none does). Sets chunk_len, chunks; (re)allocates when more layers are
+ * needed than allocated. */
+static sq_result ensure_light_layers(sq_renderer *r, sq__volume_pass *vp, int n, int steps)
+{
+    const uint64_t per = layer_bytes(vp->light_size);
+    const int budget = (int)(VOL_LIGHT_BUDGET_BYTES / per) > 2 ? (int)(VOL_LIGHT_BUDGET_BYTES / per)
+                                                               : 2;
+    int len = n, chunks = 1, need = 1 + steps;
+    if (need > budget) {
+        /* working layers per chunk <= chunk length; try the longest chunks that fit */
+        len = 0;
+        for (int m = budget - 2; m >= 1 && len == 0; m--) {
+            const int c = (n + m - 1) / m;
+            if (c + m <= budget) len = m;
+        }
+        if (len == 0) len = (int)ceil(sqrt((double)n));
+        chunks = (n + len - 1) / len;
+        need = chunks + (len < steps ? len : steps);
+    }
+    vp->chunk_len = len;
+    vp->chunks = chunks;
+    if (need <= vp->light_layers) return SQ_OK;
+
+    if (vp->light_arr) glDeleteTextures(1, &vp->light_arr);
+    vp->light_arr = 0;
+    vp->light_layers = 0;
+    vp->key_valid = false;
+    vp->resident = -1;
+    const int alloc = need + 8; /* slack: the plane count moves by a few with the view */
+    char what[96];
+    snprintf(what, sizeof what, "volume light array (%d layers of %d^2 RGBA16F)", alloc,
+             vp->light_size);
+    sq_result res = sq_context_check_memory(r->ctx, per * (uint64_t)alloc, what);
+    if (res != SQ_OK) return res;
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &vp->light_arr);
+    glTextureStorage3D(vp->light_arr, 1, GL_RGBA16F, vp->light_size, vp->light_size, alloc);
+    set_linear_clamp(vp->light_arr);
+    /* layer 0: the sun before any dust (never written again) */
+    const float one[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+    glClearTexSubImage(vp->light_arr, 0, 0, 0, 0, vp->light_size, vp->light_size, 1, GL_RGBA,
+                       GL_FLOAT, one);
+    vp->light_layers = alloc;
+    return sq__gl_check(r->ctx, "volume light array allocation");
 }
 
 static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
 {
-    if (vp->eye_fbo && vp->eye_w == r->width && vp->eye_h == r->height) return SQ_OK;
-    if (vp->eye_fbo) glDeleteFramebuffers(1, &vp->eye_fbo);
+    if (vp->acc_fbo && vp->eye_w == r->width && vp->eye_h == r->height) return SQ_OK;
+    if (vp->acc_fbo) glDeleteFramebuffers(1, &vp->acc_fbo);
     if (vp->bounds_fbo) glDeleteFramebuffers(1, &vp->bounds_fbo);
-    if (vp->eye_c) glDeleteTextures(1, &vp->eye_c);
-    if (vp->eye_t) glDeleteTextures(1, &vp->eye_t);
+    if (vp->acc_tex) glDeleteTextures(1, &vp->acc_tex);
     if (vp->bounds_tex) glDeleteTextures(1, &vp->bounds_tex);
-    vp->eye_fbo = vp->eye_c = vp->eye_t = vp->bounds_tex = vp->bounds_fbo = 0;
+    vp->acc_fbo = vp->acc_tex = vp->bounds_tex = vp->bounds_fbo = 0;
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->bounds_tex);
     glTextureStorage2D(vp->bounds_tex, 1, GL_RG32F, r->width, r->height);
     glCreateFramebuffers(1, &vp->bounds_fbo);
@@ -370,19 +448,17 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
     glNamedFramebufferDrawBuffer(vp->bounds_fbo, GL_COLOR_ATTACHMENT0);
     sq_result res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
     if (res != SQ_OK) return res;
-    glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_c);
-    glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_t);
-    /* 32-bit floats: hundreds of slices accumulate here (half floats would lose ~0.1 %) */
-    glTextureStorage2D(vp->eye_c, 1, GL_RGBA32F, r->width, r->height);
-    glTextureStorage2D(vp->eye_t, 1, GL_RGBA32F, r->width, r->height);
-    glCreateFramebuffers(1, &vp->eye_fbo);
-    glNamedFramebufferTexture(vp->eye_fbo, GL_COLOR_ATTACHMENT0, vp->eye_c, 0);
-    glNamedFramebufferTexture(vp->eye_fbo, GL_COLOR_ATTACHMENT1, vp->eye_t, 0);
-    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-    glNamedFramebufferDrawBuffers(vp->eye_fbo, 2, bufs);
+    /* 32-bit floats: a hundred and more slices blend here (half floats would lose ~0.1 % of
+     * the radiance, i.e. several % of a 5 % contrast) */
+    glCreateTextures(GL_TEXTURE_2D, 1, &vp->acc_tex);
+    glTextureStorage2D(vp->acc_tex, 1, GL_RGBA32F, r->width, r->height);
+    glCreateFramebuffers(1, &vp->acc_fbo);
+    glNamedFramebufferTexture(vp->acc_fbo, GL_COLOR_ATTACHMENT0, vp->acc_tex, 0);
+    glNamedFramebufferDrawBuffer(vp->acc_fbo, GL_COLOR_ATTACHMENT0);
+    glNamedFramebufferReadBuffer(vp->acc_fbo, GL_COLOR_ATTACHMENT0);
     vp->eye_w = r->width;
     vp->eye_h = r->height;
-    return sq__gl_check_framebuffer(r->ctx, vp->eye_fbo, "volume eye buffer");
+    return sq__gl_check_framebuffer(r->ctx, vp->acc_fbo, "volume eye accumulation buffer");
 }
 
 static sq_result ensure_comp_fbo(sq_renderer *r, sq__volume_pass *vp)
@@ -391,6 +467,7 @@ static sq_result ensure_comp_fbo(sq_renderer *r, sq__volume_pass *vp)
     if (!vp->comp_fbo) glCreateFramebuffers(1, &vp->comp_fbo);
     glNamedFramebufferTexture(vp->comp_fbo, GL_COLOR_ATTACHMENT0, r->hdr_color, 0);
     glNamedFramebufferDrawBuffer(vp->comp_fbo, GL_COLOR_ATTACHMENT0);
+    glNamedFramebufferReadBuffer(vp->comp_fbo, GL_COLOR_ATTACHMENT0);
     vp->comp_color = r->hdr_color;
     return sq__gl_check_framebuffer(r->ctx, vp->comp_fbo, "volume composite target");
 }
@@ -417,40 +494,39 @@ sq_result sq__volume_pass_create(sq_renderer *r)
     if (!vp) return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render", "volume pass: no memory");
     r->volume = vp;
     vp->max_3d = (int)max3d;
+    vp->resident = -1;
     vp->plane_cap = K + 64;
-    vp->verts = sq_alloc(r->ctx, sizeof(float) * 18 * (size_t)vp->plane_cap);
-    vp->first = sq_alloc(r->ctx, sizeof(int) * (size_t)vp->plane_cap);
-    vp->count = sq_alloc(r->ctx, sizeof(int) * (size_t)vp->plane_cap);
-    if (!vp->verts || !vp->first || !vp->count)
+    const size_t cap = (size_t)vp->plane_cap;
+    vp->verts = sq_alloc(r->ctx, sizeof(float) * VOL_VERT_FLOATS * VOL_MAX_TRI_VERTS * cap);
+    vp->vfirst = sq_alloc(r->ctx, sizeof(int) * cap);
+    vp->vcount = sq_alloc(r->ctx, sizeof(int) * cap);
+    vp->slot = sq_alloc(r->ctx, sizeof(int) * cap);
+    if (!vp->verts || !vp->vfirst || !vp->vcount || !vp->slot)
         return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
                         "volume pass: no memory for %d slice polygons", vp->plane_cap);
 
     sq_result res = sq__gl_program(r->ctx, "volume_slice.vert", NULL, "volume_eye.frag",
                                    &vp->prog_eye);
     if (res == SQ_OK)
-        res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_light.frag",
-                             &vp->prog_light);
-    if (res == SQ_OK)
-        res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_composite.frag",
-                             &vp->prog_comp);
-    if (res == SQ_OK)
         res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_bounds.frag",
                              &vp->prog_bounds);
+    if (res == SQ_OK) res = sq__gl_compute_program(r->ctx, "volume_bake.comp", &vp->prog_bake);
     if (res != SQ_OK) return res;
-    vp->loc_plane = glGetUniformLocation(vp->prog_light, "u_plane");
 
     glCreateVertexArrays(1, &vp->vao_empty);
     glCreateVertexArrays(1, &vp->vao_slices);
     glCreateBuffers(1, &vp->vbo_slices);
-    vp->vbo_bytes = sizeof(float) * 18 * (size_t)vp->plane_cap;
-    glNamedBufferData(vp->vbo_slices, (GLsizeiptr)vp->vbo_bytes, NULL, GL_STREAM_DRAW);
-    glVertexArrayVertexBuffer(vp->vao_slices, 0, vp->vbo_slices, 0, 3 * sizeof(float));
+    glNamedBufferData(vp->vbo_slices,
+                      (GLsizeiptr)(sizeof(float) * VOL_VERT_FLOATS * VOL_MAX_TRI_VERTS * cap), NULL,
+                      GL_STREAM_DRAW);
+    glVertexArrayVertexBuffer(vp->vao_slices, 0, vp->vbo_slices, 0,
+                              VOL_VERT_FLOATS * sizeof(float));
     glEnableVertexArrayAttrib(vp->vao_slices, 0);
-    glVertexArrayAttribFormat(vp->vao_slices, 0, 3, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribFormat(vp->vao_slices, 0, VOL_VERT_FLOATS, GL_FLOAT, GL_FALSE, 0);
     glVertexArrayAttribBinding(vp->vao_slices, 0, 0);
 
     res = make_noise_texture(r, vp);
-    if (res == SQ_OK) res = make_light_buffers(r, vp);
+    if (res == SQ_OK) make_shadow_texture(r, vp);
     if (res == SQ_OK) res = sq__gl_check(r->ctx, "volume pass create");
     return res;
 }
@@ -461,21 +537,21 @@ void sq__volume_pass_destroy(sq_renderer *r)
     sq__volume_pass *vp = r->volume;
     if (r->sun_shadow_tex == vp->shadow_tex) r->sun_shadow_tex = 0;
     glDeleteProgram(vp->prog_eye);
-    glDeleteProgram(vp->prog_light);
-    glDeleteProgram(vp->prog_comp);
+    for (int i = 0; i < 3; i++) glDeleteProgram(vp->prog_light[i]);
     glDeleteProgram(vp->prog_bounds);
+    glDeleteProgram(vp->prog_bake);
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
-    GLuint tex[8] = {vp->density_tex, vp->noise_tex, vp->light_tex[0], vp->light_tex[1],
-                     vp->shadow_tex, vp->eye_c, vp->eye_t, vp->bounds_tex};
-    glDeleteTextures(8, tex);
-    GLuint fbo[5] = {vp->light_fbo[0], vp->light_fbo[1], vp->eye_fbo, vp->comp_fbo,
-                     vp->bounds_fbo};
-    glDeleteFramebuffers(5, fbo);
+    GLuint tex[7] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
+                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex};
+    glDeleteTextures(7, tex);
+    GLuint fbo[4] = {vp->light_fbo, vp->acc_fbo, vp->comp_fbo, vp->bounds_fbo};
+    glDeleteFramebuffers(4, fbo);
     sq_free(r->ctx, vp->verts);
-    sq_free(r->ctx, vp->first);
-    sq_free(r->ctx, vp->count);
+    sq_free(r->ctx, vp->vfirst);
+    sq_free(r->ctx, vp->vcount);
+    sq_free(r->ctx, vp->slot);
     sq_free(r->ctx, vp);
     r->volume = NULL;
 }
@@ -550,6 +626,8 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
     }
     if (!vp->density_tex || vp->dnx != v->nx || vp->dny != v->ny || vp->dnz != v->nz) {
         if (vp->density_tex) glDeleteTextures(1, &vp->density_tex);
+        if (vp->baked_tex) glDeleteTextures(1, &vp->baked_tex);
+        vp->baked_tex = 0;
         glCreateTextures(GL_TEXTURE_3D, 1, &vp->density_tex);
         glTextureStorage3D(vp->density_tex, 1, GL_R32F, v->nx, v->ny, v->nz);
         set_linear_clamp(vp->density_tex);
@@ -560,6 +638,8 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
     glTextureSubImage3D(vp->density_tex, 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RED, GL_FLOAT,
                         v->density);
     vp->have_data = true;
+    vp->baked_valid = false;
+    vp->key_valid = false;
     vp->version = v->version;
     vp->data = v->density;
     vp->dnx = v->nx;
@@ -582,46 +662,78 @@ static void u1f(GLuint prog, const char *name, float v)
 {
     glProgramUniform1f(prog, glGetUniformLocation(prog, name), v);
 }
-static void u1i(GLuint prog, const char *name, int v)
-{
-    glProgramUniform1i(prog, glGetUniformLocation(prog, name), v);
-}
 static void um4(GLuint prog, const char *name, const sq_mat4 *m)
 {
     glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, name), 1, GL_FALSE, m->m);
 }
 
-static void set_common_uniforms(sq_renderer *r, GLuint prog, const sq_volume_view *v,
-                                const vol_plan *p)
+static void set_common_uniforms(GLuint prog, const sq_volume_view *v, const vol_plan *p)
 {
     u3(prog, "u_box_lo", p->lo);
     u3(prog, "u_box_size", p->size);
-    u3(prog, "u_dims", sq_v3((float)v->nx, (float)v->ny, (float)v->nz));
     u3(prog, "u_s", p->s);
     u3(prog, "u_wl", p->wl);
     u1f(prog, "u_dlambda", p->dlambda);
     u3a(prog, "u_sigma_ext", v->sigma_ext);
     u3a(prog, "u_albedo", v->albedo);
-    u1i(prog, "u_use_noise", r->desc.volume_noise ? 1 : 0);
-    u1f(prog, "u_noise_amp", VOL_NOISE_AMP_VOXELS);
-    u1f(prog, "u_noise_freq", VOL_NOISE_FREQ / (float)VOL_NOISE_N);
-    u3a(prog, "u_noise_offset", p->noise_offset);
 }
 
-static void set_light_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
+/* Compiles a vertex + fragment program with `#define <defines>` inserted after the fragment
+ * shader's #version line (a #line directive keeps the driver's line numbers). */
+static sq_result variant_program(sq_renderer *r, const char *vert, const char *frag,
+                                 const char *defines, GLuint *out)
 {
-    const GLuint prog = r->volume->prog_light;
-    set_common_uniforms(r, prog, v, p);
-    const float n = (float)r->volume->light_size;
+    *out = 0;
+    const char *vs = sq__shader_source(vert), *fs = sq__shader_source(frag);
+    const char *eol = fs ? strchr(fs, '\n') : NULL;
+    if (!vs || !eol)
+        return sq__fail(r->ctx, SQ_ERR_INTERNAL, "render",
+                        "no embedded shader \"%s\" or \"%s\" with a #version line", vert, frag);
+    const size_t head = (size_t)(eol - fs) + 1, len = strlen(fs);
+    char *text = sq_alloc(r->ctx, len + strlen(defines) + 32);
+    if (!text)
+        return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render", "no memory for shader %s", frag);
+    memcpy(text, fs, head);
+    sprintf(text + head, "#define %s\n#line 2\n", defines);
+    strcat(text + head, fs + head);
+    GLuint sh[2] = {0, 0};
+    sq_result res = sq__gl_shader_compile(r->ctx, GL_VERTEX_SHADER, vert, vs, &sh[0]);
+    if (res == SQ_OK) res = sq__gl_shader_compile(r->ctx, GL_FRAGMENT_SHADER, frag, text, &sh[1]);
+    if (res == SQ_OK) res = sq__gl_program_link(r->ctx, frag, sh, 2, out);
+    glDeleteShader(sh[0]);
+    glDeleteShader(sh[1]);
+    sq_free(r->ctx, text);
+    return res;
+}
+
+/* Selects (compiling on first use) the light program for the plan: single-scatter ablation,
+ * forward in-scatter of the centre texel, or with the blur ring when its radius reaches half
+ * a texel; and sets its uniforms. */
+static sq_result set_light_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
+{
+    sq__volume_pass *vp = r->volume;
+    const float n = (float)vp->light_size;
+    const bool wide = fmaxf(p->blur_uv[0], p->blur_uv[1]) * n >= 0.5f;
+    const int mode = r->desc.single_scatter_only ? 0 : (wide ? 2 : 1);
+    if (!vp->prog_light[mode]) {
+        char def[32];
+        snprintf(def, sizeof def, "VOL_LIGHT_MODE %d", mode);
+        sq_result res = variant_program(r, "volume_fullscreen.vert", "volume_light.frag", def,
+                                        &vp->prog_light[mode]);
+        if (res != SQ_OK) return res;
+        vp->loc_plane[mode] = glGetUniformLocation(vp->prog_light[mode], "u_plane");
+        vp->loc_src[mode] = glGetUniformLocation(vp->prog_light[mode], "u_src");
+    }
+    vp->light_mode = mode;
+    const GLuint prog = vp->prog_light[mode];
+    set_common_uniforms(prog, v, p);
     glProgramUniform2f(prog, glGetUniformLocation(prog, "u_size"), n, n);
     glProgramUniform4f(prog, glGetUniformLocation(prog, "u_uv_rect"), p->u0, p->v0, p->u1, p->v1);
     u3(prog, "u_e1", p->e1);
     u3(prog, "u_e2", p->e2);
     u3a(prog, "u_forward", p->forward);
     glProgramUniform2f(prog, glGetUniformLocation(prog, "u_blur"), p->blur_uv[0], p->blur_uv[1]);
-    const bool wide = fmaxf(p->blur_uv[0], p->blur_uv[1]) * n >= 0.5f;
-    u1i(prog, "u_blur_wide", wide ? 1 : 0);
-    u1i(prog, "u_multiple", r->desc.single_scatter_only ? 0 : 1);
+    return SQ_OK;
 }
 
 /* Radiance units: the renderer's surfaces reflect albedo * (sun_radiance cos + ambient), i.e.
@@ -646,18 +758,11 @@ static sq_vec3 ambient_radiance(const sq_world *w)
 static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
     const GLuint prog = r->volume->prog_eye;
-    set_common_uniforms(r, prog, v, p);
+    set_common_uniforms(prog, v, p);
     um4(prog, "u_view_proj", &r->view_proj);
     u3(prog, "u_cam", r->cam_pos);
     u3(prog, "u_cam_forward", sq_v3_norm(r->cam_forward));
     u1f(prog, "u_near", r->near_m);
-    const GLuint pb = r->volume->prog_bounds;
-    um4(pb, "u_inv_view_proj", &r->inv_view_proj);
-    glProgramUniform2f(pb, glGetUniformLocation(pb, "u_viewport"), (float)r->width,
-                       (float)r->height);
-    u3(pb, "u_cam", r->cam_pos);
-    u3(pb, "u_box_lo", p->lo);
-    u3(pb, "u_box_size", p->size);
     u1f(prog, "u_spacing", p->spacing);
     um4(prog, "u_light_matrix", &p->light_matrix);
     float g[3];
@@ -668,33 +773,46 @@ static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
     u3(prog, "u_sun_dir", p->sun_dir);
     u3(prog, "u_ambient", ambient_radiance(r->world));
-    u1i(prog, "u_front_to_back", p->front_to_back ? 1 : 0);
+    const GLuint pb = r->volume->prog_bounds;
+    um4(pb, "u_inv_view_proj", &r->inv_view_proj);
+    glProgramUniform2f(pb, glGetUniformLocation(pb, "u_viewport"), (float)r->width,
+                       (float)r->height);
+    u3(pb, "u_cam", r->cam_pos);
+    u3(pb, "u_box_lo", p->lo);
+    u3(pb, "u_box_size", p->size);
 }
 
-/* Fills the slice polygons of the plan into the vertex buffer. */
-static sq_result build_slices(sq_renderer *r, vol_plan *p)
+/* The density the passes sample: the uploaded one, or with render.volume_noise its
+ * noise-perturbed bake for this frame's noise offset (computed once per frame). */
+static GLuint shading_density(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
     sq__volume_pass *vp = r->volume;
-    if (p->n > vp->plane_cap) p->n = vp->plane_cap; /* K + 64 planes; cannot be exceeded */
-    const float grow = VOL_MARGIN_SPACINGS * p->spacing;
-    const sq_vec3 glo = sq_v3_sub(p->lo, sq_v3(grow, grow, grow));
-    const sq_vec3 ghi = sq_v3_add(p->hi, sq_v3(grow, grow, grow));
-    int nv = 0;
-    for (int k = 0; k < p->n; k++) {
-        sq_vec3 poly[6];
-        const int m = plane_box_polygon(glo, ghi, p->s, p->d_first + (float)k * p->spacing, poly);
-        vp->first[k] = nv;
-        vp->count[k] = m;
-        for (int i = 0; i < m; i++) {
-            vp->verts[3 * nv + 0] = poly[i].x;
-            vp->verts[3 * nv + 1] = poly[i].y;
-            vp->verts[3 * nv + 2] = poly[i].z;
-            nv++;
-        }
+    if (!r->desc.volume_noise) return vp->density_tex;
+    if (vp->baked_valid && vp->baked_data == v->density && vp->baked_version == v->version &&
+        memcmp(vp->baked_offset, p->noise_offset, sizeof vp->baked_offset) == 0)
+        return vp->baked_tex;
+    if (!vp->baked_tex) {
+        glCreateTextures(GL_TEXTURE_3D, 1, &vp->baked_tex);
+        glTextureStorage3D(vp->baked_tex, 1, GL_R32F, v->nx, v->ny, v->nz);
+        set_linear_clamp(vp->baked_tex);
     }
-    glNamedBufferSubData(vp->vbo_slices, 0, (GLsizeiptr)(sizeof(float) * 3 * (size_t)nv),
-                         vp->verts);
-    return SQ_OK;
+    const GLuint prog = vp->prog_bake;
+    glProgramUniform3i(prog, glGetUniformLocation(prog, "u_dims"), v->nx, v->ny, v->nz);
+    u1f(prog, "u_noise_amp", VOL_NOISE_AMP_VOXELS);
+    u1f(prog, "u_noise_freq", VOL_NOISE_FREQ / (float)VOL_NOISE_N);
+    u3a(prog, "u_noise_offset", p->noise_offset);
+    glBindTextureUnit(0, vp->density_tex);
+    glBindTextureUnit(5, vp->noise_tex);
+    glBindImageTexture(0, vp->baked_tex, 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
+    glUseProgram(prog);
+    glDispatchCompute((GLuint)(v->nx + 7) / 8, (GLuint)(v->ny + 7) / 8, (GLuint)v->nz);
+    glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    glBindImageTexture(0, 0, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+    vp->baked_valid = true;
+    vp->baked_data = v->density;
+    vp->baked_version = v->version;
+    memcpy(vp->baked_offset, p->noise_offset, sizeof vp->baked_offset);
+    return vp->baked_tex;
 }
 
 /* True if slab k overlaps the box along s (otherwise the light pass would copy). */
@@ -704,40 +822,153 @@ static bool slab_in_box(const vol_plan *p, int k)
     return d + 0.5f * p->spacing > p->smin && d - 0.5f * p->spacing < p->smax;
 }
 
-static void light_step(sq__volume_pass *vp, const vol_plan *p, int k, int *cur)
+static int chunk_first(const sq__volume_pass *vp, int c) { return c * vp->chunk_len; }
+static int chunk_end(const sq__volume_pass *vp, const vol_plan *p, int c)
 {
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->light_fbo[1 - *cur]);
-    glViewport(0, 0, vp->light_size, vp->light_size);
-    glUseProgram(vp->prog_light);
-    glProgramUniform1f(vp->prog_light, vp->loc_plane, p->d_first + (float)k * p->spacing);
-    glBindTextureUnit(1, vp->light_tex[*cur]);
-    glBindVertexArray(vp->vao_empty);
+    const int e = (c + 1) * vp->chunk_len;
+    return e < p->n ? e : p->n;
+}
+
+/* Layer of the light arriving at every plane: chunk c starts from checkpoint layer c, and each
+ * in-box slab of the chunk writes the next working layer (from layer `chunks` on). Returns the
+ * largest number of working layers one chunk uses. */
+static int assign_slots(sq__volume_pass *vp, const vol_plan *p)
+{
+    int most = 0;
+    for (int c = 0; c < vp->chunks; c++) {
+        int src = c, steps = 0;
+        for (int k = chunk_first(vp, c); k < chunk_end(vp, p, c); k++) {
+            vp->slot[k] = src;
+            if (slab_in_box(p, k)) src = vp->chunks + steps++;
+        }
+        if (steps > most) most = steps;
+    }
+    return most;
+}
+
+static int count_steps(const vol_plan *p)
+{
+    int s = 0;
+    for (int k = 0; k < p->n; k++) s += slab_in_box(p, k) ? 1 : 0;
+    return s;
+}
+
+/* One light pass: the light of layer src carried across slab k into layer dst. */
+static void light_step(sq__volume_pass *vp, const vol_plan *p, int k, int src, int dst)
+{
+    const int m = vp->light_mode;
+    glNamedFramebufferTextureLayer(vp->light_fbo, GL_COLOR_ATTACHMENT0, vp->light_arr, 0, dst);
+    glProgramUniform1f(vp->prog_light[m], vp->loc_plane[m], p->d_first + (float)k * p->spacing);
+    glProgramUniform1i(vp->prog_light[m], vp->loc_src[m], src);
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    *cur = 1 - *cur;
+    glTextureBarrier(); /* the next pass reads the layer this one wrote */
 }
 
-static void bind_volume_textures(sq__volume_pass *vp)
+/* Runs the light passes of chunk c from its checkpoint (program, textures, FBO and viewport
+ * bound by the caller). With store_next, the light after the chunk becomes checkpoint c + 1.
+ * Returns the layer holding the light after the chunk. */
+static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store_next)
 {
-    glBindTextureUnit(0, vp->density_tex);
-    glBindTextureUnit(5, vp->noise_tex);
+    int src = c, steps = 0;
+    for (int k = chunk_first(vp, c); k < chunk_end(vp, p, c); k++) {
+        if (!slab_in_box(p, k)) continue;
+        const int dst = vp->chunks + steps++;
+        light_step(vp, p, k, src, dst);
+        src = dst;
+    }
+    if (store_next && c + 1 < vp->chunks) {
+        const int n = vp->light_size;
+        glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, src, vp->light_arr,
+                           GL_TEXTURE_2D_ARRAY, 0, 0, 0, c + 1, n, n, 1);
+    }
+    vp->resident = c;
+    return src;
 }
 
-static void clear_light(sq__volume_pass *vp)
+static void bind_light_pass(sq__volume_pass *vp, GLuint density)
 {
-    const float one[4] = {1.0f, 1.0f, 1.0f, 1.0f};
-    glClearNamedFramebufferfv(vp->light_fbo[0], GL_COLOR, 0, one);
-    glClearNamedFramebufferfv(vp->light_fbo[1], GL_COLOR, 0, one);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->light_fbo);
+    glViewport(0, 0, vp->light_size, vp->light_size);
+    glUseProgram(vp->prog_light[vp->light_mode]);
+    glBindVertexArray(vp->vao_empty);
+    glBindTextureUnit(0, density);
+    glBindTextureUnit(1, vp->light_arr);
 }
 
-/* Leaves the light buffer `cur` in the shadow texture for the opaque and particle passes. */
-static void publish_shadow(sq_renderer *r, const vol_plan *p, int cur)
+static vol_key make_key(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
+{
+    vol_key k;
+    memset(&k, 0, sizeof k); /* padding too: keys are compared with memcmp */
+    k.plan = *p;
+    k.data = v->density;
+    k.version = v->version;
+    k.nx = v->nx;
+    k.ny = v->ny;
+    k.nz = v->nz;
+    memcpy(k.sigma_ext, v->sigma_ext, sizeof k.sigma_ext);
+    memcpy(k.albedo, v->albedo, sizeof k.albedo);
+    k.light_size = r->volume->light_size;
+    k.noise = r->desc.volume_noise;
+    k.multiple = !r->desc.single_scatter_only;
+    return k;
+}
+
+/* All light passes of the plan, once (SPEC 3.4 step 4b): every plane's incoming light ends up
+ * in the light array (or, chunked, its chunk's checkpoint), the last one in the shadow
+ * texture published for the opaque and particle passes. */
+static sq_result sweep_light(sq_renderer *r, const sq_volume_view *v, const vol_plan *p,
+                             GLuint density)
 {
     sq__volume_pass *vp = r->volume;
+    vp->key_valid = false;
+    sq_result res = ensure_light_layers(r, vp, p->n, count_steps(p));
+    if (res != SQ_OK) return res;
+    assign_slots(vp, p);
+    if ((res = set_light_uniforms(r, v, p)) != SQ_OK) return res;
+    bind_light_pass(vp, density);
+    int last = 0;
+    for (int c = 0; c < vp->chunks; c++) last = sweep_chunk(vp, p, c, true);
     const int n = vp->light_size;
-    glCopyImageSubData(vp->light_tex[cur], GL_TEXTURE_2D, 0, 0, 0, 0, vp->shadow_tex,
+    glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, last, vp->shadow_tex,
                        GL_TEXTURE_2D, 0, 0, 0, 0, n, n, 1);
     r->sun_shadow_tex = vp->shadow_tex;
     r->sun_shadow_matrix = p->light_matrix;
+    vp->key = make_key(r, v, p);
+    vp->key_valid = true;
+    return sq__gl_check(r->ctx, "volume light passes");
+}
+
+/* Fills the slice polygons as triangles, back to front for the eye, each vertex carrying its
+ * plane's light layer; returns the vertex count. */
+static int build_slices(sq_renderer *r, const vol_plan *p)
+{
+    sq__volume_pass *vp = r->volume;
+    const float grow = VOL_MARGIN_SPACINGS * p->spacing;
+    const sq_vec3 glo = sq_v3_sub(p->lo, sq_v3(grow, grow, grow));
+    const sq_vec3 ghi = sq_v3_add(p->hi, sq_v3(grow, grow, grow));
+    int nv = 0;
+    for (int i = 0; i < p->n; i++) {
+        /* increasing d is front to back when the light comes from behind the viewer */
+        const int k = p->front_to_back ? p->n - 1 - i : i;
+        sq_vec3 poly[6];
+        const int m = plane_box_polygon(glo, ghi, p->s, p->d_first + (float)k * p->spacing, poly);
+        vp->vfirst[k] = nv;
+        vp->vcount[k] = m >= 3 ? 3 * (m - 2) : 0;
+        const float layer = (float)vp->slot[k];
+        for (int t = 1; t + 1 < m; t++) {
+            const sq_vec3 tri[3] = {poly[0], poly[t], poly[t + 1]};
+            for (int c = 0; c < 3; c++) {
+                float *o = vp->verts + VOL_VERT_FLOATS * (size_t)nv++;
+                o[0] = tri[c].x;
+                o[1] = tri[c].y;
+                o[2] = tri[c].z;
+                o[3] = layer;
+            }
+        }
+    }
+    glNamedBufferSubData(vp->vbo_slices, 0,
+                         (GLsizeiptr)(sizeof(float) * VOL_VERT_FLOATS * (size_t)nv), vp->verts);
+    return nv;
 }
 
 static sq_result prepare(sq_renderer *r, const sq_volume_view *v, vol_plan *p)
@@ -750,6 +981,7 @@ static sq_result prepare(sq_renderer *r, const sq_volume_view *v, vol_plan *p)
     if (res == SQ_OK) res = upload_density(r, v);
     if (res != SQ_OK) return res;
     make_plan(r, v, p);
+    if (p->n > r->volume->plane_cap) p->n = r->volume->plane_cap; /* K + 64; not reached */
     return SQ_OK;
 }
 
@@ -758,19 +990,13 @@ sq_result sq__volume_pass_prepare_shadow(sq_renderer *r, const sq_volume_view *v
     vol_plan p;
     sq_result res = prepare(r, v, &p);
     if (res != SQ_OK) return res;
-    sq__volume_pass *vp = r->volume;
     gl_saved saved;
     state_save(&saved);
     state_set_plain();
-    set_light_uniforms(r, v, &p);
-    bind_volume_textures(vp);
-    clear_light(vp);
-    int cur = 0;
-    for (int k = 0; k < p.n; k++)
-        if (slab_in_box(&p, k)) light_step(vp, &p, k, &cur);
-    publish_shadow(r, &p, cur);
+    const GLuint density = shading_density(r, v, &p);
+    res = sweep_light(r, v, &p, density);
     state_restore(&saved);
-    return sq__gl_check(r->ctx, "volume light passes");
+    return res;
 }
 
 sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
@@ -782,14 +1008,26 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     res = ensure_eye_buffers(r, vp);
     if (res == SQ_OK) res = ensure_comp_fbo(r, vp);
     if (res != SQ_OK) return res;
-    build_slices(r, &p);
 
     gl_saved saved;
     state_save(&saved);
     state_set_plain();
-    set_light_uniforms(r, v, &p);
+    const GLuint density = shading_density(r, v, &p);
+    /* the light of this plan is normally left by prepare_shadow; another volume drawn in
+     * between (or a draw without it) needs the sweep again */
+    const vol_key key = make_key(r, v, &p);
+    if (!vp->key_valid || memcmp(&key, &vp->key, sizeof key) != 0)
+        res = sweep_light(r, v, &p, density);
+    if (res != SQ_OK) {
+        state_restore(&saved);
+        return res;
+    }
+    build_slices(r, &p);
+    if ((res = set_light_uniforms(r, v, &p)) != SQ_OK) {
+        state_restore(&saved);
+        return res;
+    }
     set_eye_uniforms(r, v, &p);
-    bind_volume_textures(vp);
 
     /* per-pixel ray interval the volume may fill (box, camera, opaque depth) */
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->bounds_fbo);
@@ -799,40 +1037,41 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     glBindVertexArray(vp->vao_empty);
     glDrawArrays(GL_TRIANGLES, 0, 3);
 
-    glBindTextureUnit(2, vp->bounds_tex);
-    glBindTextureUnit(3, vp->eye_c);
-    glBindTextureUnit(4, vp->eye_t);
-    clear_light(vp);
-    const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f}, one[4] = {1.0f, 1.0f, 1.0f, 1.0f};
-    glClearNamedFramebufferfv(vp->eye_fbo, GL_COLOR, 0, zero);
-    glClearNamedFramebufferfv(vp->eye_fbo, GL_COLOR, 1, one);
-    glTextureBarrier();
+    /* the scene into the float accumulation buffer */
+    glBlitNamedFramebuffer(vp->comp_fbo, vp->acc_fbo, 0, 0, r->width, r->height, 0, 0, r->width,
+                           r->height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
 
-    int cur = 0;
-    for (int k = 0; k < p.n; k++) {
-        if (vp->count[k] >= 3) { /* eye pass of slice k with the light arriving at it */
-            glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->eye_fbo);
-            glViewport(0, 0, r->width, r->height);
-            glUseProgram(vp->prog_eye);
-            glBindTextureUnit(1, vp->light_tex[cur]);
-            glBindVertexArray(vp->vao_slices);
-            glDrawArrays(GL_TRIANGLE_FAN, vp->first[k], vp->count[k]);
-            glTextureBarrier(); /* the next slice reads what this one wrote */
+    /* slices back to front, chunk by chunk (one chunk unless the light array is chunked) */
+    for (int i = 0; i < vp->chunks; i++) {
+        const int c = p.front_to_back ? vp->chunks - 1 - i : i;
+        if (vp->resident != c) {
+            state_set_plain();
+            bind_light_pass(vp, density);
+            sweep_chunk(vp, &p, c, false);
         }
-        if (slab_in_box(&p, k)) light_step(vp, &p, k, &cur);
+        int first = vp->vfirst[chunk_first(vp, c)], last = first;
+        for (int k = chunk_first(vp, c); k < chunk_end(vp, &p, c); k++) {
+            if (vp->vfirst[k] < first) first = vp->vfirst[k];
+            if (vp->vfirst[k] + vp->vcount[k] > last) last = vp->vfirst[k] + vp->vcount[k];
+        }
+        if (last <= first) continue;
+        glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->acc_fbo);
+        glViewport(0, 0, r->width, r->height);
+        glUseProgram(vp->prog_eye);
+        glBindVertexArray(vp->vao_slices);
+        glBindTextureUnit(0, density);
+        glBindTextureUnit(1, vp->light_arr);
+        glBindTextureUnit(2, vp->bounds_tex);
+        glEnable(GL_BLEND);
+        glBlendEquation(GL_FUNC_ADD);
+        glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
+        glDrawArrays(GL_TRIANGLES, first, last - first);
     }
-    publish_shadow(r, &p, cur);
-
-    /* composite: hdr = C + T hdr per channel */
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->comp_fbo);
-    glViewport(0, 0, r->width, r->height);
-    glUseProgram(vp->prog_comp);
-    glBindVertexArray(vp->vao_empty);
-    glEnable(GL_BLEND);
-    glBlendEquation(GL_FUNC_ADD);
-    glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
     glDisable(GL_BLEND);
+
+    /* back into the HDR target */
+    glBlitNamedFramebuffer(vp->acc_fbo, vp->comp_fbo, 0, 0, r->width, r->height, 0, 0, r->width,
+                           r->height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
     state_restore(&saved);
     return sq__gl_check(r->ctx, "volume pass (half-angle slicing)");
 }

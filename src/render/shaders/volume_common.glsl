@@ -1,8 +1,9 @@
 // volume_common.glsl — shared by the volume pass shaders (#include "volume_common.glsl"):
 // ray/box intersection, Henyey–Greenstein phase with an optional second lobe (SPEC 2.6;
-// cos theta between PROPAGATION directions, g > 0 forward), the density lookup with the
-// noise perturbation of texture coordinates (S0 Fig 3.12), and the slab clipping used to
-// make every slice stand for exactly the part of its slab that lies inside the box.
+// cos theta between PROPAGATION directions, g > 0 forward), the density lookup, and the slab
+// clipping used to make every slice stand for exactly the part of its slab that lies inside
+// the box. The noise perturbation of texture coordinates (S0 Fig 3.12) is baked into the
+// density texture once per frame (volume_bake.comp), so the passes read one texture.
 
 const float VOL_PI = 3.14159265358979;
 
@@ -31,18 +32,11 @@ vec3 vol_phase(float cos_theta, vec3 g, vec2 g2w2)
 }
 
 // Density at world point p (clamped into the box; the texture clamps to its edge texels).
-// With noise on, texture coordinates are displaced by a smooth random vector field of
-// amplitude noise_amp voxels (two octaves of tileable value noise from a 32^3 texture).
-float vol_density(sampler3D dens, sampler3D noise, vec3 p, vec3 lo, vec3 size, vec3 dims,
-                  bool use_noise, float noise_amp, float noise_freq, vec3 noise_offset)
+// Explicit LOD 0: the textures have one level, and llvmpipe skips the LOD computation.
+float vol_density(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 {
     vec3 tc = (clamp(p, lo, lo + size) - lo) / size;
-    if (use_noise) {
-        vec3 q = tc * dims * noise_freq + noise_offset;
-        vec3 n = texture(noise, q).xyz * 0.65 + texture(noise, 2.03 * q + 0.37).xyz * 0.35;
-        tc += (n * 2.0 - 1.0) * noise_amp / dims;
-    }
-    return max(texture(dens, tc).r, 0.0);
+    return max(textureLod(dens, tc, 0.0).r, 0.0);
 }
 
 // Length of the slab [c - h, c + h] that lies inside [a, b] (0 if none).

@@ -2,29 +2,28 @@
 // volume_eye.frag — eye pass of half-angle slicing (SPEC 3.4 step 4a, eq. 3.22 with its Δx):
 // one fragment of slice k stands for the slab of the view ray between the neighbouring
 // slices, clipped to the volume box, to the camera and to the opaque scene depth (so terrain
-// hides dust behind it; the per-pixel bounds come from volume_bounds.frag). Over that length Δ the slab has transmittance T = exp(-β_ext Δ) per
-// channel and emits the exact integral of a constant source: a J (1 - T), with a the albedo
-// and J = E_sun L_k p(θ) + J_amb the phase-weighted radiance falling on it (L_k from the light
-// buffer, carried to the fragment through half of its own light slab). For thin slabs this is
-// L β_sca p Δs_eye of (3.22). The eye buffers hold the running colour C and per-channel
-// transmittance T_acc; each slice reads and rewrites its own pixel (glTextureBarrier between
-// slices): front-to-back C += T_acc C_i, back-to-front C = C_i + T_i C (eq. 3.1 and mirror).
+// hides dust behind it; the per-pixel bounds come from volume_bounds.frag). Over that length
+// Δ the slab has transmittance T = exp(-β_ext Δ) per channel and emits the exact integral of
+// a constant source: a J (1 - T), with a the albedo and J = E_sun L_k p(θ) + J_amb the
+// phase-weighted radiance falling on it (L_k from layer k of the light array, carried to the
+// fragment through half of its own light slab). For thin slabs this is L β_sca p Δs_eye of
+// (3.22). The slices are drawn back to front (the light array holds every slice's light, so
+// the eye order need not follow the light order) and composited by dual-source blending
+// ONE, SRC1_COLOR: C = C_i + T C per channel (eq. 3.1, "over" with per-channel extinction),
+// into a float copy of the HDR scene.
 #include "volume_common.glsl"
 
 in vec3 v_world;
+flat in float v_layer;
 
 layout(binding = 0) uniform sampler3D u_density;
-layout(binding = 1) uniform sampler2D u_light;   // light buffer before this slice (ratio to E_sun)
-layout(binding = 2) uniform sampler2D u_bounds;  // per pixel: ray interval the volume may fill
-layout(binding = 3) uniform sampler2D u_eye_c;   // running colour
-layout(binding = 4) uniform sampler2D u_eye_t;   // running transmittance
-layout(binding = 5) uniform sampler3D u_noise;
+layout(binding = 1) uniform sampler2DArray u_light; // per slice: light arriving (ratio to E_sun)
+layout(binding = 2) uniform sampler2D u_bounds;     // per pixel: ray interval the volume may fill
 
 uniform vec3 u_cam;
 uniform vec3 u_cam_forward;    // camera view direction
 uniform float u_near;          // near plane distance (m)
 uniform vec3 u_box_lo, u_box_size;
-uniform vec3 u_dims;           // nx, ny, nz
 uniform vec3 u_s;              // slice axis (unit)
 uniform float u_spacing;       // slice spacing along s (m)
 uniform vec3 u_wl;             // light propagation direction (unit)
@@ -34,13 +33,9 @@ uniform vec3 u_sigma_ext, u_albedo, u_g;
 uniform vec2 u_g2w2;
 uniform vec3 u_sun_radiance, u_sun_dir; // sun irradiance E; unit vector TOWARD the sun
 uniform vec3 u_ambient;        // phase-averaged sky + ground radiance J_amb
-uniform int u_front_to_back;
-uniform int u_use_noise;
-uniform float u_noise_amp, u_noise_freq;
-uniform vec3 u_noise_offset;
 
-layout(location = 0) out vec4 o_c;
-layout(location = 1) out vec4 o_t;
+layout(location = 0, index = 0) out vec4 o_color;
+layout(location = 0, index = 1) out vec4 o_trans;
 
 void main()
 {
@@ -58,28 +53,19 @@ void main()
     float len = min(t + 0.5 * dt, bounds.y) - lo;
     if (len <= 0.0) discard;
 
-    float rho = vol_density(u_density, u_noise, v_world, u_box_lo, u_box_size, u_dims,
-                            u_use_noise != 0, u_noise_amp, u_noise_freq, u_noise_offset);
-    if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the eye buffers as they are)
+    float rho = vol_density(u_density, v_world, u_box_lo, u_box_size);
+    if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the target as it is)
     vec3 beta = rho * u_sigma_ext;
     vec3 T = exp(-beta * len);
 
-    // sun light reaching this point: light buffer before the slice, then half a light slab
-    vec3 uvw = (u_light_matrix * vec4(v_world, 1.0)).xyz;
-    vec3 L = texture(u_light, uvw.xy).rgb;
+    // sun light reaching this point: the light arriving at the slice, then half a light slab
+    vec2 uv = (u_light_matrix * vec4(v_world, 1.0)).xy;
+    vec3 L = textureLod(u_light, vec3(uv, v_layer), 0.0).rgb;
     vec2 lb = vol_box_interval(v_world, -u_wl, u_box_lo, u_box_lo + u_box_size);
     float back = lb.x <= lb.y ? clamp(lb.y, 0.0, 0.5 * u_dlambda) : 0.0;
     L *= exp(-beta * back);
     float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
     vec3 J = u_sun_radiance * L * vol_phase(cos_theta, u_g, u_g2w2) + u_ambient;
-    vec3 Ci = u_albedo * J * (1.0 - T);
-
-    vec3 C = texelFetch(u_eye_c, px, 0).rgb;
-    vec3 Ta = texelFetch(u_eye_t, px, 0).rgb;
-    if (u_front_to_back != 0)
-        C = C + Ta * Ci;
-    else
-        C = Ci + T * C;
-    o_c = vec4(C, 1.0);
-    o_t = vec4(Ta * T, 1.0);
+    o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
+    o_trans = vec4(T, 1.0);
 }
