@@ -236,17 +236,14 @@ static bool any_periodic(const sq_grid *g)
 static float *org(const sq__mg_level *L, float *base) { return base + lidx(L, 0, 0, 0); }
 
 /* ---- level 0 (byte links) ---------------------------------------------------------------------- */
-static inline float nbsum0(const float *x, ptrdiff_t c, unsigned m, ptrdiff_t sy, ptrdiff_t sz)
+/* Sum of the 6 neighbours. Level-0 vectors are kept zero in solid cells and in the ghost cells
+ * of non-periodic faces (the smoother writes 0 into solid cells, the work vectors start zeroed,
+ * the pressure's ghosts are cleared before each solve and refilled after it; periodic ghosts
+ * are copies), so the closed links (coefficient 0: solids, walls) and the links to p = 0 faces
+ * (coefficient 2, counted in the diagonal only) contribute 0 without a mask. */
+static inline float nbsum0(const float *x, ptrdiff_t c, ptrdiff_t sy, ptrdiff_t sz)
 {
-    /* every neighbour is loaded (the arrays are padded) and selected by mask: vectorisable */
-    float s = 0.0f;
-    s += sq__fsel(m & 1u, x[c - 1], 0.0f);
-    s += sq__fsel(m & 2u, x[c + 1], 0.0f);
-    s += sq__fsel(m & 4u, x[c - sy], 0.0f);
-    s += sq__fsel(m & 8u, x[c + sy], 0.0f);
-    s += sq__fsel(m & 16u, x[c - sz], 0.0f);
-    s += sq__fsel(m & 32u, x[c + sz], 0.0f);
-    return s;
+    return ((x[c - 1] + x[c + 1]) + (x[c - sy] + x[c + sy])) + (x[c - sz] + x[c + sz]);
 }
 
 /* 1 / diag (0 for a solid cell), the same value as inv_lut[d] */
@@ -267,25 +264,33 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     double *ps = g->plane_sum;
     (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double acc = 0.0;
+        float t[ROW];
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             const int par = (j + k + colour) & 1; /* cells with (i & 1) == par are updated */
-            /* stride-2 loops: with the mask selects and no table lookup GCC vectorises them
-             * (even/odd lanes by permutation) */
-            if (from_zero) {
-                for (int i = par; i < nx; i += 2)
-                    x[r0 + i] = inv_diag0(dg[r0 + i]) * b[r0 + i];
-            } else {
-                for (int i = par; i < nx; i += 2) {
-                    const ptrdiff_t c = r0 + i;
-                    x[c] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, lk[c], sy, sz));
+            /* every cell of the row is computed (contiguous, vectorised) and this colour's
+             * cells are kept: the other colour's values are what this colour reads */
+            for (int i0 = 0; i0 < nx; i0 += ROW) {
+                const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                const ptrdiff_t c0 = r0 + i0;
+                float *xr = x + c0;
+                if (from_zero) {
+                    for (int q = 0; q < n; q++)
+                        xr[q] = sq__fsel(((i0 + q) & 1) == par, inv_diag0(dg[c0 + q]) * b[c0 + q],
+                                         xr[q]);
+                } else {
+                    for (int q = 0; q < n; q++) {
+                        const ptrdiff_t c = c0 + q;
+                        t[q] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, sy, sz));
+                    }
+                    for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
                 }
             }
             if (dot) acc += (double)sq__dotf(b + r0, x + r0, nx); /* b = 0 in solid cells */
@@ -306,7 +311,7 @@ static double apply0(sq_grid *g, const float *x, float *out)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -316,7 +321,7 @@ static double apply0(sq_grid *g, const float *x, float *out)
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
             for (int i = 0; i < nx; i++) {
                 const ptrdiff_t c = r0 + i;
-                const float a = (float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz);
+                const float a = (float)dg[c] * x[c] - nbsum0(x, c, sy, sz);
                 out[c] = sq__fsel(dg[c] != 0, a, 0.0f);
             }
             acc += (double)sq__dotf(out + r0, x + r0, nx); /* out = 0 in solid cells */
@@ -331,7 +336,7 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
 {
     sq__mg_level *C = &g->mg[1];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -350,7 +355,7 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
                     const int n = nx - i0 < ROW ? nx - i0 : ROW;
                     for (int q = 0; q < n; q++) {
                         const ptrdiff_t c = r0 + i0 + q;
-                        const float r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, lk[c], sy, sz));
+                        const float r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, sy, sz));
                         t[q] = sq__fsel(dg[c] != 0, r, 0.0f);
                     }
                     if (shx) { /* ROW is even: pairs never straddle chunks */
@@ -620,7 +625,7 @@ static void rhs_and_residual(sq_grid *g, const float *phi, float *b, float *r, d
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const sq_field3 *U = &g->vel[0], *V = &g->vel[1], *W = &g->vel[2];
     const float h = g->h;
     const int nt = sq_context_threads(g->ctx);
@@ -642,7 +647,7 @@ static void rhs_and_residual(sq_grid *g, const float *phi, float *b, float *r, d
                     const bool fluid = dg[c] != 0;
                     const float bv =
                         sq__fsel(fluid, -h * (u[i + 1] - u[i] + v1[i] - v0[i] + w1[i] - w0[i]), 0.0f);
-                    const float rv = bv - ((float)dg[c] * phi[c] - nbsum0(phi, c, lk[c], sy, sz));
+                    const float rv = bv - ((float)dg[c] * phi[c] - nbsum0(phi, c, sy, sz));
                     tb[q] = bv;
                     r[c] = sq__fsel(fluid, rv, 0.0f);
                 }
@@ -662,7 +667,7 @@ static double residual_norm2(sq_grid *g, const float *phi, const float *b)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -674,7 +679,7 @@ static double residual_norm2(sq_grid *g, const float *phi, const float *b)
             for (int i = 0; i < nx; i++) {
                 const ptrdiff_t c = r0 + i;
                 if (!dg[c]) continue;
-                float rv = b[c] - ((float)dg[c] * phi[c] - nbsum0(phi, c, lk[c], sy, sz));
+                float rv = b[c] - ((float)dg[c] * phi[c] - nbsum0(phi, c, sy, sz));
                 racc += rv * rv;
             }
             acc += (double)racc;
@@ -682,6 +687,22 @@ static double residual_norm2(sq_grid *g, const float *phi, const float *b)
         ps[4 * k] = acc;
     }
     return sq__grid_sum_planes(g, 0);
+}
+
+/* Clears the ghost layer of a level-0 array on every non-periodic face (see nbsum0). */
+static void zero_ghosts(sq_grid *g, float *o)
+{
+    const ptrdiff_t st[3] = {1, g->sy, g->sz};
+    for (int a = 0; a < 3; a++) {
+        if (g->periodic[a]) continue;
+        const int ta = a == 0 ? 1 : 0, tb = a == 2 ? 1 : 2;
+        for (int side = 0; side < 2; side++) {
+            const ptrdiff_t gi = (ptrdiff_t)(side ? g->n[a] : -1) * st[a];
+            for (int q = -1; q <= g->n[tb]; q++)
+                for (int p = -1; p <= g->n[ta]; p++)
+                    o[gi + (ptrdiff_t)p * st[ta] + (ptrdiff_t)q * st[tb]] = 0.0f;
+        }
+    }
 }
 
 /* phi ghosts: p = 0 on outflow/open faces (ghost = -interior), periodic copies, else mirror. */
@@ -867,7 +888,7 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
     }
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *lk = g->links, *dg = g->diag;
+    const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
     memcpy(tmp, phi, g->cell_count * sizeof(float));
     float *src = phi, *dst = tmp;
@@ -878,7 +899,7 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < nx; i++) {
                     const ptrdiff_t c = r0 + i;
-                    dst[c] = inv_lut[dg[c]] * (b[c] + nbsum0(src, c, lk[c], sy, sz));
+                    dst[c] = inv_lut[dg[c]] * (b[c] + nbsum0(src, c, sy, sz));
                 }
             }
         if (any_periodic(g)) exchange(g, dst + sq__cidx(g, 0, 0, 0), g->n, sy, sz);
@@ -913,6 +934,7 @@ sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
         for (int k = 0; k < planes; k++)
             for (ptrdiff_t c = k * sz; c < (k + 1) * sz; c++) phi[c] *= dt;
     }
+    zero_ghosts(g, g->p.origin);
     if (any_periodic(g)) exchange(g, g->p.origin, g->n, g->sy, g->sz);
     switch (g->d.pressure) {
     case SQ_PRESSURE_JACOBI: solve_jacobi(g, phi, st); break;
