@@ -1,0 +1,507 @@
+/* test_avalanche.c — the snow avalanche phenomenon (SPEC §7): the release slab's particle count
+ * against its volume, bad input (messages name the key, value and rule; a release too large for
+ * the memory limit is refused before anything is allocated), mass conservation and the terrain
+ * and obstacle colliders, a slab that flows downhill and comes to rest on the run-out with the
+ * Coulomb bound on the centre-of-mass α angle, the deposit map integrating to the released
+ * volume, S2's claim that the Cross rheology does not splash like water (at S2's scale), blow-up
+ * as SQ_ERR_UNSTABLE, sub-stepping logged once, and the plug-in's metrics, fields and drawables. */
+#include "sq_test.h"
+#include "phen/avalanche/avalanche_internal.h"
+#include "squall/avalanche.h"
+#include "squall/plugin.h"
+#include "squall/sph.h"
+
+SQ_LABEL(physics)
+
+static sq_context *mkctx(void)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc d = {.threads = 1};
+    sq_context_create(&d, &ctx);
+    return ctx;
+}
+
+/* The mountain terrain scaled to length L (m): a 35° slope from x = -L/2 down to the toe at
+ * x = 0.05 L, smoothed over ±0.1 L, then a flat plain; width 0.3 L; samples every L/160 m.
+ * relief_m tiny: a planar slope without ridges or gully. */
+static sq_world *slope_world(sq_context *ctx, float L, float relief)
+{
+    sq_world_desc wd = {0};
+    wd.terrain.kind = SQ_TERRAIN_MOUNTAIN;
+    wd.terrain.size_m[0] = L;
+    wd.terrain.size_m[1] = 0.3f * L;
+    wd.terrain.resolution[0] = 161;
+    wd.terrain.resolution[1] = 49;
+    wd.terrain.relief_m = relief;
+    wd.terrain.feature_m = L;
+    wd.terrain.slope_deg = 35.0f;
+    wd.terrain.seed = 3;
+    sq_world *w = NULL;
+    sq_world_create(ctx, &wd, &w);
+    return w;
+}
+
+/* A slab 14 m above the plain on the 160 m slope world (release centre x = -12 m). */
+static sq_avalanche_desc slab_desc(void)
+{
+    sq_avalanche_desc d = {0};
+    d.spacing_m = 0.5;
+    d.release_x_m = -12.0;
+    d.release_y_m = 0.0;
+    d.release_length_m = 8.0;
+    d.release_width_m = 8.0;
+    d.release_depth_m = 1.5;
+    return d;
+}
+
+SQ_TEST(release_count_follows_volume)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    SQ_CHECK(w != NULL);
+    sq_avalanche_desc d = slab_desc();
+    d.release_x_m = -30.0; /* mid-slope: planar at 35° */
+    d.release_length_m = 10.0;
+    double vol = 0.0;
+    const double v_exact = 10.0 * 8.0 * 1.5 / cos(35.0 * SQ_PI / 180.0);
+    for (int k = 0; k < 2; k++) {
+        d.spacing_m = k ? 0.25 : 0.5;
+        size_t n = sq_avalanche_release_count(&d, w, &vol);
+        SQ_CHECK_REL(vol, v_exact, 1e-3);
+        const double dx3 = d.spacing_m * d.spacing_m * d.spacing_m;
+        SQ_CHECK_REL((double)n * dx3, v_exact, 0.02);
+        fprintf(stderr, "dx = %g m: %zu particles, N dx^3 = %.2f m3, V = %.2f m3 (exact %.2f)\n",
+                d.spacing_m, n, (double)n * dx3, vol, v_exact);
+    }
+    /* the created avalanche holds exactly the planned particles, each dx/2 from the slope */
+    d.spacing_m = 0.5;
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    sq_avalanche_state st;
+    SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+    SQ_CHECK(st.particles == sq_avalanche_release_count(&d, w, NULL));
+    SQ_CHECK_REL(st.mass_kg, 300.0 * v_exact, 0.03);
+    size_t n = 0;
+    const float *p = sq_avalanche_positions(a, &n);
+    double dmin = 1e9;
+    for (size_t i = 0; i < n; i++) {
+        double h = sq_world_height_at(w, p[3 * i], p[3 * i + 1]);
+        double dn = (p[3 * i + 2] - h) * cos(35.0 * SQ_PI / 180.0);
+        dmin = dn < dmin ? dn : dmin;
+    }
+    SQ_CHECK_NEAR(dmin, 0.25, 0.01);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(bad_input_is_refused_with_messages)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche *a = NULL;
+    sq_avalanche_desc d = slab_desc();
+    d.spacing_m = -1.0;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "layers.avalanche.particles.spacing_m = -1; the particle spacing must be > 0");
+    d = slab_desc();
+    d.support_radius_m = -0.5;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "particles.support_radius_m = -0.5; the kernel support must be > 0");
+    d.support_radius_m = 0.3;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG, "must be 1.5 to 4 x the spacing");
+    d = slab_desc();
+    d.mu0_pa_s = 0.5; /* below mu_inf = 1 */
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "rheology.mu0_pa_s = 0.5 is below mu_inf_pa_s = 1");
+    d = slab_desc();
+    d.cross_n = -2.0;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "rheology.cross_n = -2; the Cross exponent must be > 0");
+    d = slab_desc();
+    d.rheology = SQ_AVALANCHE_RHEOLOGY_POWER_LAW;
+    d.power_n = -1.0;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG, "rheology.power_n = -1");
+    d = slab_desc();
+    d.rheology = 9;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG, "rheology.model = 9");
+    d = slab_desc();
+    d.release_x_m = 75.0; /* the terrain ends at x = 80 m; the slab reaches 79 + ... */
+    d.release_length_m = 20.0;
+    SQ_CHECK_ERR(sq_avalanche_create(ctx, &d, w, &a), SQ_ERR_INVALID_ARG, "lies outside the terrain");
+    SQ_CHECK(a == NULL);
+    d = slab_desc();
+    d.release_y_m = -30.0;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG, "lies outside the terrain");
+    d = slab_desc();
+    d.release_depth_m = 0.2; /* thinner than one particle */
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "smaller than one particle spacing");
+    d = slab_desc();
+    d.friction = -0.1;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG, "terrain.friction = -0.1");
+    d = slab_desc();
+    d.domain_min_m[0] = 0.0f; /* a box below the slab */
+    d.domain_min_m[1] = -20.0f;
+    d.domain_min_m[2] = -5.0f;
+    d.domain_max_m[0] = 50.0f;
+    d.domain_max_m[1] = 20.0f;
+    d.domain_max_m[2] = 30.0f;
+    SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
+                 "does not hold the release slab");
+    d = slab_desc();
+    SQ_CHECK_ERR(sq_avalanche_create(ctx, &d, NULL, &a), SQ_ERR_INVALID_ARG, "a world is required");
+    SQ_CHECK_OK(sq_avalanche_validate(ctx, &d, w));
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(too_many_particles_refused_before_allocating)
+{
+    sq_context *big = mkctx();
+    sq_world *w = slope_world(big, 160.0f, 1e-3f);
+    sq_context *small = NULL;
+    sq_context_desc cd = {.threads = 1, .memory_limit_bytes = 64u << 20};
+    sq_context_create(&cd, &small);
+    sq_avalanche_desc d = slab_desc();
+    d.spacing_m = 0.04; /* ~1.3 million particles */
+    size_t n = sq_avalanche_release_count(&d, w, NULL);
+    SQ_CHECK(n > 1000000);
+    uint64_t bytes = sq_avalanche_memory_bytes(&d, w);
+    SQ_CHECK(bytes > (uint64_t)n * 400u);
+    sq_avalanche *a = NULL;
+    char needle[64];
+    snprintf(needle, sizeof needle, "a release of %zu particles", n);
+    SQ_CHECK_ERR(sq_avalanche_create(small, &d, w, &a), SQ_ERR_TOO_LARGE, needle);
+    SQ_CHECK(strstr(sq_last_error(), "bytes") != NULL);
+    SQ_CHECK(a == NULL);
+    SQ_CHECK(sq_context_bytes_peak(small) == 0);
+    sq_context_destroy(small);
+    sq_world_destroy(big, w);
+    sq_context_destroy(big);
+}
+
+/* Mass conservation and the colliders: the particle count stays the release count, no particle
+ * ends up below the terrain surface (beyond a quarter spacing) or inside the box obstacle that
+ * stands in the flow's path. */
+SQ_TEST(mass_conserved_nothing_below_terrain_or_inside_obstacles)
+{
+    sq_context *ctx = mkctx();
+    sq_world_desc wd = {0};
+    wd.terrain.kind = SQ_TERRAIN_MOUNTAIN;
+    wd.terrain.size_m[0] = 160.0f;
+    wd.terrain.size_m[1] = 48.0f;
+    wd.terrain.resolution[0] = 161;
+    wd.terrain.resolution[1] = 49;
+    wd.terrain.relief_m = 2.0f; /* ridges and a gully */
+    wd.terrain.feature_m = 60.0f;
+    wd.terrain.slope_deg = 35.0f;
+    sq_obstacle box = {0};
+    box.kind = SQ_OBSTACLE_BOX;
+    box.center_m = sq_v3(-4.0f, 0.0f, NAN);
+    box.size_m = sq_v3(2.0f, 3.0f, 3.0f);
+    wd.obstacles = &box;
+    wd.obstacle_count = 1;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
+    sq_avalanche_desc d = slab_desc();
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    const sq_obstacle *o = &w->obstacles[0];
+    const size_t n0 = sq_avalanche_release_count(&d, w, NULL);
+    double worst_below = 0.0, worst_inside = 0.0;
+    int hit = 0;
+    for (int f = 0; f < 25; f++) {
+        SQ_CHECK_OK(sq_avalanche_step(a, 0.1));
+        sq_avalanche_state st;
+        SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+        SQ_CHECK(st.particles == n0);
+        SQ_CHECK(st.removed == 0);
+        worst_below = st.below_terrain_m > worst_below ? st.below_terrain_m : worst_below;
+        size_t n = 0;
+        const float *p = sq_avalanche_positions(a, &n);
+        for (size_t i = 0; i < n; i++) {
+            float dx = fabsf(p[3 * i] - o->center_m.x) - 0.5f * o->size_m.x;
+            float dy = fabsf(p[3 * i + 1] - o->center_m.y) - 0.5f * o->size_m.y;
+            float dz = p[3 * i + 2] - (o->center_m.z + o->size_m.z);
+            float depth = -(dx > dy ? (dx > dz ? dx : dz) : (dy > dz ? dy : dz));
+            if (dx < 0.5f && dy < 0.5f && dz < 0.5f) hit = 1; /* within a spacing: it touched */
+            if (depth > worst_inside) worst_inside = depth;
+        }
+    }
+    fprintf(stderr, "deepest below terrain %.3f m, inside the box %.3f m, box touched %d\n",
+            worst_below, worst_inside, hit);
+    SQ_CHECK(worst_below < 0.25 * d.spacing_m);
+    SQ_CHECK(worst_inside < 0.25 * d.spacing_m);
+    SQ_CHECK(hit);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* A slab released 14 m above the plain accelerates down the 35° slope and comes to rest on the
+ * run-out. Bound: with kinetic Coulomb friction mu at the base, the centre of mass cannot travel
+ * further than the sliding block's tan(alpha_cm) = mu (all other losses only shorten it). */
+SQ_TEST(slab_flows_downhill_and_stops_on_the_runout)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche_desc d = slab_desc();
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    size_t n = 0;
+    const float *p = sq_avalanche_positions(a, &n);
+    double c0[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) c0[k] += p[3 * i + k] / (double)n;
+    sq_avalanche_state st;
+    double t_stop = -1.0, v_peak = 0.0, vmean_peak = 0.0;
+    for (int f = 1; f <= 200 && t_stop < 0.0; f++) {
+        SQ_CHECK_OK(sq_avalanche_step(a, 0.1));
+        SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+        v_peak = st.max_speed_mps > v_peak ? st.max_speed_mps : v_peak;
+        vmean_peak = st.mean_speed_mps > vmean_peak ? st.mean_speed_mps : vmean_peak;
+        if (f == 20) {
+            SQ_CHECK_MSG(st.runout_m > 2.0 && st.front_speed_mps > 2.0,
+                         "after 2 s: runout %.2f m, front speed %.2f m/s", st.runout_m,
+                         st.front_speed_mps);
+        }
+        if (f > 20 && st.moving_fraction < 0.05) t_stop = st.time_s;
+    }
+    SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+    p = sq_avalanche_positions(a, &n);
+    double c1[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) c1[k] += p[3 * i + k] / (double)n;
+    const double alpha_cm = atan2(c0[2] - c1[2], hypot(c1[0] - c0[0], c1[1] - c0[1])) * 180.0 / SQ_PI;
+    fprintf(stderr,
+            "stopped at t = %.1f s (moving %.3f), peak speed %.1f (mean %.1f) m/s, run-out %.1f m, front alpha "
+            "%.1f deg, centre-of-mass alpha %.1f deg (Coulomb bound %.1f), deposit mean %.2f max "
+            "%.2f m\n",
+            t_stop, st.moving_fraction, v_peak, vmean_peak, st.runout_m, st.alpha_deg, alpha_cm,
+            atan(0.2) * 180.0 / SQ_PI, st.deposit_mean_m, st.deposit_max_m);
+    SQ_CHECK_MSG(t_stop > 0.0 && t_stop <= 20.0, "the flow has not stopped within 20 s");
+    SQ_CHECK(st.particles == sq_avalanche_release_count(&d, w, NULL));
+    /* the mean speed stays below the free fall of the centre of mass to the plain (z = 0) */
+    SQ_CHECK(vmean_peak > 5.0 && vmean_peak < sqrt(2.0 * 9.81 * c0[2]));
+    SQ_CHECK(c1[0] > 8.0);                                       /* on the flat run-out */
+    SQ_CHECK(alpha_cm >= atan(0.2) * 180.0 / SQ_PI - 0.5);
+    SQ_CHECK(st.runout_m > 20.0);
+    /* the deposit map holds the released volume (packing: rho/rho0 <= 1 + Ma² ~ 1.04) */
+    SQ_CHECK_REL(st.deposit_volume_m3, st.release_volume_m3, 0.04);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(deposit_depth_integrates_to_released_volume)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche_desc d = slab_desc();
+    d.deposit_cell_m = 1.5;
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    for (int f = 0; f < 3; f++) {
+        if (f) SQ_CHECK_OK(sq_avalanche_step(a, 0.5));
+        int nx = 0, ny = 0;
+        double o[2], cell;
+        const float *dep = sq_avalanche_deposit(a, &nx, &ny, o, &cell);
+        SQ_CHECK(dep != NULL && cell == 1.5);
+        double sum = 0.0, mx = 0.0;
+        for (size_t c = 0; c < (size_t)nx * ny; c++) {
+            sum += dep[c] * cell * cell;
+            mx = dep[c] > mx ? dep[c] : mx;
+        }
+        sq_avalanche_state st;
+        SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+        fprintf(stderr, "t = %.1f s: integral %.2f m3, release %.2f m3, max depth %.2f m\n",
+                st.time_s, sum, st.release_volume_m3, mx);
+        SQ_CHECK_REL(sum, st.release_volume_m3, 0.04);
+        SQ_CHECK_REL(sum, st.deposit_volume_m3, 1e-5);
+        /* the slab is 1.5 m thick normal to the slope: 1.83 m vertically */
+        if (f == 0) SQ_CHECK_NEAR(mx, 1.5 / cos(35.0 * SQ_PI / 180.0), 0.5);
+    }
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* S2 §3.6: the Newtonian fluid "spreads fast and splashes" and was rejected for avalanches; the
+ * Cross fluid advances as a coherent mass. The comparison runs where S2's parameters act — its
+ * own scale (S2's stable steps dt = 1 ms at mu = 100 Pa s imply a smoothing length of a few
+ * cm, SPEC §7.5) — with S2's numerics (XSPH 0.5, no artificial viscosity): the same slab of
+ * 1 m x 0.8 m x 0.15 m on a 35° slope, Cross (S2 Fig. 3.20) against water at 0 °C. */
+static void lab_run(int model, double *hmax, double *vmax, double *spread, double *runout)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 20.0f, 1e-4f);
+    sq_avalanche_desc d = {0};
+    d.spacing_m = 0.05;
+    d.release_x_m = -4.5;
+    d.release_length_m = 1.0;
+    d.release_width_m = 0.8;
+    d.release_depth_m = 0.15;
+    d.rheology = model;
+    d.mu_pa_s = 1.79e-3;
+    d.no_artificial_viscosity = true;
+    d.domain_min_m[0] = -6.0f;
+    d.domain_min_m[1] = -2.0f;
+    d.domain_min_m[2] = -0.5f;
+    d.domain_max_m[0] = 10.0f;
+    d.domain_max_m[1] = 2.0f;
+    d.domain_max_m[2] = 6.0f;
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    *hmax = *vmax = 0.0;
+    sq_avalanche_state st;
+    for (int f = 0; f < 6; f++) {
+        SQ_CHECK_OK(sq_avalanche_step(a, 0.1));
+        SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+        *hmax = st.max_height_m > *hmax ? st.max_height_m : *hmax;
+        *vmax = st.max_speed_mps > *vmax ? st.max_speed_mps : *vmax;
+    }
+    /* spread: the 1 %-99 % range of the fall-line coordinate */
+    size_t n = 0;
+    const float *p = sq_avalanche_positions(a, &n);
+    float *s = (float *)malloc(n * sizeof(float));
+    for (size_t i = 0; i < n; i++) s[i] = p[3 * i];
+    float lo = sq__aval_select(s, n, n / 100), hi = sq__aval_select(s, n, n - 1 - n / 100);
+    free(s);
+    *spread = hi - lo;
+    *runout = st.runout_m;
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(cross_flow_splashes_less_than_water)
+{
+    double hc, vc, sc, rc, hw, vw, sw, rw;
+    lab_run(SQ_AVALANCHE_RHEOLOGY_CROSS, &hc, &vc, &sc, &rc);
+    lab_run(SQ_AVALANCHE_RHEOLOGY_NEWTONIAN, &hw, &vw, &sw, &rw);
+    fprintf(stderr,
+            "Cross: max height %.3f m, max speed %.2f m/s, spread %.3f m, run-out %.3f m\n"
+            "water: max height %.3f m, max speed %.2f m/s, spread %.3f m, run-out %.3f m\n",
+            hc, vc, sc, rc, hw, vw, sw, rw);
+    SQ_CHECK(hc < 0.5 * hw);
+    SQ_CHECK(vc < 0.7 * vw);
+    SQ_CHECK(sc < sw);
+    SQ_CHECK(rc < rw);
+}
+
+SQ_TEST(blow_up_is_an_error_naming_the_particle)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche_desc d = slab_desc();
+    d.spacing_m = 1.0;
+    d.speed_of_sound_mps = 0.3; /* the flow outruns 3 c_s within a second */
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    sq_result r = SQ_OK;
+    for (int f = 0; f < 30 && r == SQ_OK; f++) r = sq_avalanche_step(a, 0.1);
+    SQ_CHECK(r == SQ_ERR_UNSTABLE);
+    fprintf(stderr, "%s\n", sq_last_error());
+    SQ_CHECK(strstr(sq_last_error(), "particle") != NULL);
+    SQ_CHECK(strstr(sq_last_error(), "step") != NULL);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+static int substep_logs;
+static void count_logs(void *user, sq_log_level level, const char *module, const char *msg)
+{
+    (void)user;
+    (void)level;
+    if (strcmp(module, "sph") == 0 && strstr(msg, "sub-stepping")) substep_logs++;
+}
+
+SQ_TEST(cfl_substeps_are_logged_once)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd = {.threads = 1, .log = count_logs};
+    sq_context_create(&cd, &ctx);
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche_desc d = slab_desc();
+    d.spacing_m = 1.0;
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    const double dt = sq_avalanche_max_stable_dt(a);
+    SQ_CHECK(dt > 0.0 && dt < 0.05);
+    for (int f = 0; f < 3; f++) SQ_CHECK_OK(sq_avalanche_step(a, 0.05));
+    sq_avalanche_state st;
+    SQ_CHECK_OK(sq_avalanche_get_state(a, &st));
+    SQ_CHECK(st.substeps >= 3 * (int)floor(0.05 / dt));
+    SQ_CHECK(st.dt_s > 0.0 && st.dt_s <= dt * 1.5);
+    SQ_CHECK(substep_logs == 1);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* Through the plug-in table: the table's defaults are what desc_resolve gives, and the instance
+ * publishes metrics (finite), the deposit map for export and its drawables. */
+SQ_TEST(plugin_metrics_fields_drawables)
+{
+    const sq_phen_plugin *pl = sq_plugin_find("avalanche");
+    SQ_CHECK(pl != NULL);
+    if (!pl) return;
+    sq_avalanche_desc a0 = {0}, b0 = {0};
+    sq_params_defaults(pl->params, pl->param_count, &b0);
+    SQ_CHECK_OK(pl->desc_resolve(&a0));
+    SQ_CHECK_OK(pl->desc_resolve(&b0));
+    SQ_CHECK(memcmp(&a0, &b0, sizeof a0) == 0);
+
+    sq_context *ctx = mkctx();
+    sq_world *w = slope_world(ctx, 160.0f, 1e-3f);
+    sq_avalanche_desc d = b0;
+    d.spacing_m = 1.0;
+    d.release_x_m = -12.0;
+    d.release_length_m = 8.0;
+    d.release_width_m = 8.0;
+    d.release_depth_m = 1.5;
+    d.powder = true;
+    SQ_CHECK_OK(sq_params_validate(pl->params, pl->param_count, &d, "avalanche"));
+    SQ_CHECK_OK(pl->validate(ctx, &d, w));
+    uint64_t bytes = 0;
+    SQ_CHECK_OK(pl->memory_bytes(&d, w, &bytes));
+    void *self = NULL;
+    SQ_CHECK_OK(pl->create(ctx, &d, w, &self));
+    SQ_CHECK(pl->max_stable_dt(self) > 0.0);
+    for (int f = 0; f < 2; f++) SQ_CHECK_OK(pl->step(self, 0.2));
+    sq_metric m[32];
+    int nm = pl->metrics(self, m, 32);
+    SQ_CHECK(nm >= 12);
+    const char *want[] = {"front_m", "front_speed_mps", "runout_m", "alpha_deg",
+                          "moving_fraction", "max_speed_mps", "deposit_depth_mean_m",
+                          "deposit_depth_max_m", "particles", "substeps", "dt_s"};
+    for (size_t k = 0; k < sizeof want / sizeof want[0]; k++) {
+        int found = 0;
+        for (int i = 0; i < nm; i++) found |= strcmp(m[i].name, want[k]) == 0;
+        SQ_CHECK_MSG(found, "metric %s missing", want[k]);
+    }
+    for (int i = 0; i < nm; i++) SQ_CHECK_MSG(isfinite(m[i].value), "metric %s = %g", m[i].name, m[i].value);
+    sq_named_field fl[4];
+    int nf = pl->fields(self, fl, 4);
+    SQ_CHECK(nf == 1);
+    SQ_CHECK(strcmp(fl[0].name, "deposit_depth") == 0 && strcmp(fl[0].units, "m") == 0);
+    SQ_CHECK(fl[0].nz == 1 && fl[0].nx > 10 && fl[0].ny > 10);
+    sq_drawable dr[4];
+    int nd = pl->drawables(self, dr, 4);
+    SQ_CHECK(nd == 3);
+    SQ_CHECK(dr[0].kind == SQ_DRAWABLE_PARTICLES && dr[0].u.particles.sprite == SQ_SPRITE_SPHERE);
+    SQ_CHECK(dr[0].u.particles.count > 100 && dr[0].u.particles.radius_default_m > 0.5f);
+    SQ_CHECK_NEAR(dr[0].u.particles.albedo[1], 0.9, 1e-6);
+    SQ_CHECK(dr[1].kind == SQ_DRAWABLE_SURFACE && dr[1].u.surface.material == SQ_MATERIAL_SNOW);
+    SQ_CHECK(dr[2].kind == SQ_DRAWABLE_VOLUME && dr[2].u.volume.nz >= 2);
+    for (int i = 0; i < dr[0].u.particles.count * 3; i++)
+        if (!isfinite(dr[0].u.particles.position[i])) {
+            SQ_CHECK(!"non-finite particle position");
+            break;
+        }
+    pl->destroy(self);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
