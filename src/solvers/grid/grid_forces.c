@@ -11,6 +11,7 @@
 #include "solvers/grid/grid_internal.h"
 
 #define MOD "grid"
+#define CROW 128 /* row chunk of the confinement passes */
 
 static sq_result check(sq_grid *g, double dt, const char *what)
 {
@@ -201,6 +202,80 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
 }
 
 /* ---- vorticity confinement ------------------------------------------------------------------ */
+/* One row chunk of confinement pass 1: omega (w*) and |omega| (m) of n cells from the cell
+ * velocities u* (pointers at the chunk's first cell; the arrays are padded). Solid cells get 0.
+ * Restrict parameters (and square roots as vector operations) let the loop vectorise. */
+static void vorticity_row(const uint8_t *restrict fl, const float *restrict ux,
+                          const float *restrict uy, const float *restrict uz, float *restrict wx,
+                          float *restrict wy, float *restrict wz, float *restrict m, int n,
+                          ptrdiff_t sy, ptrdiff_t sz, float i2h)
+{
+    for (int q = 0; q < n; q++) {
+        const bool solid = (fl[q] & SQ__CF_SOLID) != 0;
+        const float ox = (uz[q + sy] - uz[q - sy] - uy[q + sz] + uy[q - sz]) * i2h;
+        const float oy = (ux[q + sz] - ux[q - sz] - uz[q + 1] + uz[q - 1]) * i2h;
+        const float oz = (uy[q + 1] - uy[q - 1] - ux[q + sy] + ux[q - sy]) * i2h;
+        wx[q] = sq__fsel(solid, 0.0f, ox);
+        wy[q] = sq__fsel(solid, 0.0f, oy);
+        wz[q] = sq__fsel(solid, 0.0f, oz);
+        m[q] = sq__fsel(solid, 0.0f, ox * ox + oy * oy + oz * oz);
+    }
+    sq__sqrt_row(m, n);
+}
+
+typedef struct confine_par {
+    float e, fmax, eps0, i2h;
+    bool helicity;
+} confine_par;
+
+/* One row chunk of confinement pass 2: f = eps h (N x omega) [* relative helicity], clamped to
+ * fmax, written over omega (solid cells keep 0). */
+static void confine_row(const confine_par *p, const uint8_t *restrict fl,
+                        const float *restrict ux, const float *restrict uy,
+                        const float *restrict uz, const float *restrict wm, float *restrict wx,
+                        float *restrict wy, float *restrict wz, int n, ptrdiff_t sy,
+                        ptrdiff_t sz)
+{
+    float en[CROW], un[CROW], fn[CROW];
+    const float i2h = p->i2h, e = p->e, fmax = p->fmax, eps0 = p->eps0;
+    for (int q = 0; q < n; q++) {
+        const float ex = (wm[q + 1] - wm[q - 1]) * i2h;
+        const float ey = (wm[q + sy] - wm[q - sy]) * i2h;
+        const float ez = (wm[q + sz] - wm[q - sz]) * i2h;
+        en[q] = ex * ex + ey * ey + ez * ez;
+        un[q] = ux[q] * ux[q] + uy[q] * uy[q] + uz[q] * uz[q];
+    }
+    sq__sqrt_row(en, n);
+    sq__sqrt_row(un, n);
+    for (int q = 0; q < n; q++) {
+        const float ex = (wm[q + 1] - wm[q - 1]) * i2h;
+        const float ey = (wm[q + sy] - wm[q - sy]) * i2h;
+        const float ez = (wm[q + sz] - wm[q - sz]) * i2h;
+        const float inv = 1.0f / (en[q] + 1e-10f);
+        const float Nx = ex * inv, Ny = ey * inv, Nz = ez * inv;
+        const float ox = wx[q], oy = wy[q], oz = wz[q];
+        /* relative helicity (1 for plain confinement) */
+        const float hel = fabsf(ux[q] * ox + uy[q] * oy + uz[q] * oz) / (un[q] * wm[q] + eps0);
+        const float hw = sq__fsel(p->helicity, hel, 1.0f);
+        const float fx = e * (Ny * oz - Nz * oy) * hw;
+        const float fy = e * (Nz * ox - Nx * oz) * hw;
+        const float fz = e * (Nx * oy - Ny * ox) * hw;
+        wx[q] = fx; /* provisional: clamped below */
+        wy[q] = fy;
+        wz[q] = fz;
+        fn[q] = fx * fx + fy * fy + fz * fz;
+    }
+    sq__sqrt_row(fn, n);
+    for (int q = 0; q < n; q++) {
+        const bool solid = (fl[q] & SQ__CF_SOLID) != 0;
+        /* |f| <= fmax: scale min(1, fmax / |f|) (no division by zero) */
+        const float sc = sq__fsel(fn[q] > fmax, fmax / (fn[q] + (float)(fn[q] == 0.0f)), 1.0f);
+        wx[q] = sq__fsel(solid, 0.0f, wx[q] * sc);
+        wy[q] = sq__fsel(solid, 0.0f, wy[q] * sc);
+        wz[q] = sq__fsel(solid, 0.0f, wz[q] * sc);
+    }
+}
+
 sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adaptive, double dt_s)
 {
     sq_result r = check(g, dt_s, "sq_grid_confine_vorticity");
@@ -239,55 +314,30 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
     for (int k = 0; k < nz; k++)
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = r0 + i;
-                const bool solid = (fl[c] & SQ__CF_SOLID) != 0;
-                const float ox = (uz[c + sy] - uz[c - sy] - uy[c + sz] + uy[c - sz]) * i2h;
-                const float oy = (ux[c + sz] - ux[c - sz] - uz[c + 1] + uz[c - 1]) * i2h;
-                const float oz = (uy[c + 1] - uy[c - 1] - ux[c + sy] + ux[c - sy]) * i2h;
-                wx[c] = sq__fsel(solid, 0.0f, ox);
-                wy[c] = sq__fsel(solid, 0.0f, oy);
-                wz[c] = sq__fsel(solid, 0.0f, oz);
-                wm[c] = sq__fsel(solid, 0.0f, sqrtf(ox * ox + oy * oy + oz * oz));
+            for (int i0 = 0; i0 < nx; i0 += CROW) {
+                const int n = nx - i0 < CROW ? nx - i0 : CROW;
+                vorticity_row(fl + r0 + i0, ux + r0 + i0, uy + r0 + i0, uz + r0 + i0,
+                              wx + r0 + i0, wy + r0 + i0, wz + r0 + i0, wm + r0 + i0, n, sy, sz,
+                              i2h);
             }
         }
     sq__grid_fill_ghosts(g, wm + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
     /* pass 2: f = eps h (N x omega) [* relative helicity], clamped; written over omega */
-    const float e = (float)eps * h;
     const float dt = (float)dt_s;
-    const float fmax = (float)g->d.confinement_max_cells * h / (dt * dt);
-    const float eps0 = 1e-6f; /* m/s^2: keeps the relative helicity finite at rest */
+    confine_par cp;
+    cp.e = (float)eps * h;
+    cp.fmax = (float)g->d.confinement_max_cells * h / (dt * dt);
+    cp.eps0 = 1e-6f; /* m/s^2: keeps the relative helicity finite at rest */
+    cp.i2h = i2h;
+    cp.helicity = helicity_adaptive;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++)
         for (int j = 0; j < ny; j++) {
             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = r0 + i;
-                const bool solid = (fl[c] & SQ__CF_SOLID) != 0;
-                const float ex = (wm[c + 1] - wm[c - 1]) * i2h;
-                const float ey = (wm[c + sy] - wm[c - sy]) * i2h;
-                const float ez = (wm[c + sz] - wm[c - sz]) * i2h;
-                const float en = sqrtf(ex * ex + ey * ey + ez * ez) + 1e-10f;
-                const float Nx = ex / en, Ny = ey / en, Nz = ez / en;
-                const float ox = wx[c], oy = wy[c], oz = wz[c];
-                float fx = e * (Ny * oz - Nz * oy);
-                float fy = e * (Nz * ox - Nx * oz);
-                float fz = e * (Nx * oy - Ny * ox);
-                if (helicity_adaptive) {
-                    const float vx = ux[c], vy = uy[c], vz = uz[c];
-                    const float un = sqrtf(vx * vx + vy * vy + vz * vz);
-                    const float hel = fabsf(vx * ox + vy * oy + vz * oz) / (un * wm[c] + eps0);
-                    fx *= hel;
-                    fy *= hel;
-                    fz *= hel;
-                }
-                const float fn = sqrtf(fx * fx + fy * fy + fz * fz);
-                /* |f| <= fmax: scale = min(1, fmax / |f|) (no division by zero) */
-                const float sc = sq__fsel(fn > fmax, fmax / (fn + (fn == 0.0f)), 1.0f);
-                /* solid cells keep their zero */
-                wx[c] = sq__fsel(solid, ox, fx * sc);
-                wy[c] = sq__fsel(solid, oy, fy * sc);
-                wz[c] = sq__fsel(solid, oz, fz * sc);
+            for (int i0 = 0; i0 < nx; i0 += CROW) {
+                const int n = nx - i0 < CROW ? nx - i0 : CROW;
+                confine_row(&cp, fl + r0 + i0, ux + r0 + i0, uy + r0 + i0, uz + r0 + i0,
+                            wm + r0 + i0, wx + r0 + i0, wy + r0 + i0, wz + r0 + i0, n, sy, sz);
             }
         }
     float *fc[3] = {wx, wy, wz};

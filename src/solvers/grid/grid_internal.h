@@ -9,6 +9,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/core_internal.h"
 #include "squall/grid.h"
@@ -131,6 +134,17 @@ static inline float sq__dotf(const float *a, const float *b, int n)
     float t = 0.0f;
     for (; i < n; i++) t += a[i] * b[i];
     return ((p[0] + p[4]) + (p[1] + p[5])) + ((p[2] + p[6]) + (p[3] + p[7])) + t;
+}
+
+/* v[i] = sqrt(v[i]) for i < n. sqrtf itself does not vectorise (errno handling keeps a call
+ * in the loop); _mm_sqrt_ps is the same correctly rounded IEEE square root. */
+static inline void sq__sqrt_row(float *v, int n)
+{
+    int i = 0;
+#if defined(__SSE2__)
+    for (; i + 4 <= n; i += 4) _mm_storeu_ps(v + i, _mm_sqrt_ps(_mm_loadu_ps(v + i)));
+#endif
+    for (; i < n; i++) v[i] = sqrtf(v[i]);
 }
 
 /* Coefficient of the Poisson link between two adjacent cells of the padded lattice: 1 between
