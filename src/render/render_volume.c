@@ -82,7 +82,9 @@ typedef struct vol_key {
 } vol_key;
 
 struct sq__volume_pass {
-    GLuint prog_eye, prog_bounds, prog_bake;
+    GLuint prog_eye;       /* the variant of the current view (one of prog_eyes) */
+    GLuint prog_eyes[4];   /* by phase: [grey g][second lobe] */
+    GLuint prog_bounds, prog_bake;
     GLuint prog_light[3];  /* by VOL_LIGHT_MODE: single scatter, narrow forward, blurred */
     GLint loc_plane[3], loc_src[3];
     int light_mode;        /* variant of the current plan */
@@ -505,11 +507,8 @@ sq_result sq__volume_pass_create(sq_renderer *r)
         return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
                         "volume pass: no memory for %d slice polygons", vp->plane_cap);
 
-    sq_result res = sq__gl_program(r->ctx, "volume_slice.vert", NULL, "volume_eye.frag",
-                                   &vp->prog_eye);
-    if (res == SQ_OK)
-        res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_bounds.frag",
-                             &vp->prog_bounds);
+    sq_result res = sq__gl_program(r->ctx, "volume_fullscreen.vert", NULL, "volume_bounds.frag",
+                                   &vp->prog_bounds);
     if (res == SQ_OK) res = sq__gl_compute_program(r->ctx, "volume_bake.comp", &vp->prog_bake);
     if (res != SQ_OK) return res;
 
@@ -536,7 +535,7 @@ void sq__volume_pass_destroy(sq_renderer *r)
     if (!r || !r->volume) return;
     sq__volume_pass *vp = r->volume;
     if (r->sun_shadow_tex == vp->shadow_tex) r->sun_shadow_tex = 0;
-    glDeleteProgram(vp->prog_eye);
+    for (int i = 0; i < 4; i++) glDeleteProgram(vp->prog_eyes[i]);
     for (int i = 0; i < 3; i++) glDeleteProgram(vp->prog_light[i]);
     glDeleteProgram(vp->prog_bounds);
     glDeleteProgram(vp->prog_bake);
@@ -755,9 +754,25 @@ static sq_vec3 ambient_radiance(const sq_world *w)
     return sq_v3_scale(sq_v3_add(sky, ground), 0.5f);
 }
 
-static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
+/* Selects (compiling on first use) the eye program for the medium's phase function: one HG
+ * for all channels when g is grey, the second lobe only when w2 > 0; and sets its uniforms. */
+static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
-    const GLuint prog = r->volume->prog_eye;
+    sq__volume_pass *vp = r->volume;
+    const bool iso = r->desc.isotropic_phase;
+    const bool grey = iso || (v->g[0] == v->g[1] && v->g[1] == v->g[2]);
+    const bool lobe2 = v->w2 > 0.0f;
+    const int variant = (grey ? 2 : 0) + (lobe2 ? 1 : 0);
+    if (!vp->prog_eyes[variant]) {
+        char def[64];
+        snprintf(def, sizeof def, "VOL_PHASE_GREY %d\n#define VOL_PHASE_LOBE2 %d", grey ? 1 : 0,
+                 lobe2 ? 1 : 0);
+        sq_result res = variant_program(r, "volume_slice.vert", "volume_eye.frag", def,
+                                        &vp->prog_eyes[variant]);
+        if (res != SQ_OK) return res;
+    }
+    vp->prog_eye = vp->prog_eyes[variant];
+    const GLuint prog = vp->prog_eye;
     set_common_uniforms(prog, v, p);
     um4(prog, "u_view_proj", &r->view_proj);
     u3(prog, "u_cam", r->cam_pos);
@@ -765,6 +780,11 @@ static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_
     u1f(prog, "u_near", r->near_m);
     u1f(prog, "u_spacing", p->spacing);
     um4(prog, "u_light_matrix", &p->light_matrix);
+    const float wl[3] = {p->wl.x, p->wl.y, p->wl.z};
+    float inv_back[3];
+    for (int c = 0; c < 3; c++)
+        inv_back[c] = fabsf(wl[c]) > 1e-10f ? -1.0f / wl[c] : (wl[c] > 0.0f ? -1e10f : 1e10f);
+    u3a(prog, "u_inv_back", inv_back);
     float g[3];
     for (int c = 0; c < 3; c++) g[c] = r->desc.isotropic_phase ? 0.0f : v->g[c];
     u3a(prog, "u_g", g);
@@ -780,6 +800,7 @@ static void set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_
     u3(pb, "u_cam", r->cam_pos);
     u3(pb, "u_box_lo", p->lo);
     u3(pb, "u_box_size", p->size);
+    return SQ_OK;
 }
 
 /* The density the passes sample: the uploaded one, or with render.volume_noise its
@@ -1027,7 +1048,10 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         state_restore(&saved);
         return res;
     }
-    set_eye_uniforms(r, v, &p);
+    if ((res = set_eye_uniforms(r, v, &p)) != SQ_OK) {
+        state_restore(&saved);
+        return res;
+    }
 
     /* per-pixel ray interval the volume may fill (box, camera, opaque depth) */
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->bounds_fbo);

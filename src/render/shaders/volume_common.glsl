@@ -1,6 +1,6 @@
 // volume_common.glsl — shared by the volume pass shaders (#include "volume_common.glsl"):
-// ray/box intersection, Henyey–Greenstein phase with an optional second lobe (SPEC 2.6;
-// cos theta between PROPAGATION directions, g > 0 forward), the density lookup, and the slab
+// ray/box intersection, the Henyey–Greenstein phase function (SPEC 2.6; cos theta between
+// PROPAGATION directions, g > 0 forward), the density lookup, and the slab
 // clipping used to make every slice stand for exactly the part of its slab that lies inside
 // the box. The noise perturbation of texture coordinates (S0 Fig 3.12) is baked into the
 // density texture once per frame (volume_bake.comp), so the passes read one texture.
@@ -22,13 +22,6 @@ float vol_hg(float cos_theta, float g)
 {
     float d = 1.0 + g * g - 2.0 * g * cos_theta;
     return (1.0 - g * g) / (4.0 * VOL_PI * d * sqrt(d));
-}
-
-// Two-lobe HG per channel: (1 - w2) HG(g_c) + w2 HG(g2). g2w2 = (g2, w2).
-vec3 vol_phase(float cos_theta, vec3 g, vec2 g2w2)
-{
-    vec3 p1 = vec3(vol_hg(cos_theta, g.r), vol_hg(cos_theta, g.g), vol_hg(cos_theta, g.b));
-    return mix(p1, vec3(vol_hg(cos_theta, g2w2.x)), g2w2.y);
 }
 
 // Density at world point p (clamped into the box; the texture clamps to its edge texels).

@@ -10,10 +10,14 @@
 // (3.22). The slices are drawn back to front (the light array holds every slice's light, so
 // the eye order need not follow the light order) and composited by dual-source blending
 // ONE, SRC1_COLOR: C = C_i + T C per channel (eq. 3.1, "over" with per-channel extinction),
-// into a float copy of the HDR scene.
+// into a float copy of the HDR scene. Compiled with VOL_PHASE_GREY (one g for all channels)
+// and VOL_PHASE_LOBE2 (second HG lobe weight w2 > 0) set by render_volume.c, so that the
+// phase function costs only what the medium needs (llvmpipe evaluates both sides of branches).
 #include "volume_common.glsl"
 
 in vec3 v_world;
+in vec2 v_light_uv;             // light-buffer coordinates of v_world
+in vec3 v_back_tmin, v_back_tmax; // ray v_world - t wl against the box planes, per axis
 flat in float v_layer;
 
 layout(binding = 0) uniform sampler3D u_density;
@@ -28,7 +32,6 @@ uniform vec3 u_s;              // slice axis (unit)
 uniform float u_spacing;       // slice spacing along s (m)
 uniform vec3 u_wl;             // light propagation direction (unit)
 uniform float u_dlambda;       // light slab length spacing / (s . wl) (m)
-uniform mat4 u_light_matrix;   // world -> light-buffer texture coordinates
 uniform vec3 u_sigma_ext, u_albedo, u_g;
 uniform vec2 u_g2w2;
 uniform vec3 u_sun_radiance, u_sun_dir; // sun irradiance E; unit vector TOWARD the sun
@@ -59,13 +62,25 @@ void main()
     vec3 T = exp(-beta * len);
 
     // sun light reaching this point: the light arriving at the slice, then half a light slab
-    vec2 uv = (u_light_matrix * vec4(v_world, 1.0)).xy;
-    vec3 L = textureLod(u_light, vec3(uv, v_layer), 0.0).rgb;
-    vec2 lb = vol_box_interval(v_world, -u_wl, u_box_lo, u_box_lo + u_box_size);
+    vec3 L = textureLod(u_light, vec3(v_light_uv, v_layer), 0.0).rgb;
+    vec2 lb = vec2(max(max(v_back_tmin.x, v_back_tmin.y), v_back_tmin.z),
+                   min(min(v_back_tmax.x, v_back_tmax.y), v_back_tmax.z));
     float back = lb.x <= lb.y ? clamp(lb.y, 0.0, 0.5 * u_dlambda) : 0.0;
     L *= exp(-beta * back);
     float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
-    vec3 J = u_sun_radiance * L * vol_phase(cos_theta, u_g, u_g2w2) + u_ambient;
+#if VOL_PHASE_GREY
+    float ph = vol_hg(cos_theta, u_g.r);
+#if VOL_PHASE_LOBE2
+    ph = mix(ph, vol_hg(cos_theta, u_g2w2.x), u_g2w2.y);
+#endif
+    vec3 phase = vec3(ph);
+#else
+    vec3 phase = vec3(vol_hg(cos_theta, u_g.r), vol_hg(cos_theta, u_g.g), vol_hg(cos_theta, u_g.b));
+#if VOL_PHASE_LOBE2
+    phase = mix(phase, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y);
+#endif
+#endif
+    vec3 J = u_sun_radiance * L * phase + u_ambient;
     o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
     o_trans = vec4(T, 1.0);
 }
