@@ -487,27 +487,6 @@ sq_result sq_grid_set_scalar_inflow(sq_grid *g, int idx, double value)
     return SQ_OK;
 }
 
-/* Inflow velocity component c on face f for the ghost sample at tangential lattice indices
- * (p, q); face-type indices (the component's own axis) average the two adjacent cells. */
-static float inflow_at(const sq_grid *g, int f, int c, int L, int p, int q)
-{
-    const int a = f / 2;
-    const int ta = a == 0 ? 1 : 0, tb = a == 2 ? 1 : 2;
-    const int na = g->inflow_n[f][0], nb = g->inflow_n[f][1];
-    const float *d = g->inflow[f];
-    int p0 = p, p1 = p, q0 = q, q1 = q;
-    if (L - 1 == ta) p0 = p - 1;
-    if (L - 1 == tb) q0 = q - 1;
-    p0 = sq_clampi(p0, 0, na - 1);
-    p1 = sq_clampi(p1, 0, na - 1);
-    q0 = sq_clampi(q0, 0, nb - 1);
-    q1 = sq_clampi(q1, 0, nb - 1);
-    return 0.25f * (d[3 * ((size_t)p0 + (size_t)na * q0) + c] +
-                    d[3 * ((size_t)p1 + (size_t)na * q0) + c] +
-                    d[3 * ((size_t)p0 + (size_t)na * q1) + c] +
-                    d[3 * ((size_t)p1 + (size_t)na * q1) + c]);
-}
-
 /* ---- ghosts ------------------------------------------------------------------------------ */
 static void lattice_dims(const sq_grid *g, int L, int m[3])
 {
@@ -566,11 +545,22 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
                 case GH_CONST:
                     for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = cv;
                     break;
-                default: { /* tangential velocity against an inflow face */
+                default: { /* tangential velocity against an inflow face: the inflow value at
+                            * the ghost sample (tangential lattice indices (p, q) clamped to the
+                            * face; a component's own axis averages its two adjacent boundary
+                            * cells), mirrored through the face */
                     const int qc = sq_clampi(q, 0, m[tb]);
+                    const int na = g->inflow_n[f][0], nb = g->inflow_n[f][1];
+                    const int q0 = sq_clampi(L - 1 == tb ? qc - 1 : qc, 0, nb - 1);
+                    const int q1 = sq_clampi(qc, 0, nb - 1);
+                    const float *d0 = g->inflow[f] + 3 * (size_t)na * (size_t)q0 + (L - 1);
+                    const float *d1 = g->inflow[f] + 3 * (size_t)na * (size_t)q1 + (L - 1);
+                    const int sh = L - 1 == ta ? 1 : 0;
                     for (int p = -1; p <= m[ta]; p++) {
                         const int pc = sq_clampi(p, 0, m[ta]);
-                        row[p * sp + gi] = 2.0f * inflow_at(g, f, L - 1, L, pc, qc) - row[p * sp + bi];
+                        const int p0 = sq_clampi(pc - sh, 0, na - 1), p1 = sq_clampi(pc, 0, na - 1);
+                        const float v = 0.25f * (d0[3 * p0] + d0[3 * p1] + d1[3 * p0] + d1[3 * p1]);
+                        row[p * sp + gi] = 2.0f * v - row[p * sp + bi];
                     }
                 } break;
                 }
@@ -609,29 +599,26 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
             const sq_boundary bc = g->d.boundary[face];
             if (bc == SQ_BOUNDARY_OPEN || (bc == SQ_BOUNDARY_OUTFLOW && !clip_backflow)) continue;
             const int ta = c == 0 ? 1 : 0, tb = c == 2 ? 1 : 2;
-            const int bi = side ? g->n[c] : 0;
+            const ptrdiff_t fst[3] = {1, f->sy, f->sz}, cst[3] = {1, g->sy, g->sz};
+            /* face sample (p, q): f at bi along c; the inner cell is bi - side along c */
+            float *const u0 = f->origin + (ptrdiff_t)(side ? g->n[c] : 0) * fst[c];
+            const uint8_t *const c0 =
+                fl + sq__cidx(g, 0, 0, 0) + (ptrdiff_t)(side ? g->n[c] - 1 : 0) * cst[c];
+            const float *const u_side0 = f->origin; /* periodic: copy from the face at 0 */
+            const float *const inflow = g->inflow[face];
+            const int na = g->inflow_n[face][0];
             for (int q = 0; q < g->n[tb]; q++)
                 for (int p = 0; p < g->n[ta]; p++) {
-                    int ijk[3];
-                    ijk[c] = bi;
-                    ijk[ta] = p;
-                    ijk[tb] = q;
-                    float *u = sq_field3_at(f, ijk[0], ijk[1], ijk[2]);
-                    int cell[3] = {ijk[0], ijk[1], ijk[2]};
-                    if (side) cell[c]--;
-                    bool inner_solid = (fl[sq__cidx(g, cell[0], cell[1], cell[2])] &
-                                        SQ__CF_SOLID) != 0;
+                    const ptrdiff_t fo = (ptrdiff_t)p * fst[ta] + (ptrdiff_t)q * fst[tb];
+                    float *u = u0 + fo;
+                    const bool inner_solid =
+                        (c0[(ptrdiff_t)p * cst[ta] + (ptrdiff_t)q * cst[tb]] & SQ__CF_SOLID) != 0;
                     if (bc == SQ_BOUNDARY_PERIODIC) {
-                        if (side) {
-                            int s0[3] = {ijk[0], ijk[1], ijk[2]};
-                            s0[c] = 0;
-                            *u = *sq_field3_at(f, s0[0], s0[1], s0[2]);
-                        }
+                        if (side) *u = u_side0[fo];
                     } else if (inner_solid) {
                         *u = 0.0f;
                     } else if (bc == SQ_BOUNDARY_INFLOW) {
-                        const float *d = g->inflow[face];
-                        *u = d[3 * ((size_t)p + (size_t)g->inflow_n[face][0] * q) + c];
+                        *u = inflow[3 * ((size_t)p + (size_t)na * (size_t)q) + c];
                     } else if (bc == SQ_BOUNDARY_OUTFLOW) {
                         if (side == 0 && *u > 0.0f) *u = 0.0f;
                         if (side == 1 && *u < 0.0f) *u = 0.0f;

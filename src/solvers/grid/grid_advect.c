@@ -281,14 +281,14 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
     const int nt = sq_context_threads(g->ctx);
     const lat C = make_lat(g, NULL, g->sy, g->sz, SQ__L_CELL);
     const float s = dt / g->h, hs = 0.5f * s;
-    const v4f dv = {0.0f, 0.0f, drift, 0.0f};
     const ptrdiff_t sy4 = 4 * g->sy, sz4 = 4 * g->sz;
     double *pmax = g->plane_sum;
     (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = -1; k <= nz; k++) {
-        float vmax = 0.0f;
+        int32_t vmax = 0; /* bit pattern of the non-negative float max */
         float ux[CH], uy[CH], uz[CH];
+        v4f u1[CH];
         chunk cm;
         const float Z = (float)k + 0.5f;
         for (int j = -1; j <= ny; j++) {
@@ -306,8 +306,11 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
                 if (inner)
                     for (int q = 0; q < n; q++) {
                         const int i = i0 + q;
-                        const float sp = fabsf(ux[q]) + fabsf(uy[q]) + fabsf(uz[q]);
-                        vmax = sq__fsel((i >= 0) & (i < nx) & (sp > vmax), sp, vmax);
+                        const float sp = sq__fsel((i >= 0) & (i < nx),
+                                                  fabsf(ux[q]) + fabsf(uy[q]) + fabsf(uz[q]), 0.0f);
+                        int32_t b;
+                        memcpy(&b, &sp, sizeof b);
+                        vmax = b > vmax ? b : vmax;
                     }
                 for (int pass = 0; pass < (fwd ? 2 : 1); pass++) {
                     const float sg = pass ? hs : -hs;
@@ -320,17 +323,20 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
                     float *ox = (pass ? df : db)[0] + row + i0, *oy = (pass ? df : db)[1] + row + i0,
                           *oz = (pass ? df : db)[2] + row + i0;
                     const float ss = pass ? s : -s;
+                    for (int q = 0; q < n; q++)
+                        u1[q] = vel_lerp(uc4_origin, cm.b[q], sy4, sz4, cm.fx[q], cm.fy[q],
+                                         cm.fz[q]);
                     for (int q = 0; q < n; q++) {
-                        const v4f u1 = vel_lerp(uc4_origin, cm.b[q], sy4, sz4, cm.fx[q], cm.fy[q],
-                                                cm.fz[q]) + dv;
-                        ox[q] = ss * u1[0];
-                        oy[q] = ss * u1[1];
-                        oz[q] = ss * u1[2];
+                        ox[q] = ss * u1[q][0];
+                        oy[q] = ss * u1[q][1];
+                        oz[q] = ss * (u1[q][2] + drift);
                     }
                 }
             }
         }
-        if (k >= 0 && k < nz) pmax[k] = (double)vmax;
+        float vm;
+        memcpy(&vm, &vmax, sizeof vm);
+        if (k >= 0 && k < nz) pmax[k] = (double)vm;
     }
     double m = 0.0;
     for (int k = 0; k < nz; k++) m = pmax[k] > m ? pmax[k] : m;
