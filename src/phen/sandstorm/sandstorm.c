@@ -363,10 +363,8 @@ static void dust_masses(const sq_sandstorm *s, double *mass)
     for (int k = 0; k < nz; k++)
         for (int b = 0; b < nb; b++) {
             double acc = 0.0;
-            for (int j = 0; j < ny; j++) {
-                const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
-                for (int i = 0; i < nx; i++) acc += (double)row[i];
-            }
+            for (int j = 0; j < ny; j++)
+                acc += sq__sand_dsum(c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz, nx);
             pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b] = acc;
         }
     const double vol = s->h * s->h * s->h;
@@ -512,12 +510,8 @@ static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
             for (int i = 0; i < nx; i++) az[i] = 0.0f;
             for (int b = 0; b < nb; b++) {
                 const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
-                double acc = 0.0;
-                for (int i = 0; i < nx; i++) {
-                    az[i] -= gr * row[i];
-                    acc += (double)row[i];
-                }
-                m[b] += acc;
+                for (int i = 0; i < nx; i++) az[i] -= gr * row[i];
+                m[b] += sq__sand_dsum(row, nx);
             }
         }
         for (int b = 0; b < nb; b++) pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b] = m[b];

@@ -2,6 +2,7 @@
  * eq. 2.29), friction velocity by the log law and the emission flux (SPEC §1.9), conservative
  * settling of a column with deposition, and Koschmieder visibility planes (SPEC §2.7). */
 #include <math.h>
+#include <string.h>
 
 #include "sandstorm_internal.h"
 
@@ -62,10 +63,40 @@ double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrd
     return deposited;
 }
 
+/* c ? a : b through bit masks (vectorises where a floating-point ?: would not) */
+static inline float fsel(bool c, float a, float b)
+{
+    int32_t ia, ib;
+    memcpy(&ia, &a, sizeof ia);
+    memcpy(&ib, &b, sizeof ib);
+    const int32_t m = -(int32_t)c;
+    const int32_t r = (ia & m) | (ib & ~m);
+    float x;
+    memcpy(&x, &r, sizeof x);
+    return x;
+}
+
+/* One settling sub-step of one plane row: ck (plane k), cu (plane k + 1), solid flags sk, sb
+ * (plane k - 1) and su (plane k + 1); bottom: k == 0 (sb unused), top: k == nz - 1 (cu, su
+ * unused). dep[i]: the amount leaving cell i into the ground. */
+static void settle_row(float *restrict ck, const float *restrict cu, const uint8_t *restrict sk,
+                       const uint8_t *restrict sb, const uint8_t *restrict su, bool bottom,
+                       bool top, int nx, float f, float *restrict dep)
+{
+    for (int i = 0; i < nx; i++) {
+        const float v = ck[i], out = f * v;
+        const bool fluid = !sk[i];
+        const bool ground = bottom | (sb[i] != 0);
+        const float in = fsel(!top & !su[i], f * cu[i], 0.0f);
+        dep[i] = fsel(fluid & ground, out, 0.0f);
+        ck[i] = fsel(fluid, v - out + in, v);
+    }
+}
+
 /* sq__sand_column_settle for the nx adjacent columns of one y-row at once (x fastest: the inner
- * loop is contiguous and vectorises): c[k*cs + i], solid[k*ss + i]. The slab is first scaled by
- * scale (the mass fix), then settled substeps times by frac. Returns the deposited amount
- * (concentration units), summed in double. */
+ * loop is contiguous and vectorises): c[k*cs + i], solid[k*ss + i]. The slab is
+ * first scaled by scale (the mass fix), then settled substeps times by frac. Returns the
+ * deposited amount (concentration units), summed in double. */
 double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nx,
                             int nz, float scale, int substeps, double frac)
 {
@@ -76,23 +107,19 @@ double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdif
         }
     double deposited = 0.0;
     const float f = (float)frac;
+    float dep[256];
     for (int it = 0; it < substeps; it++)
         for (int k = 0; k < nz; k++) {
+            const bool bottom = k == 0, top = k + 1 >= nz;
             float *ck = c + (ptrdiff_t)k * cs;
-            const float *cu = c + (ptrdiff_t)(k + 1) * cs;
+            const float *cu = top ? ck : ck + cs;
             const uint8_t *sk = solid + (ptrdiff_t)k * ss;
-            const uint8_t *sb = k > 0 ? solid + (ptrdiff_t)(k - 1) * ss : NULL;
-            const uint8_t *su = k + 1 < nz ? solid + (ptrdiff_t)(k + 1) * ss : NULL;
-            double dep = 0.0;
-            for (int i = 0; i < nx; i++) {
-                const float v = ck[i], out = f * v;
-                const bool fluid = !sk[i];
-                const bool ground = !sb || sb[i];
-                const float in = (su && !su[i]) ? f * cu[i] : 0.0f;
-                dep += (fluid && ground) ? (double)out : 0.0;
-                ck[i] = fluid ? v - out + in : v;
+            const uint8_t *sb = bottom ? sk : sk - ss, *su = top ? sk : sk + ss;
+            for (int i0 = 0; i0 < nx; i0 += 256) {
+                const int n = nx - i0 < 256 ? nx - i0 : 256;
+                settle_row(ck + i0, cu + i0, sk + i0, sb + i0, su + i0, bottom, top, n, f, dep);
+                deposited += sq__sand_dsum(dep, n);
             }
-            deposited += dep;
         }
     return deposited;
 }
