@@ -3,7 +3,8 @@
  *   1. a dust volume of --size^3 cells (default 128) with --slices half-angle slices (128),
  *   2. --particles soft particles (default 10^5),
  *   3. the same scene with neither (the base renderer's share),
- * at --width x --height (1280 x 720). One JSON line per configuration. */
+ * at --width x --height (1280 x 720), with --light light-buffer texels per side (256). One
+ * JSON line per configuration; --only volume|particles|base measures one of them. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -66,13 +67,20 @@ static void fill_particles(float *pos, float *rad, float *rot, int count, sq_vec
 
 int sq_bench_render_volume(const sq_bench_args *a)
 {
-    int width, height, size, slices, particles;
+    int width, height, size, slices, particles, light;
     if (!sq_cli_int(a->argc, a->argv, "--width", 1280, 16, 16384, &width) ||
         !sq_cli_int(a->argc, a->argv, "--height", 720, 16, 16384, &height) ||
         !sq_cli_int(a->argc, a->argv, "--size", 128, 4, 1024, &size) ||
         !sq_cli_int(a->argc, a->argv, "--slices", 128, 1, 4096, &slices) ||
-        !sq_cli_int(a->argc, a->argv, "--particles", 100000, 1, 10000000, &particles))
+        !sq_cli_int(a->argc, a->argv, "--particles", 100000, 1, 10000000, &particles) ||
+        !sq_cli_int(a->argc, a->argv, "--light", 256, 8, 4096, &light))
         return SQ_EXIT_USAGE;
+    const char *only = sq_cli_value(a->argc, a->argv, "--only");
+    if (only && strcmp(only, "volume") != 0 && strcmp(only, "particles") != 0 &&
+        strcmp(only, "base") != 0) {
+        sq_cli_error("bench render-volume: --only %s; must be volume, particles or base", only);
+        return SQ_EXIT_USAGE;
+    }
     sq_context *ctx = a->ctx;
     int rc = SQ_EXIT_OK;
     sq_world *w = NULL;
@@ -96,6 +104,7 @@ int sq_bench_render_volume(const sq_bench_args *a)
     rd.width = width;
     rd.height = height;
     rd.volume_slices = slices;
+    rd.light_buffer_size = light;
     rd.volume_noise = true;
     rd.seed = 1;
     if (res == SQ_OK) res = sq_renderer_create(ctx, &rd, &r);
@@ -158,8 +167,11 @@ int sq_bench_render_volume(const sq_bench_args *a)
     const struct {
         const sq_drawable *d;
         int vol, parts;
-    } configs[3] = {{&vol, size, 0}, {&part, 0, particles}, {NULL, 0, 0}};
+        const char *name;
+    } configs[3] = {{&vol, size, 0, "volume"}, {&part, 0, particles, "particles"},
+                    {NULL, 0, 0, "base"}};
     for (int k = 0; k < 3; k++) {
+        if (only && strcmp(only, configs[k].name) != 0) continue;
         job.d = configs[k].d;
         job.n = configs[k].d ? 1 : 0;
         const sq_bench_stats s = sq_bench_time(draw_frame, &job, a->warmup, a->reps);
@@ -175,6 +187,7 @@ int sq_bench_render_volume(const sq_bench_args *a)
         sq_json_int(&j, "width", width);
         sq_json_int(&j, "height", height);
         sq_json_int(&j, "slices", configs[k].vol ? slices : 0);
+        sq_json_int(&j, "light_buffer", configs[k].vol ? light : 0);
         sq_json_int(&j, "volume", configs[k].vol);
         sq_json_int(&j, "particles", configs[k].parts);
         sq_json_str(&j, "gl_renderer", info.gl_renderer);

@@ -16,8 +16,13 @@
 
 #define PART_FLOATS 12 /* per instance: pos.xyz radius | rot tau fade seed | albedo.rgb 0 */
 
+#define PART_KINDS 6 /* sq_sprite_kind values; DEFAULT draws as PUFF */
+#define PART_BATCH 8192 /* instances per draw call */
+#define PART_MIN_VISIBLE 1e-6f /* see pack() */
+
 struct sq__particle_pass {
-    GLuint prog, vao, vbo, comp_fbo, comp_color;
+    GLuint prog[PART_KINDS][2]; /* by sprite kind and sun shadow (0/1), compiled on first use */
+    GLuint vao, vbo, comp_fbo, comp_color;
     size_t vbo_bytes;
     size_t cap;         /* particles the staging arrays hold */
     float *packed;      /* PART_FLOATS * cap */
@@ -29,9 +34,6 @@ sq_result sq__particle_pass_create(sq_renderer *r)
     sq__particle_pass *pp = sq_alloc_zero(r->ctx, sizeof *pp);
     if (!pp) return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render", "particle pass: no memory");
     r->particles = pp;
-    sq_result res = sq__gl_program(r->ctx, "particles_sprite.vert", NULL, "particles_sprite.frag",
-                                   &pp->prog);
-    if (res != SQ_OK) return res;
     glCreateVertexArrays(1, &pp->vao);
     glCreateBuffers(1, &pp->vbo);
     glVertexArrayVertexBuffer(pp->vao, 0, pp->vbo, 0, PART_FLOATS * sizeof(float));
@@ -60,7 +62,8 @@ void sq__particle_pass_destroy(sq_renderer *r)
 {
     if (!r || !r->particles) return;
     sq__particle_pass *pp = r->particles;
-    glDeleteProgram(pp->prog);
+    for (int k = 0; k < PART_KINDS; k++)
+        for (int s = 0; s < 2; s++) glDeleteProgram(pp->prog[k][s]);
     glDeleteVertexArrays(1, &pp->vao);
     glDeleteBuffers(1, &pp->vbo);
     glDeleteFramebuffers(1, &pp->comp_fbo);
@@ -123,6 +126,42 @@ static uint32_t float_key(float f)
     return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
+/* The program for a sprite kind with or without the sun shadow: particles_sprite.frag compiled
+ * with PART_SPRITE and PART_SHADOW defined after its #version line (on first use). */
+static sq_result sprite_program(sq_renderer *r, int kind, bool shadow, GLuint *out)
+{
+    sq__particle_pass *pp = r->particles;
+    GLuint *prog = &pp->prog[kind][shadow ? 1 : 0];
+    *out = *prog;
+    if (*prog) return SQ_OK;
+    const char *vs = sq__shader_source("particles_sprite.vert");
+    const char *fs = sq__shader_source("particles_sprite.frag");
+    const char *eol = fs ? strchr(fs, '\n') : NULL;
+    if (!vs || !eol)
+        return sq__fail(r->ctx, SQ_ERR_INTERNAL, "render",
+                        "no embedded particle shaders with a #version line");
+    const size_t head = (size_t)(eol - fs) + 1;
+    char *text = sq_alloc(r->ctx, strlen(fs) + 96);
+    if (!text)
+        return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render", "no memory for a particle shader");
+    memcpy(text, fs, head);
+    snprintf(text + head, 96, "#define PART_SPRITE %d\n#define PART_SHADOW %d\n#line 2\n", kind,
+             shadow ? 1 : 0);
+    strcat(text + head, fs + head);
+    GLuint sh[2] = {0, 0};
+    sq_result res = sq__gl_shader_compile(r->ctx, GL_VERTEX_SHADER, "particles_sprite.vert", vs,
+                                          &sh[0]);
+    if (res == SQ_OK)
+        res = sq__gl_shader_compile(r->ctx, GL_FRAGMENT_SHADER, "particles_sprite.frag", text,
+                                    &sh[1]);
+    if (res == SQ_OK) res = sq__gl_program_link(r->ctx, "particles_sprite", sh, 2, prog);
+    glDeleteShader(sh[0]);
+    glDeleteShader(sh[1]);
+    sq_free(r->ctx, text);
+    *out = *prog;
+    return res;
+}
+
 static sq_result validate(sq_renderer *r, const sq_particles_view *p)
 {
     sq_context *ctx = r->ctx;
@@ -164,7 +203,21 @@ static sq_result validate(sq_renderer *r, const sq_particles_view *p)
     return SQ_OK;
 }
 
-/* Packs visible particles back to front; returns the count in *visible. */
+/* Light a particle sends toward the eye, per unit opacity, at most (in units of the sun's
+ * radiance scale): pi p_HG,max for the sun (SPEC 2.6: p peaks at (1 + |g|) / (4 pi (1 - |g|)^2))
+ * plus about 1 for the ambient; a lit sphere reflects at most about 2. */
+static float light_bound(const sq_renderer *r, const sq_particles_view *p, int sprite)
+{
+    if (sprite == SQ_SPRITE_SPHERE) return 2.0f;
+    const float g = r->desc.isotropic_phase ? 0.0f : fabsf(p->g);
+    return (1.0f + g) / (4.0f * (1.0f - g) * (1.0f - g)) + 1.0f;
+}
+
+/* Packs visible particles back to front; returns the count in *visible. A particle whose
+ * largest possible opacity (tau sigma_rel,max times the sprite's shape peak, times fade) times
+ * light_bound stays below PART_MIN_VISIBLE is skipped: its light and its dimming of what lies
+ * behind are both below 1e-6 of the sun's radiance scale (a simulation may hand over
+ * thousands of particles with tau ~ 1e-19 in clean air, each costing full fragment work). */
 static sq_result pack(sq_renderer *r, const sq_particles_view *p, size_t *visible)
 {
     sq__particle_pass *pp = r->particles;
@@ -173,6 +226,11 @@ static sq_result pack(sq_renderer *r, const sq_particles_view *p, size_t *visibl
     sq_result res = reserve(r, pp, n);
     if (res != SQ_OK) return res;
     const sq_vec3 cam = r->cam_pos, fwd = r->cam_forward;
+    const int sprite = p->sprite == SQ_SPRITE_DEFAULT ? (int)SQ_SPRITE_PUFF : (int)p->sprite;
+    float srel = fmaxf(p->sigma_rel[0], fmaxf(p->sigma_rel[1], p->sigma_rel[2]));
+    if (srel == 0.0f) srel = 1.0f; /* all zero: 1, 1, 1 (as the shader uniform) */
+    const float tau_scale = srel * (sprite == SQ_SPRITE_PUFF ? 1.7f : 1.0f);
+    const float min_alpha = PART_MIN_VISIBLE / light_bound(r, p, sprite);
     size_t m = 0;
     for (size_t i = 0; i < n; i++) {
         const float *x = p->position + 3 * i;
@@ -184,6 +242,10 @@ static sq_result pack(sq_renderer *r, const sq_particles_view *p, size_t *visibl
         const float tau = p->tau ? p->tau[i] : p->tau_default;
         const float fade = p->fade ? p->fade[i] : 1.0f;
         if (!(rad > 0.0f) || !(tau > 0.0f) || !(fade > 0.0f)) continue; /* invisible */
+        const float alpha_max = fminf(fade, 1.0f) * (sprite == SQ_SPRITE_SPHERE
+                                                         ? 1.0f
+                                                         : -expm1f(-tau * tau_scale));
+        if (alpha_max < min_alpha) continue; /* too faint to change any pixel */
         const float depth = (x[0] - cam.x) * fwd.x + (x[1] - cam.y) * fwd.y + (x[2] - cam.z) * fwd.z;
         if (depth < -rad) continue; /* wholly behind the camera */
         pp->key[m] = ~float_key(depth); /* descending depth: back to front */
@@ -240,7 +302,9 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
             return res;
     }
 
-    const GLuint prog = pp->prog;
+    const int sprite = p->sprite == SQ_SPRITE_DEFAULT ? (int)SQ_SPRITE_PUFF : (int)p->sprite;
+    GLuint prog = 0;
+    if ((res = sprite_program(r, sprite, r->sun_shadow_tex != 0, &prog)) != SQ_OK) return res;
     const sq_world *w = r->world;
     glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_view_proj"), 1, GL_FALSE,
                               r->view_proj.m);
@@ -254,8 +318,6 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
     glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sigma_rel"), srel[0], srel[1], srel[2]);
     glProgramUniform1f(prog, glGetUniformLocation(prog, "u_g"),
                        r->desc.isotropic_phase ? 0.0f : p->g);
-    const int sprite = p->sprite == SQ_SPRITE_DEFAULT ? (int)SQ_SPRITE_PUFF : (int)p->sprite;
-    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_sprite"), sprite);
     glProgramUniform1f(prog, glGetUniformLocation(prog, "u_softness"), p->softness_m);
     /* radiance units of the base renderer: a white Lambertian plane facing the sun has
      * radiance sun_radiance (so the sun's irradiance is pi sun_radiance); the ambient
@@ -271,7 +333,6 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
     glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sky"), sky.x, sky.y, sky.z);
     glProgramUniform3f(prog, glGetUniformLocation(prog, "u_ground"), ground.x, ground.y,
                        ground.z);
-    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_has_shadow"), r->sun_shadow_tex ? 1 : 0);
     glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_shadow_matrix"), 1, GL_FALSE,
                               r->sun_shadow_matrix.m);
 
@@ -282,6 +343,17 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
     glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &saved_vao);
     const GLboolean saved_blend = glIsEnabled(GL_BLEND), saved_depth = glIsEnabled(GL_DEPTH_TEST),
                     saved_cull = glIsEnabled(GL_CULL_FACE);
+    GLboolean saved_depth_mask;
+    glGetBooleanv(GL_DEPTH_WRITEMASK, &saved_depth_mask);
+    /* the blend function too: left at SRC1_COLOR it would make later draws into several
+     * colour buffers invalid (dual-source blending allows one) */
+    GLint saved_bf[6];
+    glGetIntegerv(GL_BLEND_SRC_RGB, &saved_bf[0]);
+    glGetIntegerv(GL_BLEND_DST_RGB, &saved_bf[1]);
+    glGetIntegerv(GL_BLEND_SRC_ALPHA, &saved_bf[2]);
+    glGetIntegerv(GL_BLEND_DST_ALPHA, &saved_bf[3]);
+    glGetIntegerv(GL_BLEND_EQUATION_RGB, &saved_bf[4]);
+    glGetIntegerv(GL_BLEND_EQUATION_ALPHA, &saved_bf[5]);
 
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, pp->comp_fbo);
     glViewport(0, 0, r->width, r->height);
@@ -295,12 +367,21 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
     if (r->sun_shadow_tex) glBindTextureUnit(6, r->sun_shadow_tex);
     glUseProgram(prog);
     glBindVertexArray(pp->vao);
-    glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)m);
+    /* in batches: llvmpipe's vertex stage allocates its output per draw, and one draw of 10^5
+     * instances (tens of MB) would be fresh, zero-filled pages every frame */
+    for (size_t first = 0; first < m; first += PART_BATCH) {
+        const size_t n = m - first < PART_BATCH ? m - first : PART_BATCH;
+        glDrawArraysInstancedBaseInstance(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)n, (GLuint)first);
+    }
 
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)saved_fbo);
     glViewport(saved_vp[0], saved_vp[1], saved_vp[2], saved_vp[3]);
     glUseProgram((GLuint)saved_prog);
     glBindVertexArray((GLuint)saved_vao);
+    glBlendFuncSeparate((GLenum)saved_bf[0], (GLenum)saved_bf[1], (GLenum)saved_bf[2],
+                        (GLenum)saved_bf[3]);
+    glBlendEquationSeparate((GLenum)saved_bf[4], (GLenum)saved_bf[5]);
+    glDepthMask(saved_depth_mask);
     if (!saved_blend) glDisable(GL_BLEND);
     if (saved_depth) glEnable(GL_DEPTH_TEST);
     if (saved_cull) glEnable(GL_CULL_FACE);
