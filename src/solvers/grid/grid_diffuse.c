@@ -27,59 +27,109 @@
 #define MOD "grid"
 #define MOLECULAR_THRESHOLD 1e-3f
 
-static inline float ucell(const sq_grid *g, int c, int i, int j, int k)
+enum { DROW = 128 }; /* row chunk of the eddy-viscosity kernel */
+
+/* Cell-centred horizontal wind of cells i0 .. i0+n-1 of row (j, k) (k may be -1 or nz: the
+ * ghost planes). */
+static void cell_row_uv(const sq_grid *g, int i0, int n, int j, int k, float *restrict uo,
+                        float *restrict vo)
 {
-    const sq_field3 *f = &g->vel[c];
-    const float *p = sq_field3_at(f, i, j, k);
-    const ptrdiff_t s = c == 0 ? 1 : c == 1 ? f->sy : f->sz;
-    return 0.5f * (p[0] + p[s]);
+    const float *u = sq_field3_at(&g->vel[0], i0, j, k), *v0 = sq_field3_at(&g->vel[1], i0, j, k),
+                *v1 = sq_field3_at(&g->vel[1], i0, j + 1, k);
+    for (int i = 0; i < n; i++) {
+        uo[i] = 0.5f * (u[i] + u[i + 1]);
+        vo[i] = 0.5f * (v0[i] + v1[i]);
+    }
+}
+
+typedef struct eddy_par {
+    float ih, h, kappa, lmax;
+    bool no_slip_ground, kdn, kup; /* kdn: k > 0, kup: k < nz - 1 */
+} eddy_par;
+
+/* nu_t = (kappa d)^2 |du_h/dz| of n cells of one row from the cell winds of planes k-1 (um,
+ * vm), k (u0, v0) and k+1 (up, vp); every case is evaluated and selected so that the loop
+ * vectorises. Returns the bit pattern of the row's largest nu_t (non-negative floats order
+ * like their bits). */
+static int32_t eddy_row(const eddy_par *p, const uint8_t *restrict fl,
+                        const uint8_t *restrict fdn, const uint8_t *restrict fup,
+                        const uint16_t *restrict below, const float *restrict um,
+                        const float *restrict u0, const float *restrict up,
+                        const float *restrict vm, const float *restrict v0,
+                        const float *restrict vp, float *restrict nu, int n)
+{
+    const float ih = p->ih, h = p->h, kappa = p->kappa, lmax = p->lmax;
+    /* conditions as int32 masks (see sq__fselm) */
+    const int32_t kdn = -(int32_t)p->kdn, kup = -(int32_t)p->kup,
+                  nsg = -(int32_t)p->no_slip_ground, kap = -(int32_t)(kappa > 0.0f);
+    float l2[DROW];
+    for (int i = 0; i < n; i++) {
+        const int32_t dn = kdn & -(int32_t)((fdn[i] & SQ__CF_SOLID) == 0);
+        const int32_t upo = kup & -(int32_t)((fup[i] & SQ__CF_SOLID) == 0);
+        /* resting on a no-slip wall: the wind is 0 half a cell below */
+        const int32_t wall = (kdn & ~dn) | (~kdn & nsg);
+        const float du = sq__fselm(
+            wall, 2.0f * u0[i] * ih,
+            sq__fselm(dn & upo, 0.5f * (up[i] - um[i]) * ih,
+                      sq__fselm(upo, (up[i] - u0[i]) * ih, sq__fselm(dn, (u0[i] - um[i]) * ih, 0.0f))));
+        const float dv = sq__fselm(
+            wall, 2.0f * v0[i] * ih,
+            sq__fselm(dn & upo, 0.5f * (vp[i] - vm[i]) * ih,
+                      sq__fselm(upo, (vp[i] - v0[i]) * ih, sq__fselm(dn, (v0[i] - vm[i]) * ih, 0.0f))));
+        float l = kappa * ((float)below[i] - 0.5f) * h;
+        l = l < lmax ? l : lmax;
+        const int32_t active =
+            kap & -(int32_t)((fl[i] & SQ__CF_SOLID) == 0) & -(int32_t)(below[i] > 0);
+        l2[i] = sq__fselm(active, l * l, 0.0f);
+        nu[i] = du * du + dv * dv;
+    }
+    sq__sqrt_row(nu, n);
+    int32_t m = 0;
+    for (int i = 0; i < n; i++) {
+        const float v = l2[i] * nu[i];
+        nu[i] = v;
+        int32_t b;
+        memcpy(&b, &v, sizeof b);
+        m = b > m ? b : m;
+    }
+    return m;
 }
 
 /* nu_t per cell (cell layout, ghosts zero-gradient); returns the largest nu_t */
 static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
-    const float h = g->h, ih = 1.0f / g->h;
-    const float lmax = g->d.mixing_length_max_m > 0.0 ? (float)g->d.mixing_length_max_m : 1e30f;
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
-    const bool no_slip_ground = g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP;
+    eddy_par par;
+    par.h = g->h;
+    par.ih = 1.0f / g->h;
+    par.kappa = kappa;
+    par.lmax = g->d.mixing_length_max_m > 0.0 ? (float)g->d.mixing_length_max_m : 1e30f;
+    par.no_slip_ground = g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP;
     double *pm = g->plane_sum;
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
-        float m = 0.0f;
+        float um[DROW], vm[DROW], u0[DROW], v0[DROW], up[DROW], vp[DROW];
+        eddy_par pk = par;
+        pk.kdn = k > 0;
+        pk.kup = k < nz - 1;
+        int32_t m = 0;
         for (int j = 0; j < ny; j++)
-            for (int i = 0; i < nx; i++) {
-                const ptrdiff_t c = sq__cidx(g, i, j, k);
-                float v = 0.0f;
-                const unsigned below = g->below[c];
-                if (!(fl[c] & SQ__CF_SOLID) && below > 0 && kappa > 0.0f) {
-                    const bool dn = k > 0 && !(fl[c - g->sz] & SQ__CF_SOLID);
-                    const bool up = k < nz - 1 && !(fl[c + g->sz] & SQ__CF_SOLID);
-                    /* resting on a no-slip wall: the wind is 0 half a cell below */
-                    const bool wall = k > 0 ? !dn : no_slip_ground;
-                    float du = 0.0f, dv = 0.0f;
-                    if (wall) {
-                        du = 2.0f * ucell(g, 0, i, j, k) * ih;
-                        dv = 2.0f * ucell(g, 1, i, j, k) * ih;
-                    } else if (dn && up) {
-                        du = 0.5f * (ucell(g, 0, i, j, k + 1) - ucell(g, 0, i, j, k - 1)) * ih;
-                        dv = 0.5f * (ucell(g, 1, i, j, k + 1) - ucell(g, 1, i, j, k - 1)) * ih;
-                    } else if (up) {
-                        du = (ucell(g, 0, i, j, k + 1) - ucell(g, 0, i, j, k)) * ih;
-                        dv = (ucell(g, 1, i, j, k + 1) - ucell(g, 1, i, j, k)) * ih;
-                    } else if (dn) {
-                        du = (ucell(g, 0, i, j, k) - ucell(g, 0, i, j, k - 1)) * ih;
-                        dv = (ucell(g, 1, i, j, k) - ucell(g, 1, i, j, k - 1)) * ih;
-                    }
-                    float l = kappa * ((float)below - 0.5f) * h;
-                    l = l < lmax ? l : lmax;
-                    v = l * l * sqrtf(du * du + dv * dv);
-                }
-                nu[c] = v;
-                m = v > m ? v : m;
+            for (int i0 = 0; i0 < nx; i0 += DROW) {
+                const int n = nx - i0 < DROW ? nx - i0 : DROW;
+                cell_row_uv(g, i0, n, j, k - 1, um, vm);
+                cell_row_uv(g, i0, n, j, k, u0, v0);
+                cell_row_uv(g, i0, n, j, k + 1, up, vp);
+                const ptrdiff_t c = sq__cidx(g, i0, j, k);
+                const int32_t rm = eddy_row(&pk, fl + c, fl + c - g->sz, fl + c + g->sz,
+                                            g->below + c, um, u0, up, vm, v0, vp, nu + c, n);
+                m = rm > m ? rm : m;
             }
-        pm[k] = (double)m;
+        float mf;
+        memcpy(&mf, &m, sizeof mf);
+        pm[k] = (double)mf;
     }
     double m = 0.0;
     for (int k = 0; k < nz; k++) m = pm[k] > m ? pm[k] : m;
@@ -87,13 +137,57 @@ static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
     return (float)m;
 }
 
+typedef struct vi_par {
+    float s, nu_mol;
+    int32_t bottom, top;     /* masks: this is plane 0 / plane nz - 1 */
+    int32_t wall_bot, wall_top; /* masks: no-slip domain bottom / top */
+} vi_par;
+
+/* Forward elimination of one row of faces of plane k (see vertical_implicit). u, cp, dp: face
+ * rows (cp/dp of plane k - 1 at -fsz); flags and nu: the rows of the faces' low (o) and high
+ * (h) cells at planes k - 1 (b), k and k + 1 (a), as offsets -/+ sz from fo/fh and no/nh. */
+static void vi_forward_row(const vi_par *p, const float *restrict u, float *restrict cp,
+                           float *restrict dp, ptrdiff_t fsz, const uint8_t *restrict fo,
+                           const uint8_t *restrict fh, const float *restrict no,
+                           const float *restrict nh, ptrdiff_t sz, int n)
+{
+    const float s = p->s, nu_mol = p->nu_mol;
+    const int32_t bottom = p->bottom, top = p->top, wb = p->wall_bot, wt = p->wall_top;
+    for (int i = 0; i < n; i++) {
+        const int32_t fixed = -(int32_t)(((fo[i] | fh[i]) & SQ__CF_FIXED) != 0);
+        const float nf = nu_mol + 0.5f * (no[i] + nh[i]);
+        /* link below: the domain bottom, a fixed face (no-slip if fixed by a solid) or free */
+        const uint8_t flb = fo[i - sz] | fh[i - sz];
+        const int32_t fxl = bottom | -(int32_t)((flb & SQ__CF_FIXED) != 0);
+        const int32_t wall_l = (bottom & wb) | (~bottom & -(int32_t)((flb & SQ__CF_SOLID) != 0));
+        const float alo = sq__fselm(fxl, sq__fselm(wall_l, 2.0f * s * nf, 0.0f),
+                                    s * 0.5f * (nf + nu_mol + 0.5f * (no[i - sz] + nh[i - sz])));
+        /* link above */
+        const uint8_t fla = fo[i + sz] | fh[i + sz];
+        const int32_t fxh = top | -(int32_t)((fla & SQ__CF_FIXED) != 0);
+        const int32_t wall_h = (top & wt) | (~top & -(int32_t)((fla & SQ__CF_SOLID) != 0));
+        const float ahi = sq__fselm(fxh, sq__fselm(wall_h, 2.0f * s * nf, 0.0f),
+                                    s * 0.5f * (nf + nu_mol + 0.5f * (no[i + sz] + nh[i + sz])));
+        /* row: -alo u_{k-1} + (1 + alo + ahi) u_k - ahi u_{k+1} = u_k; a fixed neighbour
+         * contributes its value 0 (no-slip) or nothing (no flux) */
+        const float diag = 1.0f + alo + ahi;
+        const float lower = sq__fselm(fxl, 0.0f, -alo);
+        const float upper = sq__fselm(fxh, 0.0f, -ahi);
+        const float cprev = sq__fselm(fxl, 0.0f, cp[i - fsz]);
+        const float dprev = sq__fselm(fxl, 0.0f, dp[i - fsz]);
+        const float den = diag - lower * cprev;
+        cp[i] = sq__fselm(fixed, 0.0f, upper / den); /* fixed face: identity row */
+        dp[i] = sq__fselm(fixed, u[i], (u[i] - lower * dprev) / den);
+    }
+}
+
 /* Backward Euler in z for horizontal component c (0 or 1), one tridiagonal system per column:
  *   -a_lo u_{k-1} + (1 + a_lo + a_hi) u_k - a_hi u_{k+1} = u_k^old,
  * a = dt nu_link / h^2 with nu_link the mean of the two faces' nu (each the mean of the face's
  * two cells). Fixed faces are identity rows; a free face next to a fixed face below/above sees
  * u = 0 half a cell away when that face is fixed by a solid (no-slip) and no flux otherwise.
- * Rows of faces are swept together (x fastest) for locality; OpenMP over y. cp, dp: scratch in
- * the face layout (Thomas coefficients). */
+ * Rows of faces are swept together (x fastest, vectorised) for locality; OpenMP over y. cp, dp:
+ * scratch in the face layout (Thomas coefficients). */
 static void vertical_implicit(sq_grid *g, int c, const float *nu, float nu_mol, float s,
                               float *cp, float *dp)
 {
@@ -103,71 +197,34 @@ static void vertical_implicit(sq_grid *g, int c, const float *nu, float nu_mol, 
     const ptrdiff_t off = c == 0 ? 1 : g->sy; /* cell on the low side of the face */
     const uint8_t *fl = g->flags;
     float *u = f->origin;
-    const sq_boundary bot = g->d.boundary[SQ_FACE_ZMIN], top = g->d.boundary[SQ_FACE_ZMAX];
-    const bool wall_bot = bot == SQ_BOUNDARY_NO_SLIP, wall_top = top == SQ_BOUNDARY_NO_SLIP;
+    vi_par par;
+    par.s = s;
+    par.nu_mol = nu_mol;
+    par.wall_bot = -(int32_t)(g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP);
+    par.wall_top = -(int32_t)(g->d.boundary[SQ_FACE_ZMAX] == SQ_BOUNDARY_NO_SLIP);
     const int nt = sq_context_threads(g->ctx);
+    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < my; j++) {
+        vi_par pk = par;
         /* forward elimination, all faces of the row at once */
         for (int k = 0; k < nz; k++) {
             const ptrdiff_t r0 = (ptrdiff_t)j * fsy + (ptrdiff_t)k * fsz;
-            const ptrdiff_t c0 = sq__cidx(g, 0, j, k);
-            for (int i = 0; i < mx; i++) {
-                const ptrdiff_t p = r0 + i, hi = c0 + i, lo = hi - off;
-                if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) { /* identity row */
-                    cp[p] = 0.0f;
-                    dp[p] = u[p];
-                    continue;
-                }
-                const float nf = nu_mol + 0.5f * (nu[lo] + nu[hi]);
-                /* link below */
-                float alo = 0.0f;
-                bool fixed_lo;
-                if (k == 0) {
-                    fixed_lo = true;
-                    alo = wall_bot ? 2.0f * s * nf : 0.0f;
-                } else {
-                    const ptrdiff_t hb = hi - g->sz, lb = lo - g->sz;
-                    fixed_lo = ((fl[lb] | fl[hb]) & SQ__CF_FIXED) != 0;
-                    if (fixed_lo)
-                        alo = ((fl[lb] | fl[hb]) & SQ__CF_SOLID) ? 2.0f * s * nf : 0.0f;
-                    else
-                        alo = s * 0.5f * (nf + nu_mol + 0.5f * (nu[lb] + nu[hb]));
-                }
-                /* link above */
-                float ahi;
-                bool fixed_hi;
-                if (k == nz - 1) {
-                    fixed_hi = true;
-                    ahi = wall_top ? 2.0f * s * nf : 0.0f;
-                } else {
-                    const ptrdiff_t ha = hi + g->sz, la = lo + g->sz;
-                    fixed_hi = ((fl[la] | fl[ha]) & SQ__CF_FIXED) != 0;
-                    if (fixed_hi)
-                        ahi = ((fl[la] | fl[ha]) & SQ__CF_SOLID) ? 2.0f * s * nf : 0.0f;
-                    else
-                        ahi = s * 0.5f * (nf + nu_mol + 0.5f * (nu[la] + nu[ha]));
-                }
-                /* row: -alo u_{k-1} + (1 + alo + ahi) u_k - ahi u_{k+1} = u_k; a fixed
-                 * neighbour contributes its value 0 (no-slip) or nothing (no flux) */
-                const float diag = 1.0f + alo + ahi;
-                const float lower = fixed_lo ? 0.0f : -alo;
-                const float upper = fixed_hi ? 0.0f : -ahi;
-                const float cprev = fixed_lo ? 0.0f : cp[p - fsz];
-                const float dprev = fixed_lo ? 0.0f : dp[p - fsz];
-                const float den = diag - lower * cprev;
-                cp[p] = upper / den;
-                dp[p] = (u[p] - lower * dprev) / den;
-            }
+            const ptrdiff_t hi = sq__cidx(g, 0, j, k), lo = hi - off;
+            pk.bottom = -(int32_t)(k == 0);
+            pk.top = -(int32_t)(k == nz - 1);
+            vi_forward_row(&pk, u + r0, cp + r0, dp + r0, fsz, fl + lo, fl + hi, nu + lo, nu + hi,
+                           g->sz, mx);
         }
         /* back substitution */
         for (int k = nz - 1; k >= 0; k--) {
             const ptrdiff_t r0 = (ptrdiff_t)j * fsy + (ptrdiff_t)k * fsz;
-            for (int i = 0; i < mx; i++) {
-                const ptrdiff_t p = r0 + i;
-                const float next = k < nz - 1 ? u[p + fsz] : 0.0f;
-                u[p] = dp[p] - cp[p] * next;
-            }
+            float *ur = u + r0;
+            const float *cr = cp + r0, *dr = dp + r0, *un = ur + fsz;
+            if (k == nz - 1)
+                for (int i = 0; i < mx; i++) ur[i] = dr[i];
+            else
+                for (int i = 0; i < mx; i++) ur[i] = dr[i] - cr[i] * un[i];
         }
     }
 }

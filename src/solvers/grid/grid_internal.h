@@ -123,6 +123,20 @@ static inline float sq__fsel(bool c, float a, float b)
     return f;
 }
 
+/* m ? a : b for an int32 mask m of all ones or zero. Masks built as -(int32_t)(comparison)
+ * and combined with & | ~ stay integer vectors; GCC narrows 0/1 ints combined with & back to
+ * _Bool, which it does not vectorise. */
+static inline float sq__fselm(int32_t m, float a, float b)
+{
+    int32_t ia, ib;
+    memcpy(&ia, &a, sizeof ia);
+    memcpy(&ib, &b, sizeof ib);
+    const int32_t r = (ia & m) | (ib & ~m);
+    float f;
+    memcpy(&f, &r, sizeof f);
+    return f;
+}
+
 /* sum a[i] b[i], i < n, in float with 8 interleaved partial sums (a fixed order that
  * vectorises; GCC does not vectorise a plain float reduction without -fassociative-math). */
 static inline float sq__dotf(const float *a, const float *b, int n)
