@@ -110,6 +110,7 @@ struct sq__volume_pass {
     vol_key key;
     /* eye pass */
     GLuint bounds_tex, bounds_fbo, acc_tex, acc_fbo, comp_fbo, comp_color;
+    GLuint eye_depth;   /* per pixel: window depth beyond which no slice fragment counts */
     int eye_w, eye_h;
     int max_3d;
     float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
@@ -119,7 +120,7 @@ struct sq__volume_pass {
 
 /* ---- GL state the pass changes, restored on exit ------------------------------------------ */
 typedef struct gl_saved {
-    GLint fbo, viewport[4], program, vao;
+    GLint fbo, viewport[4], program, vao, depth_func;
     GLint blend_src_rgb, blend_dst_rgb, blend_src_a, blend_dst_a, blend_eq_rgb, blend_eq_a;
     GLboolean blend, depth, cull, scissor, depth_mask;
 } gl_saved;
@@ -135,6 +136,7 @@ static void state_save(gl_saved *s)
     s->cull = glIsEnabled(GL_CULL_FACE);
     s->scissor = glIsEnabled(GL_SCISSOR_TEST);
     glGetBooleanv(GL_DEPTH_WRITEMASK, &s->depth_mask);
+    glGetIntegerv(GL_DEPTH_FUNC, &s->depth_func);
     glGetIntegerv(GL_BLEND_SRC_RGB, &s->blend_src_rgb);
     glGetIntegerv(GL_BLEND_DST_RGB, &s->blend_dst_rgb);
     glGetIntegerv(GL_BLEND_SRC_ALPHA, &s->blend_src_a);
@@ -160,6 +162,7 @@ static void state_restore(const gl_saved *s)
     enable_if(GL_CULL_FACE, s->cull);
     enable_if(GL_SCISSOR_TEST, s->scissor);
     glDepthMask(s->depth_mask);
+    glDepthFunc((GLenum)s->depth_func);
     glBlendFuncSeparate((GLenum)s->blend_src_rgb, (GLenum)s->blend_dst_rgb,
                         (GLenum)s->blend_src_a, (GLenum)s->blend_dst_a);
     glBlendEquationSeparate((GLenum)s->blend_eq_rgb, (GLenum)s->blend_eq_a);
@@ -442,11 +445,15 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
     if (vp->bounds_fbo) glDeleteFramebuffers(1, &vp->bounds_fbo);
     if (vp->acc_tex) glDeleteTextures(1, &vp->acc_tex);
     if (vp->bounds_tex) glDeleteTextures(1, &vp->bounds_tex);
-    vp->acc_fbo = vp->acc_tex = vp->bounds_tex = vp->bounds_fbo = 0;
+    if (vp->eye_depth) glDeleteTextures(1, &vp->eye_depth);
+    vp->acc_fbo = vp->acc_tex = vp->bounds_tex = vp->bounds_fbo = vp->eye_depth = 0;
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->bounds_tex);
     glTextureStorage2D(vp->bounds_tex, 1, GL_RG32F, r->width, r->height);
+    glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_depth);
+    glTextureStorage2D(vp->eye_depth, 1, GL_DEPTH_COMPONENT32F, r->width, r->height);
     glCreateFramebuffers(1, &vp->bounds_fbo);
     glNamedFramebufferTexture(vp->bounds_fbo, GL_COLOR_ATTACHMENT0, vp->bounds_tex, 0);
+    glNamedFramebufferTexture(vp->bounds_fbo, GL_DEPTH_ATTACHMENT, vp->eye_depth, 0);
     glNamedFramebufferDrawBuffer(vp->bounds_fbo, GL_COLOR_ATTACHMENT0);
     sq_result res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
     if (res != SQ_OK) return res;
@@ -456,6 +463,7 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
     glTextureStorage2D(vp->acc_tex, 1, GL_RGBA32F, r->width, r->height);
     glCreateFramebuffers(1, &vp->acc_fbo);
     glNamedFramebufferTexture(vp->acc_fbo, GL_COLOR_ATTACHMENT0, vp->acc_tex, 0);
+    glNamedFramebufferTexture(vp->acc_fbo, GL_DEPTH_ATTACHMENT, vp->eye_depth, 0);
     glNamedFramebufferDrawBuffer(vp->acc_fbo, GL_COLOR_ATTACHMENT0);
     glNamedFramebufferReadBuffer(vp->acc_fbo, GL_COLOR_ATTACHMENT0);
     vp->eye_w = r->width;
@@ -542,9 +550,9 @@ void sq__volume_pass_destroy(sq_renderer *r)
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
-    GLuint tex[7] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
-                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex};
-    glDeleteTextures(7, tex);
+    GLuint tex[8] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
+                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth};
+    glDeleteTextures(8, tex);
     GLuint fbo[4] = {vp->light_fbo, vp->acc_fbo, vp->comp_fbo, vp->bounds_fbo};
     glDeleteFramebuffers(4, fbo);
     sq_free(r->ctx, vp->verts);
@@ -800,6 +808,9 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     u3(pb, "u_cam", r->cam_pos);
     u3(pb, "u_box_lo", p->lo);
     u3(pb, "u_box_size", p->size);
+    um4(pb, "u_view_proj", &r->view_proj);
+    u3(pb, "u_s", p->s);
+    u1f(pb, "u_spacing", p->spacing);
     return SQ_OK;
 }
 
@@ -1059,7 +1070,12 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     glBindTextureUnit(2, r->depth_tex);
     glUseProgram(vp->prog_bounds);
     glBindVertexArray(vp->vao_empty);
+    glEnable(GL_DEPTH_TEST); /* depth writes need the test on */
+    glDepthFunc(GL_ALWAYS);
+    glDepthMask(GL_TRUE);
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDepthMask(GL_FALSE);
+    glDisable(GL_DEPTH_TEST);
 
     /* the scene into the float accumulation buffer */
     glBlitNamedFramebuffer(vp->comp_fbo, vp->acc_fbo, 0, 0, r->width, r->height, 0, 0, r->width,
@@ -1089,9 +1105,13 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glEnable(GL_BLEND);
         glBlendEquation(GL_FUNC_ADD);
         glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);
+        glEnable(GL_DEPTH_TEST); /* early rejection behind the per-pixel bound; no writes */
+        glDepthFunc(GL_LEQUAL);
+        glDepthMask(GL_FALSE);
         glDrawArrays(GL_TRIANGLES, first, last - first);
     }
     glDisable(GL_BLEND);
+    glDisable(GL_DEPTH_TEST);
 
     /* back into the HDR target */
     glBlitNamedFramebuffer(vp->acc_fbo, vp->comp_fbo, 0, 0, r->width, r->height, 0, 0, r->width,

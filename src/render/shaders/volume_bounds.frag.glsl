@@ -5,6 +5,10 @@
 // (from the depth buffer; the sky is infinitely far). The eye pass clips every slab to it, so
 // terrain hides the dust behind it (SPEC 3.4 step 5) and slabs cut by the box or the camera
 // count only their inside part. Empty intervals are written as (1, 0).
+// It also writes, as the depth of the eye pass's depth buffer, the window depth of the farthest
+// point a slice fragment can stand for, t_out + half a slab along this ray (plus 2 % for
+// depth rounding), so that llvmpipe's early depth test drops the slice fragments behind it
+// (behind the terrain or past the box) before the eye shader runs; they would be discarded.
 #include "volume_common.glsl"
 
 layout(binding = 2) uniform sampler2D u_depth; // opaque scene depth (window depth in [0, 1])
@@ -13,6 +17,9 @@ uniform mat4 u_inv_view_proj;
 uniform vec2 u_viewport;
 uniform vec3 u_cam;
 uniform vec3 u_box_lo, u_box_size;
+uniform mat4 u_view_proj;
+uniform vec3 u_s;              // slice axis (unit)
+uniform float u_spacing;       // slice spacing along s (m)
 
 layout(location = 0) out vec4 o_bounds;
 
@@ -31,4 +38,9 @@ void main()
     vec2 box = vol_box_interval(u_cam, dir, u_box_lo, u_box_lo + u_box_size);
     vec2 b = vec2(max(box.x, 0.0), min(box.y, t_scene));
     o_bounds = b.x < b.y ? vec4(b, 0.0, 0.0) : vec4(1.0, 0.0, 0.0, 0.0);
+    // the eye pass's slab half length on this ray, as volume_eye.frag computes it
+    float t_far = (b.y + 0.5 * u_spacing / max(abs(dot(u_s, dir)), 0.05)) * 1.02;
+    vec4 c = u_view_proj * vec4(u_cam + dir * min(t_far, 1.0e30), 1.0);
+    float depth = c.w > 0.0 ? clamp(c.z / c.w * 0.5 + 0.5, 0.0, 1.0) : 1.0;
+    gl_FragDepth = b.x < b.y ? depth : 0.0;
 }
