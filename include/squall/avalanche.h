@@ -75,7 +75,7 @@ typedef struct sq_avalanche_desc {
     double mu_max_pa_s;        /* cap on the effective viscosity; 0 is physical (no cap) */
     /* numerics */
     double xsph_epsilon;       /* XSPH ε; 0 -> 0.5 (S2) */
-    double artificial_viscosity; /* Monaghan α; 0 -> 0.1 (see no_artificial_viscosity) */
+    double artificial_viscosity; /* Monaghan α; 0 -> 0.5 (see no_artificial_viscosity) */
     bool no_artificial_viscosity; /* α = 0 */
     double dt_max_s;           /* cap on the sub-step; 0 is physical (none) */
     /* terrain contact (SPEC §7.7) */

@@ -33,7 +33,7 @@ sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_de
     if (d.power_n == 0.0) d.power_n = 0.5;
     if (d.bingham_mu_pa_s == 0.0) d.bingham_mu_pa_s = 1.5;
     if (d.xsph_epsilon == 0.0) d.xsph_epsilon = 0.5;
-    if (d.artificial_viscosity == 0.0) d.artificial_viscosity = 0.1;
+    if (d.artificial_viscosity == 0.0) d.artificial_viscosity = 0.5;
     if (d.friction == 0.0) d.friction = 0.2;
     if (d.moving_speed_mps == 0.0) d.moving_speed_mps = 0.5;
     if (d.front_percentile == 0.0) d.front_percentile = 0.99;
