@@ -83,7 +83,7 @@ typedef struct vol_key {
 
 struct sq__volume_pass {
     GLuint prog_eye;       /* the variant of the current view (one of prog_eyes) */
-    GLuint prog_eyes[4];   /* by phase: [grey g][second lobe] */
+    GLuint prog_eyes[8];   /* by medium: [grey extinction][grey g][second lobe] */
     GLuint prog_bounds, prog_bake;
     GLuint prog_light[3];  /* by VOL_LIGHT_MODE: single scatter, narrow forward, blurred */
     GLint loc_plane[3], loc_src[3];
@@ -543,7 +543,7 @@ void sq__volume_pass_destroy(sq_renderer *r)
     if (!r || !r->volume) return;
     sq__volume_pass *vp = r->volume;
     if (r->sun_shadow_tex == vp->shadow_tex) r->sun_shadow_tex = 0;
-    for (int i = 0; i < 4; i++) glDeleteProgram(vp->prog_eyes[i]);
+    for (int i = 0; i < 8; i++) glDeleteProgram(vp->prog_eyes[i]);
     for (int i = 0; i < 3; i++) glDeleteProgram(vp->prog_light[i]);
     glDeleteProgram(vp->prog_bounds);
     glDeleteProgram(vp->prog_bake);
@@ -762,19 +762,22 @@ static sq_vec3 ambient_radiance(const sq_world *w)
     return sq_v3_scale(sq_v3_add(sky, ground), 0.5f);
 }
 
-/* Selects (compiling on first use) the eye program for the medium's phase function: one HG
- * for all channels when g is grey, the second lobe only when w2 > 0; and sets its uniforms. */
+/* Selects (compiling on first use) the eye program for the medium: one HG for all channels
+ * when g is grey, the second lobe only when w2 > 0, one exponential per transmittance when
+ * the extinction is grey; and sets its uniforms. */
 static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
     sq__volume_pass *vp = r->volume;
     const bool iso = r->desc.isotropic_phase;
     const bool grey = iso || (v->g[0] == v->g[1] && v->g[1] == v->g[2]);
     const bool lobe2 = v->w2 > 0.0f;
-    const int variant = (grey ? 2 : 0) + (lobe2 ? 1 : 0);
+    const bool grey_ext = v->sigma_ext[0] == v->sigma_ext[1] && v->sigma_ext[1] == v->sigma_ext[2];
+    const int variant = (grey_ext ? 4 : 0) + (grey ? 2 : 0) + (lobe2 ? 1 : 0);
     if (!vp->prog_eyes[variant]) {
-        char def[64];
-        snprintf(def, sizeof def, "VOL_PHASE_GREY %d\n#define VOL_PHASE_LOBE2 %d", grey ? 1 : 0,
-                 lobe2 ? 1 : 0);
+        char def[96];
+        snprintf(def, sizeof def,
+                 "VOL_PHASE_GREY %d\n#define VOL_PHASE_LOBE2 %d\n#define VOL_GREY_EXT %d",
+                 grey ? 1 : 0, lobe2 ? 1 : 0, grey_ext ? 1 : 0);
         sq_result res = variant_program(r, "volume_slice.vert", "volume_eye.frag", def,
                                         &vp->prog_eyes[variant]);
         if (res != SQ_OK) return res;

@@ -10,9 +10,10 @@
 // (3.22). The slices are drawn back to front (the light array holds every slice's light, so
 // the eye order need not follow the light order) and composited by dual-source blending
 // ONE, SRC1_COLOR: C = C_i + T C per channel (eq. 3.1, "over" with per-channel extinction),
-// into a float copy of the HDR scene. Compiled with VOL_PHASE_GREY (one g for all channels)
-// and VOL_PHASE_LOBE2 (second HG lobe weight w2 > 0) set by render_volume.c, so that the
-// phase function costs only what the medium needs (llvmpipe evaluates both sides of branches).
+// into a float copy of the HDR scene. Compiled with VOL_PHASE_GREY (one g for all channels),
+// VOL_PHASE_LOBE2 (second HG lobe weight w2 > 0) and VOL_GREY_EXT (one extinction coefficient
+// for all channels) set by render_volume.c, so that the medium costs only what it needs
+// (llvmpipe evaluates both sides of branches).
 #include "volume_common.glsl"
 
 in vec3 v_world;
@@ -59,14 +60,22 @@ void main()
     float rho = vol_density(u_density, v_world, u_box_lo, u_box_size);
     if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the target as it is)
     vec3 beta = rho * u_sigma_ext;
+#if VOL_GREY_EXT
+    vec3 T = vec3(exp(-beta.g * len));
+#else
     vec3 T = exp(-beta * len);
+#endif
 
     // sun light reaching this point: the light arriving at the slice, then half a light slab
     vec3 L = textureLod(u_light, vec3(v_light_uv, v_layer), 0.0).rgb;
     vec2 lb = vec2(max(max(v_back_tmin.x, v_back_tmin.y), v_back_tmin.z),
                    min(min(v_back_tmax.x, v_back_tmax.y), v_back_tmax.z));
     float back = lb.x <= lb.y ? clamp(lb.y, 0.0, 0.5 * u_dlambda) : 0.0;
+#if VOL_GREY_EXT
+    L *= exp(-beta.g * back);
+#else
     L *= exp(-beta * back);
+#endif
     float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
 #if VOL_PHASE_GREY
     float ph = vol_hg(cos_theta, u_g.r);
