@@ -355,10 +355,10 @@ static void dust_masses(const sq_sandstorm *s, double *mass)
 {
     const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
     sq_field_view c[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(s->grid, b);
     double *pm = s->plane_mass;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++)
         for (int b = 0; b < nb; b++) {
@@ -420,11 +420,11 @@ static double emit_dust(sq_sandstorm *s, double dt)
     }
     const int nx = s->nx, ny = s->ny, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
     sq_field3 *fu = sq_grid_velocity_field(s->grid, 0), *fv = sq_grid_velocity_field(s->grid, 1);
     sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_field(s->grid, b);
     double *acc = s->row_acc;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < ny; j++) {
         double total = 0.0, max_us = 0.0;
@@ -497,11 +497,11 @@ static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
 {
     const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
     const float gr = (float)(SQ_SAND_GRAVITY / SQ_SAND_AIR_DENSITY);
     sq_field_view c[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(s->grid, b);
     double *pm = s->plane_mass;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double m[SQ_SANDSTORM_MAX_BINS] = {0};
@@ -533,11 +533,11 @@ static double inflow_dust(sq_sandstorm *s)
     if (s->d.inflow_dust_kg_m3 <= 0.0) return 0.0;
     const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
     const double ramp = ramp_factor(s, s->time_s);
     sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_field(s->grid, b);
     double *acc = s->row_acc;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < ny; j++) {
         double added = 0.0;
@@ -579,6 +579,7 @@ static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
     const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
     const ptrdiff_t plane = (ptrdiff_t)nx * ny;
     const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
     int sub[SQ_SANDSTORM_MAX_BINS];
     double frac[SQ_SANDSTORM_MAX_BINS];
     sq_field3 *c[SQ_SANDSTORM_MAX_BINS];
@@ -590,7 +591,6 @@ static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
         c[b] = sq_grid_scalar_field(s->grid, b);
     }
     double *acc = s->row_acc;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < ny; j++) {
         double dep = 0.0;

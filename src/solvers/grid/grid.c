@@ -526,6 +526,7 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
                                                   : GH_COPY;
             }
             const int nt = (m[ta] + 2) * (m[tb] + 2) > 16384 ? sq_context_threads(g->ctx) : 1;
+            (void)nt; /* unused without OpenMP */
             SQ_OMP(omp parallel for schedule(static) num_threads(nt))
             for (int q = -1; q <= m[tb]; q++) {
                 float *row = o + (ptrdiff_t)q * st[tb];
@@ -850,8 +851,8 @@ sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
 {
     if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_check_finite: grid is NULL");
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const int nfields = 3 + g->d.scalar_count + 1;
-    (void)nt;
     for (int fi = 0; fi < nfields; fi++) {
         const sq_field3 *f = fi < 3 ? &g->vel[fi] : fi < nfields - 1 ? &g->scalar[fi - 3] : &g->p;
         const bool is_vel = fi < 3;

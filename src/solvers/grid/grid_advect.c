@@ -233,8 +233,8 @@ static void build_uc4(sq_grid *g, float *uc4)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const sq_field3 *U = &g->vel[0], *V = &g->vel[1], *W = &g->vel[2];
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = -1; k <= nz; k++)
         for (int j = -1; j <= ny; j++) {
@@ -279,11 +279,11 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const lat C = make_lat(g, NULL, g->sy, g->sz, SQ__L_CELL);
     const float s = dt / g->h, hs = 0.5f * s;
     const ptrdiff_t sy4 = 4 * g->sy, sz4 = 4 * g->sz;
     double *pmax = g->plane_sum;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = -1; k <= nz; k++) {
         int32_t vmax = 0; /* bit pattern of the non-negative float max */
@@ -389,8 +389,8 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
     const float *fx = g->scratch[SQ__S_DISP + 3] + c00, *fy = g->scratch[SQ__S_DISP + 4] + c00,
                 *fz = g->scratch[SQ__S_DISP + 5] + c00;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     float *const *dst1 = mac ? hat : out;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < mzn; k++) {
         chunk cb;

@@ -101,6 +101,7 @@ static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     eddy_par par;
     par.h = g->h;
     par.ih = 1.0f / g->h;
@@ -108,7 +109,6 @@ static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
     par.lmax = g->d.mixing_length_max_m > 0.0 ? (float)g->d.mixing_length_max_m : 1e30f;
     par.no_slip_ground = g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP;
     double *pm = g->plane_sum;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         float um[DROW], vm[DROW], u0[DROW], v0[DROW], up[DROW], vp[DROW];
@@ -234,6 +234,7 @@ static void molecular(sq_grid *g, float nu_mol, float s, bool implicit)
 {
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const float a = s * nu_mol;
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];

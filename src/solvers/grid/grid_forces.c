@@ -35,6 +35,7 @@ sq_result sq_grid_add_acceleration(sq_grid *g, double ax, double ay, double az, 
     const float dv[3] = {(float)(ax * dt_s), (float)(ay * dt_s), (float)(az * dt_s)};
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     for (int c = 0; c < 3; c++) {
         if (dv[c] == 0.0f) continue;
         sq_field3 *f = &g->vel[c];
@@ -88,6 +89,7 @@ sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
     double t0 = sq_time_now();
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const float dt = (float)dt_s;
     for (int c = 0; c < 3; c++) {
         if (!a[c]) continue;
@@ -176,6 +178,7 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
     const float bg = (float)(beta * gravity_mps2 * dt_s);
     sq_field3 *W = &g->vel[2];
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k <= nz; k++) {
         const int kl = k - 1 < 0 ? (g->periodic[2] ? nz - 1 : 0) : k - 1;
@@ -296,6 +299,7 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
     float *uc[3] = {g->scratch[SQ__S_DISP], g->scratch[SQ__S_DISP + 1],
                     g->scratch[SQ__S_DISP + 2]};
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     for (int c = 0; c < 3; c++) {
         const sq_field3 *f = &g->vel[c];
         const ptrdiff_t st = c == 0 ? 1 : c == 1 ? f->sy : f->sz;

@@ -266,8 +266,8 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
-    (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double acc = 0.0;
@@ -313,6 +313,7 @@ static double apply0(sq_grid *g, const float *x, float *out)
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
@@ -338,6 +339,7 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int K = 0; K < C->n[2]; K++) {
@@ -440,6 +442,7 @@ static void prolong(sq_grid *g, int lf, float *xf)
     const float *xc = C->x;
     const int nf0 = F->n[0], nf1 = F->n[1], nf2 = F->n[2];
     const int nt = F->count > 32768 ? sq_context_threads(g->ctx) : 1;
+    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nf2; k++) {
         int Pz, Nz, Py, Ny, Px, Nx;
@@ -501,6 +504,7 @@ static void smooth_c(sq_grid *g, sq__mg_level *L, int colour)
     float *x = L->x;
     const float *b = L->rhs, *cx = L->c[0], *cy = L->c[1], *cz = L->c[2], *id = L->inv_diag;
     const int nt = L->count > 32768 ? sq_context_threads(g->ctx) : 1;
+    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < L->n[2]; k++)
         for (int j = 0; j < L->n[1]; j++) {
@@ -522,6 +526,7 @@ static void restrict_c(sq_grid *g, int l)
     const float *x = F->x, *b = F->rhs, *cx = F->c[0], *cy = F->c[1], *cz = F->c[2],
                 *id = F->inv_diag;
     const int nt = F->count > 32768 ? sq_context_threads(g->ctx) : 1;
+    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int K = 0; K < C->n[2]; K++) {
         for (int J = 0; J < C->n[1]; J++) {
@@ -629,6 +634,7 @@ static void rhs_and_residual(sq_grid *g, const float *phi, float *b, float *r, d
     const sq_field3 *U = &g->vel[0], *V = &g->vel[1], *W = &g->vel[2];
     const float h = g->h;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
@@ -669,6 +675,7 @@ static double residual_norm2(sq_grid *g, const float *phi, const float *b)
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
@@ -737,6 +744,7 @@ static void correct_velocity(sq_grid *g, const float *phi)
     const uint8_t *fl = g->flags;
     const float ih = 1.0f / g->h;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];
         const ptrdiff_t off = c == 0 ? 1 : c == 1 ? g->sy : g->sz;
@@ -792,6 +800,7 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
     vcycle0(g, z, r, true, &rho, st);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
     memcpy(d, z, n * sizeof(float)); /* d = z (ghosts included) */
     for (int it = 0; it < g->d.max_iterations; it++) {
@@ -890,6 +899,7 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
     const ptrdiff_t sy = g->sy, sz = g->sz;
     const uint8_t *dg = g->diag;
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     memcpy(tmp, phi, g->cell_count * sizeof(float));
     float *src = phi, *dst = tmp;
     for (int it = 0; it < g->d.jacobi_iterations; it++) {
@@ -924,9 +934,9 @@ sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
     const size_t n = g->cell_count;
     /* warm start: phi = p dt from the previous step */
     const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
     const int planes = g->n[2] + 2;
     const ptrdiff_t sz = g->sz;
-    (void)nt;
     if (g->d.cold_start) {
         memset(phi, 0, n * sizeof(float));
     } else {
