@@ -725,7 +725,7 @@ static sq_result set_light_uniforms(sq_renderer *r, const sq_volume_view *v, con
     if (!vp->prog_light[mode]) {
         char def[32];
         snprintf(def, sizeof def, "VOL_LIGHT_MODE %d", mode);
-        sq_result res = variant_program(r, "volume_fullscreen.vert", "volume_light.frag", def,
+        sq_result res = variant_program(r, "volume_light.vert", "volume_light.frag", def,
                                         &vp->prog_light[mode]);
         if (res != SQ_OK) return res;
         vp->loc_plane[mode] = glGetUniformLocation(vp->prog_light[mode], "u_plane");
@@ -740,6 +740,11 @@ static sq_result set_light_uniforms(sq_renderer *r, const sq_volume_view *v, con
     u3(prog, "u_e2", p->e2);
     u3a(prog, "u_forward", p->forward);
     glProgramUniform2f(prog, glGetUniformLocation(prog, "u_blur"), p->blur_uv[0], p->blur_uv[1]);
+    const float wl[3] = {p->wl.x, p->wl.y, p->wl.z};
+    float inv_wl[3];
+    for (int c = 0; c < 3; c++)
+        inv_wl[c] = fabsf(wl[c]) > 1e-10f ? 1.0f / wl[c] : (wl[c] < 0.0f ? -1e10f : 1e10f);
+    u3a(prog, "u_inv_wl", inv_wl);
     return SQ_OK;
 }
 

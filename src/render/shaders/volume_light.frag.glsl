@@ -20,13 +20,12 @@
 layout(binding = 0) uniform sampler3D u_density;
 layout(binding = 1) uniform sampler2DArray u_light;
 
+in vec3 v_p;                   // volume_light.vert: the ray meets the slice plane here,
+in float v_lambda;             // at this ray parameter;
+in vec3 v_tmin, v_tmax;        // the ray against the box planes, per axis
+
 uniform int u_src;             // layer holding L_old
 uniform vec2 u_size;           // light buffer texels
-uniform vec4 u_uv_rect;        // light-frame coordinates covered: u0, v0, u1, v1 (m)
-uniform vec3 u_e1, u_e2;       // light-frame axes (perpendicular to wl)
-uniform vec3 u_wl;             // light propagation direction
-uniform vec3 u_s;              // slice axis
-uniform float u_plane;         // this slice: s . x = u_plane
 uniform float u_dlambda;       // light slab length spacing / (s . wl)
 uniform vec3 u_box_lo, u_box_size;
 uniform vec3 u_sigma_ext, u_albedo;
@@ -39,14 +38,9 @@ void main()
 {
     // the texel's own value: a fetch (bilinear filtering at a texel centre returns it)
     vec3 L_old = texelFetch(u_light, ivec3(ivec2(gl_FragCoord.xy), u_src), 0).rgb;
-    vec2 uv = gl_FragCoord.xy / u_size;
-    vec2 uvm = mix(u_uv_rect.xy, u_uv_rect.zw, uv);
-    vec3 q = u_e1 * uvm.x + u_e2 * uvm.y;              // ray origin on the light frame plane
-    float lambda = (u_plane - dot(u_s, q)) / dot(u_s, u_wl);
-    vec3 p = q + u_wl * lambda;
-    vec2 box = vol_box_interval(q, u_wl, u_box_lo, u_box_lo + u_box_size);
-    float len = vol_clip_len(lambda, 0.5 * u_dlambda, box.x, box.y); // 0: the ray misses the slab
-    float rho = vol_density(u_density, p, u_box_lo, u_box_size);
+    vec2 box = vec2(max(max(v_tmin.x, v_tmin.y), v_tmin.z), min(min(v_tmax.x, v_tmax.y), v_tmax.z));
+    float len = vol_clip_len(v_lambda, 0.5 * u_dlambda, box.x, box.y); // 0: the ray misses the slab
+    float rho = vol_density(u_density, v_p, u_box_lo, u_box_size);
     vec3 T = exp(-rho * u_sigma_ext * len);
     vec3 L = T * L_old;
 #if VOL_LIGHT_MODE == 1
@@ -54,6 +48,7 @@ void main()
 #elif VOL_LIGHT_MODE == 2
     // centre 1/4, six taps on a ring 1/8 each (sum 1)
     vec3 b = 0.25 * L_old;
+    vec2 uv = gl_FragCoord.xy / u_size;
     float layer = float(u_src);
     for (int i = 0; i < 6; i++) {
         float a = float(i) * (VOL_PI / 3.0);
