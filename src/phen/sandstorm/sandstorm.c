@@ -212,6 +212,7 @@ static sq_result create_grid(sq_sandstorm *s)
     g.jacobi_iterations = d->jacobi_iterations;
     g.tolerance = d->pressure_tolerance;
     g.advection = d->advection == 1 ? SQ_ADVECT_SEMI_LAGRANGIAN : SQ_ADVECT_MACCORMACK;
+    g.mixing_length_max_m = SQ_SAND_MIXING_LENGTH_MAX;
     g.scalar_count = s->nbins + 1;
     g.scalar_nonnegative = (1ull << (s->nbins + 1)) - 1ull;
     s->temp_idx = s->nbins;

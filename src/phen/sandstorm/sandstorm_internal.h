@@ -12,6 +12,12 @@
 #define SQ_SAND_GRAVITY 9.81          /* m/s² */
 #define SQ_SAND_KARMAN 0.4            /* von Kármán constant (S0) */
 #define SQ_SAND_NU_AIR 1.5e-5         /* m²/s kinematic viscosity of air (SPEC §1.5) */
+/* Cap on the mixing length kappa d (m): kappa x 250 m. The mixing length grows with height only
+ * through the surface layer; above it stays of the order of Blackadar's asymptotic length
+ * (~10^2 m in strong winds). Uncapped, kappa d would reach kappa x the domain height (about
+ * 1 km for a 2.5 km deep domain) and the upper-level eddy viscosity nu_t = l^2 |du/dz| would
+ * smear the storm's vertical structure. */
+#define SQ_SAND_MIXING_LENGTH_MAX 100.0
 /* Rayleigh extinction of clean air at 550 nm, sea level (Bucholtz 1995: 1.16e-5 1/m): the
  * visibility of dust-free air is then ln(20)/beta ~ 258 km instead of infinite. */
 #define SQ_SAND_BETA_AIR_550 1.16e-5
