@@ -83,7 +83,7 @@ typedef struct vol_key {
 
 struct sq__volume_pass {
     GLuint prog_eye;       /* the variant of the current view (one of prog_eyes) */
-    GLuint prog_eyes[8];   /* by medium: [grey extinction][grey g][second lobe] */
+    GLuint prog_eyes[2];   /* by medium: grey extinction or not */
     GLuint prog_bounds, prog_bake;
     GLuint prog_light[3];  /* by VOL_LIGHT_MODE: single scatter, narrow forward, blurred */
     GLint loc_plane[3], loc_src[3];
@@ -111,6 +111,7 @@ struct sq__volume_pass {
     /* eye pass */
     GLuint bounds_tex, bounds_fbo, acc_tex, acc_fbo, comp_fbo, comp_color;
     GLuint eye_depth;   /* per pixel: window depth beyond which no slice fragment counts */
+    GLuint phase_tex;   /* per pixel: phase function toward the eye (bounds pass) */
     int eye_w, eye_h;
     int max_3d;
     float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
@@ -446,15 +447,21 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
     if (vp->acc_tex) glDeleteTextures(1, &vp->acc_tex);
     if (vp->bounds_tex) glDeleteTextures(1, &vp->bounds_tex);
     if (vp->eye_depth) glDeleteTextures(1, &vp->eye_depth);
+    if (vp->phase_tex) glDeleteTextures(1, &vp->phase_tex);
     vp->acc_fbo = vp->acc_tex = vp->bounds_tex = vp->bounds_fbo = vp->eye_depth = 0;
+    vp->phase_tex = 0;
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->bounds_tex);
-    glTextureStorage2D(vp->bounds_tex, 1, GL_RG32F, r->width, r->height);
+    glTextureStorage2D(vp->bounds_tex, 1, GL_RGBA32F, r->width, r->height);
+    glCreateTextures(GL_TEXTURE_2D, 1, &vp->phase_tex);
+    glTextureStorage2D(vp->phase_tex, 1, GL_RGBA32F, r->width, r->height);
     glCreateTextures(GL_TEXTURE_2D, 1, &vp->eye_depth);
     glTextureStorage2D(vp->eye_depth, 1, GL_DEPTH_COMPONENT32F, r->width, r->height);
     glCreateFramebuffers(1, &vp->bounds_fbo);
     glNamedFramebufferTexture(vp->bounds_fbo, GL_COLOR_ATTACHMENT0, vp->bounds_tex, 0);
+    glNamedFramebufferTexture(vp->bounds_fbo, GL_COLOR_ATTACHMENT1, vp->phase_tex, 0);
     glNamedFramebufferTexture(vp->bounds_fbo, GL_DEPTH_ATTACHMENT, vp->eye_depth, 0);
-    glNamedFramebufferDrawBuffer(vp->bounds_fbo, GL_COLOR_ATTACHMENT0);
+    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(vp->bounds_fbo, 2, bufs);
     sq_result res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
     if (res != SQ_OK) return res;
     /* 32-bit floats: a hundred and more slices blend here (half floats would lose ~0.1 % of
@@ -543,16 +550,16 @@ void sq__volume_pass_destroy(sq_renderer *r)
     if (!r || !r->volume) return;
     sq__volume_pass *vp = r->volume;
     if (r->sun_shadow_tex == vp->shadow_tex) r->sun_shadow_tex = 0;
-    for (int i = 0; i < 8; i++) glDeleteProgram(vp->prog_eyes[i]);
+    for (int i = 0; i < 2; i++) glDeleteProgram(vp->prog_eyes[i]);
     for (int i = 0; i < 3; i++) glDeleteProgram(vp->prog_light[i]);
     glDeleteProgram(vp->prog_bounds);
     glDeleteProgram(vp->prog_bake);
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
-    GLuint tex[8] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
-                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth};
-    glDeleteTextures(8, tex);
+    GLuint tex[9] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
+                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth, vp->phase_tex};
+    glDeleteTextures(9, tex);
     GLuint fbo[4] = {vp->light_fbo, vp->acc_fbo, vp->comp_fbo, vp->bounds_fbo};
     glDeleteFramebuffers(4, fbo);
     sq_free(r->ctx, vp->verts);
@@ -767,23 +774,18 @@ static sq_vec3 ambient_radiance(const sq_world *w)
     return sq_v3_scale(sq_v3_add(sky, ground), 0.5f);
 }
 
-/* Selects (compiling on first use) the eye program for the medium: one HG for all channels
- * when g is grey, the second lobe only when w2 > 0, one exponential per transmittance when
- * the extinction is grey; and sets its uniforms. */
+/* Selects (compiling on first use) the eye program for the medium (one exponential per
+ * transmittance when the extinction is grey) and sets its uniforms and those of the bounds
+ * pass, which evaluates what depends on the pixel's ray only (slab length, near-plane cut,
+ * phase function). */
 static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
     sq__volume_pass *vp = r->volume;
-    const bool iso = r->desc.isotropic_phase;
-    const bool grey = iso || (v->g[0] == v->g[1] && v->g[1] == v->g[2]);
-    const bool lobe2 = v->w2 > 0.0f;
     const bool grey_ext = v->sigma_ext[0] == v->sigma_ext[1] && v->sigma_ext[1] == v->sigma_ext[2];
-    const int variant = (grey_ext ? 4 : 0) + (grey ? 2 : 0) + (lobe2 ? 1 : 0);
+    const int variant = grey_ext ? 1 : 0;
     if (!vp->prog_eyes[variant]) {
-        char def[96];
-        snprintf(def, sizeof def,
-                 "VOL_PHASE_GREY %d\n#define VOL_PHASE_LOBE2 %d\n#define VOL_GREY_EXT %d",
-                 grey ? 1 : 0, lobe2 ? 1 : 0, grey_ext ? 1 : 0);
-        sq_result res = variant_program(r, "volume_slice.vert", "volume_eye.frag", def,
+        sq_result res = variant_program(r, "volume_slice.vert", "volume_eye.frag",
+                                        grey_ext ? "VOL_GREY_EXT 1" : "VOL_GREY_EXT 0",
                                         &vp->prog_eyes[variant]);
         if (res != SQ_OK) return res;
     }
@@ -792,24 +794,16 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     set_common_uniforms(prog, v, p);
     um4(prog, "u_view_proj", &r->view_proj);
     u3(prog, "u_cam", r->cam_pos);
-    u3(prog, "u_cam_forward", sq_v3_norm(r->cam_forward));
-    u1f(prog, "u_near", r->near_m);
-    u1f(prog, "u_spacing", p->spacing);
     um4(prog, "u_light_matrix", &p->light_matrix);
     const float wl[3] = {p->wl.x, p->wl.y, p->wl.z};
     float inv_back[3];
     for (int c = 0; c < 3; c++)
         inv_back[c] = fabsf(wl[c]) > 1e-10f ? -1.0f / wl[c] : (wl[c] > 0.0f ? -1e10f : 1e10f);
     u3a(prog, "u_inv_back", inv_back);
-    float g[3];
-    for (int c = 0; c < 3; c++) g[c] = r->desc.isotropic_phase ? 0.0f : v->g[c];
-    u3a(prog, "u_g", g);
-    glProgramUniform2f(prog, glGetUniformLocation(prog, "u_g2w2"),
-                       r->desc.isotropic_phase ? 0.0f : v->g2, v->w2);
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
-    u3(prog, "u_sun_dir", p->sun_dir);
     u3(prog, "u_ambient", ambient_radiance(r->world));
-    const GLuint pb = r->volume->prog_bounds;
+
+    const GLuint pb = vp->prog_bounds;
     um4(pb, "u_inv_view_proj", &r->inv_view_proj);
     glProgramUniform2f(pb, glGetUniformLocation(pb, "u_viewport"), (float)r->width,
                        (float)r->height);
@@ -819,6 +813,14 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     um4(pb, "u_view_proj", &r->view_proj);
     u3(pb, "u_s", p->s);
     u1f(pb, "u_spacing", p->spacing);
+    u3(pb, "u_cam_forward", sq_v3_norm(r->cam_forward));
+    u1f(pb, "u_near", r->near_m);
+    u3(pb, "u_sun_dir", p->sun_dir);
+    const bool iso = r->desc.isotropic_phase;
+    float g[3];
+    for (int c = 0; c < 3; c++) g[c] = iso ? 0.0f : v->g[c];
+    u3a(pb, "u_g", g);
+    glProgramUniform2f(pb, glGetUniformLocation(pb, "u_g2w2"), iso ? 0.0f : v->g2, v->w2);
     return SQ_OK;
 }
 
@@ -1110,6 +1112,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glBindTextureUnit(0, density);
         glBindTextureUnit(1, vp->light_arr);
         glBindTextureUnit(2, vp->bounds_tex);
+        glBindTextureUnit(3, vp->phase_tex);
         glEnable(GL_BLEND);
         glBlendEquation(GL_FUNC_ADD);
         glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);

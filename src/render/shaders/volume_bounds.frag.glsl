@@ -4,7 +4,11 @@
 // from the camera, t_scene being the distance to the opaque surface seen through the pixel
 // (from the depth buffer; the sky is infinitely far). The eye pass clips every slab to it, so
 // terrain hides the dust behind it (SPEC 3.4 step 5) and slabs cut by the box or the camera
-// count only their inside part. Empty intervals are written as (1, 0).
+// count only their inside part. Empty intervals are written as (1, 0). Beside the interval it
+// stores what the eye pass needs per pixel and would otherwise recompute for every slice: the
+// slab length along this ray dt = spacing / |s . dir| (with |s . dir| >= 0.05), the distance
+// t_clip at which the near plane cuts the ray, and the phase function of the sun light
+// scattered toward the eye along it (HG per channel, second lobe, SPEC 2.6).
 // It also writes, as the depth of the eye pass's depth buffer, the window depth of the farthest
 // point a slice fragment can stand for, t_out + half a slab along this ray (plus 2 % for
 // depth rounding), so that llvmpipe's early depth test drops the slice fragments behind it
@@ -20,8 +24,14 @@ uniform vec3 u_box_lo, u_box_size;
 uniform mat4 u_view_proj;
 uniform vec3 u_s;              // slice axis (unit)
 uniform float u_spacing;       // slice spacing along s (m)
+uniform vec3 u_cam_forward;    // camera view direction
+uniform float u_near;          // near plane distance (m)
+uniform vec3 u_sun_dir;        // unit vector toward the sun
+uniform vec3 u_g;              // HG asymmetry per channel
+uniform vec2 u_g2w2;           // second lobe: asymmetry, weight
 
-layout(location = 0) out vec4 o_bounds;
+layout(location = 0) out vec4 o_bounds; // t_in, t_out, dt, t_clip (m)
+layout(location = 1) out vec4 o_phase;  // phase function toward the eye, per channel (1/sr)
 
 void main()
 {
@@ -37,9 +47,14 @@ void main()
     }
     vec2 box = vol_box_interval(u_cam, dir, u_box_lo, u_box_lo + u_box_size);
     vec2 b = vec2(max(box.x, 0.0), min(box.y, t_scene));
-    o_bounds = b.x < b.y ? vec4(b, 0.0, 0.0) : vec4(1.0, 0.0, 0.0, 0.0);
-    // the eye pass's slab half length on this ray, as volume_eye.frag computes it
-    float t_far = (b.y + 0.5 * u_spacing / max(abs(dot(u_s, dir)), 0.05)) * 1.02;
+    float dt = u_spacing / max(abs(dot(u_s, dir)), 0.05);
+    float t_clip = u_near / max(dot(dir, u_cam_forward), 1e-4);
+    o_bounds = vec4(b.x < b.y ? b : vec2(1.0, 0.0), dt, t_clip);
+    float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
+    vec3 p1 = vec3(vol_hg(cos_theta, u_g.r), vol_hg(cos_theta, u_g.g), vol_hg(cos_theta, u_g.b));
+    o_phase = vec4(mix(p1, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y), 0.0);
+    // the farthest point a slice fragment of this ray can stand for: t_out + half a slab
+    float t_far = (b.y + 0.5 * dt) * 1.02;
     vec4 c = u_view_proj * vec4(u_cam + dir * min(t_far, 1.0e30), 1.0);
     float depth = c.w > 0.0 ? clamp(c.z / c.w * 0.5 + 0.5, 0.0, 1.0) : 1.0;
     gl_FragDepth = b.x < b.y ? depth : 0.0;

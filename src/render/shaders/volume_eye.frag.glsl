@@ -10,10 +10,10 @@
 // (3.22). The slices are drawn back to front (the light array holds every slice's light, so
 // the eye order need not follow the light order) and composited by dual-source blending
 // ONE, SRC1_COLOR: C = C_i + T C per channel (eq. 3.1, "over" with per-channel extinction),
-// into a float copy of the HDR scene. Compiled with VOL_PHASE_GREY (one g for all channels),
-// VOL_PHASE_LOBE2 (second HG lobe weight w2 > 0) and VOL_GREY_EXT (one extinction coefficient
-// for all channels) set by render_volume.c, so that the medium costs only what it needs
-// (llvmpipe evaluates both sides of branches).
+// into a float copy of the HDR scene. What depends only on the pixel's ray (slab length, near
+// plane cut, phase function) comes from the bounds pass. Compiled with VOL_GREY_EXT 1 when the
+// extinction is the same on every channel (one exponential per transmittance; llvmpipe would
+// evaluate both sides of a branch).
 #include "volume_common.glsl"
 
 in vec3 v_world;
@@ -23,19 +23,14 @@ flat in float v_layer;
 
 layout(binding = 0) uniform sampler3D u_density;
 layout(binding = 1) uniform sampler2DArray u_light; // per slice: light arriving (ratio to E_sun)
-layout(binding = 2) uniform sampler2D u_bounds;     // per pixel: ray interval the volume may fill
+layout(binding = 2) uniform sampler2D u_bounds;     // per pixel: t_in, t_out, dt, t_clip
+layout(binding = 3) uniform sampler2D u_phase;      // per pixel: phase toward the eye
 
 uniform vec3 u_cam;
-uniform vec3 u_cam_forward;    // camera view direction
-uniform float u_near;          // near plane distance (m)
 uniform vec3 u_box_lo, u_box_size;
-uniform vec3 u_s;              // slice axis (unit)
-uniform float u_spacing;       // slice spacing along s (m)
-uniform vec3 u_wl;             // light propagation direction (unit)
 uniform float u_dlambda;       // light slab length spacing / (s . wl) (m)
-uniform vec3 u_sigma_ext, u_albedo, u_g;
-uniform vec2 u_g2w2;
-uniform vec3 u_sun_radiance, u_sun_dir; // sun irradiance E; unit vector TOWARD the sun
+uniform vec3 u_sigma_ext, u_albedo;
+uniform vec3 u_sun_radiance;   // sun irradiance E
 uniform vec3 u_ambient;        // phase-averaged sky + ground radiance J_amb
 
 layout(location = 0, index = 0) out vec4 o_color;
@@ -44,16 +39,14 @@ layout(location = 0, index = 1) out vec4 o_trans;
 void main()
 {
     ivec2 px = ivec2(gl_FragCoord.xy);
-    vec3 v = v_world - u_cam;
-    float t = length(v);
-    vec3 dir = v / max(t, 1e-6);
-    float dt = u_spacing / max(abs(dot(u_s, dir)), 0.05);
-    vec2 bounds = texelFetch(u_bounds, px, 0).xy;
+    float t = length(v_world - u_cam);
+    vec4 bounds = texelFetch(u_bounds, px, 0); // t_in, t_out, dt, t_clip
+    float dt = bounds.z;
     // The nearer neighbour slice along this ray lies at t - dt. If the near plane clips it away
     // (camera inside the volume), this slice also stands for its part of the ray, down to the
-    // camera, so that no dust goes missing in front of the first visible slice.
-    float t_clip = u_near / max(dot(dir, u_cam_forward), 1e-4);
-    float lo = t - dt < t_clip ? bounds.x : max(t - 0.5 * dt, bounds.x);
+    // camera (t_clip: where the near plane cuts the ray), so that no dust goes missing in front
+    // of the first visible slice.
+    float lo = t - dt < bounds.w ? bounds.x : max(t - 0.5 * dt, bounds.x);
     float len = min(t + 0.5 * dt, bounds.y) - lo;
     if (len <= 0.0) discard;
 
@@ -76,19 +69,7 @@ void main()
 #else
     L *= exp(-beta * back);
 #endif
-    float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
-#if VOL_PHASE_GREY
-    float ph = vol_hg(cos_theta, u_g.r);
-#if VOL_PHASE_LOBE2
-    ph = mix(ph, vol_hg(cos_theta, u_g2w2.x), u_g2w2.y);
-#endif
-    vec3 phase = vec3(ph);
-#else
-    vec3 phase = vec3(vol_hg(cos_theta, u_g.r), vol_hg(cos_theta, u_g.g), vol_hg(cos_theta, u_g.b));
-#if VOL_PHASE_LOBE2
-    phase = mix(phase, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y);
-#endif
-#endif
+    vec3 phase = texelFetch(u_phase, px, 0).rgb;
     vec3 J = u_sun_radiance * L * phase + u_ambient;
     o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
     o_trans = vec4(T, 1.0);
