@@ -46,8 +46,11 @@
  *
  * Cost. The RK2 traces are computed once per velocity field at the cell centres and cached:
  * all scalars advected with one velocity share them, and so does the next velocity advection
- * if nothing changed the velocity in between. A step that advects its scalars first (with the
- * projected velocity of the previous step) and then the wind therefore traces once.
+ * if nothing changed the velocity in between. A step that advects its scalars last (with the
+ * projected velocity) and the wind first in the next step therefore traces once per step.
+ * sq_grid_advect_scalars advects the scalars in batches that share the trace locations (use it
+ * rather than a loop over sq_grid_advect_scalar). The kernels are branch-free row loops that
+ * GCC vectorises (with -march=native: AVX2/AVX-512); nothing is allocated per step.
  *
  * Threads: kernels run on sq_context_threads() threads (OpenMP over z). Reductions sum per
  * z-plane and then in plane order, so results do not depend on the thread count. */

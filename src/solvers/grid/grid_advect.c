@@ -9,7 +9,12 @@
  * the velocity (each component the mean of the cell's two faces), and cached: every scalar and
  * the next velocity advection reuse them while the velocity, dt and drift are unchanged. A face
  * sample takes the mean of its two cells' displacements, which is exact for linear velocity
- * fields (the RK2 displacement is then linear in x), so face traces stay second order. */
+ * fields (the RK2 displacement is then linear in x), so face traces stay second order.
+ * Kernels. Samples are processed in row chunks: the trace positions of a chunk are located in
+ * vectorised loops and shared by every field advected on that lattice (the scalars are advected
+ * in batches of up to three with one trace); the trilinear samples load the 8 corners as four
+ * x-pairs (SSE2) and the limiter's range is recomputed in the second pass instead of being
+ * stored. OpenMP over z-planes, static schedule; no allocation. */
 #include <string.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>

@@ -18,8 +18,12 @@
  * aggregation (coarse link = sum of the fine links across the coarse face / block length,
  * which is the standard 7-point operator for uniform blocks and follows solids and open
  * faces), red-black Gauss-Seidel smoothing (red-black before, black-red after), a few
- * symmetric sweeps on the <= 2x2x2 coarsest grid. The finest grid stores its 0/1 links as one
- * byte per cell to save memory bandwidth. */
+ * symmetric sweeps on the <= 2x2x2 coarsest grid. The finest grid keeps one byte per cell (the
+ * diagonal) and no link coefficients: its vectors are zero in solid cells and non-periodic
+ * ghosts, so closed links and links to p = 0 faces add nothing to the plain 7-point sums (see
+ * nbsum0). Level-0 kernels are branch-free row loops (vectorised; a red-black half-sweep
+ * updates the whole row and keeps its colour's cells); reductions are per-plane sums of
+ * 8-lane partial sums, added in plane order. */
 #include <string.h>
 
 #include "solvers/grid/grid_internal.h"
