@@ -81,13 +81,13 @@ static inline float fsel(bool c, float a, float b)
  * unused). dep[i]: the amount leaving cell i into the ground. */
 static void settle_row(float *restrict ck, const float *restrict cu, const uint8_t *restrict sk,
                        const uint8_t *restrict sb, const uint8_t *restrict su, bool bottom,
-                       bool top, int nx, float f, float *restrict dep)
+                       bool top, int nx, float f, float scale, float *restrict dep)
 {
     for (int i = 0; i < nx; i++) {
-        const float v = ck[i], out = f * v;
+        const float v = ck[i] * scale, out = f * v; /* scale: the mass fix, first sub-step */
         const bool fluid = !sk[i];
         const bool ground = bottom | (sb[i] != 0);
-        const float in = fsel(!top & !su[i], f * cu[i], 0.0f);
+        const float in = fsel(!top & !su[i], f * (cu[i] * scale), 0.0f);
         dep[i] = fsel(fluid & ground, out, 0.0f);
         ck[i] = fsel(fluid, v - out + in, v);
     }
@@ -95,16 +95,11 @@ static void settle_row(float *restrict ck, const float *restrict cu, const uint8
 
 /* sq__sand_column_settle for the nx adjacent columns of one y-row at once (x fastest: the inner
  * loop is contiguous and vectorises): c[k*cs + i], solid[k*ss + i]. The slab is
- * first scaled by scale (the mass fix), then settled substeps times by frac. Returns the
+ * scaled by scale (the mass fix) in the first of substeps settling sub-steps by frac. Returns the
  * deposited amount (concentration units), summed in double. */
 double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nx,
                             int nz, float scale, int substeps, double frac)
 {
-    if (scale != 1.0f)
-        for (int k = 0; k < nz; k++) {
-            float *ck = c + (ptrdiff_t)k * cs;
-            for (int i = 0; i < nx; i++) ck[i] *= scale;
-        }
     double deposited = 0.0;
     const float f = (float)frac;
     float dep[256];
@@ -117,7 +112,8 @@ double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdif
             const uint8_t *sb = bottom ? sk : sk - ss, *su = top ? sk : sk + ss;
             for (int i0 = 0; i0 < nx; i0 += 256) {
                 const int n = nx - i0 < 256 ? nx - i0 : 256;
-                settle_row(ck + i0, cu + i0, sk + i0, sb + i0, su + i0, bottom, top, n, f, dep);
+                settle_row(ck + i0, cu + i0, sk + i0, sb + i0, su + i0, bottom, top, n, f,
+                           it == 0 ? scale : 1.0f, dep);
                 deposited += sq__sand_dsum(dep, n);
             }
         }

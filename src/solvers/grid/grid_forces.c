@@ -68,12 +68,25 @@ static sq_result check_view(sq_grid *g, const sq_field_view *v, const char *name
     return SQ_OK;
 }
 
-/* Face value of a cell-centred quantity: mean of the two cells, or the one fluid cell. */
+/* Face value of a cell-centred quantity: mean of the two cells, or the one fluid cell (int32
+ * masks, see sq__fselm). */
 static inline float face_mean(const uint8_t *fl, ptrdiff_t lo, ptrdiff_t hi, float a, float b)
 {
-    const bool ua = !(fl[lo] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
-    const bool ub = !(fl[hi] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET));
-    return sq__fsel(ua & ub, 0.5f * (a + b), sq__fsel(ua, a, sq__fsel(ub, b, 0.0f)));
+    const int32_t ua = -(int32_t)((fl[lo] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET)) == 0);
+    const int32_t ub = -(int32_t)((fl[hi] & (SQ__CF_SOLID | SQ__CF_WALL | SQ__CF_DIRICHLET)) == 0);
+    return sq__fselm(ua & ub, 0.5f * (a + b), sq__fselm(ua, a, sq__fselm(ub, b, 0.0f)));
+}
+
+/* u[i] += dt * (face value of va/vb) on the free faces of one row: fo/fh the flags of the
+ * faces' low/high cells, va[i sx]/vb[i sx] the cell values below/above. */
+static void accel_row(float *restrict u, const uint8_t *restrict fo, const uint8_t *restrict fh,
+                      const float *restrict va, const float *restrict vb, ptrdiff_t sx, int n,
+                      float dt)
+{
+    for (int i = 0; i < n; i++) {
+        const int32_t fixed = -(int32_t)(((fo[i] | fh[i]) & SQ__CF_FIXED) != 0);
+        u[i] = sq__fselm(fixed, u[i], u[i] + dt * face_mean(fo, i, i + (fh - fo), va[i * sx], vb[i * sx]));
+    }
 }
 
 sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
@@ -114,16 +127,20 @@ sq_result sq_grid_add_acceleration_field(sq_grid *g, const sq_field_view *ax,
                 const float *rb = v->data + (ptrdiff_t)x[1] * v->sy + (ptrdiff_t)x[2] * v->sz;
                 const ptrdiff_t sx = v->sx;
                 const int mx = f->n.nx;
-                for (int i = 0; i < mx; i++) {
-                    const ptrdiff_t hi = r0 + i, lo = hi - off;
-                    int ia = i, ib = i;
-                    if (c == 0) { /* along the row */
-                        ia = i - 1 < 0 ? (g->periodic[0] ? nc - 1 : 0) : i - 1;
-                        ib = i >= nc ? (g->periodic[0] ? 0 : nc - 1) : i;
+                const uint8_t *fh = fl + r0, *fo = fh - off;
+                if (c > 0) {
+                    accel_row(u, fo, fh, ra, rb, sx, mx, dt);
+                } else { /* along the row: interior faces 1..nc-1, then the two end faces */
+                    accel_row(u + 1, fo + 1, fh + 1, ra, rb + sx, sx, nc - 1, dt);
+                    const int ends[2] = {0, nc};
+                    for (int e2 = 0; e2 < 2; e2++) {
+                        const int i = ends[e2];
+                        const int ia = i - 1 < 0 ? (g->periodic[0] ? nc - 1 : 0) : i - 1;
+                        const int ib = i >= nc ? (g->periodic[0] ? 0 : nc - 1) : i;
+                        const float va = ra[(ptrdiff_t)ia * sx], vb = rb[(ptrdiff_t)ib * sx];
+                        if ((fo[i] | fh[i]) & SQ__CF_FIXED) continue;
+                        u[i] += dt * face_mean(fl, r0 + i - off, r0 + i, va, vb);
                     }
-                    const float va = ra[(ptrdiff_t)ia * sx], vb = rb[(ptrdiff_t)ib * sx];
-                    const bool fixed = ((fl[lo] | fl[hi]) & SQ__CF_FIXED) != 0;
-                    u[i] = sq__fsel(fixed, u[i], u[i] + dt * face_mean(fl, lo, hi, va, vb));
                 }
             }
     }
@@ -150,35 +167,53 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
     const sq_field3 *T = &g->scalar[tidx];
     const uint8_t *fl = g->flags;
     double t0 = sq_time_now();
-    /* reference temperature per level, kept in the plane-sum slots 2 (Tref) */
+    /* reference temperature per level, kept in the plane-sum slots 2 (1/Tref) and 3 (Tref):
+     * the mean over the level's fluid cells (per level, so independent of the thread count) */
     double *tr = g->plane_sum;
-    for (int k = 0; k < nz; k++) {
-        double ref;
-        if (tref_k) {
-            ref = (double)tref_k[k];
-        } else {
-            double s = 0.0;
-            long cnt = 0;
-            for (int j = 0; j < ny; j++)
-                for (int i = 0; i < nx; i++) {
-                    if (fl[sq__cidx(g, i, j, k)] & SQ__CF_SOLID) continue;
-                    s += (double)*sq_field3_at(T, i, j, k);
-                    cnt++;
+    const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
+    if (tref_k) {
+        for (int k = 0; k < nz; k++) tr[4 * k + 3] = (double)tref_k[k];
+    } else {
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int k = 0; k < nz; k++) {
+            double sum = 0.0, cnt = 0.0;
+            for (int j = 0; j < ny; j++) {
+                const uint8_t *fr = fl + sq__cidx(g, 0, j, k);
+                const float *tr_ = sq_field3_at(T, 0, j, k);
+                double p[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+                int32_t n = 0;
+                int i = 0;
+                for (; i + 8 <= nx; i += 8)
+                    for (int l = 0; l < 8; l++) {
+                        const int32_t fluid = -(int32_t)((fr[i + l] & SQ__CF_SOLID) == 0);
+                        p[l] += (double)sq__fselm(fluid, tr_[i + l], 0.0f);
+                        n -= fluid;
+                    }
+                for (; i < nx; i++) {
+                    const int32_t fluid = -(int32_t)((fr[i] & SQ__CF_SOLID) == 0);
+                    p[0] += (double)sq__fselm(fluid, tr_[i], 0.0f);
+                    n -= fluid;
                 }
-            ref = cnt ? s / (double)cnt : 1.0;
+                sum += ((p[0] + p[4]) + (p[1] + p[5])) + ((p[2] + p[6]) + (p[3] + p[7]));
+                cnt += (double)n;
+            }
+            tr[4 * k + 3] = cnt > 0.0 ? sum / cnt : 1.0;
         }
-        if (!(ref > 0.0) || !isfinite(ref))
+    }
+    for (int k = 0; k < nz; k++) {
+        const double ref = tr[4 * k + 3];
+        if (!(ref > 0.0) || !isfinite(ref)) {
+            memset(g->plane_sum, 0, ((size_t)nz + 2) * 4 * sizeof(double));
             return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
                             "buoyancy reference temperature at level k = %d is %g K; must be > 0 "
                             "(absolute temperature, SPEC §1.6)",
                             k, ref);
+        }
         tr[4 * k + 2] = 1.0 / ref;
-        tr[4 * k + 3] = ref;
     }
     const float bg = (float)(beta * gravity_mps2 * dt_s);
     sq_field3 *W = &g->vel[2];
-    const int nt = sq_context_threads(g->ctx);
-    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k <= nz; k++) {
         const int kl = k - 1 < 0 ? (g->periodic[2] ? nz - 1 : 0) : k - 1;
