@@ -80,7 +80,8 @@ static const sq_param params[] = {
       "Monaghan artificial viscosity alpha for approaching pairs (not in S2). Chosen: 0.5. "
       "Flowing snow compacts inelastically; without this damping the weakly compressible "
       "fluid rebounds at terrain kinks (water hammer p = rho c dv) and ejects particles "
-      "(measured on the preset: 80 m/s and 90 m high at the toe; with 0.5: 27 m/s, 18 m)."),
+      "(measured on the preset slope: 80 m/s and 90 m high at the toe with 0.1; 27 m/s, 4 m "
+      "with 0.5)."),
     B("numerics.no_artificial_viscosity", no_artificial_viscosity,
       "Switch the artificial viscosity off (alpha = 0)."),
     D("numerics.dt_max_s", dt_max_s, "s", 0, 0, 10, Z | A,
