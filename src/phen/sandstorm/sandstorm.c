@@ -592,14 +592,17 @@ static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
         c[b] = sq_grid_scalar_field(s->grid, b);
     }
     double *acc = s->row_acc;
+    /* blocks of 8 rows, each settled plane by plane (per-row sums: thread-count independent) */
+    const int nblk = (ny + 7) / 8;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int j = 0; j < ny; j++) {
-        double dep = 0.0;
+    for (int bk = 0; bk < nblk; bk++) {
+        const int j0 = 8 * bk, nr = ny - j0 < 8 ? ny - j0 : 8;
+        double dep[8] = {0, 0, 0, 0, 0, 0, 0, 0};
         for (int b = 0; b < nb; b++)
-            dep += sq__sand_slab_settle(sq_field3_at(c[b], 0, j, 0), c[b]->sz,
-                                        solid + (size_t)j * nx, plane, nx, nz, scale[b], sub[b],
-                                        frac[b]);
-        acc[4 * j] = dep;
+            sq__sand_block_settle(sq_field3_at(c[b], 0, j0, 0), c[b]->sy, c[b]->sz,
+                                  solid + (size_t)j0 * nx, nx, plane, nx, nr, nz, scale[b], sub[b],
+                                  frac[b], dep);
+        for (int r = 0; r < nr; r++) acc[4 * (j0 + r)] = dep[r];
     }
     double dep = 0.0;
     for (int j = 0; j < ny; j++) dep += acc[4 * j];

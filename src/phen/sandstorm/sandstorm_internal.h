@@ -91,8 +91,9 @@ static inline double sq__sand_dsum(const float *a, int n)
 /* kernels (sandstorm_kernels.c): pure functions over arrays */
 double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nz,
                               double frac);
-double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nx,
-                            int nz, float scale, int substeps, double frac);
+void sq__sand_block_settle(float *c, ptrdiff_t cy, ptrdiff_t cs, const uint8_t *solid,
+                           ptrdiff_t sy, ptrdiff_t ss, int nx, int nrows, int nz, float scale,
+                           int substeps, double frac, double *dep);
 void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
                                const float *ground_z1, float h, float height_m, double contrast,
                                float *out);

@@ -93,31 +93,33 @@ static void settle_row(float *restrict ck, const float *restrict cu, const uint8
     }
 }
 
-/* sq__sand_column_settle for the nx adjacent columns of one y-row at once (x fastest: the inner
- * loop is contiguous and vectorises): c[k*cs + i], solid[k*ss + i]. The slab is
- * scaled by scale (the mass fix) in the first of substeps settling sub-steps by frac. Returns the
- * deposited amount (concentration units), summed in double. */
-double sq__sand_slab_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrdiff_t ss, int nx,
-                            int nz, float scale, int substeps, double frac)
+/* sq__sand_column_settle for a block of nrows adjacent y-rows of nx columns, plane by plane
+ * (the rows of one plane are contiguous; x fastest, so the inner loop vectorises):
+ * c[k*cs + r*cy + i], solid[k*ss + r*sy + i]. The block is scaled by scale (the mass fix) in
+ * the first of substeps settling sub-steps by frac. dep[r] += the amount row r deposited
+ * (concentration units), summed in double in plane order. */
+void sq__sand_block_settle(float *c, ptrdiff_t cy, ptrdiff_t cs, const uint8_t *solid,
+                           ptrdiff_t sy, ptrdiff_t ss, int nx, int nrows, int nz, float scale,
+                           int substeps, double frac, double *dep)
 {
-    double deposited = 0.0;
     const float f = (float)frac;
-    float dep[256];
+    float d[256];
     for (int it = 0; it < substeps; it++)
         for (int k = 0; k < nz; k++) {
             const bool bottom = k == 0, top = k + 1 >= nz;
-            float *ck = c + (ptrdiff_t)k * cs;
-            const float *cu = top ? ck : ck + cs;
-            const uint8_t *sk = solid + (ptrdiff_t)k * ss;
-            const uint8_t *sb = bottom ? sk : sk - ss, *su = top ? sk : sk + ss;
-            for (int i0 = 0; i0 < nx; i0 += 256) {
-                const int n = nx - i0 < 256 ? nx - i0 : 256;
-                settle_row(ck + i0, cu + i0, sk + i0, sb + i0, su + i0, bottom, top, n, f,
-                           it == 0 ? scale : 1.0f, dep);
-                deposited += sq__sand_dsum(dep, n);
+            for (int r = 0; r < nrows; r++) {
+                float *ck = c + (ptrdiff_t)k * cs + (ptrdiff_t)r * cy;
+                const float *cu = top ? ck : ck + cs;
+                const uint8_t *sk = solid + (ptrdiff_t)k * ss + (ptrdiff_t)r * sy;
+                const uint8_t *sb = bottom ? sk : sk - ss, *su = top ? sk : sk + ss;
+                for (int i0 = 0; i0 < nx; i0 += 256) {
+                    const int n = nx - i0 < 256 ? nx - i0 : 256;
+                    settle_row(ck + i0, cu + i0, sk + i0, sb + i0, su + i0, bottom, top, n, f,
+                               it == 0 ? scale : 1.0f, d);
+                    dep[r] += sq__sand_dsum(d, n);
+                }
             }
         }
-    return deposited;
 }
 
 /* Visibility (m) on the plane height_m above the terrain: beta from the cell containing that
