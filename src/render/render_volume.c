@@ -872,20 +872,17 @@ static int chunk_end(const sq__volume_pass *vp, const vol_plan *p, int c)
 }
 
 /* Layer of the light arriving at every plane: chunk c starts from checkpoint layer c, and each
- * in-box slab of the chunk writes the next working layer (from layer `chunks` on). Returns the
- * largest number of working layers one chunk uses. */
-static int assign_slots(sq__volume_pass *vp, const vol_plan *p)
+ * in-box slab of the chunk writes the next working layer (from layer `chunks` on), as
+ * sweep_chunk does. */
+static void assign_slots(sq__volume_pass *vp, const vol_plan *p)
 {
-    int most = 0;
     for (int c = 0; c < vp->chunks; c++) {
         int src = c, steps = 0;
         for (int k = chunk_first(vp, c); k < chunk_end(vp, p, c); k++) {
             vp->slot[k] = src;
             if (slab_in_box(p, k)) src = vp->chunks + steps++;
         }
-        if (steps > most) most = steps;
     }
-    return most;
 }
 
 static int count_steps(const vol_plan *p)
