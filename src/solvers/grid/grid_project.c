@@ -509,17 +509,29 @@ static void smooth_c(sq_grid *g, sq__mg_level *L, int colour)
     const float *b = L->rhs, *cx = L->c[0], *cy = L->c[1], *cz = L->c[2], *id = L->inv_diag;
     const int nt = L->count > 32768 ? sq_context_threads(g->ctx) : 1;
     (void)nt; /* unused without OpenMP */
+    const int nx = L->n[0];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < L->n[2]; k++)
+    for (int k = 0; k < L->n[2]; k++) {
+        float t[ROW];
         for (int j = 0; j < L->n[1]; j++) {
             const ptrdiff_t r0 = lidx(L, 0, j, k);
-            for (int i = (j + k + colour) & 1; i < L->n[0]; i += 2) {
-                const ptrdiff_t c = r0 + i;
-                float s = b[c] + cx[c - 1] * x[c - 1] + cx[c] * x[c + 1] + cy[c - sy] * x[c - sy] +
-                          cy[c] * x[c + sy] + cz[c - sz] * x[c - sz] + cz[c] * x[c + sz];
-                x[c] = id[c] * s;
+            const int par = (j + k + colour) & 1;
+            /* the whole row (vectorised), this colour's cells kept (as smooth0_ex) */
+            for (int i0 = 0; i0 < nx; i0 += ROW) {
+                const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                const ptrdiff_t c0 = r0 + i0;
+                for (int q = 0; q < n; q++) {
+                    const ptrdiff_t c = c0 + q;
+                    const float sm = b[c] + cx[c - 1] * x[c - 1] + cx[c] * x[c + 1] +
+                                     cy[c - sy] * x[c - sy] + cy[c] * x[c + sy] +
+                                     cz[c - sz] * x[c - sz] + cz[c] * x[c + sz];
+                    t[q] = id[c] * sm;
+                }
+                float *xr = x + c0;
+                for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
             }
         }
+    }
     if (any_periodic(g)) exchange(g, org(L, L->x), L->n, sy, sz);
 }
 
@@ -531,8 +543,10 @@ static void restrict_c(sq_grid *g, int l)
                 *id = F->inv_diag;
     const int nt = F->count > 32768 ? sq_context_threads(g->ctx) : 1;
     (void)nt; /* unused without OpenMP */
+    const int nx = F->n[0];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int K = 0; K < C->n[2]; K++) {
+        float t[ROW];
         for (int J = 0; J < C->n[1]; J++) {
             float *cr = C->rhs + lidx(C, 0, J, K);
             for (int I = 0; I < C->n[0]; I++) cr[I] = 0.0f;
@@ -542,13 +556,25 @@ static void restrict_c(sq_grid *g, int l)
                 const ptrdiff_t r0 = lidx(F, 0, j, k);
                 float *cr = C->rhs + lidx(C, 0, j >> (C->b[1] - 1), K);
                 const int shx = C->b[0] - 1;
-                for (int i = 0; i < F->n[0]; i++) {
-                    const ptrdiff_t c = r0 + i;
-                    if (id[c] == 0.0f) continue;
-                    float ax = x[c] / id[c] - (cx[c - 1] * x[c - 1] + cx[c] * x[c + 1] +
-                                               cy[c - sy] * x[c - sy] + cy[c] * x[c + sy] +
-                                               cz[c - sz] * x[c - sz] + cz[c] * x[c + sz]);
-                    cr[i >> shx] += b[c] - ax;
+                for (int i0 = 0; i0 < nx; i0 += ROW) {
+                    const int n = nx - i0 < ROW ? nx - i0 : ROW;
+                    /* residual of the row (0 in inactive cells), vectorised */
+                    for (int q = 0; q < n; q++) {
+                        const ptrdiff_t c = r0 + i0 + q;
+                        const bool act = id[c] != 0.0f;
+                        const float ax = x[c] / sq__fsel(act, id[c], 1.0f) -
+                                         (cx[c - 1] * x[c - 1] + cx[c] * x[c + 1] +
+                                          cy[c - sy] * x[c - sy] + cy[c] * x[c + sy] +
+                                          cz[c - sz] * x[c - sz] + cz[c] * x[c + sz]);
+                        t[q] = sq__fsel(act, b[c] - ax, 0.0f);
+                    }
+                    if (shx) { /* ROW is even: pairs never straddle chunks */
+                        float *cc = cr + (i0 >> 1);
+                        for (int q = 0; q + 1 < n; q += 2) cc[q >> 1] += t[q] + t[q + 1];
+                        if (n & 1) cc[(n - 1) >> 1] += t[n - 1];
+                    } else {
+                        for (int q = 0; q < n; q++) cr[i0 + q] += t[q];
+                    }
                 }
             }
     }
