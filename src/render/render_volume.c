@@ -53,6 +53,7 @@
 #define VOL_LIGHT_BUDGET_BYTES ((uint64_t)256 << 20) /* light array above which it is chunked */
 #define VOL_VERT_FLOATS 4          /* slice vertex: world xyz, light layer */
 #define VOL_MAX_TRI_VERTS 12       /* a hexagon as 4 triangles */
+#define VOL_LIGHT_GROUP 8          /* slabs per light pass without the blur ring (<= 8 outputs) */
 
 typedef struct vol_plan {
     sq_vec3 lo, size, hi;
@@ -88,6 +89,7 @@ struct sq__volume_pass {
     GLuint prog_light[3];  /* by VOL_LIGHT_MODE: single scatter, narrow forward, blurred */
     GLint loc_plane[3], loc_src[3];
     int light_mode;        /* variant of the current plan */
+    int light_steps;       /* slabs per light pass of that variant */
     GLuint vao_slices, vbo_slices, vao_empty;
     GLuint density_tex, noise_tex, baked_tex;
     int dnx, dny, dnz;
@@ -729,9 +731,10 @@ static sq_result set_light_uniforms(sq_renderer *r, const sq_volume_view *v, con
     const float n = (float)vp->light_size;
     const bool wide = fmaxf(p->blur_uv[0], p->blur_uv[1]) * n >= 0.5f;
     const int mode = r->desc.single_scatter_only ? 0 : (wide ? 2 : 1);
+    const int steps = mode == 2 ? 1 : VOL_LIGHT_GROUP;
     if (!vp->prog_light[mode]) {
-        char def[32];
-        snprintf(def, sizeof def, "VOL_LIGHT_MODE %d", mode);
+        char def[64];
+        snprintf(def, sizeof def, "VOL_LIGHT_MODE %d\n#define VOL_LIGHT_STEPS %d", mode, steps);
         sq_result res = variant_program(r, "volume_light.vert", "volume_light.frag", def,
                                         &vp->prog_light[mode]);
         if (res != SQ_OK) return res;
@@ -739,6 +742,7 @@ static sq_result set_light_uniforms(sq_renderer *r, const sq_volume_view *v, con
         vp->loc_src[mode] = glGetUniformLocation(vp->prog_light[mode], "u_src");
     }
     vp->light_mode = mode;
+    vp->light_steps = steps;
     const GLuint prog = vp->prog_light[mode];
     set_common_uniforms(prog, v, p);
     glProgramUniform2f(prog, glGetUniformLocation(prog, "u_size"), n, n);
@@ -892,28 +896,45 @@ static int count_steps(const vol_plan *p)
     return s;
 }
 
-/* One light pass: the light of layer src carried across slab k into layer dst. */
-static void light_step(sq__volume_pass *vp, const vol_plan *p, int k, int src, int dst)
+/* One light pass: the light of layer src carried across the n slabs k, k + 1, ... (in the box,
+ * n <= light_steps) into layers dst, dst + 1, ... */
+static void light_pass(sq__volume_pass *vp, const vol_plan *p, int k, int n, int src, int dst)
 {
     const int m = vp->light_mode;
-    glNamedFramebufferTextureLayer(vp->light_fbo, GL_COLOR_ATTACHMENT0, vp->light_arr, 0, dst);
+    GLenum bufs[VOL_LIGHT_GROUP];
+    for (int i = 0; i < vp->light_steps; i++) {
+        bufs[i] = i < n ? GL_COLOR_ATTACHMENT0 + (GLenum)i : GL_NONE;
+        if (i < n)
+            glNamedFramebufferTextureLayer(vp->light_fbo, GL_COLOR_ATTACHMENT0 + (GLenum)i,
+                                           vp->light_arr, 0, dst + i);
+    }
+    glNamedFramebufferDrawBuffers(vp->light_fbo, vp->light_steps, bufs);
     glProgramUniform1f(vp->prog_light[m], vp->loc_plane[m], p->d_first + (float)k * p->spacing);
     glProgramUniform1i(vp->prog_light[m], vp->loc_src[m], src);
     glDrawArrays(GL_TRIANGLES, 0, 3);
-    glTextureBarrier(); /* the next pass reads the layer this one wrote */
+    glTextureBarrier(); /* the next pass reads a layer this one wrote */
 }
 
 /* Runs the light passes of chunk c from its checkpoint (program, textures, FBO and viewport
- * bound by the caller). With store_next, the light after the chunk becomes checkpoint c + 1.
- * Returns the layer holding the light after the chunk. */
+ * bound by the caller), up to light_steps consecutive in-box slabs per pass. With store_next,
+ * the light after the chunk becomes checkpoint c + 1. Returns the layer holding the light
+ * after the chunk. */
 static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store_next)
 {
     int src = c, steps = 0;
-    for (int k = chunk_first(vp, c); k < chunk_end(vp, p, c); k++) {
-        if (!slab_in_box(p, k)) continue;
-        const int dst = vp->chunks + steps++;
-        light_step(vp, p, k, src, dst);
-        src = dst;
+    const int end = chunk_end(vp, p, c);
+    for (int k = chunk_first(vp, c); k < end;) {
+        if (!slab_in_box(p, k)) {
+            k++;
+            continue;
+        }
+        int n = 1;
+        while (n < vp->light_steps && k + n < end && slab_in_box(p, k + n)) n++;
+        const int dst = vp->chunks + steps;
+        light_pass(vp, p, k, n, src, dst);
+        steps += n;
+        src = dst + n - 1;
+        k += n;
     }
     if (store_next && c + 1 < vp->chunks) {
         const int n = vp->light_size;

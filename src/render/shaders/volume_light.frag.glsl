@@ -15,46 +15,56 @@
 // ablation, 1 forward in-scatter of the centre value (the blur ring is narrower than half a
 // texel, below the buffer's resolution), 2 with the six-tap ring. Separate programs rather
 // than branches on uniforms: llvmpipe runs both sides of a branch under an execution mask.
+// Without the ring every texel's recursion is its own, so one pass carries the light across
+// VOL_LIGHT_STEPS consecutive slabs (8 in modes 0 and 1) and writes each result to its own
+// layer (one colour attachment per layer; unused ones are GL_NONE): fewer passes, and the
+// light stays in registers between slabs. With the ring a pass is one slab.
 #include "volume_common.glsl"
 
 layout(binding = 0) uniform sampler3D u_density;
 layout(binding = 1) uniform sampler2DArray u_light;
 
-in vec3 v_p;                   // volume_light.vert: the ray meets the slice plane here,
-in float v_lambda;             // at this ray parameter;
+in vec3 v_p;                   // volume_light.vert: the ray meets the pass's first slice plane
+in float v_lambda;             // here, at this ray parameter;
 in vec3 v_tmin, v_tmax;        // the ray against the box planes, per axis
 
 uniform int u_src;             // layer holding L_old
 uniform vec2 u_size;           // light buffer texels
-uniform float u_dlambda;       // light slab length spacing / (s . wl)
+uniform vec3 u_wl;             // light propagation direction
+uniform float u_dlambda;       // light slab length spacing / (s . wl): next plane's lambda step
 uniform vec3 u_box_lo, u_box_size;
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_forward;        // F: fraction of scattered light kept in the beam, per channel
 uniform vec2 u_blur;           // blur radius in texture coordinates
 
-layout(location = 0) out vec4 o_l;
+layout(location = 0) out vec4 o_l[VOL_LIGHT_STEPS];
 
 void main()
 {
     // the texel's own value: a fetch (bilinear filtering at a texel centre returns it)
-    vec3 L_old = texelFetch(u_light, ivec3(ivec2(gl_FragCoord.xy), u_src), 0).rgb;
+    vec3 L = texelFetch(u_light, ivec3(ivec2(gl_FragCoord.xy), u_src), 0).rgb;
     vec2 box = vec2(max(max(v_tmin.x, v_tmin.y), v_tmin.z), min(min(v_tmax.x, v_tmax.y), v_tmax.z));
-    float len = vol_clip_len(v_lambda, 0.5 * u_dlambda, box.x, box.y); // 0: the ray misses the slab
-    float rho = vol_density(u_density, v_p, u_box_lo, u_box_size);
-    vec3 T = exp(-rho * u_sigma_ext * len);
-    vec3 L = T * L_old;
-#if VOL_LIGHT_MODE == 1
-    L += u_albedo * (1.0 - T) * u_forward * L_old;
-#elif VOL_LIGHT_MODE == 2
-    // centre 1/4, six taps on a ring 1/8 each (sum 1)
-    vec3 b = 0.25 * L_old;
-    vec2 uv = gl_FragCoord.xy / u_size;
-    float layer = float(u_src);
-    for (int i = 0; i < 6; i++) {
-        float a = float(i) * (VOL_PI / 3.0);
-        b += 0.125 * textureLod(u_light, vec3(uv + u_blur * vec2(cos(a), sin(a)), layer), 0.0).rgb;
-    }
-    L += u_albedo * (1.0 - T) * u_forward * b;
+    for (int i = 0; i < VOL_LIGHT_STEPS; i++) {
+        float dl = float(i) * u_dlambda;
+        float len = vol_clip_len(v_lambda + dl, 0.5 * u_dlambda, box.x, box.y); // 0: misses
+        float rho = vol_density(u_density, v_p + u_wl * dl, u_box_lo, u_box_size);
+        vec3 T = exp(-rho * u_sigma_ext * len);
+#if VOL_LIGHT_MODE == 0
+        L = T * L;
+#elif VOL_LIGHT_MODE == 1
+        L = T * L + u_albedo * (1.0 - T) * u_forward * L;
+#else
+        // centre 1/4, six taps on a ring 1/8 each (sum 1)
+        vec3 b = 0.25 * L;
+        vec2 uv = gl_FragCoord.xy / u_size;
+        float layer = float(u_src);
+        for (int j = 0; j < 6; j++) {
+            float a = float(j) * (VOL_PI / 3.0);
+            b += 0.125 * textureLod(u_light, vec3(uv + u_blur * vec2(cos(a), sin(a)), layer),
+                                    0.0).rgb;
+        }
+        L = T * L + u_albedo * (1.0 - T) * u_forward * b;
 #endif
-    o_l = vec4(L, 1.0);
+        o_l[i] = vec4(L, 1.0);
+    }
 }
