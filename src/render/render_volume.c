@@ -174,6 +174,9 @@ static void state_restore(const gl_saved *s)
 static void state_set_plain(void)
 {
     glDisable(GL_BLEND);
+    /* a dual-source blend function makes draws into several colour buffers invalid in Mesa
+     * even with blending off (the light passes write up to 8) */
+    glBlendFunc(GL_ONE, GL_ZERO);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_CULL_FACE);
     glDisable(GL_SCISSOR_TEST);
