@@ -28,7 +28,8 @@
  * tests in tests/volume).
  *
  * Memory: the light array holds one layer (light_size^2 RGBA16F) per in-box slab, e.g. 68 MB
- * for 128 slices at 256^2. Above VOL_LIGHT_BUDGET_BYTES the planes are processed in chunks:
+ * for 128 slices at 256^2. Above VOL_LIGHT_BUDGET_BYTES (256 MB, or a quarter of the context's
+ * memory limit when that is less) the planes are processed in chunks:
  * the light sweep keeps one checkpoint layer per chunk plus the layers of one chunk, and the
  * eye pass recomputes a chunk's layers from its checkpoint when it needs them (at most one
  * more light sweep). With render.volume_noise on, the noise perturbation of the density is
@@ -50,7 +51,9 @@
 #define VOL_NOISE_AMP_VOXELS 1.0f  /* perturbation amplitude (S0 Fig 3.12) */
 #define VOL_NOISE_FREQ 0.25f       /* noise cells per voxel */
 #define VOL_RNG_STREAM 0x766f6c756d65ull /* "volume" */
-#define VOL_LIGHT_BUDGET_BYTES ((uint64_t)256 << 20) /* light array above which it is chunked */
+#define VOL_LIGHT_BUDGET_BYTES ((uint64_t)256 << 20) /* light array above which it is chunked
+                                                        (or a quarter of the context's memory
+                                                        limit, if that is less) */
 #define VOL_VERT_FLOATS 4          /* slice vertex: world xyz, light layer */
 #define VOL_MAX_TRI_VERTS 12       /* a hexagon as 4 triangles */
 #define VOL_LIGHT_GROUP 8          /* slabs per light pass without the blur ring (<= 8 outputs) */
@@ -404,8 +407,9 @@ static uint64_t layer_bytes(int light_size) { return (uint64_t)light_size * ligh
 static sq_result ensure_light_layers(sq_renderer *r, sq__volume_pass *vp, int n, int steps)
 {
     const uint64_t per = layer_bytes(vp->light_size);
-    const int budget = (int)(VOL_LIGHT_BUDGET_BYTES / per) > 2 ? (int)(VOL_LIGHT_BUDGET_BYTES / per)
-                                                               : 2;
+    uint64_t bytes = sq_context_memory_limit(r->ctx) / 4;
+    if (bytes == 0 || bytes > VOL_LIGHT_BUDGET_BYTES) bytes = VOL_LIGHT_BUDGET_BYTES;
+    const int budget = bytes / per > 2 ? (int)(bytes / per) : 2;
     int len = n, chunks = 1, need = 1 + steps;
     if (need > budget) {
         /* working layers per chunk <= chunk length; try the longest chunks that fit */
