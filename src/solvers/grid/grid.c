@@ -495,78 +495,103 @@ static void lattice_dims(const sq_grid *g, int L, int m[3])
 
 enum { GH_COPY, GH_NEG, GH_EXTRAP, GH_CONST, GH_INFLOW, GH_PERIODIC };
 
+/* How one face's ghosts are filled (see sq__grid_fill_ghosts). */
+typedef struct ghost_face {
+    int f, a, ta, tb, mode;
+    ptrdiff_t gi, bi, ii, src;
+    float cv;
+} ghost_face;
+
+/* Fills the ghosts of rows q of one face (q over the second tangential axis). */
+static void fill_face_row(const sq_grid *g, float *o, const ptrdiff_t st[3], const int m[3],
+                          int L, const ghost_face *gf, int q)
+{
+    const int ta = gf->ta, tb = gf->tb, f = gf->f;
+    const ptrdiff_t gi = gf->gi, bi = gf->bi, ii = gf->ii, src = gf->src;
+    float *row = o + (ptrdiff_t)q * st[tb];
+    const ptrdiff_t sp = st[ta];
+    switch (gf->mode) {
+    case GH_PERIODIC:
+    case GH_COPY:
+        for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = row[p * sp + src];
+        break;
+    case GH_NEG:
+        for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = -row[p * sp + bi];
+        break;
+    case GH_EXTRAP:
+        for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = 2.0f * row[p * sp + bi] - row[p * sp + ii];
+        break;
+    case GH_CONST:
+        for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = gf->cv;
+        break;
+    default: { /* tangential velocity against an inflow face: the inflow value at the ghost
+                * sample (tangential lattice indices (p, q) clamped to the face; a component's
+                * own axis averages its two adjacent boundary cells), mirrored through the face */
+        const int qc = sq_clampi(q, 0, m[tb]);
+        const int na = g->inflow_n[f][0], nb = g->inflow_n[f][1];
+        const int q0 = sq_clampi(L - 1 == tb ? qc - 1 : qc, 0, nb - 1);
+        const int q1 = sq_clampi(qc, 0, nb - 1);
+        const float *d0 = g->inflow[f] + 3 * (size_t)na * (size_t)q0 + (L - 1);
+        const float *d1 = g->inflow[f] + 3 * (size_t)na * (size_t)q1 + (L - 1);
+        const int sh = L - 1 == ta ? 1 : 0;
+        for (int p = -1; p <= m[ta]; p++) {
+            const int pc = sq_clampi(p, 0, m[ta]);
+            const int p0 = sq_clampi(pc - sh, 0, na - 1), p1 = sq_clampi(pc, 0, na - 1);
+            const float v = 0.25f * (d0[3 * p0] + d0[3 * p1] + d1[3 * p0] + d1[3 * p1]);
+            row[p * sp + gi] = 2.0f * v - row[p * sp + bi];
+        }
+    } break;
+    }
+}
+
 void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
 {
     int m[3];
     lattice_dims(g, L, m);
     const ptrdiff_t st[3] = {1, sy, sz};
+    ghost_face gf[6];
+    int work = 0;
     for (int a = 0; a < 3; a++) {
         const int ta = a == 0 ? 1 : 0, tb = a == 2 ? 1 : 2;
         const bool normal = L - 1 == a;
         for (int side = 0; side < 2; side++) {
             const int f = 2 * a + side;
+            ghost_face *e = &gf[f];
             const sq_boundary bc = g->d.boundary[f];
-            const ptrdiff_t gi = (side ? m[a] : -1) * st[a];    /* ghost */
-            const ptrdiff_t bi = (side ? m[a] - 1 : 0) * st[a]; /* boundary sample */
-            const ptrdiff_t ii = (side ? m[a] - 2 : 1) * st[a]; /* next inward */
-            ptrdiff_t src = bi;
-            int mode;
-            float cv = 0.0f;
+            e->f = f;
+            e->a = a;
+            e->ta = ta;
+            e->tb = tb;
+            e->gi = (side ? m[a] : -1) * st[a];    /* ghost */
+            e->bi = (side ? m[a] - 1 : 0) * st[a]; /* boundary sample */
+            e->ii = (side ? m[a] - 2 : 1) * st[a]; /* next inward */
+            e->src = e->bi;
+            e->cv = 0.0f;
             if (bc == SQ_BOUNDARY_PERIODIC) {
-                mode = GH_PERIODIC;
-                src = (normal ? (side ? 1 : m[a] - 2) : (side ? 0 : m[a] - 1)) * st[a];
+                e->mode = GH_PERIODIC;
+                e->src = (normal ? (side ? 1 : m[a] - 2) : (side ? 0 : m[a] - 1)) * st[a];
             } else if (normal) {
-                mode = is_wall(bc) ? GH_EXTRAP : GH_COPY;
+                e->mode = is_wall(bc) ? GH_EXTRAP : GH_COPY;
             } else if (L == SQ__L_CELL) {
-                mode = (bc == SQ_BOUNDARY_INFLOW && scalar >= 0) ? GH_CONST : GH_COPY;
-                if (mode == GH_CONST) cv = g->scalar_inflow[scalar];
+                e->mode = (bc == SQ_BOUNDARY_INFLOW && scalar >= 0) ? GH_CONST : GH_COPY;
+                if (e->mode == GH_CONST) e->cv = g->scalar_inflow[scalar];
             } else {
-                mode = bc == SQ_BOUNDARY_NO_SLIP ? GH_NEG
-                       : bc == SQ_BOUNDARY_INFLOW ? GH_INFLOW
-                                                  : GH_COPY;
+                e->mode = bc == SQ_BOUNDARY_NO_SLIP ? GH_NEG
+                          : bc == SQ_BOUNDARY_INFLOW ? GH_INFLOW
+                                                     : GH_COPY;
             }
-            const int nt = (m[ta] + 2) * (m[tb] + 2) > 16384 ? sq_context_threads(g->ctx) : 1;
-            (void)nt; /* unused without OpenMP */
-            SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-            for (int q = -1; q <= m[tb]; q++) {
-                float *row = o + (ptrdiff_t)q * st[tb];
-                const ptrdiff_t sp = st[ta];
-                switch (mode) {
-                case GH_PERIODIC:
-                case GH_COPY:
-                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = row[p * sp + src];
-                    break;
-                case GH_NEG:
-                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = -row[p * sp + bi];
-                    break;
-                case GH_EXTRAP:
-                    for (int p = -1; p <= m[ta]; p++)
-                        row[p * sp + gi] = 2.0f * row[p * sp + bi] - row[p * sp + ii];
-                    break;
-                case GH_CONST:
-                    for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = cv;
-                    break;
-                default: { /* tangential velocity against an inflow face: the inflow value at
-                            * the ghost sample (tangential lattice indices (p, q) clamped to the
-                            * face; a component's own axis averages its two adjacent boundary
-                            * cells), mirrored through the face */
-                    const int qc = sq_clampi(q, 0, m[tb]);
-                    const int na = g->inflow_n[f][0], nb = g->inflow_n[f][1];
-                    const int q0 = sq_clampi(L - 1 == tb ? qc - 1 : qc, 0, nb - 1);
-                    const int q1 = sq_clampi(qc, 0, nb - 1);
-                    const float *d0 = g->inflow[f] + 3 * (size_t)na * (size_t)q0 + (L - 1);
-                    const float *d1 = g->inflow[f] + 3 * (size_t)na * (size_t)q1 + (L - 1);
-                    const int sh = L - 1 == ta ? 1 : 0;
-                    for (int p = -1; p <= m[ta]; p++) {
-                        const int pc = sq_clampi(p, 0, m[ta]);
-                        const int p0 = sq_clampi(pc - sh, 0, na - 1), p1 = sq_clampi(pc, 0, na - 1);
-                        const float v = 0.25f * (d0[3 * p0] + d0[3 * p1] + d1[3 * p0] + d1[3 * p1]);
-                        row[p * sp + gi] = 2.0f * v - row[p * sp + bi];
-                    }
-                } break;
-                }
-            }
+            work += (m[ta] + 2) * (m[tb] + 2);
         }
+    }
+    /* faces in order (later faces overwrite the edges and corners of earlier ones): one
+     * parallel region, a worksharing loop per face with its barrier */
+    const int nt = work > 16384 ? sq_context_threads(g->ctx) : 1;
+    (void)nt; /* unused without OpenMP */
+    SQ_OMP(omp parallel num_threads(nt))
+    for (int f = 0; f < 6; f++) {
+        const int tb = gf[f].tb;
+        SQ_OMP(omp for schedule(static))
+        for (int q = -1; q <= m[tb]; q++) fill_face_row(g, o, st, m, L, &gf[f], q);
     }
 }
 
