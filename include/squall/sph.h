@@ -25,12 +25,16 @@
  * to sqrt(2 |g| L) with L the domain extent along gravity (free-fall speed over the domain).
  * Negative pressures are clamped to 0 unless tensile_pressure is set (SPEC §7.2 ⚠ 2).
  *
- * Gradient correction. By default gradients use the renormalised kernel gradient
+ * Gradient correction. By default the velocity gradient uses the renormalised kernel gradient
  * ∇̃W = L_i ∇W with L_i = (Σ_j V_j (x_j − x_i) ⊗ ∇W_ij)⁻¹ (Bonet & Lok 1999), so that linear
  * velocity fields have exact gradients on any particle arrangement (a plain spiky gradient
- * under-estimates them by ~4.5 % on a lattice with H = 2 dx). Pair forces use the symmetric
- * ½(L_i + L_j) ∇W_ij, which keeps linear momentum exactly conserved. Particles with too few
- * neighbours for an invertible L (det < 0.05) fall back to L = I.
+ * under-estimates them by ~4.5 % on a lattice with H = 2 dx, the cubic spline over-estimates
+ * them by 2 %), and the viscous pair terms use the symmetric ½(L_i + L_j) ∇W_ij, which keeps
+ * momentum exactly conserved and stays dissipative. The pressure term uses the kernel gradient
+ * times one constant, 1/(the lattice value of Σ_j V_j (z_j − z_i) ∂W/∂z_i) computed at create:
+ * a constant keeps the pressure force the gradient of an energy, whereas a per-particle L
+ * pumps energy into free surfaces. Particles with too few neighbours for an invertible L
+ * (det < 0.05) fall back to L = I.
  *
  * Boundaries. Each face of the domain box is a no-slip wall (default), a free-slip wall, open
  * (particles that leave are removed and counted) or periodic (both faces of the axis). Walls
@@ -73,11 +77,16 @@ extern "C" {
 typedef struct sq_sph sq_sph;
 
 typedef enum sq_sph_kernel {
-    SQ_SPH_KERNEL_DEFAULT = 0, /* = SQ_SPH_KERNEL_MULLER */
+    SQ_SPH_KERNEL_DEFAULT = 0, /* = SQ_SPH_KERNEL_CUBIC (see below) */
     /* Müller 2003: poly6 for density and XSPH, spiky gradient for pressure, velocity gradient
-     * and stress, viscosity-kernel Laplacian for Newtonian viscosity (SPEC §7.3). */
+     * and viscous terms, viscosity-kernel Laplacian for the MULLER viscous form (SPEC §7.3).
+     * The spiky gradient is not the gradient of the poly6 density kernel, so the pressure
+     * force does not conserve energy: a resting water column under gravity develops
+     * ~0.1 m/s of particle noise within a second. Faithful to the thesis, not the default. */
     SQ_SPH_KERNEL_MULLER = 1,
-    /* Cubic spline (ℓ = H/2) for everything; Newtonian viscosity in Morris's 1997 form. */
+    /* Cubic spline (ℓ = H/2) for density, gradients and XSPH (the MULLER viscous form keeps
+     * the viscosity-kernel Laplacian). Density and pressure use the same kernel, so pressure
+     * forces conserve energy. */
     SQ_SPH_KERNEL_CUBIC = 2
 } sq_sph_kernel;
 
@@ -86,6 +95,25 @@ typedef enum sq_sph_gradient {
     SQ_SPH_GRADIENT_CORRECTED = 1, /* renormalised kernel gradient (see banner) */
     SQ_SPH_GRADIENT_PLAIN = 2      /* the kernel gradient as in the thesis */
 } sq_sph_gradient;
+
+/* How the viscous acceleration is formed. The effective viscosity μ_i = μ(|γ̇|_i) always comes
+ * from the SPH velocity-gradient tensor (SPEC §7.4); the forms differ in how μ acts:
+ *   MORRIS  Σ_j m (μ_i + μ_j)/(ρ_i ρ_j) (x_ij·∇̃W_ij)/(r² + 0.01 ℓ²) (v_i − v_j) (Morris et al.
+ *           1997 with per-particle μ): exactly dissipative pair by pair, damps every velocity
+ *           mode, exact for Newtonian flow and for plane shear flows of any rheology.
+ *   MULLER  Σ_j ½(μ_i + μ_j) m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) (Müller 2003, eq. 3.39,
+ *           symmetrised): the thesis's Newtonian term; about 1–5 % too weak on a lattice.
+ *   TENSOR  Σ_j m (τ_i + τ_j)/(ρ_i ρ_j) · ∇̃W_ij, τ = 2 μ D (SPEC eq. 3.57): the thesis's
+ *           non-Newtonian term. The product of two SPH first derivatives cannot see zig-zag
+ *           velocity modes, which then grow unchecked: in the power-law Poiseuille test it
+ *           approaches the analytic profile (≈ 3 %) and then degrades to > 20 % error after about
+ *           one viscous time. Kept for comparison with the thesis; not recommended. */
+typedef enum sq_sph_viscous {
+    SQ_SPH_VISCOUS_DEFAULT = 0, /* = SQ_SPH_VISCOUS_MORRIS */
+    SQ_SPH_VISCOUS_MORRIS = 1,
+    SQ_SPH_VISCOUS_MULLER = 2,
+    SQ_SPH_VISCOUS_TENSOR = 3
+} sq_sph_viscous;
 
 typedef enum sq_sph_eos {
     SQ_SPH_EOS_DEFAULT = 0, /* = SQ_SPH_EOS_LINEAR */
@@ -160,8 +188,13 @@ typedef struct sq_sph_desc {
     double max_speed_mps;      /* expected flow speed; 0 -> sqrt(2|g| L) (see banner), or
                                   1 m/s without gravity */
     bool tensile_pressure;     /* keep negative pressure (cohesion); default clamps p ≥ 0 */
+    /* Added to the EOS pressure (Pa); 0 is physical (off). For confined flows without a free
+     * surface (channels, periodic boxes) a background pressure of ~0.05–1 ρ₀ c_s² keeps the
+     * particle arrangement regular (Morris et al. 1997); never use it with a free surface. */
+    double background_pressure_pa;
     sq_sph_kernel kernel;
     sq_sph_gradient gradient;
+    sq_sph_viscous viscous;
     sq_sph_rheology rheology;
     /* Monaghan (1992) artificial viscosity α in [0, 1] for approaching pairs,
      * Π_ij = −α c_s ℓ (v_ij·x_ij)/((r² + 0.01 ℓ²) ρ̄_ij); 0 is physical (off). It damps the

@@ -183,7 +183,8 @@ SQ_TEST(desc_defaults)
     const sq_sph_desc r = sq_sph_desc_resolve(&d);
     SQ_CHECK_NEAR(r.support_radius_m, 0.2, 1e-12);
     SQ_CHECK(r.rest_density_kgm3 == 1000.0);
-    SQ_CHECK(r.eos == SQ_SPH_EOS_LINEAR && r.kernel == SQ_SPH_KERNEL_MULLER);
+    SQ_CHECK(r.eos == SQ_SPH_EOS_LINEAR && r.kernel == SQ_SPH_KERNEL_CUBIC);
+    SQ_CHECK(r.viscous == SQ_SPH_VISCOUS_MORRIS);
     SQ_CHECK(r.gradient == SQ_SPH_GRADIENT_CORRECTED);
     SQ_CHECK(r.rheology.kind == SQ_SPH_RHEOLOGY_NEWTONIAN && r.rheology.mu_pa_s == 0.0);
     SQ_CHECK(r.xsph_epsilon == 0.5);

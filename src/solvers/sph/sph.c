@@ -60,6 +60,25 @@ static double lattice_sum(const sq__sph_kern *k, double dx)
     return sum;
 }
 
+/* Σ_lattice V (z_j − z_i) ∂W/∂z_i over the cubic lattice (V = 1/Σ_lattice W, as the particle
+ * mass makes it): the factor by which the kernel gradient misses the identity on a lattice. */
+static double lattice_gradient_factor(const sq__sph_kern *k, double dx)
+{
+    const double H = k->H;
+    const int n = (int)ceil(H / dx) + 1;
+    double sum = 0.0;
+    for (int a = -n; a <= n; a++)
+        for (int b = -n; b <= n; b++)
+            for (int c = -n; c <= n; c++) {
+                const double r = dx * sqrt((double)(a * a + b * b + c * c));
+                if (r >= H || r == 0.0) continue;
+                const double f = (double)sq__sph_gradf(k, (float)r);
+                const double dz = c * dx;
+                sum += -f * dz * dz;
+            }
+    return sum / lattice_sum(k, dx);
+}
+
 static sq_result alloc_nb(sq_sph *s, int cap)
 {
     const uint64_t bytes = (uint64_t)s->cap * (uint64_t)cap * 4u;
@@ -100,6 +119,7 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     sq__sph_kern_init(&s->k, (float)d.support_radius_m, d.kernel == SQ_SPH_KERNEL_CUBIC);
     sq__sph_rheo_init(&s->rheo, &d.rheology);
     s->newtonian = d.rheology.kind == SQ_SPH_RHEOLOGY_NEWTONIAN;
+    s->visc = (int)d.viscous;
     s->corrected = d.gradient == SQ_SPH_GRADIENT_CORRECTED;
     s->tait = d.eos == SQ_SPH_EOS_TAIT;
     s->tensile = d.tensile_pressure;
@@ -110,11 +130,13 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->inv_tait_gamma = 1.0f / 7.0f;
     s->tait_b = (float)(d.rest_density_kgm3 * d.speed_of_sound_mps * d.speed_of_sound_mps / 7.0);
     s->xsph_eps = (float)d.xsph_epsilon;
+    s->p_bg = (float)d.background_pressure_pa;
     s->av_c = (float)(d.artificial_viscosity * d.speed_of_sound_mps * 0.5 * d.support_radius_m);
     for (int a = 0; a < 3; a++) s->g[a] = (float)d.gravity_mps2[a];
     s->coll_r = (float)d.collision_radius_m;
     s->wall_margin = 0.25f * s->coll_r;
     s->mass = (float)(d.rest_density_kgm3 / lattice_sum(&s->k, d.spacing_m));
+    s->pgrad_c = s->corrected ? (float)(1.0 / lattice_gradient_factor(&s->k, d.spacing_m)) : 1.0f;
 
     uint64_t ncell = 1;
     for (int a = 0; a < 3; a++) {
@@ -479,7 +501,7 @@ static sq_result report_bad(sq_sph *s, size_t i, const char *what)
 static sq_result kick_drift(sq_sph *s, float dt)
 {
     const size_t N = s->count;
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, N);
     const float hdt = 0.5f * dt;
     int64_t bad = INT64_MAX;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(min : bad))
@@ -519,7 +541,7 @@ static sq_result kick_drift(sq_sph *s, float dt)
 static sq_result final_kick(sq_sph *s, float dt)
 {
     const size_t N = s->count;
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, N);
     const float hdt = 0.5f * dt;
     const float vlim = (float)(SQ__SPH_RUNAWAY_MACH * s->d.speed_of_sound_mps);
     const float vlim2 = vlim * vlim;

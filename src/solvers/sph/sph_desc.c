@@ -147,8 +147,9 @@ sq_sph_desc sq_sph_desc_resolve(const sq_sph_desc *in)
     if (d.support_radius_m == 0.0) d.support_radius_m = 2.0 * d.spacing_m;
     if (d.rest_density_kgm3 == 0.0) d.rest_density_kgm3 = 1000.0;
     if (d.eos == SQ_SPH_EOS_DEFAULT) d.eos = SQ_SPH_EOS_LINEAR;
-    if (d.kernel == SQ_SPH_KERNEL_DEFAULT) d.kernel = SQ_SPH_KERNEL_MULLER;
+    if (d.kernel == SQ_SPH_KERNEL_DEFAULT) d.kernel = SQ_SPH_KERNEL_CUBIC;
     if (d.gradient == SQ_SPH_GRADIENT_DEFAULT) d.gradient = SQ_SPH_GRADIENT_CORRECTED;
+    if (d.viscous == SQ_SPH_VISCOUS_DEFAULT) d.viscous = SQ_SPH_VISCOUS_MORRIS;
     d.rheology = sq__sph_rheology_resolve(&d.rheology);
     if (d.xsph_off) d.xsph_epsilon = 0.0;
     else if (d.xsph_epsilon == 0.0) d.xsph_epsilon = 0.5;
@@ -297,8 +298,15 @@ sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in)
     if (d.gradient != SQ_SPH_GRADIENT_CORRECTED && d.gradient != SQ_SPH_GRADIENT_PLAIN)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "gradient = %d; must be CORRECTED or PLAIN",
                         (int)d.gradient);
+    if (d.viscous != SQ_SPH_VISCOUS_MORRIS && d.viscous != SQ_SPH_VISCOUS_MULLER &&
+        d.viscous != SQ_SPH_VISCOUS_TENSOR)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "viscous = %d; must be MORRIS, MULLER or TENSOR",
+                        (int)d.viscous);
     sq_result r = validate_rheology(ctx, &d.rheology);
     if (r != SQ_OK) return r;
+    if (!(d.background_pressure_pa >= 0.0) || !isfinite(d.background_pressure_pa))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "background_pressure_pa = %g; must be >= 0 (Pa)", d.background_pressure_pa);
     if (!(d.artificial_viscosity >= 0.0 && d.artificial_viscosity <= 1.0))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
                         "artificial_viscosity = %g; Monaghan's alpha must be in [0, 1]",

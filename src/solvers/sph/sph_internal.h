@@ -158,12 +158,19 @@ struct sq_sph {
     /* constants (internal units = SI, float) */
     sq__sph_kern k;
     sq__sph_rheo rheo;
-    int newtonian;            /* NEWTONIAN rheology: Laplacian viscosity, no stress tensor */
+    int newtonian;            /* NEWTONIAN rheology: μ constant */
+    int visc;                 /* sq_sph_viscous, resolved */
     int corrected;            /* gradient correction on */
     int tait;
     int tensile;
     float mass, rho0, c0, c2, tait_b, tait_gamma, inv_tait_gamma, xsph_eps;
     float av_c;               /* α c_s ℓ (artificial viscosity), 0 = off */
+    float p_bg;               /* background pressure */
+    /* Pressure-gradient scale: 1 / (the renormalisation a cubic lattice of the spacing needs,
+     * Σ_j V (z_j − z_i) ∂W/∂z_i) with CORRECTED gradients, else 1. A constant factor keeps the
+     * pressure force the gradient of an energy (a position-dependent L would not, and pumps
+     * energy into free surfaces); the viscous terms and the velocity gradient use L_i. */
+    float pgrad_c;
     float g[3];
     float coll_r;             /* collision radius */
     float wall_margin;        /* safety clamp distance inside walls */
@@ -242,12 +249,21 @@ float sq__sph_pass_forces(sq_sph *s);
  * velocity of particle i. */
 void sq__sph_collide(const sq_sph *s, size_t i);
 
+/* Threads for a loop over n particles: small systems run on one thread, where the fork/join
+ * and barrier costs (large on a loaded machine) would exceed the work. */
+#define SQ__SPH_PARALLEL_MIN 8192
+static inline int sq__sph_threads(const sq_sph *s, size_t n)
+{
+    return n >= SQ__SPH_PARALLEL_MIN ? s->nt : 1;
+}
+
 /* Pressure from density (EOS, clamp). */
 static inline float sq__sph_eos(const sq_sph *s, float rho)
 {
     float p;
     if (s->tait) p = s->tait_b * (powf(rho / s->rho0, s->tait_gamma) - 1.0f);
     else p = s->c2 * (rho - s->rho0);
+    p += s->p_bg;
     if (!s->tensile && p < 0.0f) p = 0.0f;
     return p;
 }

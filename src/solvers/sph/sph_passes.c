@@ -131,7 +131,7 @@ static void gather_f(sq_sph *s, float **arr, size_t n)
     float *restrict dst = (float *)s->scratch;
     const float *restrict src = *arr;
     const uint32_t *restrict perm = s->perm;
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, n);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
     s->scratch = *arr;
@@ -143,7 +143,7 @@ static void gather_u(sq_sph *s, uint32_t **arr, size_t n)
     uint32_t *restrict dst = (uint32_t *)s->scratch;
     const uint32_t *restrict src = *arr;
     const uint32_t *restrict perm = s->perm;
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, n);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
     s->scratch = *arr;
@@ -154,7 +154,7 @@ size_t sq__sph_sort(sq_sph *s)
 {
     const size_t N = s->count;
     const uint32_t dead = s->ncell; /* bucket of particles that left through open faces */
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, N);
     uint32_t *restrict cid = s->cellid;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int64_t i = 0; i < (int64_t)N; i++) {
@@ -428,7 +428,7 @@ int sq__sph_pass_density(sq_sph *s)
 {
     const size_t N = s->count;
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, N);
     int maxcnt = 0;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : maxcnt))
     for (int64_t b = 0; b < nblk; b++) {
@@ -448,6 +448,7 @@ typedef struct image {
     float rho, vol, pr2;
     float L[6];
     float tau[6];
+    float mu;       /* μ_j (tensors >= 2: recomputed from the mirrored strain rate) */
 } image;
 
 static inline int tidx(int a, int b) /* symmetric 6-vector index: xx yy zz xy xz yz */
@@ -505,6 +506,7 @@ static void image_state(const sq_sph *restrict s, size_t i, uint32_t e, int tens
     o->rho = rho;
     o->vol = s->mass / rho;
     o->pr2 = p / (rho * rho);
+    o->mu = tensors >= 1 ? s->mu[j] : 0.0f;
     if (tensors >= 1)
         for (int a = 0; a < 3; a++)
             for (int b = a; b < 3; b++) {
@@ -519,6 +521,7 @@ static void image_state(const sq_sph *restrict s, size_t i, uint32_t e, int tens
                          2.0f * (D[3] * D[3] + D[4] * D[4] + D[5] * D[5]);
         const float mu = sq__sph_rheo_mu(&s->rheo, sqrtf(2.0f * dd));
         for (int t = 0; t < 6; t++) o->tau[t] = 2.0f * mu * D[t];
+        o->mu = mu;
     }
 }
 
@@ -631,11 +634,8 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
                      2.0f * (D[3] * D[3] + D[4] * D[4] + D[5] * D[5]);
     const float gam = sqrtf(2.0f * dd);
     s->gam[i] = gam;
-    float mu;
-    if (newtonian) {
-        mu = s->rheo.mu;
-    } else {
-        mu = sq__sph_rheo_mu(&s->rheo, gam);
+    const float mu = newtonian ? s->rheo.mu : sq__sph_rheo_mu(&s->rheo, gam);
+    if (s->visc == SQ_SPH_VISCOUS_TENSOR) {
         float *restrict tau = s->tau + 6 * i;
         for (int t = 0; t < 6; t++) tau[t] = 2.0f * mu * D[t];
     }
@@ -662,7 +662,7 @@ float sq__sph_pass_strain(sq_sph *s)
 {
     const size_t N = s->count;
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
-    const int nt = s->nt;
+    const int nt = sq__sph_threads(s, N);
     const int mode = (s->newtonian ? 2 : 0) | (s->corrected ? 1 : 0);
     float mumax = 0.0f;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : mumax))
@@ -683,22 +683,27 @@ float sq__sph_pass_strain(sq_sph *s)
 
 /* ---- force pass ------------------------------------------------------------------------------ */
 
-/* One pair's acceleration and XSPH contributions to particle i (d = x_i − x_j, r² = |d|²);
- * the j-side quantities are passed in. Branch-free so that the neighbour loop vectorises. */
+/* One pair's acceleration and XSPH contributions to particle i (d = x_i − x_j, r² = |d|²,
+ * u = v_j − v_i); the j-side quantities are passed in. Branch-free so that the neighbour loop
+ * vectorises. visc selects the viscous term (sq_sph_viscous). */
 typedef struct pair_out {
     float a0, a1, a2, x0, x1, x2;
 } pair_out;
 
-SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float avc, float mu_n,
-                               float dx, float dy, float dz, float r2, float ux, float uy,
-                               float uz, float rho_i, float irho_i, float rho_j, float vol_j,
-                               float pr2_i, float pr2_j, const float Li[6], const float *Lj,
-                               const float ti[6], const float *tj, const int newtonian,
+SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float avc,
+                               float pgrad_c, float dx,
+                               float dy, float dz, float r2, float ux, float uy, float uz,
+                               float rho_i, float irho_i, float rho_j, float vol_j, float pr2_i,
+                               float pr2_j, const float Li[6], const float *Lj, float mu_i,
+                               float mu_j, const float ti[6], const float *tj, const int visc,
                                const int corrected, const int cubic)
 {
     const float ir = r2 > 0.0f ? 1.0f / sqrtf(r2) : 0.0f;
     const float r = r2 * ir;
     const float f = sq__sph_gradf_r(kk, r, ir);
+    /* pressure and artificial viscosity: the kernel gradient times a constant (so that they
+     * stay the gradient of an energy, see sq_sph.pgrad_c) */
+    const float fp = f * pgrad_c;
     float gx = f * dx, gy = f * dy, gz = f * dz;
     if (corrected) {
         const float l0 = 0.5f * (Li[0] + Lj[0]), l1 = 0.5f * (Li[1] + Lj[1]);
@@ -715,32 +720,32 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
     const float vr = -(ux * dx + uy * dy + uz * dz); /* v_ij · x_ij */
     const float pi = vr < 0.0f ? -avc * vr / ((r2 + 0.01f * kk->ell2) * 0.5f * (rho_i + rho_j))
                                : 0.0f;
-    const float cp = -m * (pr2_i + pr2_j + pi);
+    const float cp = -m * (pr2_i + pr2_j + pi) * fp;
     pair_out o;
-    o.a0 = cp * gx;
-    o.a1 = cp * gy;
-    o.a2 = cp * gz;
+    o.a0 = cp * dx;
+    o.a1 = cp * dy;
+    o.a2 = cp * dz;
     const float cv = vol_j * irho_i; /* m / (ρ_i ρ_j) */
-    if (newtonian) {
-        float c;
-        if (cubic) {
-            /* Morris 1997: 2μ m/(ρ_i ρ_j) (d·∇̃W)/(r² + 0.01 ℓ²) (v_i − v_j) */
-            const float dg = dx * gx + dy * gy + dz * gz;
-            c = -2.0f * mu_n * cv * dg / (r2 + 0.01f * kk->ell2);
-        } else {
-            /* Müller 2003 (symmetrised): μ m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) */
-            c = mu_n * cv * sq__sph_lap_visc(kk, r);
-        }
-        o.a0 += c * ux;
-        o.a1 += c * uy;
-        o.a2 += c * uz;
-    } else {
-        /* stress m (τ_i + τ_j)/(ρ_i ρ_j) · ∇̃W */
+    if (visc == SQ_SPH_VISCOUS_TENSOR) {
+        /* SPEC eq. 3.57: m (τ_i + τ_j)/(ρ_i ρ_j) · ∇̃W */
         const float t0 = ti[0] + tj[0], t1 = ti[1] + tj[1], t2 = ti[2] + tj[2];
         const float t3 = ti[3] + tj[3], t4 = ti[4] + tj[4], t5 = ti[5] + tj[5];
         o.a0 += cv * (t0 * gx + t3 * gy + t4 * gz);
         o.a1 += cv * (t3 * gx + t1 * gy + t5 * gz);
         o.a2 += cv * (t4 * gx + t5 * gy + t2 * gz);
+    } else {
+        float c;
+        if (visc == SQ_SPH_VISCOUS_MULLER) {
+            /* Müller 2003 eq. 3.39, symmetrised: ½(μ_i + μ_j) m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) */
+            c = 0.5f * (mu_i + mu_j) * cv * sq__sph_lap_visc(kk, r);
+        } else {
+            /* Morris 1997: (μ_i + μ_j) m/(ρ_i ρ_j) (x_ij·∇̃W)/(r² + 0.01 ℓ²) (v_i − v_j) */
+            const float dg = dx * gx + dy * gy + dz * gz;
+            c = -(mu_i + mu_j) * cv * dg / (r2 + 0.01f * kk->ell2);
+        }
+        o.a0 += c * ux;
+        o.a1 += c * uy;
+        o.a2 += c * uz;
     }
     /* XSPH 2m/(ρ_i + ρ_j) W (v_j − v_i) */
     const float w = cubic ? sq__sph_w_cubic(kk, r) : sq__sph_w_poly6(kk, r2);
@@ -751,29 +756,30 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
     return o;
 }
 
-SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int newtonian,
-                                const int corrected, const int cubic)
+SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, const int corrected,
+                                const int cubic)
 {
     const int cap = s->nb_cap;
     const uint32_t *restrict nb = s->nb + i * (size_t)cap;
     const int nplain = s->nb_plain[i], ntot = s->nb_count[i];
     static const float I6[6] = {1, 1, 1, 0, 0, 0};
     static const float Z6[6] = {0, 0, 0, 0, 0, 0};
+    const int tensor = visc == SQ_SPH_VISCOUS_TENSOR;
     const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
     const float *restrict VX = s->vx, *restrict VY = s->vy, *restrict VZ = s->vz;
     const float *restrict RHO = s->rho, *restrict VOL = s->vol, *restrict PR2 = s->pr2;
-    const float *restrict LL = s->L, *restrict TT = s->tau;
+    const float *restrict LL = s->L, *restrict TT = s->tau, *restrict MU = s->mu;
     const float hx = s->wrap_h[0], hy = s->wrap_h[1], hz = s->wrap_h[2];
     const float Lx = s->len[0], Ly = s->len[1], Lz = s->len[2];
     const sq__sph_kern kk = s->k;
-    const float m = s->mass, avc = s->av_c, mu_n = s->rheo.mu;
+    const float m = s->mass, avc = s->av_c, pgc = s->pgrad_c;
     const float xi = X[i], yi = Y[i], zi = Z[i];
     const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
-    const float rho_i = RHO[i], irho_i = 1.0f / rho_i, pr2_i = PR2[i];
+    const float rho_i = RHO[i], irho_i = 1.0f / rho_i, pr2_i = PR2[i], mu_i = MU[i];
     float Li[6], ti[6];
     for (int t = 0; t < 6; t++) {
         Li[t] = corrected ? LL[6 * i + (size_t)t] : I6[t];
-        ti[t] = newtonian ? 0.0f : TT[6 * i + (size_t)t];
+        ti[t] = tensor ? TT[6 * i + (size_t)t] : 0.0f;
     }
     float a0 = 0, a1 = 0, a2 = 0, x0 = 0, x1 = 0, x2 = 0;
     SQ_OMP(omp simd reduction(+ : a0, a1, a2, x0, x1, x2))
@@ -782,11 +788,11 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int newtonia
         const float dx = wrap1(xi - X[j], hx, Lx), dy = wrap1(yi - Y[j], hy, Ly),
                     dz = wrap1(zi - Z[j], hz, Lz);
         const float r2 = dx * dx + dy * dy + dz * dz;
-        const pair_out o = pair_force(&kk, m, avc, mu_n, dx, dy, dz, r2, VX[j] - vxi,
-                                      VY[j] - vyi, VZ[j] - vzi, rho_i, irho_i, RHO[j], VOL[j],
-                                      pr2_i, PR2[j], Li, corrected ? LL + 6 * (size_t)j : I6, ti,
-                                      newtonian ? Z6 : TT + 6 * (size_t)j, newtonian, corrected,
-                                      cubic);
+        const pair_out o = pair_force(&kk, m, avc, pgc, dx, dy, dz, r2, VX[j] - vxi, VY[j] - vyi,
+                                      VZ[j] - vzi, rho_i, irho_i, RHO[j], VOL[j], pr2_i, PR2[j],
+                                      Li, corrected ? LL + 6 * (size_t)j : I6, mu_i,
+                                      tensor ? 0.0f : MU[j], ti, tensor ? TT + 6 * (size_t)j : Z6,
+                                      visc, corrected, cubic);
         a0 += o.a0;
         a1 += o.a1;
         a2 += o.a2;
@@ -796,12 +802,12 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int newtonia
     }
     for (int k = nplain; k < ntot; k++) {
         image im;
-        image_state(s, i, nb[k], newtonian ? 1 : 2, &im);
+        image_state(s, i, nb[k], tensor ? 2 : 1, &im);
         const float r2 = im.d[0] * im.d[0] + im.d[1] * im.d[1] + im.d[2] * im.d[2];
-        const pair_out o = pair_force(&kk, m, avc, mu_n, im.d[0], im.d[1], im.d[2], r2,
-                                      im.v[0] - vxi, im.v[1] - vyi, im.v[2] - vzi, rho_i, irho_i,
-                                      im.rho, im.vol, pr2_i, im.pr2, Li, corrected ? im.L : I6, ti,
-                                      newtonian ? Z6 : im.tau, newtonian, corrected, cubic);
+        const pair_out o = pair_force(&kk, m, avc, pgc, im.d[0], im.d[1], im.d[2], r2, im.v[0] - vxi,
+                                      im.v[1] - vyi, im.v[2] - vzi, rho_i, irho_i, im.rho, im.vol,
+                                      pr2_i, im.pr2, Li, corrected ? im.L : I6, mu_i, im.mu, ti,
+                                      tensor ? im.tau : Z6, visc, corrected, cubic);
         a0 += o.a0;
         a1 += o.a1;
         a2 += o.a2;
@@ -822,48 +828,45 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int newtonia
     return a0 * a0 + a1 * a1 + a2 * a2;
 }
 
-#define SQ__SPH_FORCE_BLOCK(NAME, NEWT, CORR, CUBIC)                                          \
+#define SQ__SPH_FORCE_BLOCK(NAME, VISC, CORR, CUBIC)                                          \
     SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
     {                                                                                       \
         float m = 0.0f;                                                                     \
         for (size_t i = i0; i < i1; i++) {                                                  \
-            const float a2 = force_particle(s, i, NEWT, CORR, CUBIC);                       \
+            const float a2 = force_particle(s, i, VISC, CORR, CUBIC);                       \
             m = a2 > m ? a2 : m;                                                            \
             if (!(a2 == a2)) m = a2; /* NaN: reported by the integrator */                  \
         }                                                                                   \
         return m;                                                                           \
     }
-SQ__SPH_FORCE_BLOCK(force_block_000, 0, 0, 0)
-SQ__SPH_FORCE_BLOCK(force_block_001, 0, 0, 1)
-SQ__SPH_FORCE_BLOCK(force_block_010, 0, 1, 0)
-SQ__SPH_FORCE_BLOCK(force_block_011, 0, 1, 1)
-SQ__SPH_FORCE_BLOCK(force_block_100, 1, 0, 0)
-SQ__SPH_FORCE_BLOCK(force_block_101, 1, 0, 1)
-SQ__SPH_FORCE_BLOCK(force_block_110, 1, 1, 0)
-SQ__SPH_FORCE_BLOCK(force_block_111, 1, 1, 1)
+#define SQ__SPH_FORCE_BLOCKS(V, VN)                                                           \
+    SQ__SPH_FORCE_BLOCK(force_block_##VN##_00, V, 0, 0)                                     \
+    SQ__SPH_FORCE_BLOCK(force_block_##VN##_01, V, 0, 1)                                     \
+    SQ__SPH_FORCE_BLOCK(force_block_##VN##_10, V, 1, 0)                                     \
+    SQ__SPH_FORCE_BLOCK(force_block_##VN##_11, V, 1, 1)
+SQ__SPH_FORCE_BLOCKS(SQ_SPH_VISCOUS_MORRIS, morris)
+SQ__SPH_FORCE_BLOCKS(SQ_SPH_VISCOUS_MULLER, muller)
+SQ__SPH_FORCE_BLOCKS(SQ_SPH_VISCOUS_TENSOR, tensor)
+
+typedef float (*force_block_fn)(sq_sph *restrict s, size_t i0, size_t i1);
 
 float sq__sph_pass_forces(sq_sph *s)
 {
+    static const force_block_fn table[3][4] = {
+        {force_block_morris_00, force_block_morris_01, force_block_morris_10, force_block_morris_11},
+        {force_block_muller_00, force_block_muller_01, force_block_muller_10, force_block_muller_11},
+        {force_block_tensor_00, force_block_tensor_01, force_block_tensor_10, force_block_tensor_11}};
     const size_t N = s->count;
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
-    const int nt = s->nt;
-    const int mode = (s->newtonian ? 4 : 0) | (s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0);
+    const int nt = sq__sph_threads(s, N);
+    const int v = s->visc == SQ_SPH_VISCOUS_MULLER ? 1 : s->visc == SQ_SPH_VISCOUS_TENSOR ? 2 : 0;
+    const force_block_fn fn = table[v][(s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0)];
     float a2max = 0.0f;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : a2max))
     for (int64_t b = 0; b < nblk; b++) {
         const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
         const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
-        float a2;
-        switch (mode) {
-        case 0: a2 = force_block_000(s, i0, i1); break;
-        case 1: a2 = force_block_001(s, i0, i1); break;
-        case 2: a2 = force_block_010(s, i0, i1); break;
-        case 3: a2 = force_block_011(s, i0, i1); break;
-        case 4: a2 = force_block_100(s, i0, i1); break;
-        case 5: a2 = force_block_101(s, i0, i1); break;
-        case 6: a2 = force_block_110(s, i0, i1); break;
-        default: a2 = force_block_111(s, i0, i1); break;
-        }
+        const float a2 = fn(s, i0, i1);
         if (a2 > a2max) a2max = a2;
     }
     return sqrtf(a2max);
