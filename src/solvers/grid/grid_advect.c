@@ -241,19 +241,43 @@ static void build_uc4(sq_grid *g, float *uc4)
     (void)nt; /* unused without OpenMP */
     const sq_field3 *U = &g->vel[0], *V = &g->vel[1], *W = &g->vel[2];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = -1; k <= nz; k++)
+    for (int k = -1; k <= nz; k++) {
+        float a[CH], b[CH], c[CH];
         for (int j = -1; j <= ny; j++) {
             const float *u = sq_field3_at(U, 0, j, k), *v0 = sq_field3_at(V, 0, j, k),
                         *v1 = sq_field3_at(V, 0, j + 1, k), *w0 = sq_field3_at(W, 0, j, k),
                         *w1 = sq_field3_at(W, 0, j, k + 1);
             float *q = uc4 + 4 * sq__cidx(g, 0, j, k);
-            for (int i = -1; i <= nx; i++) {
-                q[4 * i + 0] = 0.5f * (u[i] + u[i + 1]);
-                q[4 * i + 1] = 0.5f * (v0[i] + v1[i]);
-                q[4 * i + 2] = 0.5f * (w0[i] + w1[i]);
-                q[4 * i + 3] = 0.0f;
+            for (int i0 = -1; i0 <= nx; i0 += CH) {
+                const int n = nx + 1 - i0 < CH ? nx + 1 - i0 : CH;
+                for (int t = 0; t < n; t++) { /* SoA, vectorised */
+                    const int i = i0 + t;
+                    a[t] = 0.5f * (u[i] + u[i + 1]);
+                    b[t] = 0.5f * (v0[i] + v1[i]);
+                    c[t] = 0.5f * (w0[i] + w1[i]);
+                }
+                float *o = q + 4 * i0;
+                int t = 0;
+#if defined(__SSE2__)
+                for (; t + 4 <= n; t += 4) { /* 4x4 transpose to (x, y, z, 0) per cell */
+                    __m128 r0 = _mm_loadu_ps(a + t), r1 = _mm_loadu_ps(b + t),
+                           r2 = _mm_loadu_ps(c + t), r3 = _mm_setzero_ps();
+                    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+                    _mm_storeu_ps(o + 4 * t, r0);
+                    _mm_storeu_ps(o + 4 * t + 4, r1);
+                    _mm_storeu_ps(o + 4 * t + 8, r2);
+                    _mm_storeu_ps(o + 4 * t + 12, r3);
+                }
+#endif
+                for (; t < n; t++) {
+                    o[4 * t + 0] = a[t];
+                    o[4 * t + 1] = b[t];
+                    o[4 * t + 2] = c[t];
+                    o[4 * t + 3] = 0.0f;
+                }
             }
         }
+    }
 }
 
 static inline v4f ld4(const float *p)
