@@ -30,7 +30,7 @@ static const sq_param params[] = {
       "wet/dense flowing snow."),
     B("snow.cohesion", cohesion,
       "Keep negative SPH pressure as cohesion (SPEC §7.2 ⚠ 2). Off by default: a slab a few "
-      "particles thick has a 30-50 % kernel deficit at its surfaces, and c_s^2 (rho - rho0) then "
+      "particles thick has a 20-70 % kernel deficit at its surfaces, and c_s^2 (rho - rho0) then "
       "pulls it apart (tensile instability; measured: run-away at 700 m/s within 0.7 s)."),
     D("release.x_m", release_x_m, "m", 0, -1e7, 1e7, Z,
       "World x of the centre of the release rectangle."),
