@@ -105,11 +105,11 @@ struct sq__volume_pass {
     uint64_t baked_version;
     float baked_offset[3];
     /* light array: layers [0, chunks) are checkpoints (layer 0: the unattenuated sun, all
-     * ones), layers [chunks, chunks + chunk_steps) the light after each in-box slab of the
-     * resident chunk */
+     * ones), the layers from `chunks` on the light after each in-box slab of the resident
+     * chunk (the one whose light passes ran last) */
     GLuint light_arr, light_fbo, shadow_tex;
     int light_size, light_layers;
-    int chunk_len, chunks, chunk_steps, resident;
+    int chunk_len, chunks, resident;
     int *slot;          /* per plane: layer holding the light that arrives at it */
     bool key_valid;
     vol_key key;
