@@ -774,7 +774,10 @@ static sq_vec3 sun_irradiance(const sq_world *w) { return sq_v3_scale(w->sun_rad
 
 /* Phase-averaged ambient radiance on the medium: the sky above (the mean of the base renderer's
  * hemisphere blend, mix(horizon, zenith, 0.35)) and the ground below (Lambertian, lit by the
- * sun and that sky), each over half the sphere (isotropic weighting of the two hemispheres). */
+ * sun and that sky), each over half the sphere (isotropic weighting of the two hemispheres).
+ * Same units as sq_ambient() of frame_common.glsl, with no factor pi in either: under a
+ * uniform environment of radiance L a white Lambertian surface receives pi L and reflects
+ * radiance L, and a scattering medium of albedo 1 in-scatters integral L p dω = L. */
 static sq_vec3 ambient_radiance(const sq_world *w)
 {
     const sq_vec3 sky = sq_v3_lerp(w->sky_horizon, w->sky_zenith, 0.35f);
