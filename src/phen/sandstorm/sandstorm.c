@@ -794,36 +794,50 @@ static void update_derived(sq_sandstorm *s)
     s->derived_dirty = false;
     s->version++;
     if (!s->grid) return;
-    size_t n = (size_t)s->nx * s->ny * s->nz;
-    memset(s->density, 0, n * sizeof(float));
-    for (int b = 0; b < s->nbins; b++) {
-        sq_field_view c = sq_grid_scalar_view(s->grid, b);
-        const float k = (float)s->k_ext[b][3];
-        for (int kk = 0; kk < s->nz; kk++)
-            for (int j = 0; j < s->ny; j++)
-                for (int i = 0; i < s->nx; i++)
-                    s->density[((size_t)kk * s->ny + j) * s->nx + i] += k * sq_view_get(&c, i, j, kk);
+    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
+    sq_field_view c[SQ_SANDSTORM_MAX_BINS];
+    float kb[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) {
+        c[b] = sq_grid_scalar_view(s->grid, b);
+        kb[b] = (float)s->k_ext[b][3];
     }
+    /* beta_ext(550 nm) = sum_b k_b c_b, bins added in order (per cell, thread-independent) */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++) {
+            float *d = s->density + ((size_t)k * ny + j) * nx;
+            for (int i = 0; i < nx; i++) d[i] = 0.0f;
+            for (int b = 0; b < nb; b++) {
+                const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
+                for (int i = 0; i < nx; i++) d[i] += kb[b] * row[i];
+            }
+        }
     /* Display only: the drawable fades to zero over the outer 2.5 cells of the open faces (not
      * the ground) so the finite domain shows no box edges; metrics and fields use the
      * untapered values below (the visibility planes are computed before this taper). */
     for (int v = 0; v < s->d.vis_height_count; v++)
-        sq__sand_visibility_plane(s->density, s->nx, s->ny, s->nz, s->ground_k, s->ground_z1,
+        sq__sand_visibility_plane(s->density, nx, ny, nz, s->ground_k, s->ground_z1,
                                   (float)s->h, s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
-    for (int kk = 0; kk < s->nz; kk++)
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) {
-                float dmin = (float)(i < s->nx - 1 - i ? i : s->nx - 1 - i);
-                float dj = (float)(j < s->ny - 1 - j ? j : s->ny - 1 - j);
-                float dk = (float)(s->nz - 1 - kk);
+    float mx = 0.0f;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : mx))
+    for (int kk = 0; kk < nz; kk++)
+        for (int j = 0; j < ny; j++) {
+            float *d = s->density + ((size_t)kk * ny + j) * nx;
+            for (int i = 0; i < nx; i++) {
+                float dmin = (float)(i < nx - 1 - i ? i : nx - 1 - i);
+                float dj = (float)(j < ny - 1 - j ? j : ny - 1 - j);
+                float dk = (float)(nz - 1 - kk);
                 dmin = dj < dmin ? dj : dmin;
                 dmin = dk < dmin ? dk : dmin;
-                if (dmin >= 2.5f) continue;
-                float t = (dmin + 0.5f) / 3.0f;
-                s->density[((size_t)kk * s->ny + j) * s->nx + i] *= t * t * (3.0f - 2.0f * t);
+                if (dmin < 2.5f) {
+                    float t = (dmin + 0.5f) / 3.0f;
+                    d[i] *= t * t * (3.0f - 2.0f * t);
+                }
+                mx = d[i] > mx ? d[i] : mx;
             }
-    float mx = 0.0f;
-    for (size_t i = 0; i < n; i++) mx = s->density[i] > mx ? s->density[i] : mx;
+        }
     s->density_max = mx;
 }
 
