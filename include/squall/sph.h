@@ -27,15 +27,14 @@
  *
  * Gradient correction. By default the velocity gradient uses the renormalised kernel gradient
  * ∇̃W = L_i ∇W with L_i = (Σ_j V_j (x_j − x_i) ⊗ ∇W_ij)⁻¹ (Bonet & Lok 1999), so that linear
- * velocity fields have exact gradients on any particle arrangement, free surfaces included (a
- * plain spiky gradient under-estimates them by ~4.5 % on a lattice with H = 2 dx, the cubic
- * spline over-estimates them by 2 %); particles with too few neighbours for a meaningful
- * inverse (det B < 0.05 or tr L > 12) keep L = I. The pair forces (pressure, artificial and
- * Morris viscosity) use the kernel gradient times ONE constant, 1/(the lattice value of
- * Σ_j V_j (z_j − z_i) ∂W/∂z_i) computed at create: a constant keeps the pressure force the
- * gradient of an energy and the viscous force dissipative under the stable time step, whereas
- * a per-particle L pumps energy into free surfaces and stiffens the viscous term at edges
- * beyond the viscous time-step limit. Only the TENSOR viscous form uses ½(L_i + L_j) ∇W_ij.
+ * velocity fields have exact gradients on any particle arrangement (a plain spiky gradient
+ * under-estimates them by ~4.5 % on a lattice with H = 2 dx, the cubic spline over-estimates
+ * them by 2 %), and the viscous pair terms use the symmetric ½(L_i + L_j) ∇W_ij, which keeps
+ * momentum exactly conserved and stays dissipative. The pressure term uses the kernel gradient
+ * times one constant, 1/(the lattice value of Σ_j V_j (z_j − z_i) ∂W/∂z_i) computed at create:
+ * a constant keeps the pressure force the gradient of an energy, whereas a per-particle L
+ * pumps energy into free surfaces. Particles with too few neighbours for an invertible L
+ * (det < 0.05) fall back to L = I.
  *
  * Boundaries. Each face of the domain box is a no-slip wall (default), a free-slip wall, open
  * (particles that leave are removed and counted) or periodic (both faces of the axis). Walls

@@ -547,15 +547,14 @@ static sq_result final_kick(sq_sph *s, float dt)
     const float vlim2 = vlim * vlim;
     float v2max = 0.0f;
     int64_t bad = INT64_MAX;
-    const int contacts = s->has_terrain || s->box_count > 0 || s->any_wall;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : v2max) reduction(min : bad))
     for (int64_t ii = 0; ii < (int64_t)N; ii++) {
         const size_t i = (size_t)ii;
-        s->vx[i] = s->hx[i] + s->ax[i] * hdt;
-        s->vy[i] = s->hy[i] + s->ay[i] * hdt;
-        s->vz[i] = s->hz[i] + s->az[i] * hdt;
-        if (contacts) sq__sph_contact_velocity(s, i);
-        const float vx = s->vx[i], vy = s->vy[i], vz = s->vz[i];
+        const float vx = s->hx[i] + s->ax[i] * hdt, vy = s->hy[i] + s->ay[i] * hdt,
+                    vz = s->hz[i] + s->az[i] * hdt;
+        s->vx[i] = vx;
+        s->vy[i] = vy;
+        s->vz[i] = vz;
         const float v2 = vx * vx + vy * vy + vz * vz;
         if (!(v2 <= vlim2)) {
             if (ii < bad) bad = ii;

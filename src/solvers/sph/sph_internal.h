@@ -15,7 +15,6 @@
 #define SQ__SPH_INDEX_MASK ((1u << 29) - 1u)
 #define SQ__SPH_MAX_PARTICLES ((size_t)1 << 29)   /* indices must fit the list entries */
 #define SQ__SPH_DET_MIN 0.05f                    /* below: no gradient correction (L = I) */
-#define SQ__SPH_TRACE_MAX 12.0f                  /* above tr(L): no gradient correction */
 #define SQ__SPH_RUNAWAY_MACH 3.0                  /* |v| > 3 c_s counts as a blow-up */
 
 /* ---- kernels ------------------------------------------------------------------------------ */
@@ -249,8 +248,6 @@ float sq__sph_pass_forces(sq_sph *s);
 /* Collisions (sph_collide.c): walls clamp, terrain, boxes; modify position and half-step
  * velocity of particle i. */
 void sq__sph_collide(const sq_sph *s, size_t i);
-/* After the closing kick: the velocity response for particles resting on a collider. */
-void sq__sph_contact_velocity(const sq_sph *s, size_t i);
 
 /* Threads for a loop over n particles: small systems run on one thread, where the fork/join
  * and barrier costs (large on a loaded machine) would exceed the work. */

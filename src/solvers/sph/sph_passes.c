@@ -156,8 +156,7 @@ size_t sq__sph_sort(sq_sph *s)
     const uint32_t dead = s->ncell; /* bucket of particles that left through open faces */
     const int nt = sq__sph_threads(s, N);
     uint32_t *restrict cid = s->cellid;
-    uint32_t cmin = UINT32_MAX, cmax = 0;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(min : cmin) reduction(max : cmax))
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int64_t i = 0; i < (int64_t)N; i++) {
         const float p[3] = {s->x[i], s->y[i], s->z[i]};
         int out = 0;
@@ -165,40 +164,20 @@ size_t sq__sph_sort(sq_sph *s)
             if (p[a] < s->lo[a] && s->face[2 * a] == SQ_SPH_BOUNDARY_OPEN) out = 1;
             if (p[a] >= s->hi[a] && s->face[2 * a + 1] == SQ_SPH_BOUNDARY_OPEN) out = 1;
         }
-        const uint32_t c = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
-        cid[i] = c;
-        if (!out) {
-            cmin = c < cmin ? c : cmin;
-            cmax = c > cmax ? c : cmax;
-        }
+        cid[i] = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
     }
-    /* Counting sort (serial and stable: the order within a cell is the previous order) over
-     * the cells that can be read this step: the occupied range widened by one plane, row and
-     * cell, so that sparse fluid in a large domain does not pay for every empty cell. */
-    const uint32_t margin = (uint32_t)s->n[0] * (uint32_t)s->n[1] + (uint32_t)s->n[0] + 1u;
-    uint32_t lo = 0, hi = 0;
-    if (cmin <= cmax) {
-        lo = cmin > margin ? cmin - margin : 0u;
-        hi = dead - 1u - cmax > margin ? cmax + margin : dead - 1u;
-    }
+    /* counting sort (serial and stable: the order within a cell is the previous order) */
     uint32_t *restrict h = s->hist;
-    uint32_t ndead = 0;
-    memset(h + lo, 0, sizeof(uint32_t) * ((size_t)(hi - lo) + 1));
-    for (size_t i = 0; i < N; i++) {
-        if (cid[i] == dead) ndead++;
-        else h[cid[i]]++;
-    }
+    memset(h, 0, sizeof(uint32_t) * ((size_t)dead + 2));
+    for (size_t i = 0; i < N; i++) h[cid[i]]++;
     uint32_t sum = 0;
-    for (uint32_t c = lo; c <= hi; c++) {
+    for (uint32_t c = 0; c <= dead; c++) {
         const uint32_t t = h[c];
         s->cell_start[c] = sum;
         h[c] = sum;
         sum += t;
     }
-    s->cell_start[hi + 1] = sum;
-    s->cell_start[dead] = sum;
-    s->cell_start[dead + 1] = sum + ndead;
-    h[dead] = sum;
+    s->cell_start[dead + 1] = sum;
     for (size_t i = 0; i < N; i++) s->perm[h[cid[i]]++] = (uint32_t)i;
     const size_t alive = s->cell_start[dead];
     gather_f(s, &s->x, alive);
@@ -548,8 +527,7 @@ static void image_state(const sq_sph *restrict s, size_t i, uint32_t e, int tens
 
 /* ---- strain pass --------------------------------------------------------------------------- */
 
-/* Inverse of the symmetric matrix B (xx yy zz xy xz yz); identity if det < SQ__SPH_DET_MIN or
- * tr(B⁻¹) > SQ__SPH_TRACE_MAX (too few neighbours on some side for a meaningful correction). */
+/* Inverse of the symmetric matrix B (xx yy zz xy xz yz); identity if det < SQ__SPH_DET_MIN. */
 static inline void sym_inverse(const float B[6], float L[6])
 {
     const float a = B[0], b = B[1], c = B[2], d = B[3], e = B[4], f = B[5];
@@ -562,11 +540,6 @@ static inline void sym_inverse(const float B[6], float L[6])
         return;
     }
     const float id = 1.0f / det;
-    if (!((cxx + cyy + czz) * id <= SQ__SPH_TRACE_MAX)) { /* an eigenvalue of B below 1/12 */
-        L[0] = L[1] = L[2] = 1.0f;
-        L[3] = L[4] = L[5] = 0.0f;
-        return;
-    }
     L[0] = cxx * id;
     L[1] = cyy * id;
     L[2] = czz * id;
@@ -732,7 +705,7 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
      * stay the gradient of an energy, see sq_sph.pgrad_c) */
     const float fp = f * pgrad_c;
     float gx = f * dx, gy = f * dy, gz = f * dz;
-    if (visc == SQ_SPH_VISCOUS_TENSOR && corrected) {
+    if (corrected) {
         const float l0 = 0.5f * (Li[0] + Lj[0]), l1 = 0.5f * (Li[1] + Lj[1]);
         const float l2 = 0.5f * (Li[2] + Lj[2]), l3 = 0.5f * (Li[3] + Lj[3]);
         const float l4 = 0.5f * (Li[4] + Lj[4]), l5 = 0.5f * (Li[5] + Lj[5]);
@@ -766,9 +739,9 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
             /* Müller 2003 eq. 3.39, symmetrised: ½(μ_i + μ_j) m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) */
             c = 0.5f * (mu_i + mu_j) * cv * sq__sph_lap_visc(kk, r);
         } else {
-            /* Morris 1997: (μ_i + μ_j) m/(ρ_i ρ_j) (x_ij·∇W)/(r² + 0.01 ℓ²) (v_i − v_j), with the
-             * same constant lattice normalisation as the pressure term */
-            c = -(mu_i + mu_j) * cv * fp * r2 / (r2 + 0.01f * kk->ell2);
+            /* Morris 1997: (μ_i + μ_j) m/(ρ_i ρ_j) (x_ij·∇̃W)/(r² + 0.01 ℓ²) (v_i − v_j) */
+            const float dg = dx * gx + dy * gy + dz * gz;
+            c = -(mu_i + mu_j) * cv * dg / (r2 + 0.01f * kk->ell2);
         }
         o.a0 += c * ux;
         o.a1 += c * uy;
@@ -805,7 +778,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
     const float rho_i = RHO[i], irho_i = 1.0f / rho_i, pr2_i = PR2[i], mu_i = MU[i];
     float Li[6], ti[6];
     for (int t = 0; t < 6; t++) {
-        Li[t] = corrected && tensor ? LL[6 * i + (size_t)t] : I6[t];
+        Li[t] = corrected ? LL[6 * i + (size_t)t] : I6[t];
         ti[t] = tensor ? TT[6 * i + (size_t)t] : 0.0f;
     }
     float a0 = 0, a1 = 0, a2 = 0, x0 = 0, x1 = 0, x2 = 0;
@@ -817,7 +790,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         const float r2 = dx * dx + dy * dy + dz * dz;
         const pair_out o = pair_force(&kk, m, avc, pgc, dx, dy, dz, r2, VX[j] - vxi, VY[j] - vyi,
                                       VZ[j] - vzi, rho_i, irho_i, RHO[j], VOL[j], pr2_i, PR2[j],
-                                      Li, corrected && tensor ? LL + 6 * (size_t)j : I6, mu_i,
+                                      Li, corrected ? LL + 6 * (size_t)j : I6, mu_i,
                                       tensor ? 0.0f : MU[j], ti, tensor ? TT + 6 * (size_t)j : Z6,
                                       visc, corrected, cubic);
         a0 += o.a0;
@@ -833,7 +806,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         const float r2 = im.d[0] * im.d[0] + im.d[1] * im.d[1] + im.d[2] * im.d[2];
         const pair_out o = pair_force(&kk, m, avc, pgc, im.d[0], im.d[1], im.d[2], r2, im.v[0] - vxi,
                                       im.v[1] - vyi, im.v[2] - vzi, rho_i, irho_i, im.rho, im.vol,
-                                      pr2_i, im.pr2, Li, corrected && tensor ? im.L : I6, mu_i, im.mu, ti,
+                                      pr2_i, im.pr2, Li, corrected ? im.L : I6, mu_i, im.mu, ti,
                                       tensor ? im.tau : Z6, visc, corrected, cubic);
         a0 += o.a0;
         a1 += o.a1;
@@ -887,8 +860,7 @@ float sq__sph_pass_forces(sq_sph *s)
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
     const int nt = sq__sph_threads(s, N);
     const int v = s->visc == SQ_SPH_VISCOUS_MULLER ? 1 : s->visc == SQ_SPH_VISCOUS_TENSOR ? 2 : 0;
-    const int corr = v == 2 && s->corrected; /* only the tensor form uses L in pair terms */
-    const force_block_fn fn = table[v][(corr ? 2 : 0) | (s->k.cubic ? 1 : 0)];
+    const force_block_fn fn = table[v][(s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0)];
     float a2max = 0.0f;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : a2max))
     for (int64_t b = 0; b < nblk; b++) {
