@@ -6,6 +6,8 @@
 
 int sq_bench_stream_case(const sq_bench_args *a);
 /* helpers: add prototypes here */
+int sq_validate_dam_break(int argc, char **argv);
+int sq_bench_sph(const sq_bench_args *a);
 int sq_bench_lbm(const sq_bench_args *a);
 int sq_validate_lbm_cavity(int argc, char **argv);
 int sq_bench_grid(const sq_bench_args *a);

@@ -14,6 +14,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
      "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL},
+    {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",
+     "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
     {NULL, NULL, NULL, NULL, NULL},
 };
@@ -21,6 +23,9 @@ const sq_cli_case sq_cli_bench_cases[] = {
 const sq_cli_case sq_cli_validate_cases[] = {
     {"lbm-cavity", "lid-driven cavity (D3Q15, TRT): centre-line profiles vs Ghia et al. 1982",
      "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity},
+    {"dam-break", "SPH water-column collapse (n^2 = 2): surge front Z(T) vs Martin & Moyce 1952",
+     "--a 0.25 --spacing 0.01 --t-end 0.6 --alpha 0.02 --kernel cubic|muller", NULL,
+     sq_validate_dam_break},
     /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity}, */
     {NULL, NULL, NULL, NULL, NULL},
 };

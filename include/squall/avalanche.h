@@ -15,7 +15,8 @@
  *     N ≈ V / dx³ with V = Σ_columns dx² depth / n_z;
  *   - rheology: Cross (S2 eq. 3.29, the thesis's avalanche μ∞ = 1 Pa·s, μ₀ = 100 Pa·s, n = 2,
  *     K = 3000 s by default; see SPEC §7.9 ⚠ on its sensitivity), Newtonian, power law or
- *     Bingham (Papanastasiou), through the stress tensor τ = 2 μ(|γ̇|) D;
+ *     Bingham (Papanastasiou): μ(|γ̇|) from the SPH velocity-gradient tensor, acting through
+ *     Morris's pair form (default), Müller's Laplacian or S2's stress tensor τ = 2 μ D;
  *   - diagnostics: the front s_f is the `metrics.front_percentile` quantile (0.99) of the
  *     particles' horizontal coordinate along the fall line (the downhill direction of the
  *     terrain averaged over the release zone, +x on the mountain terrain); the run-out is s_f
@@ -74,8 +75,11 @@ typedef struct sq_avalanche_desc {
     double yield_stress_pa;    /* BINGHAM: τ_y; 0 is physical */
     double mu_max_pa_s;        /* cap on the effective viscosity; 0 is physical (no cap) */
     /* numerics */
+    int kernel;                /* 0 = cubic spline (solver default), 1 = Müller's set (S2) */
+    int viscous;               /* 0 = Morris pair form (default), 1 = Müller Laplacian,
+                                  2 = stress tensor τ = 2μD (S2 eq. 3.57) */
     double xsph_epsilon;       /* XSPH ε; 0 -> 0.5 (S2) */
-    double artificial_viscosity; /* Monaghan α; 0 -> 0.5 (see no_artificial_viscosity) */
+    double artificial_viscosity; /* Monaghan α; 0 -> 0.1 (see no_artificial_viscosity) */
     bool no_artificial_viscosity; /* α = 0 */
     double dt_max_s;           /* cap on the sub-step; 0 is physical (none) */
     /* terrain contact (SPEC §7.7) */

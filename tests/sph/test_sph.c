@@ -208,3 +208,401 @@ SQ_TEST(hydrostatic_column)
     sq_sph_destroy(s);
     sq_context_destroy(ctx);
 }
+
+/* ---- momentum conservation ------------------------------------------------------------------
+ * Fully periodic box, no body force, random velocities (Philox): every pair term (pressure,
+ * viscous, artificial viscosity, XSPH) is antisymmetric, so the total momentum — summed in
+ * double — may change only by float round-off. Checked for each viscous form, with the Cross
+ * rheology (non-Newtonian path) and gradient correction. */
+static double momentum_drift(sq_sph_viscous form, sq_sph_kernel kernel, double *scale)
+{
+    sq_context *ctx = make_ctx(0);
+    const double dx = 0.05, L = 8 * dx;
+    sq_sph_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = dx;
+    d.kernel = kernel;
+    d.viscous = form;
+    SQ_CHECK_OK(sq_sph_rheology_preset("s2-avalanche", &d.rheology));
+    d.rheology.k = 3.0; /* so that μ really varies with the shear rate here */
+    d.rest_density_kgm3 = 300.0;
+    d.speed_of_sound_mps = 20.0;
+    d.artificial_viscosity = 0.05;
+    for (int a = 0; a < 3; a++) d.domain_max_m[a] = L;
+    for (int f = 0; f < 6; f++) d.boundary[f] = SQ_SPH_BOUNDARY_PERIODIC;
+    d.max_particles = 1000;
+    sq_sph *s = NULL;
+    SQ_CHECK_OK(sq_sph_create(ctx, &d, &s));
+    float pos[3 * 512], vel[3 * 512];
+    int k = 0;
+    for (int c = 0; c < 8; c++)
+        for (int b = 0; b < 8; b++)
+            for (int a = 0; a < 8; a++, k++) {
+                /* jittered lattice, velocities uniform in [-1, 1] m/s */
+                pos[3 * k] = (float)((a + 0.5 + 0.2 * (sq_rng_uniform(7, 0, (uint64_t)k) - 0.5)) * dx);
+                pos[3 * k + 1] = (float)((b + 0.5 + 0.2 * (sq_rng_uniform(7, 1, (uint64_t)k) - 0.5)) * dx);
+                pos[3 * k + 2] = (float)((c + 0.5 + 0.2 * (sq_rng_uniform(7, 2, (uint64_t)k) - 0.5)) * dx);
+                for (int e = 0; e < 3; e++)
+                    vel[3 * k + e] = (float)(2.0 * sq_rng_uniform(7, 3 + (uint64_t)e, (uint64_t)k) - 1.0);
+            }
+    SQ_CHECK_OK(sq_sph_add_particles(s, 512, pos, vel));
+    const double m = sq_sph_get_info(s).particle_mass_kg;
+    double p0[3] = {0, 0, 0}, p1[3] = {0, 0, 0}, sc = 0.0;
+    sq_sph_view v = sq_sph_particles(s);
+    for (size_t i = 0; i < v.count; i++) {
+        p0[0] += m * v.vx[i];
+        p0[1] += m * v.vy[i];
+        p0[2] += m * v.vz[i];
+        sc += m * sqrt(v.vx[i] * v.vx[i] + v.vy[i] * v.vy[i] + v.vz[i] * v.vz[i]);
+    }
+    for (int f = 0; f < 20; f++) SQ_CHECK_OK(sq_sph_step(s, 2e-3));
+    v = sq_sph_particles(s);
+    double moved = 0.0;
+    for (size_t i = 0; i < v.count; i++) {
+        p1[0] += m * v.vx[i];
+        p1[1] += m * v.vy[i];
+        p1[2] += m * v.vz[i];
+    }
+    const sq_sph_stats st = sq_sph_get_stats(s);
+    moved = st.steps;
+    const double dp = sqrt((p1[0] - p0[0]) * (p1[0] - p0[0]) + (p1[1] - p0[1]) * (p1[1] - p0[1]) +
+                           (p1[2] - p0[2]) * (p1[2] - p0[2]));
+    printf("momentum: form %d kernel %d: %g sub-steps, |dP| = %.3g, sum m|v| = %.3g, ratio %.2e\n",
+           (int)form, (int)kernel, moved, dp, sc, dp / sc);
+    SQ_CHECK(st.steps >= 20);
+    *scale = sc;
+    sq_sph_destroy(s);
+    sq_context_destroy(ctx);
+    return dp;
+}
+
+SQ_TEST(momentum_conservation)
+{
+    const sq_sph_viscous forms[3] = {SQ_SPH_VISCOUS_MORRIS, SQ_SPH_VISCOUS_MULLER,
+                                     SQ_SPH_VISCOUS_TENSOR};
+    for (int f = 0; f < 3; f++)
+        for (int kern = SQ_SPH_KERNEL_MULLER; kern <= SQ_SPH_KERNEL_CUBIC; kern++) {
+            double sc = 0.0;
+            const double dp = momentum_drift(forms[f], (sq_sph_kernel)kern, &sc);
+            SQ_CHECK(dp < 1e-5 * sc);
+        }
+}
+
+/* The same run with 1 and 2 threads is bit-identical (every pass writes only its own
+ * particle; the only reductions are maxima). */
+SQ_TEST(threads_bit_identical)
+{
+    static float out[2][3 * 16000];
+    size_t count[2] = {0, 0};
+    for (int t = 0; t < 2; t++) {
+        sq_context *ctx = make_ctx(t + 1);
+        sq_sph_desc d;
+        memset(&d, 0, sizeof d);
+        d.spacing_m = 0.04;
+        SQ_CHECK_OK(sq_sph_rheology_preset("s2-avalanche", &d.rheology));
+        d.rest_density_kgm3 = 300.0;
+        d.gravity_mps2[0] = 3.0;
+        d.gravity_mps2[2] = -9.81;
+        d.domain_max_m[0] = 2.0;
+        d.domain_max_m[1] = 1.0;
+        d.domain_max_m[2] = 1.0;
+        d.boundary[SQ_SPH_FACE_XMIN] = d.boundary[SQ_SPH_FACE_XMAX] = SQ_SPH_BOUNDARY_PERIODIC;
+        d.max_particles = 16000;
+        sq_sph *s = NULL;
+        SQ_CHECK_OK(sq_sph_create(ctx, &d, &s));
+        const double lo[3] = {0, 0, 0}, hi[3] = {2.0, 1.0, 0.45}; /* 50 x 25 x 11 */
+        size_t n = 0;
+        SQ_CHECK_OK(sq_sph_add_block(s, lo, hi, NULL, &n));
+        SQ_CHECK(n >= 8192); /* above the serial threshold */
+        for (int f = 0; f < 2; f++) SQ_CHECK_OK(sq_sph_step(s, 1e-3));
+        const sq_sph_view v = sq_sph_particles(s);
+        count[t] = v.count;
+        for (size_t i = 0; i < v.count && i < 16000; i++) {
+            out[t][3 * i] = v.x[i];
+            out[t][3 * i + 1] = v.vx[i];
+            out[t][3 * i + 2] = v.viscosity[i];
+        }
+        sq_sph_destroy(s);
+        sq_context_destroy(ctx);
+    }
+    SQ_CHECK(count[0] == count[1]);
+    SQ_CHECK(memcmp(out[0], out[1], sizeof(float) * 3 * count[0]) == 0);
+}
+
+/* ---- colliders ------------------------------------------------------------------------------
+ * One particle (no SPH neighbours, so only gravity and the contact act) on a planar heightfield
+ * z = −x tan θ. Kinetic Coulomb friction gives the along-slope acceleration
+ * a = g (sin θ − μ_k cos θ); with μ_k > tan θ the particle stays put. */
+static sq_sph *single_particle_world(sq_context *ctx, double slope_deg, double friction,
+                                     bool frictionless, double restitution, const float p0[3],
+                                     const float v0[3])
+{
+    sq_sph_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = 0.5; /* a coarse neighbour grid over the 40 m box */
+    d.collision_radius_m = 0.025;
+    d.speed_of_sound_mps = 50.0;
+    d.gravity_mps2[2] = -9.81;
+    d.domain_min_m[0] = -20.0;
+    d.domain_min_m[1] = -2.0;
+    d.domain_min_m[2] = -20.0;
+    d.domain_max_m[0] = 20.0;
+    d.domain_max_m[1] = 2.0;
+    d.domain_max_m[2] = 20.0;
+    d.max_particles = 4;
+    sq_sph *s = NULL;
+    if (sq_sph_create(ctx, &d, &s) != SQ_OK) return NULL;
+    float hts[4 * 3];
+    const double t = tan(slope_deg * M_PI / 180.0);
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 4; i++) hts[j * 4 + i] = (float)(-(-15.0 + 10.0 * i) * t);
+    sq_sph_terrain_desc td;
+    memset(&td, 0, sizeof td);
+    td.origin_m[0] = -15.0;
+    td.origin_m[1] = -2.0;
+    td.spacing_m[0] = 10.0;
+    td.spacing_m[1] = 2.0;
+    td.nx = 4;
+    td.ny = 3;
+    td.heights_m = hts;
+    td.contact.friction = friction;
+    td.contact.frictionless = frictionless;
+    td.contact.restitution = restitution;
+    SQ_CHECK_OK(sq_sph_set_terrain(s, &td));
+    SQ_CHECK_OK(sq_sph_add_particles(s, 1, p0, v0));
+    return s;
+}
+
+SQ_TEST(terrain_coulomb_friction)
+{
+    sq_context *ctx = make_ctx(1);
+    const double th = 30.0, g = 9.81, r = 0.025;
+    const double n[3] = {sin(th * M_PI / 180.0), 0.0, cos(th * M_PI / 180.0)};
+    /* start on the surface (at the collision radius along the normal), at rest */
+    const float p0[3] = {(float)(r * n[0]), 0.0f, (float)(r * n[2])};
+    double h, nn[3];
+    for (int c = 0; c < 3; c++) {
+        const double mu = c == 0 ? 0.2 : c == 1 ? 0.0 : 0.7;
+        sq_sph *s = single_particle_world(ctx, th, mu, c == 1, 0.0, p0, NULL);
+        SQ_CHECK(s != NULL);
+        if (!s) continue;
+        SQ_CHECK_OK(sq_sph_terrain_sample(s, 1.0, 0.5, &h, nn));
+        SQ_CHECK_NEAR(h, -tan(th * M_PI / 180.0), 1e-5);
+        SQ_CHECK_NEAR(nn[0], n[0], 1e-6);
+        SQ_CHECK_NEAR(nn[2], n[2], 1e-6);
+        const double T = 1.0;
+        for (int f = 0; f < 10; f++) SQ_CHECK_OK(sq_sph_step(s, T / 10));
+        const sq_sph_view v = sq_sph_particles(s);
+        const double speed = sqrt(v.vx[0] * v.vx[0] + v.vz[0] * v.vz[0]);
+        const double a = g * (sin(th * M_PI / 180.0) - mu * cos(th * M_PI / 180.0));
+        /* the particle stays on the slope */
+        sq_sph_terrain_sample(s, v.x[0], v.y[0], &h, nn);
+        const double dist = (v.z[0] - h) * nn[2];
+        printf("slope %.0f deg, mu_k %.1f: speed %.4f m/s after %.1f s (analytic %.4f), "
+               "height above the surface %.4f m\n",
+               th, mu, speed, T, a > 0 ? a * T : 0.0, dist);
+        if (a > 0) {
+            SQ_CHECK_REL(speed, a * T, 0.02);
+            SQ_CHECK(v.vx[0] > 0.0f); /* downhill is +x */
+        } else {
+            SQ_CHECK(speed < 1e-3);
+        }
+        SQ_CHECK_NEAR(dist, r, 0.01);
+        SQ_CHECK(fabs(v.vy[0]) < 1e-6);
+        sq_sph_destroy(s);
+    }
+    sq_context_destroy(ctx);
+}
+
+/* A particle dropped on flat ground with restitution e rebounds with e times the impact speed;
+ * with e = 0 it stays on the ground. */
+SQ_TEST(terrain_restitution)
+{
+    sq_context *ctx = make_ctx(1);
+    const float p0[3] = {0.0f, 0.0f, 1.0f};
+    for (int c = 0; c < 2; c++) {
+        const double e = c == 0 ? 0.5 : 0.0;
+        sq_sph *s = single_particle_world(ctx, 0.0, 0.2, false, e, p0, NULL);
+        SQ_CHECK(s != NULL);
+        if (!s) continue;
+        /* fall 1 m − r: impact speed sqrt(2 g (1 − r)) */
+        const double vimp = sqrt(2.0 * 9.81 * (1.0 - 0.025));
+        double vup = 0.0, zmax_after = 0.0;
+        int bounced = 0;
+        for (int f = 0; f < 200; f++) {
+            SQ_CHECK_OK(sq_sph_step(s, 5e-3));
+            const sq_sph_view v = sq_sph_particles(s);
+            if (v.vz[0] > 0.0f && !bounced) {
+                bounced = 1;
+                vup = v.vz[0];
+            }
+            if (bounced) zmax_after = fmax(zmax_after, v.z[0]);
+        }
+        printf("restitution %.1f: rebound speed %.4f m/s (expected %.4f), apex %.4f m\n", e, vup,
+               e * vimp, zmax_after);
+        if (e > 0) {
+            SQ_CHECK_REL(vup, e * vimp, 0.03);
+            /* apex: r + e² (1 − r) */
+            SQ_CHECK_REL(zmax_after, 0.025 + e * e * (1.0 - 0.025), 0.05);
+        } else {
+            SQ_CHECK(vup < 0.05);
+            SQ_CHECK(zmax_after < 0.03);
+        }
+        sq_sph_destroy(s);
+    }
+    sq_context_destroy(ctx);
+}
+
+/* A particle thrown horizontally at a building stops at its face (e = 0, frictionless) or
+ * comes back at the same speed (e = 1). */
+SQ_TEST(box_obstacle)
+{
+    sq_context *ctx = make_ctx(1);
+    for (int c = 0; c < 2; c++) {
+        const double e = c == 0 ? 0.0 : 1.0;
+        const float p0[3] = {0.0f, 0.0f, 5.0f}, v0[3] = {4.0f, 0.0f, 0.0f};
+        sq_sph *s = single_particle_world(ctx, 0.0, 0.0, true, 0.0, p0, v0);
+        SQ_CHECK(s != NULL);
+        if (!s) continue;
+        const double g0[3] = {0.0, 0.0, 0.0};
+        SQ_CHECK_OK(sq_sph_set_gravity(s, g0));
+        sq_sph_box_desc b;
+        memset(&b, 0, sizeof b);
+        b.min_m[0] = 1.0;
+        b.min_m[1] = -1.0;
+        b.min_m[2] = 0.0;
+        b.max_m[0] = 3.0;
+        b.max_m[1] = 1.0;
+        b.max_m[2] = 10.0;
+        b.contact.restitution = e;
+        b.contact.frictionless = true;
+        SQ_CHECK_OK(sq_sph_add_box_obstacle(s, &b));
+        SQ_CHECK_OK(sq_sph_step(s, 0.5));
+        const sq_sph_view v = sq_sph_particles(s);
+        printf("box e = %.0f: x = %.4f m, vx = %.4f m/s\n", e, v.x[0], v.vx[0]);
+        if (e == 0.0) {
+            SQ_CHECK_NEAR(v.x[0], 1.0 - 0.025, 1e-4);
+            SQ_CHECK_NEAR(v.vx[0], 0.0, 1e-6);
+        } else {
+            SQ_CHECK_NEAR(v.vx[0], -4.0, 1e-4);
+            SQ_CHECK(v.x[0] < 1.0 - 0.025);
+        }
+        sq_sph_destroy(s);
+    }
+    sq_context_destroy(ctx);
+}
+
+/* Particles leaving through an open face are removed and counted; ids follow the survivors. */
+SQ_TEST(open_face_removes_particles)
+{
+    sq_context *ctx = make_ctx(1);
+    sq_sph_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = 0.1;
+    d.speed_of_sound_mps = 20.0;
+    d.domain_max_m[0] = 2.0;
+    d.domain_max_m[1] = 1.0;
+    d.domain_max_m[2] = 1.0;
+    d.boundary[SQ_SPH_FACE_XMAX] = SQ_SPH_BOUNDARY_OPEN;
+    d.max_particles = 10;
+    sq_sph *s = NULL;
+    SQ_CHECK_OK(sq_sph_create(ctx, &d, &s));
+    /* three isolated particles; the two fast ones leave through x = 2 m */
+    const float p[9] = {1.5f, 0.5f, 0.5f, 1.0f, 0.2f, 0.2f, 0.5f, 0.8f, 0.8f};
+    const float v[9] = {2.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 4.0f, 0.0f, 0.0f};
+    SQ_CHECK_OK(sq_sph_add_particles(s, 3, p, v));
+    SQ_CHECK_OK(sq_sph_step(s, 0.5));
+    const sq_sph_view vw = sq_sph_particles(s);
+    const sq_sph_stats st = sq_sph_get_stats(s);
+    SQ_CHECK(vw.count == 1);
+    SQ_CHECK(st.removed == 2);
+    SQ_CHECK(vw.id[0] == 1);
+    SQ_CHECK_NEAR(vw.x[0], 1.0, 1e-6);
+    sq_sph_destroy(s);
+    sq_context_destroy(ctx);
+}
+
+/* The thesis's Cross avalanche material (μ∞ = 1, μ₀ = 100 Pa s, n = 2, K = 3000 s) as a block
+ * of snow (ρ₀ = 300 kg/m³) released on a 35° heightfield slope with μ_k = 0.2: it must flow
+ * downhill as one mass, keep every particle, stay on the terrain, and its viscosities must lie
+ * in [μ∞, μ₀]. Its centre of mass cannot outrun frictionless free sliding, g sin θ t²/2, and
+ * must reach a fifth of it. */
+SQ_TEST(cross_block_on_slope)
+{
+    sq_context *ctx = make_ctx(0);
+    const double th = 35.0 * M_PI / 180.0, dx = 0.1, g = 9.81;
+    sq_sph_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = dx;
+    d.rest_density_kgm3 = 300.0;
+    SQ_CHECK_OK(sq_sph_rheology_preset("s2-avalanche", &d.rheology));
+    d.gravity_mps2[2] = -g;
+    d.max_speed_mps = 10.0;
+    d.domain_min_m[0] = 0.0;
+    d.domain_min_m[1] = 0.0;
+    d.domain_min_m[2] = -8.0;
+    d.domain_max_m[0] = 12.0;
+    d.domain_max_m[1] = 1.2;
+    d.domain_max_m[2] = 2.0;
+    d.boundary[SQ_SPH_FACE_YMIN] = d.boundary[SQ_SPH_FACE_YMAX] = SQ_SPH_BOUNDARY_FREE_SLIP;
+    d.boundary[SQ_SPH_FACE_XMAX] = SQ_SPH_BOUNDARY_OPEN;
+    d.max_particles = 4000;
+    sq_sph *s = NULL;
+    SQ_CHECK_OK(sq_sph_create(ctx, &d, &s));
+    float hts[2 * 13];
+    for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 13; i++) hts[j * 13 + i] = (float)(-(double)i * tan(th));
+    sq_sph_terrain_desc td;
+    memset(&td, 0, sizeof td);
+    td.spacing_m[0] = 1.0;
+    td.spacing_m[1] = 1.2;
+    td.nx = 13;
+    td.ny = 2;
+    td.heights_m = hts;
+    SQ_CHECK_OK(sq_sph_set_terrain(s, &td));
+    /* a block 1 m long, 1.2 m wide, 0.5 m deep resting on the slope near the top */
+    float *pos = (float *)malloc(sizeof(float) * 3 * 4000);
+    int n = 0;
+    for (int k = 0; k < 5; k++)
+        for (int j = 0; j < 12; j++)
+            for (int i = 0; i < 10; i++) {
+                const double u = 0.5 + (i + 0.5) * dx, w = (k + 0.5) * dx + 0.05;
+                pos[3 * n] = (float)(u * cos(th) + w * sin(th)); /* u down the slope, w along the normal */
+                pos[3 * n + 1] = (float)((j + 0.5) * dx);
+                pos[3 * n + 2] = (float)(-u * sin(th) + w * cos(th));
+                n++;
+            }
+    SQ_CHECK_OK(sq_sph_add_particles(s, (size_t)n, pos, NULL));
+    free(pos);
+    double x0 = 0.0;
+    sq_sph_view v = sq_sph_particles(s);
+    for (size_t i = 0; i < v.count; i++) x0 += v.x[i];
+    x0 /= (double)v.count;
+    const double T = 0.6;
+    for (int f = 0; f < 6; f++) SQ_CHECK_OK(sq_sph_step(s, T / 6));
+    v = sq_sph_particles(s);
+    double x1 = 0.0, below = 1e9, mu_lo = 1e9, mu_hi = 0.0;
+    for (size_t i = 0; i < v.count; i++) {
+        x1 += v.x[i];
+        double h, nn[3];
+        sq_sph_terrain_sample(s, v.x[i], v.y[i], &h, nn);
+        below = fmin(below, (v.z[i] - h) * nn[2]);
+        mu_lo = fmin(mu_lo, v.viscosity[i]);
+        mu_hi = fmax(mu_hi, v.viscosity[i]);
+    }
+    x1 /= (double)v.count;
+    const double ds = (x1 - x0) / cos(th); /* along the slope */
+    const double free_slide = 0.5 * g * sin(th) * T * T;
+    const sq_sph_stats st = sq_sph_get_stats(s);
+    printf("cross block: %zu particles, moved %.3f m along the slope in %.1f s (frictionless "
+           "bound %.3f m), mu in [%.3f, %.3f] Pa s, lowest clearance %.4f m, %d sub-steps last "
+           "frame (%s)\n",
+           v.count, ds, T, free_slide, mu_lo, mu_hi, below, st.substeps, st.dt_limit);
+    SQ_CHECK(v.count == 600);
+    SQ_CHECK(ds > 0.2 * free_slide);
+    SQ_CHECK(ds < free_slide);
+    SQ_CHECK(mu_lo >= 1.0 - 1e-5 && mu_hi <= 100.0 + 1e-3);
+    SQ_CHECK(below > 0.5 * 0.05); /* on the terrain: at least half the collision radius */
+    sq_sph_destroy(s);
+    sq_context_destroy(ctx);
+}

@@ -33,7 +33,7 @@ sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_de
     if (d.power_n == 0.0) d.power_n = 0.5;
     if (d.bingham_mu_pa_s == 0.0) d.bingham_mu_pa_s = 1.5;
     if (d.xsph_epsilon == 0.0) d.xsph_epsilon = 0.5;
-    if (d.artificial_viscosity == 0.0) d.artificial_viscosity = 0.5;
+    if (d.artificial_viscosity == 0.0) d.artificial_viscosity = 0.1;
     if (d.friction == 0.0) d.friction = 0.2;
     if (d.moving_speed_mps == 0.0) d.moving_speed_mps = 0.5;
     if (d.front_percentile == 0.0) d.front_percentile = 0.99;
@@ -122,6 +122,10 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
     }
     if (!(d->mu_max_pa_s >= 0.0) || !isfinite(d->mu_max_pa_s))
         BAD("%srheology.mu_max_pa_s = %g; must be >= 0 Pa s (0 = no cap)", P, d->mu_max_pa_s);
+    if (d->kernel < 0 || d->kernel > 1)
+        BAD("%snumerics.kernel = %d; must be cubic (0) or muller (1)", P, d->kernel);
+    if (d->viscous < 0 || d->viscous > 2)
+        BAD("%snumerics.viscous = %d; must be morris (0), muller (1) or tensor (2)", P, d->viscous);
     if (!(d->xsph_epsilon >= 0.0 && d->xsph_epsilon <= 1.0))
         BAD("%snumerics.xsph_epsilon = %g; must be in [0, 1] (S2 uses 0.5)", P, d->xsph_epsilon);
     if (!(d->artificial_viscosity >= 0.0 && d->artificial_viscosity <= 1.0))
@@ -326,8 +330,11 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
     s->tensile_pressure = d->cohesion;
     s->speed_of_sound_mps = c_s;
     s->max_speed_mps = v_fall;
-    s->kernel = SQ_SPH_KERNEL_MULLER;
+    s->kernel = d->kernel == 1 ? SQ_SPH_KERNEL_MULLER : SQ_SPH_KERNEL_CUBIC;
     s->gradient = SQ_SPH_GRADIENT_CORRECTED;
+    s->viscous = d->viscous == 1   ? SQ_SPH_VISCOUS_MULLER
+                 : d->viscous == 2 ? SQ_SPH_VISCOUS_TENSOR
+                                   : SQ_SPH_VISCOUS_MORRIS;
     s->rheology = rheology_of(d);
     s->artificial_viscosity = d->no_artificial_viscosity ? 0.0 : d->artificial_viscosity;
     s->xsph_epsilon = d->xsph_epsilon;

@@ -24,7 +24,8 @@ static void free_arrays(sq_sph *s)
     sq_free(ctx, s->id);
     sq_free(ctx, s->cellid);
     sq_free(ctx, s->perm);
-    sq_free(ctx, s->scratch);
+    for (int a = 0; a < SQ__SPH_NREORDER_F; a++) sq_free(ctx, s->fspare[a]);
+    for (int a = 0; a < SQ__SPH_NREORDER_U; a++) sq_free(ctx, s->uspare[a]);
     sq_free(ctx, s->nb);
     sq_free(ctx, s->nb_count);
     sq_free(ctx, s->nb_plain);
@@ -176,13 +177,20 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->id = (uint32_t *)sq_alloc_zero(ctx, np * sizeof(uint32_t));
     s->cellid = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
     s->perm = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
-    s->scratch = sq_alloc(ctx, np * sizeof(uint32_t));
+    for (int a = 0; a < SQ__SPH_NREORDER_F; a++) {
+        s->fspare[a] = (float *)sq_alloc(ctx, np * sizeof(float));
+        ok &= s->fspare[a] != NULL;
+    }
+    for (int a = 0; a < SQ__SPH_NREORDER_U; a++) {
+        s->uspare[a] = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
+        ok &= s->uspare[a] != NULL;
+    }
     s->nb_count = (uint16_t *)sq_alloc_zero(ctx, np * sizeof(uint16_t));
     s->nb_plain = (uint16_t *)sq_alloc_zero(ctx, np * sizeof(uint16_t));
     s->cell_start = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->hist = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->red = (double *)sq_alloc_zero(ctx, 8 * (size_t)s->nt * sizeof(double));
-    ok &= s->L && s->G && s->tau && s->id && s->cellid && s->perm && s->scratch && s->nb_count &&
+    ok &= s->L && s->G && s->tau && s->id && s->cellid && s->perm && s->nb_count &&
           s->nb_plain && s->cell_start && s->hist && s->red;
     if (!ok) {
         sq_sph_destroy(s);
@@ -547,14 +555,15 @@ static sq_result final_kick(sq_sph *s, float dt)
     const float vlim2 = vlim * vlim;
     float v2max = 0.0f;
     int64_t bad = INT64_MAX;
+    const int contacts = s->has_terrain || s->box_count > 0 || s->any_wall;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : v2max) reduction(min : bad))
     for (int64_t ii = 0; ii < (int64_t)N; ii++) {
         const size_t i = (size_t)ii;
-        const float vx = s->hx[i] + s->ax[i] * hdt, vy = s->hy[i] + s->ay[i] * hdt,
-                    vz = s->hz[i] + s->az[i] * hdt;
-        s->vx[i] = vx;
-        s->vy[i] = vy;
-        s->vz[i] = vz;
+        s->vx[i] = s->hx[i] + s->ax[i] * hdt;
+        s->vy[i] = s->hy[i] + s->ay[i] * hdt;
+        s->vz[i] = s->hz[i] + s->az[i] * hdt;
+        if (contacts) sq__sph_contact_velocity(s, i);
+        const float vx = s->vx[i], vy = s->vy[i], vz = s->vz[i];
         const float v2 = vx * vx + vy * vy + vz * vz;
         if (!(v2 <= vlim2)) {
             if (ii < bad) bad = ii;

@@ -61,21 +61,25 @@ static inline void respond(float v[3], const float n[3], const sq__sph_contact *
     v[2] = vn2 * n[2] + f * t[2];
 }
 
-void sq__sph_collide(const sq_sph *s, size_t i)
+/* Contacts of position p (projected if project) and velocity v. Returns 1 if anything
+ * changed. Without projection only particles already on a surface (within a hair of the
+ * collision radius, where the drift's projection left them) get the velocity response. */
+static int contact(const sq_sph *s, float p[3], float v[3], int project)
 {
-    float p[3] = {s->x[i], s->y[i], s->z[i]};
-    float v[3] = {s->hx[i], s->hy[i], s->hz[i]};
     int touched = 0;
     const float r = s->coll_r;
+    const float tol = project ? 0.0f : 1e-4f * r + 1e-6f;
     if (s->has_terrain) {
         float h, n[3];
         sq__sph_terrain_eval(&s->terrain, p[0], p[1], &h, n);
         const float sd = (p[2] - h) * n[2]; /* signed distance to the local tangent plane */
-        if (sd < r) {
-            const float push = r - sd;
-            p[0] += push * n[0];
-            p[1] += push * n[1];
-            p[2] += push * n[2];
+        if (sd < r + tol) {
+            if (project && sd < r) {
+                const float push = r - sd;
+                p[0] += push * n[0];
+                p[1] += push * n[1];
+                p[2] += push * n[2];
+            }
             respond(v, n, &s->terrain.c);
             touched = 1;
         }
@@ -85,10 +89,9 @@ void sq__sph_collide(const sq_sph *s, size_t i)
         float best = INFINITY;
         int face = -1;
         for (int a = 0; a < 3; a++) {
-            const float plo = p[a] - (bx->lo[a] - r), phi = (bx->hi[a] + r) - p[a];
+            const float plo = p[a] - (bx->lo[a] - r - tol), phi = (bx->hi[a] + r + tol) - p[a];
             if (!(plo > 0.0f && phi > 0.0f)) {
                 face = -1;
-                best = -1.0f;
                 break;
             }
             if (plo < best) {
@@ -104,10 +107,10 @@ void sq__sph_collide(const sq_sph *s, size_t i)
         const int a = face / 2;
         float n[3] = {0.0f, 0.0f, 0.0f};
         if (face & 1) {
-            p[a] = bx->hi[a] + r;
+            if (project) p[a] = bx->hi[a] + r;
             n[a] = 1.0f;
         } else {
-            p[a] = bx->lo[a] - r;
+            if (project) p[a] = bx->lo[a] - r;
             n[a] = -1.0f;
         }
         respond(v, n, &bx->c);
@@ -117,19 +120,26 @@ void sq__sph_collide(const sq_sph *s, size_t i)
     if (s->any_wall) {
         const float mg = s->wall_margin;
         for (int a = 0; a < 3; a++) {
-            if (s->face[2 * a] <= SQ_SPH_BOUNDARY_FREE_SLIP && p[a] < s->lo[a] + mg) {
-                p[a] = s->lo[a] + mg;
+            if (s->face[2 * a] <= SQ_SPH_BOUNDARY_FREE_SLIP && p[a] < s->lo[a] + mg + tol) {
+                if (project && p[a] < s->lo[a] + mg) p[a] = s->lo[a] + mg;
                 if (v[a] < 0.0f) v[a] = 0.0f;
                 touched = 1;
             }
-            if (s->face[2 * a + 1] <= SQ_SPH_BOUNDARY_FREE_SLIP && p[a] > s->hi[a] - mg) {
-                p[a] = s->hi[a] - mg;
+            if (s->face[2 * a + 1] <= SQ_SPH_BOUNDARY_FREE_SLIP && p[a] > s->hi[a] - mg - tol) {
+                if (project && p[a] > s->hi[a] - mg) p[a] = s->hi[a] - mg;
                 if (v[a] > 0.0f) v[a] = 0.0f;
                 touched = 1;
             }
         }
     }
-    if (touched) {
+    return touched;
+}
+
+void sq__sph_collide(const sq_sph *s, size_t i)
+{
+    float p[3] = {s->x[i], s->y[i], s->z[i]};
+    float v[3] = {s->hx[i], s->hy[i], s->hz[i]};
+    if (contact(s, p, v, 1)) {
         float *X = s->x, *Y = s->y, *Z = s->z, *HX = s->hx, *HY = s->hy, *HZ = s->hz;
         X[i] = p[0];
         Y[i] = p[1];
@@ -137,5 +147,17 @@ void sq__sph_collide(const sq_sph *s, size_t i)
         HX[i] = v[0];
         HY[i] = v[1];
         HZ[i] = v[2];
+    }
+}
+
+void sq__sph_contact_velocity(const sq_sph *s, size_t i)
+{
+    float p[3] = {s->x[i], s->y[i], s->z[i]};
+    float v[3] = {s->vx[i], s->vy[i], s->vz[i]};
+    if (contact(s, p, v, 0)) {
+        float *VX = s->vx, *VY = s->vy, *VZ = s->vz;
+        VX[i] = v[0];
+        VY[i] = v[1];
+        VZ[i] = v[2];
     }
 }

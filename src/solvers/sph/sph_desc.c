@@ -402,7 +402,7 @@ uint64_t sq_sph_memory_bytes(const sq_sph_desc *desc, size_t particles)
     uint64_t np = (uint64_t)particles;
     int cap = d.neighbour_capacity > 0 ? d.neighbour_capacity : 64;
     uint64_t per = 4u * SPH_FLOATS_PER_PARTICLE /* state */
-                   + 4u /* id */ + 4u + 4u /* cellid, perm */ + 4u /* reorder scratch */
+                   + 4u /* id */ + 4u + 4u /* cellid, perm */ + 44u /* reorder targets */
                    + 2u + 2u /* neighbour counts */ + 4u * (uint64_t)cap;
     uint64_t grid = 2u * 4u * (cells + 2u); /* cell_start + histogram */
     return np * per + grid + 64u * 64u /* reductions, alignment */;

@@ -15,6 +15,7 @@
 #define SQ__SPH_INDEX_MASK ((1u << 29) - 1u)
 #define SQ__SPH_MAX_PARTICLES ((size_t)1 << 29)   /* indices must fit the list entries */
 #define SQ__SPH_DET_MIN 0.05f                    /* below: no gradient correction (L = I) */
+#define SQ__SPH_TRACE_MAX 12.0f                  /* above tr(L): no gradient correction */
 #define SQ__SPH_RUNAWAY_MACH 3.0                  /* |v| > 3 c_s counts as a blow-up */
 
 /* ---- kernels ------------------------------------------------------------------------------ */
@@ -41,25 +42,36 @@ typedef struct sq__sph_kern {
 
 void sq__sph_kern_init(sq__sph_kern *k, float H, int cubic);
 
+/* The kernels are forced inline: they sit inside the vectorised neighbour loops. */
+#if defined(__GNUC__)
+#define SQ__SPH_KERNEL_FN static inline __attribute__((always_inline))
+#else
+#define SQ__SPH_KERNEL_FN static inline
+#endif
+
 /* max without libm's NaN rules (compiles to maxss); NaN in a gives b. */
-static inline float sq__maxf(float a, float b) { return a > b ? a : b; }
+SQ__SPH_KERNEL_FN float sq__maxf(float a, float b) { return a > b ? a : b; }
+
+/* sqrt of a number the compiler can see is ≥ 0 (and not NaN): no errno path, so loops that
+ * use it vectorise without -fno-math-errno. */
+SQ__SPH_KERNEL_FN float sq__sph_sqrt(float x) { return sqrtf(x > 0.0f ? x : 0.0f); }
 
 /* Poly6 W from r²: 315/(64 π H³) (1 − q²)³, zero for r ≥ H. */
-static inline float sq__sph_w_poly6(const sq__sph_kern *k, float r2)
+SQ__SPH_KERNEL_FN float sq__sph_w_poly6(const sq__sph_kern *k, float r2)
 {
     float w = 1.0f - r2 * k->inv_H2;
     w = w > 0.0f ? w : 0.0f;
     return k->poly6_c * w * w * w;
 }
 /* Spiky W: 15/(π H³) (1 − q)³. */
-static inline float sq__sph_w_spiky(const sq__sph_kern *k, float r)
+SQ__SPH_KERNEL_FN float sq__sph_w_spiky(const sq__sph_kern *k, float r)
 {
     float w = 1.0f - r * k->inv_H;
     w = w > 0.0f ? w : 0.0f;
     return k->spiky_w_c * w * w * w;
 }
 /* Müller's viscosity kernel: 15/(2π H³) (−q³/2 + q² + 1/(2q) − 1) (singular at r = 0). */
-static inline float sq__sph_w_visc(const sq__sph_kern *k, float r)
+SQ__SPH_KERNEL_FN float sq__sph_w_visc(const sq__sph_kern *k, float r)
 {
     float q = r * k->inv_H;
     if (q >= 1.0f) return 0.0f;
@@ -67,13 +79,13 @@ static inline float sq__sph_w_visc(const sq__sph_kern *k, float r)
     return k->visc_w_c * (-0.5f * q * q * q + q * q + 0.5f / q - 1.0f);
 }
 /* Laplacian of the viscosity kernel: 45/(π H⁶) (H − r) = 45/(π H⁵) (1 − q). */
-static inline float sq__sph_lap_visc(const sq__sph_kern *k, float r)
+SQ__SPH_KERNEL_FN float sq__sph_lap_visc(const sq__sph_kern *k, float r)
 {
     float w = 1.0f - r * k->inv_H;
     return w > 0.0f ? k->visc_lap_c * w : 0.0f;
 }
 /* Cubic spline with ℓ = H/2 (support H), s = r/ℓ. */
-static inline float sq__sph_w_cubic(const sq__sph_kern *k, float r)
+SQ__SPH_KERNEL_FN float sq__sph_w_cubic(const sq__sph_kern *k, float r)
 {
     float s = 2.0f * r * k->inv_H;
     if (s < 1.0f) return k->cubic_c * (1.0f - 1.5f * s * s + 0.75f * s * s * s);
@@ -84,16 +96,16 @@ static inline float sq__sph_w_cubic(const sq__sph_kern *k, float r)
     return 0.0f;
 }
 /* The density/XSPH kernel of the kernel set. */
-static inline float sq__sph_w(const sq__sph_kern *k, float r2)
+SQ__SPH_KERNEL_FN float sq__sph_w(const sq__sph_kern *k, float r2)
 {
-    return k->cubic ? sq__sph_w_cubic(k, sqrtf(r2)) : sq__sph_w_poly6(k, r2);
+    return k->cubic ? sq__sph_w_cubic(k, sq__sph_sqrt(r2)) : sq__sph_w_poly6(k, r2);
 }
 /* Gradient factor f of the gradient kernel: ∇_i W(x_i − x_j) = f · (x_i − x_j), from r and
  * 1/r (inv_r = 0 at r = 0 gives f = 0). Spiky: f = −45/(π H⁴) (1 − q)²/r; cubic: (dW/dr)/r.
- * Branch-free. */
-static inline float sq__sph_gradf_r(const sq__sph_kern *k, float r, float inv_r)
+ * Branch-free; cubic is a compile-time constant in the passes. */
+SQ__SPH_KERNEL_FN float sq__sph_gradf_rk(const sq__sph_kern *k, float r, float inv_r, int cubic)
 {
-    if (k->cubic) {
+    if (cubic) {
         const float s = 2.0f * r * k->inv_H;
         const float t = sq__maxf(2.0f - s, 0.0f);
         const float inner = -3.0f * s + 2.25f * s * s;
@@ -103,12 +115,16 @@ static inline float sq__sph_gradf_r(const sq__sph_kern *k, float r, float inv_r)
     const float w = sq__maxf(1.0f - r * k->inv_H, 0.0f);
     return -k->spiky_g_c * w * w * inv_r;
 }
-static inline float sq__sph_gradf(const sq__sph_kern *k, float r)
+SQ__SPH_KERNEL_FN float sq__sph_gradf_r(const sq__sph_kern *k, float r, float inv_r)
+{
+    return k->cubic ? sq__sph_gradf_rk(k, r, inv_r, 1) : sq__sph_gradf_rk(k, r, inv_r, 0);
+}
+SQ__SPH_KERNEL_FN float sq__sph_gradf(const sq__sph_kern *k, float r)
 {
     return sq__sph_gradf_r(k, r, r > 0.0f ? 1.0f / r : 0.0f);
 }
 /* Gradient factor of the poly6 kernel: ∇W = −945/(32 π H⁹) (H² − r²)² r (SPEC eq. 3.16). */
-static inline float sq__sph_gradf_poly6(const sq__sph_kern *k, float r2)
+SQ__SPH_KERNEL_FN float sq__sph_gradf_poly6(const sq__sph_kern *k, float r2)
 {
     float w = 1.0f - r2 * k->inv_H2;
     if (w <= 0.0f) return 0.0f;
@@ -202,8 +218,11 @@ struct sq_sph {
     float *tau;               /* 6 per particle: deviatoric stress 2 μ D */
     float *gam, *mu;          /* |γ̇| and μ */
     uint32_t *id;
-    uint32_t *cellid, *perm;  /* sort scratch */
-    void *scratch;            /* 4 bytes per particle, reorder scratch */
+    uint32_t *cellid, *perm;  /* cell of each particle (sorted after the sort), permutation */
+#define SQ__SPH_NREORDER_F 9
+#define SQ__SPH_NREORDER_U 2
+    float *fspare[SQ__SPH_NREORDER_F];    /* reorder targets of x y z vx vy vz hx hy hz */
+    uint32_t *uspare[SQ__SPH_NREORDER_U]; /* reorder targets of id, cellid */
     uint32_t *nb;             /* nb_cap entries per particle */
     uint16_t *nb_count, *nb_plain;
     int nb_cap;
@@ -248,6 +267,8 @@ float sq__sph_pass_forces(sq_sph *s);
 /* Collisions (sph_collide.c): walls clamp, terrain, boxes; modify position and half-step
  * velocity of particle i. */
 void sq__sph_collide(const sq_sph *s, size_t i);
+/* After the closing kick: the velocity response for particles resting on a collider. */
+void sq__sph_contact_velocity(const sq_sph *s, size_t i);
 
 /* Threads for a loop over n particles: small systems run on one thread, where the fork/join
  * and barrier costs (large on a loaded machine) would exceed the work. */

@@ -14,14 +14,6 @@
  * Every loop writes only its own particle i, so results do not depend on the thread count.
  * Neighbour-list entries are j | mask << 29, mask = the axes across whose walls j is mirrored;
  * plain entries come first (nb_plain of them), image entries after. */
-/* The passes take square roots of sums of squares only, so errno is never needed; without
- * this GCC cannot vectorise the neighbour loops (sqrtf "clobbers memory" through errno).
- * It comes before the includes so that the header's inline kernels get the same options
- * (GCC does not inline across differing optimize settings). */
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC optimize("no-math-errno")
-#endif
-
 #include <string.h>
 
 #include "solvers/sph/sph_internal.h"
@@ -35,6 +27,7 @@
 #define SQ__SPH_CLONES
 #endif
 #define SQ__SPH_BLOCK 256
+#define SQ__SPH_CHUNK 64 /* neighbours gathered per vector loop */
 
 #if defined(__GNUC__)
 #define SQ__INLINE static inline __attribute__((always_inline))
@@ -114,8 +107,7 @@ static inline int clamp_cell(float f, int n)
 {
     int i = 0;
     if (f >= 0.0f) i = f < (float)n ? (int)f : n - 1;
-    if (i > n - 1) i = n - 1;
-    return i;
+    return i < 0 ? 0 : (i > n - 1 ? n - 1 : i); /* also for whatever a NaN converted to */
 }
 
 uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z)
@@ -126,28 +118,39 @@ uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z)
     return ((uint32_t)cz * (uint32_t)s->n[1] + (uint32_t)cy) * (uint32_t)s->n[0] + (uint32_t)cx;
 }
 
-static void gather_f(sq_sph *s, float **arr, size_t n)
+/* Reorder the persistent arrays by perm in ONE parallel loop (each parallel region costs a
+ * thread wake-up, which is slow on a busy machine), into the spare buffers, then swap. */
+static void reorder(sq_sph *s, size_t n)
 {
-    float *restrict dst = (float *)s->scratch;
-    const float *restrict src = *arr;
+    float **fa[SQ__SPH_NREORDER_F] = {&s->x,  &s->y,  &s->z,  &s->vx, &s->vy,
+                                     &s->vz, &s->hx, &s->hy, &s->hz};
+    uint32_t **ua[SQ__SPH_NREORDER_U] = {&s->id, &s->cellid};
+    float *fs[SQ__SPH_NREORDER_F], *fd[SQ__SPH_NREORDER_F];
+    uint32_t *us[SQ__SPH_NREORDER_U], *ud[SQ__SPH_NREORDER_U];
+    for (int a = 0; a < SQ__SPH_NREORDER_F; a++) {
+        fs[a] = *fa[a];
+        fd[a] = s->fspare[a];
+    }
+    for (int a = 0; a < SQ__SPH_NREORDER_U; a++) {
+        us[a] = *ua[a];
+        ud[a] = s->uspare[a];
+    }
     const uint32_t *restrict perm = s->perm;
     const int nt = sq__sph_threads(s, n);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
-    s->scratch = *arr;
-    *arr = dst;
-}
-
-static void gather_u(sq_sph *s, uint32_t **arr, size_t n)
-{
-    uint32_t *restrict dst = (uint32_t *)s->scratch;
-    const uint32_t *restrict src = *arr;
-    const uint32_t *restrict perm = s->perm;
-    const int nt = sq__sph_threads(s, n);
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int64_t k = 0; k < (int64_t)n; k++) dst[k] = src[perm[k]];
-    s->scratch = *arr;
-    *arr = dst;
+    for (int64_t k = 0; k < (int64_t)n; k++) {
+        const uint32_t p = perm[k];
+        for (int a = 0; a < SQ__SPH_NREORDER_F; a++) fd[a][k] = fs[a][p];
+        for (int a = 0; a < SQ__SPH_NREORDER_U; a++) ud[a][k] = us[a][p];
+    }
+    for (int a = 0; a < SQ__SPH_NREORDER_F; a++) {
+        s->fspare[a] = fs[a];
+        *fa[a] = fd[a];
+    }
+    for (int a = 0; a < SQ__SPH_NREORDER_U; a++) {
+        s->uspare[a] = us[a];
+        *ua[a] = ud[a];
+    }
 }
 
 size_t sq__sph_sort(sq_sph *s)
@@ -156,7 +159,8 @@ size_t sq__sph_sort(sq_sph *s)
     const uint32_t dead = s->ncell; /* bucket of particles that left through open faces */
     const int nt = sq__sph_threads(s, N);
     uint32_t *restrict cid = s->cellid;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    uint32_t cmin = UINT32_MAX, cmax = 0;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(min : cmin) reduction(max : cmax))
     for (int64_t i = 0; i < (int64_t)N; i++) {
         const float p[3] = {s->x[i], s->y[i], s->z[i]};
         int out = 0;
@@ -164,32 +168,43 @@ size_t sq__sph_sort(sq_sph *s)
             if (p[a] < s->lo[a] && s->face[2 * a] == SQ_SPH_BOUNDARY_OPEN) out = 1;
             if (p[a] >= s->hi[a] && s->face[2 * a + 1] == SQ_SPH_BOUNDARY_OPEN) out = 1;
         }
-        cid[i] = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
+        const uint32_t c = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
+        cid[i] = c;
+        if (!out) {
+            cmin = c < cmin ? c : cmin;
+            cmax = c > cmax ? c : cmax;
+        }
     }
-    /* counting sort (serial and stable: the order within a cell is the previous order) */
+    /* Counting sort (serial and stable: the order within a cell is the previous order) over
+     * the cells that can be read this step: the occupied range widened by one plane, row and
+     * cell, so that sparse fluid in a large domain does not pay for every empty cell. */
+    const uint32_t margin = (uint32_t)s->n[0] * (uint32_t)s->n[1] + (uint32_t)s->n[0] + 1u;
+    uint32_t lo = 0, hi = 0;
+    if (cmin <= cmax) {
+        lo = cmin > margin ? cmin - margin : 0u;
+        hi = dead - 1u - cmax > margin ? cmax + margin : dead - 1u;
+    }
     uint32_t *restrict h = s->hist;
-    memset(h, 0, sizeof(uint32_t) * ((size_t)dead + 2));
-    for (size_t i = 0; i < N; i++) h[cid[i]]++;
+    uint32_t ndead = 0;
+    memset(h + lo, 0, sizeof(uint32_t) * ((size_t)(hi - lo) + 1));
+    for (size_t i = 0; i < N; i++) {
+        if (cid[i] == dead) ndead++;
+        else h[cid[i]]++;
+    }
     uint32_t sum = 0;
-    for (uint32_t c = 0; c <= dead; c++) {
+    for (uint32_t c = lo; c <= hi; c++) {
         const uint32_t t = h[c];
         s->cell_start[c] = sum;
         h[c] = sum;
         sum += t;
     }
-    s->cell_start[dead + 1] = sum;
+    s->cell_start[hi + 1] = sum;
+    s->cell_start[dead] = sum;
+    s->cell_start[dead + 1] = sum + ndead;
+    h[dead] = sum;
     for (size_t i = 0; i < N; i++) s->perm[h[cid[i]]++] = (uint32_t)i;
     const size_t alive = s->cell_start[dead];
-    gather_f(s, &s->x, alive);
-    gather_f(s, &s->y, alive);
-    gather_f(s, &s->z, alive);
-    gather_f(s, &s->vx, alive);
-    gather_f(s, &s->vy, alive);
-    gather_f(s, &s->vz, alive);
-    gather_f(s, &s->hx, alive);
-    gather_f(s, &s->hy, alive);
-    gather_f(s, &s->hz, alive);
-    gather_u(s, &s->id, alive);
+    reorder(s, alive); /* positions, velocities, ids and (sorted) cell ids */
     s->count = alive;
     return N - alive;
 }
@@ -206,19 +221,20 @@ SQ__INLINE int near_wall(const sq_sph *s, int a, float xa)
 
 typedef struct scan_acc {
     int cnt;
-    float wsum; /* Σ (1 − q²)³ over candidates (poly6 density) */
+    float wsum; /* Σ W over candidates (the density kernel) */
 } scan_acc;
 
 /* Candidates j in [b, e) seen from the query point q (already shifted for periodicity), in
- * chunks: a vectorisable loop computes r² (and the poly6 sum, whose (1 − q²) is clamped so it
- * needs no test), then a branch-free loop appends the accepted ones (r < H, j ≠ self). */
+ * chunks: a vectorisable loop computes r² and the density kernel W (which is zero beyond H, so
+ * it needs no test), then a branch-free loop appends the accepted ones (r < H, j ≠ self). */
 #define SQ__SPH_SCAN_CHUNK 64
 SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, float qx, float qy,
                            float qz, uint32_t self, uint32_t tag, uint32_t *restrict nb,
-                           int capm1, scan_acc *acc, int poly6)
+                           int capm1, scan_acc *acc, int cubic)
 {
     const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
-    const float H2 = s->k.H2, iH2 = s->k.inv_H2;
+    const float H2 = s->k.H2;
+    const sq__sph_kern kk = s->k;
     float r2b[SQ__SPH_SCAN_CHUNK];
     int cnt = acc->cnt;
     for (uint32_t b0 = b; b0 < e; b0 += SQ__SPH_SCAN_CHUNK) {
@@ -230,10 +246,9 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
             const float dx = qx - x[t], dy = qy - y[t], dz = qz - z[t];
             const float r2 = dx * dx + dy * dy + dz * dz;
             r2b[t] = r2;
-            const float w = sq__maxf(1.0f - r2 * iH2, 0.0f);
-            ws += w * w * w;
+            ws += cubic ? sq__sph_w_cubic(&kk, sq__sph_sqrt(r2)) : sq__sph_w_poly6(&kk, r2);
         }
-        if (poly6) acc->wsum += ws;
+        acc->wsum += ws;
         for (int t = 0; t < n; t++) {
             const uint32_t j = b0 + (uint32_t)t;
             const int slot = cnt < capm1 ? cnt : capm1;
@@ -255,7 +270,7 @@ static inline float gap(float v, float a, float w)
  * an image query, which lies outside the domain) scan only the wall cell. */
 SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, uint32_t self,
                            uint32_t tag, uint32_t *restrict nb, int capm1, scan_acc *acc,
-                           int poly6, int fixmask)
+                           int cubic, int fixmask)
 {
     const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
     const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], nx);
@@ -313,7 +328,7 @@ SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, 
                     const float ex = gap(qx, s->lo[0] + (float)kx * cell[0], cell[0]);
                     if (ex * ex >= rem) continue;
                     scan_range(s, st[row + (uint32_t)kx], st[row + (uint32_t)kx + 1], qx, qy, qz,
-                               self, tag, nb, capm1, acc, poly6);
+                               self, tag, nb, capm1, acc, cubic);
                 }
             } else {
                 if (xa < 0) xa = 0;
@@ -328,7 +343,7 @@ SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, 
                     if (ex * ex >= rem) xb = cx;
                 }
                 scan_range(s, st[row + (uint32_t)xa], st[row + (uint32_t)xb + 1], x, qy, qz, self,
-                           tag, nb, capm1, acc, poly6);
+                           tag, nb, capm1, acc, cubic);
             }
         }
     }
@@ -354,74 +369,177 @@ static inline float coord(const sq_sph *s, int a, size_t i)
     return a == 0 ? s->x[i] : a == 1 ? s->y[i] : s->z[i];
 }
 
-/* Density pass for particles [i0, i1); returns the largest neighbour count. */
-SQ__SPH_CLONES static int density_block(sq_sph *restrict s, size_t i0, size_t i1)
+/* The plain neighbours of a group of ng ≤ SQ__SPH_GROUP particles of one cell c (consecutive
+ * from g0): the 27 cells around c are the same for all of them, so each candidate j is tested
+ * against the whole group in one vectorisable loop (distance, density kernel), and a short
+ * branch-free loop appends it to the lists that accept it. The lists come out exactly as a
+ * per-particle scan of the same cells would make them. */
+#define SQ__SPH_GROUP 16
+SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, int *restrict cnt,
+                           float *restrict ws, const int cubic)
 {
+    const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
     const int cap = s->nb_cap, capm1 = cap - 1;
-    const int poly6 = !s->k.cubic;
-    int maxcnt = 0;
-    for (size_t i = i0; i < i1; i++) {
-        uint32_t *restrict nb = s->nb + i * (size_t)cap;
-        const float xi = s->x[i], yi = s->y[i], zi = s->z[i];
-        scan_acc acc = {0, 0.0f};
-        scan_cells(s, xi, yi, zi, (uint32_t)i, 0u, nb, capm1, &acc, poly6, 0);
-        const int plain = acc.cnt;
-        if (s->any_wall) {
-            const float xyz[3] = {xi, yi, zi};
-            int side[3], near = 0;
-            for (int a = 0; a < 3; a++) {
-                side[a] = near_wall(s, a, xyz[a]);
-                if (side[a]) near |= 1 << a;
+    const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
+    const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
+    const float H2 = s->k.H2;
+    const sq__sph_kern kk = s->k;
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    const uint32_t *restrict st = s->cell_start;
+    uint32_t *restrict nb = s->nb + g0 * (size_t)cap;
+    float gx[SQ__SPH_GROUP], gy[SQ__SPH_GROUP], gz[SQ__SPH_GROUP], r2b[SQ__SPH_GROUP];
+    for (int t = 0; t < ng; t++) {
+        gx[t] = X[g0 + (size_t)t];
+        gy[t] = Y[g0 + (size_t)t];
+        gz[t] = Z[g0 + (size_t)t];
+    }
+    for (int dz = -1; dz <= 1; dz++) {
+        int kz = cz + dz;
+        float sz = 0.0f; /* added to the group's coordinates for a wrapped row */
+        if (kz < 0) {
+            if (!s->periodic[2]) continue;
+            kz += nz;
+            sz = s->len[2];
+        } else if (kz >= nz) {
+            if (!s->periodic[2]) continue;
+            kz -= nz;
+            sz = -s->len[2];
+        }
+        for (int dy = -1; dy <= 1; dy++) {
+            int ky = cy + dy;
+            float sy = 0.0f;
+            if (ky < 0) {
+                if (!s->periodic[1]) continue;
+                ky += ny;
+                sy = s->len[1];
+            } else if (ky >= ny) {
+                if (!s->periodic[1]) continue;
+                ky -= ny;
+                sy = -s->len[1];
             }
-            /* every non-empty subset of the near walls: single mirrors, edges, corners */
-            for (int m = 1; m < 8; m++) {
-                if ((m & near) != m) continue;
-                float q[3];
-                for (int a = 0; a < 3; a++) {
-                    q[a] = xyz[a];
-                    if (m & (1 << a)) {
-                        const float w = side[a] == 1 ? s->lo[a] : s->hi[a];
-                        q[a] = 2.0f * w - xyz[a];
+            const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
+            /* one or three x ranges (three when the row wraps periodically) */
+            uint32_t rb[3], re[3];
+            float rs[3];
+            int nr = 0;
+            if (s->periodic[0] && (cx == 0 || cx == nx - 1)) {
+                for (int dx = -1; dx <= 1; dx++) {
+                    int kx = cx + dx;
+                    float sx = 0.0f;
+                    if (kx < 0) {
+                        kx += nx;
+                        sx = s->len[0];
+                    } else if (kx >= nx) {
+                        kx -= nx;
+                        sx = -s->len[0];
+                    }
+                    rb[nr] = st[row + (uint32_t)kx];
+                    re[nr] = st[row + (uint32_t)kx + 1];
+                    rs[nr++] = sx;
+                }
+            } else {
+                const int xa = cx > 0 ? cx - 1 : 0, xb = cx < nx - 1 ? cx + 1 : nx - 1;
+                rb[0] = st[row + (uint32_t)xa];
+                re[0] = st[row + (uint32_t)xb + 1];
+                rs[0] = 0.0f;
+                nr = 1;
+            }
+            for (int q = 0; q < nr; q++) {
+                const float sx = rs[q];
+                for (uint32_t j = rb[q]; j < re[q]; j++) {
+                    const float xj = X[j] - sx, yj = Y[j] - sy, zj = Z[j] - sz;
+                    SQ_OMP(omp simd)
+                    for (int t = 0; t < ng; t++) {
+                        const float ex = gx[t] - xj, ey = gy[t] - yj, ez = gz[t] - zj;
+                        const float r2 = ex * ex + ey * ey + ez * ez;
+                        r2b[t] = r2;
+                        ws[t] += cubic ? sq__sph_w_cubic(&kk, sq__sph_sqrt(r2)) : sq__sph_w_poly6(&kk, r2);
+                    }
+                    const size_t jr = j - g0; /* j relative to the group (self test) */
+                    for (int t = 0; t < ng; t++) {
+                        const int k = cnt[t];
+                        nb[(size_t)t * (size_t)cap + (size_t)(k < capm1 ? k : capm1)] = j;
+                        cnt[t] = k + (int)((r2b[t] < H2) & (jr != (size_t)t));
                     }
                 }
-                scan_cells(s, q[0], q[1], q[2], UINT32_MAX, (uint32_t)m << SQ__SPH_IMAGE_SHIFT, nb,
-                           capm1, &acc, poly6, m);
             }
         }
-        const int cnt = acc.cnt;
-        if (cnt > maxcnt) maxcnt = cnt;
-        s->nb_count[i] = (uint16_t)(cnt < cap ? cnt : cap);
-        s->nb_plain[i] = (uint16_t)(plain < cap ? plain : cap);
-        float rho;
-        if (poly6) {
-            rho = s->mass * s->k.poly6_c * acc.wsum;
-        } else {
-            /* cubic spline: self term plus the list */
-            float w = sq__sph_w_cubic(&s->k, 0.0f);
-            const int n = cnt < cap ? cnt : cap;
-            for (int k = 0; k < n; k++) {
-                const uint32_t e = nb[k];
-                const uint32_t j = e & SQ__SPH_INDEX_MASK;
-                const uint32_t m = e >> SQ__SPH_IMAGE_SHIFT;
-                float d[3];
-                d_plain(s, i, j, d);
-                for (int a = 0; a < 3; a++) {
-                    if (!(m & (1u << a))) continue;
-                    const int sd = near_wall(s, a, coord(s, a, i));
-                    const float wl = sd == 1 ? s->lo[a] : s->hi[a];
-                    d[a] = coord(s, a, i) + coord(s, a, j) - 2.0f * wl;
+    }
+}
+
+/* Density pass for the cells that start in particles [i0, i1) (each cell is done by the block
+ * holding its first particle); returns the largest neighbour count. */
+SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int cubic)
+{
+    const int cap = s->nb_cap, capm1 = cap - 1;
+    const uint32_t *restrict cid = s->cellid; /* sorted */
+    int maxcnt = 0;
+    size_t i = i0;
+    if (i > 0)
+        while (i < i1 && cid[i] == cid[i - 1]) i++;
+    while (i < i1) {
+        const uint32_t c = cid[i];
+        const size_t ce = s->cell_start[c + 1];
+        for (size_t g0 = i; g0 < ce; g0 += SQ__SPH_GROUP) {
+            const int ng = (int)(ce - g0 < SQ__SPH_GROUP ? ce - g0 : SQ__SPH_GROUP);
+            int cnt[SQ__SPH_GROUP];
+            float ws[SQ__SPH_GROUP];
+            for (int t = 0; t < ng; t++) {
+                cnt[t] = 0;
+                ws[t] = 0.0f;
+            }
+            scan_group(s, c, g0, ng, cnt, ws, cubic);
+            for (int t = 0; t < ng; t++) {
+                const size_t ip = g0 + (size_t)t;
+                uint32_t *restrict nb = s->nb + ip * (size_t)cap;
+                scan_acc acc = {cnt[t], ws[t]};
+                const int plain = acc.cnt;
+                if (s->any_wall) {
+                    const float xyz[3] = {s->x[ip], s->y[ip], s->z[ip]};
+                    int side[3], near = 0;
+                    for (int a = 0; a < 3; a++) {
+                        side[a] = near_wall(s, a, xyz[a]);
+                        if (side[a]) near |= 1 << a;
+                    }
+                    /* every non-empty subset of the near walls: mirrors, edges, corners */
+                    for (int m = 1; m < 8; m++) {
+                        if ((m & near) != m) continue;
+                        float qp[3];
+                        for (int a = 0; a < 3; a++) {
+                            qp[a] = xyz[a];
+                            if (m & (1 << a)) {
+                                const float w = side[a] == 1 ? s->lo[a] : s->hi[a];
+                                qp[a] = 2.0f * w - xyz[a];
+                            }
+                        }
+                        scan_cells(s, qp[0], qp[1], qp[2], UINT32_MAX,
+                                   (uint32_t)m << SQ__SPH_IMAGE_SHIFT, nb, capm1, &acc, cubic, m);
+                    }
                 }
-                w += sq__sph_w_cubic(&s->k, sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+                const int n = acc.cnt;
+                if (n > maxcnt) maxcnt = n;
+                s->nb_count[ip] = (uint16_t)(n < cap ? n : cap);
+                s->nb_plain[ip] = (uint16_t)(plain < cap ? plain : cap);
+                const float rho = s->mass * acc.wsum;
+                const float p = sq__sph_eos(s, rho);
+                s->rho[ip] = rho;
+                s->p[ip] = p;
+                s->vol[ip] = s->mass / rho;
+                s->pr2[ip] = p / (rho * rho);
             }
-            rho = s->mass * w;
         }
-        const float p = sq__sph_eos(s, rho);
-        s->rho[i] = rho;
-        s->p[i] = p;
-        s->vol[i] = s->mass / rho;
-        s->pr2[i] = p / (rho * rho);
+        i = ce;
     }
     return maxcnt;
+}
+
+SQ__SPH_CLONES static int density_block_poly6(sq_sph *restrict s, size_t i0, size_t i1)
+{
+    return density_cells(s, i0, i1, 0);
+}
+SQ__SPH_CLONES static int density_block_cubic(sq_sph *restrict s, size_t i0, size_t i1)
+{
+    return density_cells(s, i0, i1, 1);
 }
 
 int sq__sph_pass_density(sq_sph *s)
@@ -434,7 +552,7 @@ int sq__sph_pass_density(sq_sph *s)
     for (int64_t b = 0; b < nblk; b++) {
         const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
         const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
-        const int m = density_block(s, i0, i1);
+        const int m = s->k.cubic ? density_block_cubic(s, i0, i1) : density_block_poly6(s, i0, i1);
         if (m > maxcnt) maxcnt = m;
     }
     return maxcnt;
@@ -527,7 +645,8 @@ static void image_state(const sq_sph *restrict s, size_t i, uint32_t e, int tens
 
 /* ---- strain pass --------------------------------------------------------------------------- */
 
-/* Inverse of the symmetric matrix B (xx yy zz xy xz yz); identity if det < SQ__SPH_DET_MIN. */
+/* Inverse of the symmetric matrix B (xx yy zz xy xz yz); identity if det < SQ__SPH_DET_MIN or
+ * tr(B⁻¹) > SQ__SPH_TRACE_MAX (too few neighbours on some side for a meaningful correction). */
 static inline void sym_inverse(const float B[6], float L[6])
 {
     const float a = B[0], b = B[1], c = B[2], d = B[3], e = B[4], f = B[5];
@@ -540,12 +659,26 @@ static inline void sym_inverse(const float B[6], float L[6])
         return;
     }
     const float id = 1.0f / det;
+    if (!((cxx + cyy + czz) * id <= SQ__SPH_TRACE_MAX)) { /* an eigenvalue of B below 1/12 */
+        L[0] = L[1] = L[2] = 1.0f;
+        L[3] = L[4] = L[5] = 0.0f;
+        return;
+    }
     L[0] = cxx * id;
     L[1] = cyy * id;
     L[2] = czz * id;
     L[3] = cxy * id;
     L[4] = cxz * id;
     L[5] = cyz * id;
+}
+
+/* 1/r from r², and 0 at r = 0 (coincident particles, a particle and its own mirror image on
+ * the wall): written without a conditional division so that the loops vectorise under the
+ * default IEEE rules (GCC will not speculate a division that might trap). */
+SQ__INLINE float inv_dist(float r2)
+{
+    const float q = 1.0f / sqrtf(r2 > 1e-30f ? r2 : 1e-30f);
+    return r2 > 0.0f ? q : 0.0f;
 }
 
 /* Minimum-image wrap of one displacement component (h = +inf on non-periodic axes). */
@@ -556,7 +689,7 @@ SQ__INLINE float wrap1(float d, float h, float L)
 }
 
 SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtonian,
-                                 const int corrected)
+                                 const int corrected, const int cubic)
 {
     const int cap = s->nb_cap;
     const uint32_t *restrict nb = s->nb + i * (size_t)cap;
@@ -571,32 +704,46 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
     float b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0;
     float g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0, g5 = 0, g6 = 0, g7 = 0, g8 = 0;
-    SQ_OMP(omp simd reduction(+ : b0, b1, b2, b3, b4, b5, g0, g1, g2, g3, g4, g5, g6, g7, g8))
-    for (int k = 0; k < nplain; k++) {
-        const uint32_t j = nb[k];
-        const float dx = wrap1(xi - X[j], hx, Lx), dy = wrap1(yi - Y[j], hy, Ly),
-                    dz = wrap1(zi - Z[j], hz, Lz);
-        const float r2 = dx * dx + dy * dy + dz * dz;
-        const float ir = r2 > 0.0f ? 1.0f / sqrtf(r2) : 0.0f;
-        const float f = sq__sph_gradf_r(&kk, r2 * ir, ir) * VOL[j]; /* V_j ∇W = f d */
-        const float gx = f * dx, gy = f * dy, gz = f * dz;
-        /* B += V_j (x_j − x_i) ⊗ ∇W = −(d ⊗ f d) */
-        b0 -= dx * gx;
-        b1 -= dy * gy;
-        b2 -= dz * gz;
-        b3 -= dx * gy;
-        b4 -= dx * gz;
-        b5 -= dy * gz;
-        const float ux = VX[j] - vxi, uy = VY[j] - vyi, uz = VZ[j] - vzi;
-        g0 += ux * gx;
-        g1 += ux * gy;
-        g2 += ux * gz;
-        g3 += uy * gx;
-        g4 += uy * gy;
-        g5 += uy * gz;
-        g6 += uz * gx;
-        g7 += uz * gy;
-        g8 += uz * gz;
+    /* gather the neighbours into short local arrays, then a clean vectorisable loop */
+    float lx[SQ__SPH_CHUNK], ly[SQ__SPH_CHUNK], lz[SQ__SPH_CHUNK], lv[SQ__SPH_CHUNK];
+    float lu[SQ__SPH_CHUNK], lw[SQ__SPH_CHUNK], lt[SQ__SPH_CHUNK];
+    for (int k0 = 0; k0 < nplain; k0 += SQ__SPH_CHUNK) {
+        const int n = nplain - k0 < SQ__SPH_CHUNK ? nplain - k0 : SQ__SPH_CHUNK;
+        for (int k = 0; k < n; k++) {
+            const uint32_t j = nb[k0 + k];
+            lx[k] = wrap1(xi - X[j], hx, Lx);
+            ly[k] = wrap1(yi - Y[j], hy, Ly);
+            lz[k] = wrap1(zi - Z[j], hz, Lz);
+            lv[k] = VOL[j];
+            lu[k] = VX[j] - vxi;
+            lw[k] = VY[j] - vyi;
+            lt[k] = VZ[j] - vzi;
+        }
+        SQ_OMP(omp simd reduction(+ : b0, b1, b2, b3, b4, b5, g0, g1, g2, g3, g4, g5, g6, g7, g8))
+        for (int k = 0; k < n; k++) {
+            const float dx = lx[k], dy = ly[k], dz = lz[k];
+            const float r2 = dx * dx + dy * dy + dz * dz;
+            const float ir = inv_dist(r2);
+            const float f = sq__sph_gradf_rk(&kk, r2 * ir, ir, cubic) * lv[k]; /* V_j ∇W = f d */
+            const float gx = f * dx, gy = f * dy, gz = f * dz;
+            /* B += V_j (x_j − x_i) ⊗ ∇W = −(d ⊗ f d) */
+            b0 -= dx * gx;
+            b1 -= dy * gy;
+            b2 -= dz * gz;
+            b3 -= dx * gy;
+            b4 -= dx * gz;
+            b5 -= dy * gz;
+            const float ux = lu[k], uy = lw[k], uz = lt[k];
+            g0 += ux * gx;
+            g1 += ux * gy;
+            g2 += ux * gz;
+            g3 += uy * gx;
+            g4 += uy * gy;
+            g5 += uy * gz;
+            g6 += uz * gx;
+            g7 += uz * gy;
+            g8 += uz * gz;
+        }
     }
     float B[6] = {b0, b1, b2, b3, b4, b5};
     float Gr[9] = {g0, g1, g2, g3, g4, g5, g6, g7, g8};
@@ -643,39 +790,43 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     return mu;
 }
 
-#define SQ__SPH_STRAIN_BLOCK(NAME, NEWT, CORR)                                               \
+#define SQ__SPH_STRAIN_BLOCK(NAME, NEWT, CORR, CUBIC)                                         \
     SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
     {                                                                                       \
         float m = 0.0f;                                                                     \
         for (size_t i = i0; i < i1; i++) {                                                  \
-            const float mu = strain_particle(s, i, NEWT, CORR);                             \
+            const float mu = strain_particle(s, i, NEWT, CORR, CUBIC);                      \
             m = mu > m ? mu : m;                                                            \
         }                                                                                   \
         return m;                                                                           \
     }
-SQ__SPH_STRAIN_BLOCK(strain_block_00, 0, 0)
-SQ__SPH_STRAIN_BLOCK(strain_block_01, 0, 1)
-SQ__SPH_STRAIN_BLOCK(strain_block_10, 1, 0)
-SQ__SPH_STRAIN_BLOCK(strain_block_11, 1, 1)
+SQ__SPH_STRAIN_BLOCK(strain_block_000, 0, 0, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_001, 0, 0, 1)
+SQ__SPH_STRAIN_BLOCK(strain_block_010, 0, 1, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_011, 0, 1, 1)
+SQ__SPH_STRAIN_BLOCK(strain_block_100, 1, 0, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_101, 1, 0, 1)
+SQ__SPH_STRAIN_BLOCK(strain_block_110, 1, 1, 0)
+SQ__SPH_STRAIN_BLOCK(strain_block_111, 1, 1, 1)
+
+typedef float (*strain_block_fn)(sq_sph *restrict s, size_t i0, size_t i1);
 
 float sq__sph_pass_strain(sq_sph *s)
 {
+    static const strain_block_fn table[8] = {strain_block_000, strain_block_001, strain_block_010,
+                                             strain_block_011, strain_block_100, strain_block_101,
+                                             strain_block_110, strain_block_111};
     const size_t N = s->count;
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
     const int nt = sq__sph_threads(s, N);
-    const int mode = (s->newtonian ? 2 : 0) | (s->corrected ? 1 : 0);
+    const strain_block_fn fn =
+        table[(s->newtonian ? 4 : 0) | (s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0)];
     float mumax = 0.0f;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : mumax))
     for (int64_t b = 0; b < nblk; b++) {
         const size_t i0 = (size_t)b * SQ__SPH_BLOCK;
         const size_t i1 = i0 + SQ__SPH_BLOCK < N ? i0 + SQ__SPH_BLOCK : N;
-        float m;
-        switch (mode) {
-        case 0: m = strain_block_00(s, i0, i1); break;
-        case 1: m = strain_block_01(s, i0, i1); break;
-        case 2: m = strain_block_10(s, i0, i1); break;
-        default: m = strain_block_11(s, i0, i1); break;
-        }
+        const float m = fn(s, i0, i1);
         if (m > mumax) mumax = m;
     }
     return mumax;
@@ -698,14 +849,14 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
                                float mu_j, const float ti[6], const float *tj, const int visc,
                                const int corrected, const int cubic)
 {
-    const float ir = r2 > 0.0f ? 1.0f / sqrtf(r2) : 0.0f;
+    const float ir = inv_dist(r2);
     const float r = r2 * ir;
-    const float f = sq__sph_gradf_r(kk, r, ir);
+    const float f = sq__sph_gradf_rk(kk, r, ir, cubic);
     /* pressure and artificial viscosity: the kernel gradient times a constant (so that they
      * stay the gradient of an energy, see sq_sph.pgrad_c) */
     const float fp = f * pgrad_c;
     float gx = f * dx, gy = f * dy, gz = f * dz;
-    if (corrected) {
+    if (visc == SQ_SPH_VISCOUS_TENSOR && corrected) {
         const float l0 = 0.5f * (Li[0] + Lj[0]), l1 = 0.5f * (Li[1] + Lj[1]);
         const float l2 = 0.5f * (Li[2] + Lj[2]), l3 = 0.5f * (Li[3] + Lj[3]);
         const float l4 = 0.5f * (Li[4] + Lj[4]), l5 = 0.5f * (Li[5] + Lj[5]);
@@ -718,8 +869,8 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
     }
     /* pressure −m (p_i/ρ_i² + p_j/ρ_j²) ∇̃W and Monaghan's artificial viscosity −m Π_ij ∇̃W */
     const float vr = -(ux * dx + uy * dy + uz * dz); /* v_ij · x_ij */
-    const float pi = vr < 0.0f ? -avc * vr / ((r2 + 0.01f * kk->ell2) * 0.5f * (rho_i + rho_j))
-                               : 0.0f;
+    const float pi = -avc * (vr < 0.0f ? vr : 0.0f) /
+                     ((r2 + 0.01f * kk->ell2) * 0.5f * (rho_i + rho_j));
     const float cp = -m * (pr2_i + pr2_j + pi) * fp;
     pair_out o;
     o.a0 = cp * dx;
@@ -739,9 +890,9 @@ SQ__INLINE pair_out pair_force(const sq__sph_kern *restrict kk, float m, float a
             /* Müller 2003 eq. 3.39, symmetrised: ½(μ_i + μ_j) m/(ρ_i ρ_j) ∇²W_visc (v_j − v_i) */
             c = 0.5f * (mu_i + mu_j) * cv * sq__sph_lap_visc(kk, r);
         } else {
-            /* Morris 1997: (μ_i + μ_j) m/(ρ_i ρ_j) (x_ij·∇̃W)/(r² + 0.01 ℓ²) (v_i − v_j) */
-            const float dg = dx * gx + dy * gy + dz * gz;
-            c = -(mu_i + mu_j) * cv * dg / (r2 + 0.01f * kk->ell2);
+            /* Morris 1997: (μ_i + μ_j) m/(ρ_i ρ_j) (x_ij·∇W)/(r² + 0.01 ℓ²) (v_i − v_j), with the
+             * same constant lattice normalisation as the pressure term */
+            c = -(mu_i + mu_j) * cv * fp * r2 / (r2 + 0.01f * kk->ell2);
         }
         o.a0 += c * ux;
         o.a1 += c * uy;
@@ -778,7 +929,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
     const float rho_i = RHO[i], irho_i = 1.0f / rho_i, pr2_i = PR2[i], mu_i = MU[i];
     float Li[6], ti[6];
     for (int t = 0; t < 6; t++) {
-        Li[t] = corrected ? LL[6 * i + (size_t)t] : I6[t];
+        Li[t] = corrected && tensor ? LL[6 * i + (size_t)t] : I6[t];
         ti[t] = tensor ? TT[6 * i + (size_t)t] : 0.0f;
     }
     float a0 = 0, a1 = 0, a2 = 0, x0 = 0, x1 = 0, x2 = 0;
@@ -790,7 +941,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         const float r2 = dx * dx + dy * dy + dz * dz;
         const pair_out o = pair_force(&kk, m, avc, pgc, dx, dy, dz, r2, VX[j] - vxi, VY[j] - vyi,
                                       VZ[j] - vzi, rho_i, irho_i, RHO[j], VOL[j], pr2_i, PR2[j],
-                                      Li, corrected ? LL + 6 * (size_t)j : I6, mu_i,
+                                      Li, corrected && tensor ? LL + 6 * (size_t)j : I6, mu_i,
                                       tensor ? 0.0f : MU[j], ti, tensor ? TT + 6 * (size_t)j : Z6,
                                       visc, corrected, cubic);
         a0 += o.a0;
@@ -806,7 +957,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         const float r2 = im.d[0] * im.d[0] + im.d[1] * im.d[1] + im.d[2] * im.d[2];
         const pair_out o = pair_force(&kk, m, avc, pgc, im.d[0], im.d[1], im.d[2], r2, im.v[0] - vxi,
                                       im.v[1] - vyi, im.v[2] - vzi, rho_i, irho_i, im.rho, im.vol,
-                                      pr2_i, im.pr2, Li, corrected ? im.L : I6, mu_i, im.mu, ti,
+                                      pr2_i, im.pr2, Li, corrected && tensor ? im.L : I6, mu_i, im.mu, ti,
                                       tensor ? im.tau : Z6, visc, corrected, cubic);
         a0 += o.a0;
         a1 += o.a1;
@@ -834,8 +985,7 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         float m = 0.0f;                                                                     \
         for (size_t i = i0; i < i1; i++) {                                                  \
             const float a2 = force_particle(s, i, VISC, CORR, CUBIC);                       \
-            m = a2 > m ? a2 : m;                                                            \
-            if (!(a2 == a2)) m = a2; /* NaN: reported by the integrator */                  \
+            m = a2 > m ? a2 : m; /* non-finite values are reported by the integrator */    \
         }                                                                                   \
         return m;                                                                           \
     }
@@ -860,7 +1010,8 @@ float sq__sph_pass_forces(sq_sph *s)
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
     const int nt = sq__sph_threads(s, N);
     const int v = s->visc == SQ_SPH_VISCOUS_MULLER ? 1 : s->visc == SQ_SPH_VISCOUS_TENSOR ? 2 : 0;
-    const force_block_fn fn = table[v][(s->corrected ? 2 : 0) | (s->k.cubic ? 1 : 0)];
+    const int corr = v == 2 && s->corrected; /* only the tensor form uses L in pair terms */
+    const force_block_fn fn = table[v][(corr ? 2 : 0) | (s->k.cubic ? 1 : 0)];
     float a2max = 0.0f;
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : a2max))
     for (int64_t b = 0; b < nblk; b++) {
