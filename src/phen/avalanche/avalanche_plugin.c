@@ -4,6 +4,7 @@
 #include <stddef.h>
 
 #include "avalanche_internal.h"
+#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_avalanche_desc
@@ -124,55 +125,8 @@ static const sq_param params[] = {
       "Cell of the powder grid (grown to keep at most 128 cells per axis)."),
 };
 
-static sq_result p_resolve(void *desc)
-{
-    return sq_avalanche_desc_resolve((sq_avalanche_desc *)desc, (sq_avalanche_desc *)desc);
-}
-static sq_result p_validate(sq_context *ctx, const void *desc, const sq_world *w)
-{
-    return sq_avalanche_validate(ctx, (const sq_avalanche_desc *)desc, w);
-}
-static sq_result p_memory(const void *desc, const sq_world *w, uint64_t *bytes)
-{
-    *bytes = sq_avalanche_memory_bytes((const sq_avalanche_desc *)desc, w);
-    return SQ_OK;
-}
-static sq_result p_create(sq_context *ctx, const void *desc, const sq_world *w, void **out)
-{
-    return sq_avalanche_create(ctx, (const sq_avalanche_desc *)desc, w, (sq_avalanche **)out);
-}
-static void p_destroy(void *self) { sq_avalanche_destroy((sq_avalanche *)self); }
-static double p_dt(const void *self) { return sq_avalanche_max_stable_dt((const sq_avalanche *)self); }
-static sq_result p_step(void *self, double dt) { return sq_avalanche_step((sq_avalanche *)self, dt); }
-static int p_drawables(void *self, sq_drawable *out, int max)
-{
-    return sq__avalanche_drawables((sq_avalanche *)self, out, max);
-}
-static int p_metrics(void *self, sq_metric *out, int max)
-{
-    return sq__avalanche_metrics((sq_avalanche *)self, out, max);
-}
-static int p_fields(void *self, sq_named_field *out, int max)
-{
-    return sq__avalanche_fields((sq_avalanche *)self, out, max);
-}
-
-const sq_phen_plugin sq__avalanche_plugin = {
-    "avalanche",
+SQ__PHEN_PLUGIN(avalanche,
     "dense snow avalanche: SPH slab release on the terrain, Cross rheology, Coulomb friction, "
     "run-out and deposit (S2 ch. 3)",
-    sizeof(sq_avalanche_desc),
-    params,
-    sizeof params / sizeof params[0],
-    p_resolve,
-    p_validate,
-    p_memory,
-    p_create,
-    p_destroy,
-    p_dt,
-    p_step,
-    NULL,
-    p_drawables,
-    p_metrics,
-    p_fields,
-};
+    1);
+

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "sandstorm_internal.h"
+#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_sandstorm_desc
@@ -128,57 +129,8 @@ static const sq_param params[] = {
       "Share of the local extinction drawn by the near-field particles."),
 };
 
-static sq_result p_resolve(void *desc)
-{
-    return sq_sandstorm_desc_resolve((sq_sandstorm_desc *)desc, (sq_sandstorm_desc *)desc);
-}
-static sq_result p_validate(sq_context *ctx, const void *desc, const sq_world *w)
-{
-    return sq_sandstorm_validate(ctx, (const sq_sandstorm_desc *)desc, w);
-}
-static sq_result p_memory(const void *desc, const sq_world *w, uint64_t *bytes)
-{
-    (void)w;
-    *bytes = sq_sandstorm_memory_bytes((const sq_sandstorm_desc *)desc);
-    return SQ_OK;
-}
-static sq_result p_create(sq_context *ctx, const void *desc, const sq_world *w, void **out)
-{
-    return sq_sandstorm_create(ctx, (const sq_sandstorm_desc *)desc, w, (sq_sandstorm **)out);
-}
-static void p_destroy(void *self) { sq_sandstorm_destroy((sq_sandstorm *)self); }
-static double p_dt(const void *self) { return sq_sandstorm_max_stable_dt((const sq_sandstorm *)self); }
-static sq_result p_step(void *self, double dt) { return sq_sandstorm_step((sq_sandstorm *)self, dt); }
-static void p_observe(void *self, const sq_camera *c) { sq__sandstorm_observe((sq_sandstorm *)self, c); }
-static int p_drawables(void *self, sq_drawable *out, int max)
-{
-    return sq__sandstorm_drawables((sq_sandstorm *)self, out, max);
-}
-static int p_metrics(void *self, sq_metric *out, int max)
-{
-    return sq__sandstorm_metrics((sq_sandstorm *)self, out, max);
-}
-static int p_fields(void *self, sq_named_field *out, int max)
-{
-    return sq__sandstorm_fields((sq_sandstorm *)self, out, max);
-}
-
-const sq_phen_plugin sq__sandstorm_plugin = {
-    "sandstorm",
+SQ__PHEN_PLUGIN_OBSERVING(sandstorm,
     "two-phase Eulerian sandstorm: pressure-wave wind, dust emission/settling, Mie optics, "
     "visibility (S0)",
-    sizeof(sq_sandstorm_desc),
-    params,
-    sizeof params / sizeof params[0],
-    p_resolve,
-    p_validate,
-    p_memory,
-    p_create,
-    p_destroy,
-    p_dt,
-    p_step,
-    p_observe,
-    p_drawables,
-    p_metrics,
-    p_fields,
-};
+    0, sq__sandstorm_observe);
+

@@ -4,6 +4,7 @@
 #include <stddef.h>
 
 #include "snowdrift_internal.h"
+#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_snowdrift_desc
@@ -83,56 +84,8 @@ static const sq_param params[] = {
       "Radius of a drawn flake (S1: flakes up to 10 mm; larger reads better on screen)."),
 };
 
-static sq_result p_resolve(void *desc)
-{
-    return sq_snowdrift_desc_resolve((sq_snowdrift_desc *)desc, (sq_snowdrift_desc *)desc);
-}
-static sq_result p_validate(sq_context *ctx, const void *desc, const sq_world *w)
-{
-    return sq_snowdrift_validate(ctx, (const sq_snowdrift_desc *)desc, w);
-}
-static sq_result p_memory(const void *desc, const sq_world *w, uint64_t *bytes)
-{
-    (void)w;
-    *bytes = sq_snowdrift_memory_bytes((const sq_snowdrift_desc *)desc);
-    return SQ_OK;
-}
-static sq_result p_create(sq_context *ctx, const void *desc, const sq_world *w, void **out)
-{
-    return sq_snowdrift_create(ctx, (const sq_snowdrift_desc *)desc, w, (sq_snowdrift **)out);
-}
-static void p_destroy(void *self) { sq_snowdrift_destroy((sq_snowdrift *)self); }
-static double p_dt(const void *self) { return sq_snowdrift_max_stable_dt((const sq_snowdrift *)self); }
-static sq_result p_step(void *self, double dt) { return sq_snowdrift_step((sq_snowdrift *)self, dt); }
-static int p_drawables(void *self, sq_drawable *out, int max)
-{
-    return sq__snowdrift_drawables((sq_snowdrift *)self, out, max);
-}
-static int p_metrics(void *self, sq_metric *out, int max)
-{
-    return sq__snowdrift_metrics((sq_snowdrift *)self, out, max);
-}
-static int p_fields(void *self, sq_named_field *out, int max)
-{
-    return sq__snowdrift_fields((sq_snowdrift *)self, out, max);
-}
-
-const sq_phen_plugin sq__snowdrift_plugin = {
-    "snowdrift",
+SQ__PHEN_PLUGIN(snowdrift,
     "wind-driven snowfall and drifts: D3Q15 lattice-Boltzmann wind, snow on the lattice with "
     "deposition and erosion (S1)",
-    sizeof(sq_snowdrift_desc),
-    params,
-    sizeof params / sizeof params[0],
-    p_resolve,
-    p_validate,
-    p_memory,
-    p_create,
-    p_destroy,
-    p_dt,
-    p_step,
-    NULL,
-    p_drawables,
-    p_metrics,
-    p_fields,
-};
+    0);
+

@@ -1,0 +1,103 @@
+/* phen/plugin_glue.h — generates a phenomenon's plug-in vtable from its typed C API.
+ *
+ * A phenomenon <n> exposes a typed API (include/squall/<n>.h: sq_<n>_desc_resolve,
+ * sq_<n>_validate, sq_<n>_memory_bytes, sq_<n>_create/destroy, sq_<n>_max_stable_dt,
+ * sq_<n>_step) and internal drawables/metrics/fields accessors (sq__<n>_drawables, _metrics,
+ * _fields). The scene system calls it through the untyped sq_phen_plugin vtable; the one-line
+ * trampolines that cast void* back to the typed object are the same for every phenomenon and are
+ * generated here, so that each <n>_plugin.c holds only its parameter table and one
+ * SQ__PHEN_PLUGIN(...) line.
+ *
+ *   SQ__PHEN_PLUGIN(n, summary, memory_takes_world)
+ *   SQ__PHEN_PLUGIN_OBSERVING(n, summary, memory_takes_world, observe_fn)
+ *     n                   the phenomenon's C name (sandstorm, snowdrift, avalanche)
+ *     summary             one-line description shown by `squall scenes` / `squall params`
+ *     memory_takes_world  1 when sq_<n>_memory_bytes(desc, world), 0 when sq_<n>_memory_bytes(desc)
+ *     observe_fn          void fn(sq_<n> *, const sq_camera *): the camera of each frame
+ *
+ * It defines `const sq_phen_plugin sq__<n>_plugin` with the parameter table `params` that must be
+ * declared before it in the same file. */
+#ifndef SQ_PHEN_PLUGIN_GLUE_H
+#define SQ_PHEN_PLUGIN_GLUE_H
+
+#include "squall/plugin.h"
+
+#define SQ__PHEN_MEMORY_0(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc))
+#define SQ__PHEN_MEMORY_1(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc), (w))
+
+#define SQ__PHEN_OBSERVE_TRAMPOLINE(n, fn)                                                         \
+    static void n##_p_observe(void *self, const sq_camera *camera)                                \
+    {                                                                                              \
+        fn((sq_##n *)self, camera);                                                                \
+    }
+
+#define SQ__PHEN_PLUGIN_IMPL(n, summary_text, memory_takes_world, observe_ptr)                          \
+    static sq_result n##_p_resolve(void *desc)                                                     \
+    {                                                                                              \
+        return sq_##n##_desc_resolve((sq_##n##_desc *)desc, (sq_##n##_desc *)desc);                \
+    }                                                                                              \
+    static sq_result n##_p_validate(sq_context *ctx, const void *desc, const sq_world *w)         \
+    {                                                                                              \
+        return sq_##n##_validate(ctx, (const sq_##n##_desc *)desc, w);                             \
+    }                                                                                              \
+    static sq_result n##_p_memory(const void *desc, const sq_world *w, uint64_t *bytes)           \
+    {                                                                                              \
+        (void)w;                                                                                   \
+        *bytes = SQ__PHEN_MEMORY_##memory_takes_world(n, desc, w);                                 \
+        return SQ_OK;                                                                              \
+    }                                                                                              \
+    static sq_result n##_p_create(sq_context *ctx, const void *desc, const sq_world *w,           \
+                                  void **out)                                                      \
+    {                                                                                              \
+        return sq_##n##_create(ctx, (const sq_##n##_desc *)desc, w, (sq_##n **)out);               \
+    }                                                                                              \
+    static void n##_p_destroy(void *self) { sq_##n##_destroy((sq_##n *)self); }                   \
+    static double n##_p_dt(const void *self)                                                       \
+    {                                                                                              \
+        return sq_##n##_max_stable_dt((const sq_##n *)self);                                       \
+    }                                                                                              \
+    static sq_result n##_p_step(void *self, double dt_s)                                           \
+    {                                                                                              \
+        return sq_##n##_step((sq_##n *)self, dt_s);                                                \
+    }                                                                                              \
+    static int n##_p_drawables(void *self, sq_drawable *out, int max)                              \
+    {                                                                                              \
+        return sq__##n##_drawables((sq_##n *)self, out, max);                                      \
+    }                                                                                              \
+    static int n##_p_metrics(void *self, sq_metric *out, int max)                                  \
+    {                                                                                              \
+        return sq__##n##_metrics((sq_##n *)self, out, max);                                        \
+    }                                                                                              \
+    static int n##_p_fields(void *self, sq_named_field *out, int max)                              \
+    {                                                                                              \
+        return sq__##n##_fields((sq_##n *)self, out, max);                                         \
+    }                                                                                              \
+    const sq_phen_plugin sq__##n##_plugin = {                                                      \
+        .name = #n,                                                                                \
+        .summary = summary_text,                                                                        \
+        .desc_size = sizeof(sq_##n##_desc),                                                        \
+        .params = params,                                                                          \
+        .param_count = sizeof params / sizeof params[0],                                           \
+        .desc_resolve = n##_p_resolve,                                                             \
+        .validate = n##_p_validate,                                                                \
+        .memory_bytes = n##_p_memory,                                                              \
+        .create = n##_p_create,                                                                    \
+        .destroy = n##_p_destroy,                                                                  \
+        .max_stable_dt = n##_p_dt,                                                                 \
+        .step = n##_p_step,                                                                        \
+        .observe = observe_ptr,                                                                    \
+        .drawables = n##_p_drawables,                                                              \
+        .metrics = n##_p_metrics,                                                                  \
+        .fields = n##_p_fields,                                                                    \
+    }
+
+/* Without a camera hook. */
+#define SQ__PHEN_PLUGIN(n, summary, memory_takes_world)                                            \
+    SQ__PHEN_PLUGIN_IMPL(n, summary, memory_takes_world, NULL)
+
+/* With a camera hook: observe_fn(sq_<n> *, const sq_camera *) is called once per frame. */
+#define SQ__PHEN_PLUGIN_OBSERVING(n, summary, memory_takes_world, observe_fn)                      \
+    SQ__PHEN_OBSERVE_TRAMPOLINE(n, observe_fn)                                                     \
+    SQ__PHEN_PLUGIN_IMPL(n, summary, memory_takes_world, n##_p_observe)
+
+#endif
