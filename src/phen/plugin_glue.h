@@ -20,7 +20,31 @@
 #ifndef SQ_PHEN_PLUGIN_GLUE_H
 #define SQ_PHEN_PLUGIN_GLUE_H
 
+#include <stddef.h>
+
 #include "squall/plugin.h"
+
+/* ---- parameter-table entries ------------------------------------------------------------------
+ * Short constructors for the entries of a plug-in's `params` table. The including file defines
+ * S as its desc type first (`#define S sq_<n>_desc`); only <n>_plugin.c files include this
+ * header, so the short names stay local to them.
+ *   D  double, I int, B bool, E enum ("a|b|c"), V3 float[3] ("x y z" default text),
+ *   FL float list with a count field; Z and A are the flags zero-is-physical and advanced. */
+#define D(key, field, unit, def, lo, hi, flags, doc)                                               \
+    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
+#define I(key, field, unit, def, lo, hi, doc)                                                      \
+    {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, 0, doc}
+#define B(key, field, doc)                                                                         \
+    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
+#define E(key, field, choices, doc)                                                                \
+    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
+#define V3(key, field, unit, deftext, lo, hi, doc)                                                 \
+    {key, SQ_PARAM_VEC3, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, 0, 0, 0, doc}
+#define FL(key, field, cnt, unit, deftext, maxc, lo, hi, doc)                                      \
+    {key, SQ_PARAM_FLOATS, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, maxc,              \
+     offsetof(S, cnt), 0, doc}
+#define Z SQ_PARAM_ZERO_IS_PHYSICAL
+#define A SQ_PARAM_ADVANCED
 
 #define SQ__PHEN_MEMORY_0(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc))
 #define SQ__PHEN_MEMORY_1(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc), (w))

@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "core/core_internal.h"
+#include "scene/scene_internal.h"
 #include "squall/plugin.h"
 
 #define FIELD(desc, p, T) ((T *)((char *)(desc) + (p)->offset))
@@ -140,7 +141,7 @@ const sq_param *sq_params_find(const sq_param *table, size_t n, const char *key)
     return NULL;
 }
 
-static size_t edit_distance(const char *a, const char *b)
+size_t sq__edit_distance(const char *a, const char *b)
 {
     size_t la = strlen(a), lb = strlen(b);
     if (la > 63 || lb > 63) return 99;
@@ -162,11 +163,11 @@ const char *sq_params_suggest(const sq_param *table, size_t n, const char *key)
     const char *best = NULL;
     size_t bestd = 99;
     for (size_t i = 0; i < n; i++) {
-        size_t d = edit_distance(key, table[i].key);
+        size_t d = sq__edit_distance(key, table[i].key);
         /* also compare the last component: "speed" vs "wind.speed_mps" */
         const char *dot = strrchr(table[i].key, '.');
         if (dot) {
-            size_t d2 = edit_distance(key, dot + 1) + 1;
+            size_t d2 = sq__edit_distance(key, dot + 1) + 1;
             if (d2 < d) d = d2;
         }
         if (strstr(table[i].key, key) && strlen(key) >= 3) d = d < 2 ? d : 2;

@@ -44,23 +44,6 @@ static sq_result relog(sq_context *ctx, sq_result r)
     return r;
 }
 
-static size_t edit_distance(const char *a, const char *b)
-{
-    size_t la = strlen(a), lb = strlen(b);
-    if (la > 31 || lb > 31) return 99;
-    size_t d[32][32];
-    for (size_t i = 0; i <= la; i++) d[i][0] = i;
-    for (size_t j = 0; j <= lb; j++) d[0][j] = j;
-    for (size_t i = 1; i <= la; i++)
-        for (size_t j = 1; j <= lb; j++) {
-            size_t c = d[i - 1][j - 1] + (a[i - 1] != b[j - 1]);
-            if (d[i - 1][j] + 1 < c) c = d[i - 1][j] + 1;
-            if (d[i][j - 1] + 1 < c) c = d[i][j - 1] + 1;
-            d[i][j] = c;
-        }
-    return d[la][lb];
-}
-
 /* ---- applying a cfg subtree through a table ------------------------------------------------ */
 typedef struct apply_ctx {
     const sq_cfg *cfg;
@@ -452,7 +435,7 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
             const char *best = NULL;
             size_t bl = 99;
             for (const char *const *k = top_keys; *k; k++) {
-                size_t d = edit_distance(c->key, *k);
+                size_t d = sq__edit_distance(c->key, *k);
                 if (d < bl) {
                     bl = d;
                     best = *k;

@@ -60,4 +60,8 @@ extern const size_t sq__camera_key_param_count;
 extern const sq_param sq__output_params[];
 extern const size_t sq__output_param_count;
 
+/* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
+ * "did you mean" suggestions of the parameter tables and of the scene sections. */
+size_t sq__edit_distance(const char *a, const char *b);
+
 #endif

@@ -4,20 +4,10 @@
 #include <stddef.h>
 
 #include "avalanche_internal.h"
-#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_avalanche_desc
-#define D(key, field, unit, def, lo, hi, flags, doc)                                           \
-    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
-#define B(key, field, doc)                                                                     \
-    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
-#define E(key, field, choices, doc)                                                            \
-    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
-#define V3(key, field, unit, deftext, lo, hi, doc)                                             \
-    {key, SQ_PARAM_VEC3, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, 0, 0, 0, doc}
-#define Z SQ_PARAM_ZERO_IS_PHYSICAL
-#define A SQ_PARAM_ADVANCED
+#include "phen/plugin_glue.h"
 
 static const sq_param params[] = {
     D("particles.spacing_m", spacing_m, "m", 1.0, 1e-3, 100, 0,

@@ -5,22 +5,10 @@
 #include <stdlib.h>
 
 #include "sandstorm_internal.h"
-#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_sandstorm_desc
-#define D(key, field, unit, def, lo, hi, flags, doc)                                           \
-    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
-#define I(key, field, unit, def, lo, hi, doc)                                                  \
-    {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, 0, doc}
-#define B(key, field, doc)                                                                     \
-    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
-#define E(key, field, choices, doc)                                                            \
-    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
-#define FL(key, field, cnt, unit, deftext, maxc, lo, hi, doc)                                  \
-    {key, SQ_PARAM_FLOATS, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, maxc,          \
-     offsetof(S, cnt), 0, doc}
-#define Z SQ_PARAM_ZERO_IS_PHYSICAL
+#include "phen/plugin_glue.h"
 
 static const sq_param params[] = {
     E("mode", mode, "desert|urban",

@@ -4,19 +4,10 @@
 #include <stddef.h>
 
 #include "snowdrift_internal.h"
-#include "phen/plugin_glue.h"
 #include "squall/plugin.h"
 
 #define S sq_snowdrift_desc
-#define D(key, field, unit, def, lo, hi, flags, doc)                                           \
-    {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
-#define I(key, field, unit, def, lo, hi, doc)                                                  \
-    {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, 0, doc}
-#define B(key, field, doc)                                                                     \
-    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, 0, doc}
-#define E(key, field, choices, doc)                                                            \
-    {key, SQ_PARAM_ENUM, "", offsetof(S, field), 0, 0, 0, NULL, choices, 0, 0, 0, doc}
-#define Z SQ_PARAM_ZERO_IS_PHYSICAL
+#include "phen/plugin_glue.h"
 
 static const sq_param params[] = {
     {"seed", SQ_PARAM_U64, "", offsetof(S, seed), 0, 0, 0, NULL, NULL, 0, 0, Z,
