@@ -16,7 +16,7 @@ static void free_arrays(sq_sph *s)
     sq_context *ctx = s->ctx;
     float **fa[] = {&s->x,  &s->y,  &s->z,  &s->vx, &s->vy,  &s->vz, &s->hx, &s->hy,
                     &s->hz, &s->ax, &s->ay, &s->az, &s->sx,  &s->sy, &s->sz, &s->rho,
-                    &s->p,  &s->vol, &s->pr2, &s->L, &s->G, &s->tau, &s->gam, &s->mu};
+                    &s->p,  &s->vol, &s->pr2, &s->L, &s->G, &s->tau, &s->gam, &s->mu, &s->rec};
     for (size_t k = 0; k < sizeof fa / sizeof fa[0]; k++) {
         sq_free(ctx, *fa[k]);
         *fa[k] = NULL;
@@ -174,6 +174,7 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->L = (float *)sq_alloc_zero(ctx, 6 * np * sizeof(float));
     s->G = (float *)sq_alloc_zero(ctx, 9 * np * sizeof(float));
     s->tau = (float *)sq_alloc_zero(ctx, 6 * np * sizeof(float));
+    s->rec = (float *)sq_alloc_zero(ctx, SQ__SPH_REC * np * sizeof(float));
     s->id = (uint32_t *)sq_alloc_zero(ctx, np * sizeof(uint32_t));
     s->cellid = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
     s->perm = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
@@ -190,7 +191,7 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->cell_start = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->hist = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->red = (double *)sq_alloc_zero(ctx, 8 * (size_t)s->nt * sizeof(double));
-    ok &= s->L && s->G && s->tau && s->id && s->cellid && s->perm && s->nb_count &&
+    ok &= s->L && s->G && s->tau && s->rec && s->id && s->cellid && s->perm && s->nb_count &&
           s->nb_plain && s->cell_start && s->hist && s->red;
     if (!ok) {
         sq_sph_destroy(s);

@@ -387,7 +387,7 @@ sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in)
 sq_result sq_sph_desc_validate(const sq_sph_desc *desc) { return sq__sph_validate(NULL, desc); }
 
 /* Floats per particle in the state arrays (see struct sq_sph). */
-enum { SPH_FLOATS_PER_PARTICLE = 3 * 5 + 4 + 6 + 9 + 6 + 2 };
+enum { SPH_FLOATS_PER_PARTICLE = 3 * 5 + 4 + 6 + 9 + 6 + 2 + 8 /* packed record */ };
 
 uint64_t sq_sph_memory_bytes(const sq_sph_desc *desc, size_t particles)
 {

@@ -217,6 +217,11 @@ struct sq_sph {
     float *G;                 /* 9 per particle: velocity gradient (row-major ∂v_a/∂x_b) */
     float *tau;               /* 6 per particle: deviatoric stress 2 μ D */
     float *gam, *mu;          /* |γ̇| and μ */
+    /* Packed j-side data of the strain and force passes, 8 floats (32 bytes) per particle:
+     * x y z m/ρ vx vy vz p/ρ², written by the density pass (one half cache line per neighbour
+     * instead of eight arrays). */
+#define SQ__SPH_REC 8
+    float *rec;
     uint32_t *id;
     uint32_t *cellid, *perm;  /* cell of each particle (sorted after the sort), permutation */
 #define SQ__SPH_NREORDER_F 9

@@ -35,6 +35,106 @@
 #define SQ__INLINE static inline
 #endif
 
+/* With AVX-512 (the default -march=native build on such a CPU) the hot neighbour loops are
+ * written with intrinsics: 16 candidates or neighbours per vector, the accepted neighbours
+ * appended with a compress, and the j-side data gathered from the packed record (rec). The
+ * arithmetic per pair is the scalar code's, operation by operation (no FMA contraction, exact
+ * division and square root); only the order of the sums over neighbours differs (16 lanes).
+ * Otherwise (and under the sanitizers) the portable loops below are used. */
+#if defined(__AVX512F__) && defined(__AVX512VL__) && !defined(SQ_SPH_NO_AVX512)
+#include <immintrin.h>
+#define SQ__SPH_AVX512 1
+#else
+#define SQ__SPH_AVX512 0
+#endif
+
+#if SQ__SPH_AVX512
+#undef SQ__SPH_CLONES /* compiled for this CPU: no AVX2/baseline clones */
+#define SQ__SPH_CLONES
+#define V16 __m512
+#define VADD _mm512_add_ps
+#define VSUB _mm512_sub_ps
+#define VMUL _mm512_mul_ps
+#define VSET1 _mm512_set1_ps
+
+SQ__INLINE __mmask16 v_live(uint32_t left)
+{
+    return left >= 16u ? (__mmask16)0xFFFFu : (__mmask16)((1u << left) - 1u);
+}
+/* sq__sph_sqrt: sqrt of max(x, 0) (NaN -> 0, as the scalar x > 0 ? x : 0) */
+SQ__INLINE V16 v_sqrt_pos(V16 x) { return _mm512_sqrt_ps(_mm512_max_ps(x, _mm512_setzero_ps())); }
+/* sq__sph_w_cubic */
+SQ__INLINE V16 v_w_cubic(const sq__sph_kern *k, V16 r)
+{
+    const V16 s = VMUL(VMUL(VSET1(2.0f), r), VSET1(k->inv_H));
+    const V16 in = VMUL(VSET1(k->cubic_c),
+                        VADD(VSUB(VSET1(1.0f), VMUL(VMUL(VSET1(1.5f), s), s)),
+                             VMUL(VMUL(VMUL(VSET1(0.75f), s), s), s)));
+    const V16 t = VSUB(VSET1(2.0f), s);
+    const V16 out = VMUL(VMUL(VMUL(VSET1(k->cubic_c * 0.25f), t), t), t);
+    const __mmask16 m1 = _mm512_cmp_ps_mask(s, VSET1(1.0f), _CMP_LT_OQ);
+    const __mmask16 m2 = _mm512_cmp_ps_mask(s, VSET1(2.0f), _CMP_LT_OQ);
+    return _mm512_mask_blend_ps(m1, _mm512_maskz_mov_ps(m2, out), in);
+}
+/* sq__sph_w_poly6 */
+SQ__INLINE V16 v_w_poly6(const sq__sph_kern *k, V16 r2)
+{
+    V16 w = VSUB(VSET1(1.0f), VMUL(r2, VSET1(k->inv_H2)));
+    w = _mm512_max_ps(w, _mm512_setzero_ps());
+    return VMUL(VMUL(VMUL(VSET1(k->poly6_c), w), w), w);
+}
+SQ__INLINE V16 v_w(const sq__sph_kern *k, V16 r, V16 r2, const int cubic)
+{
+    return cubic ? v_w_cubic(k, r) : v_w_poly6(k, r2);
+}
+/* sq__sph_gradf_rk */
+SQ__INLINE V16 v_gradf(const sq__sph_kern *k, V16 r, V16 inv_r, const int cubic)
+{
+    if (cubic) {
+        const V16 s = VMUL(VMUL(VSET1(2.0f), r), VSET1(k->inv_H));
+        const V16 t = _mm512_max_ps(VSUB(VSET1(2.0f), s), _mm512_setzero_ps());
+        const V16 inner = VADD(VMUL(VSET1(-3.0f), s), VMUL(VMUL(VSET1(2.25f), s), s));
+        const V16 outer = VMUL(VMUL(VSET1(-0.75f), t), t);
+        const __mmask16 m1 = _mm512_cmp_ps_mask(s, VSET1(1.0f), _CMP_LT_OQ);
+        return VMUL(VMUL(VSET1(k->cubic_g_c), _mm512_mask_blend_ps(m1, outer, inner)), inv_r);
+    }
+    const V16 w = _mm512_max_ps(VSUB(VSET1(1.0f), VMUL(r, VSET1(k->inv_H))), _mm512_setzero_ps());
+    return VMUL(VMUL(VMUL(VSET1(-k->spiky_g_c), w), w), inv_r);
+}
+/* inv_dist: 1/sqrt(max(r², 1e-30)), 0 at r² = 0 */
+SQ__INLINE V16 v_inv_dist(V16 r2)
+{
+    const V16 q = _mm512_div_ps(VSET1(1.0f), _mm512_sqrt_ps(_mm512_max_ps(r2, VSET1(1e-30f))));
+    return _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(r2, _mm512_setzero_ps(), _CMP_GT_OQ), q);
+}
+/* wrap1 (h = +inf on non-periodic axes) */
+SQ__INLINE V16 v_wrap(V16 d, float h, float L)
+{
+    d = _mm512_mask_sub_ps(d, _mm512_cmp_ps_mask(d, VSET1(h), _CMP_GT_OQ), d, VSET1(L));
+    return _mm512_mask_add_ps(d, _mm512_cmp_ps_mask(d, VSET1(-h), _CMP_LT_OQ), d, VSET1(L));
+}
+SQ__INLINE float v_sum(V16 v) { return _mm512_reduce_add_ps(v); }
+/* Lane sums of 16 vectors at once (lane k of the result = Σ v[k]) in a fixed tree: 45
+ * shuffles and adds instead of 16 separate reductions. */
+SQ__INLINE V16 v_sum16(const V16 v[16])
+{
+    V16 t[8], u[4], w[2];
+    for (int k = 0; k < 8; k++) /* [a0+a2 b0+b2 a1+a3 b1+b3] per 128-bit lane */
+        t[k] = VADD(_mm512_unpacklo_ps(v[2 * k], v[2 * k + 1]),
+                    _mm512_unpackhi_ps(v[2 * k], v[2 * k + 1]));
+    for (int k = 0; k < 4; k++) { /* [a b c d] partial sums per 128-bit lane */
+        const __m512d a = _mm512_castps_pd(t[2 * k]), b = _mm512_castps_pd(t[2 * k + 1]);
+        u[k] = VADD(_mm512_castpd_ps(_mm512_unpacklo_pd(a, b)),
+                    _mm512_castpd_ps(_mm512_unpackhi_pd(a, b)));
+    }
+    for (int k = 0; k < 2; k++) /* across 128-bit lanes */
+        w[k] = VADD(_mm512_shuffle_f32x4(u[2 * k], u[2 * k + 1], _MM_SHUFFLE(2, 0, 2, 0)),
+                    _mm512_shuffle_f32x4(u[2 * k], u[2 * k + 1], _MM_SHUFFLE(3, 1, 3, 1)));
+    return VADD(_mm512_shuffle_f32x4(w[0], w[1], _MM_SHUFFLE(2, 0, 2, 0)),
+                _mm512_shuffle_f32x4(w[0], w[1], _MM_SHUFFLE(3, 1, 3, 1)));
+}
+#endif
+
 /* ---- kernels for tests ------------------------------------------------------------------- */
 
 void sq__sph_kern_init(sq__sph_kern *k, float H, int cubic)
@@ -222,6 +322,9 @@ SQ__INLINE int near_wall(const sq_sph *s, int a, float xa)
 typedef struct scan_acc {
     int cnt;
     float wsum; /* Σ W over candidates (the density kernel) */
+#if SQ__SPH_AVX512
+    __m512 wv;  /* lane sums of W (added to wsum at the end) */
+#endif
 } scan_acc;
 
 /* Candidates j in [b, e) seen from the query point q (already shifted for periodicity), in
@@ -235,6 +338,44 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
     const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
     const float H2 = s->k.H2;
     const sq__sph_kern kk = s->k;
+#if SQ__SPH_AVX512
+    /* 16 candidates per vector: r², W (zero beyond H, summed over the live lanes), and the
+     * accepted ones (r < H, j ≠ self) compressed to the front of a vector stored at the end of
+     * the list (the entries beyond the count are scratch). */
+    (void)H2;
+    const int cap = capm1 + 1;
+    const __m512 vqx = VSET1(qx), vqy = VSET1(qy), vqz = VSET1(qz), vH2 = VSET1(kk.H2);
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const __m512i vself = _mm512_set1_epi32((int)self), vtag = _mm512_set1_epi32((int)tag);
+    __m512 wv = acc->wv;
+    int cnt = acc->cnt;
+    for (uint32_t b0 = b; b0 < e; b0 += 16) {
+        const __mmask16 live = v_live(e - b0);
+        const __m512 dx = VSUB(vqx, _mm512_maskz_loadu_ps(live, X + b0));
+        const __m512 dy = VSUB(vqy, _mm512_maskz_loadu_ps(live, Y + b0));
+        const __m512 dz = VSUB(vqz, _mm512_maskz_loadu_ps(live, Z + b0));
+        const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
+        const __m512 w = cubic ? v_w_cubic(&kk, v_sqrt_pos(r2)) : v_w_poly6(&kk, r2);
+        wv = _mm512_mask_add_ps(wv, live, wv, w);
+        const __m512i jv = _mm512_add_epi32(_mm512_set1_epi32((int)b0), iota);
+        const __mmask16 ok = _mm512_mask_cmp_ps_mask(live, r2, vH2, _CMP_LT_OQ) &
+                             _mm512_cmpneq_epi32_mask(jv, vself);
+        const int nok = __builtin_popcount((unsigned)ok);
+        if (cnt + 16 <= cap) {
+            _mm512_storeu_si512((void *)(nb + cnt),
+                                _mm512_maskz_compress_epi32(ok, _mm512_or_si512(jv, vtag)));
+        } else {
+            for (int t = 0; t < 16; t++) {
+                if (!((ok >> t) & 1)) continue;
+                const int k = cnt + __builtin_popcount((unsigned)ok & ((1u << t) - 1u));
+                nb[k < capm1 ? k : capm1] = (b0 + (uint32_t)t) | tag;
+            }
+        }
+        cnt += nok;
+    }
+    acc->wv = wv;
+    acc->cnt = cnt;
+#else
     float r2b[SQ__SPH_SCAN_CHUNK];
     int cnt = acc->cnt;
     for (uint32_t b0 = b; b0 < e; b0 += SQ__SPH_SCAN_CHUNK) {
@@ -257,6 +398,7 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
         }
     }
     acc->cnt = cnt;
+#endif
 }
 
 /* Distance from v to the interval [a, a + w] (0 inside). */
@@ -467,11 +609,84 @@ SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, in
     }
 }
 
+/* The mirror-image entries of particle ip (after its plain ones), then its density, pressure
+ * and packed record; returns its neighbour count. */
+SQ__INLINE int density_finish(sq_sph *restrict s, size_t ip, scan_acc *acc, const int cubic)
+{
+    const int cap = s->nb_cap, capm1 = cap - 1;
+    uint32_t *restrict nb = s->nb + ip * (size_t)cap;
+    const int plain = acc->cnt;
+    if (s->any_wall) {
+        const float xyz[3] = {s->x[ip], s->y[ip], s->z[ip]};
+        int side[3], near = 0;
+        for (int a = 0; a < 3; a++) {
+            side[a] = near_wall(s, a, xyz[a]);
+            if (side[a]) near |= 1 << a;
+        }
+        /* every non-empty subset of the near walls: mirrors, edges, corners */
+        for (int m = 1; m < 8; m++) {
+            if ((m & near) != m) continue;
+            float qp[3];
+            for (int a = 0; a < 3; a++) {
+                qp[a] = xyz[a];
+                if (m & (1 << a)) {
+                    const float w = side[a] == 1 ? s->lo[a] : s->hi[a];
+                    qp[a] = 2.0f * w - xyz[a];
+                }
+            }
+            scan_cells(s, qp[0], qp[1], qp[2], UINT32_MAX, (uint32_t)m << SQ__SPH_IMAGE_SHIFT, nb,
+                       capm1, acc, cubic, m);
+        }
+    }
+#if SQ__SPH_AVX512
+    acc->wsum += v_sum(acc->wv);
+#endif
+    const int n = acc->cnt;
+    s->nb_count[ip] = (uint16_t)(n < cap ? n : cap);
+    s->nb_plain[ip] = (uint16_t)(plain < cap ? plain : cap);
+    const float rho = s->mass * acc->wsum;
+    const float p = sq__sph_eos(s, rho);
+    const float vol = s->mass / rho, pr2 = p / (rho * rho);
+    s->rho[ip] = rho;
+    s->p[ip] = p;
+    s->vol[ip] = vol;
+    s->pr2[ip] = pr2;
+    float *restrict rc = s->rec + SQ__SPH_REC * ip;
+    rc[0] = s->x[ip];
+    rc[1] = s->y[ip];
+    rc[2] = s->z[ip];
+    rc[3] = vol;
+    rc[4] = s->vx[ip];
+    rc[5] = s->vy[ip];
+    rc[6] = s->vz[ip];
+    rc[7] = pr2;
+    return n;
+}
+
+#if SQ__SPH_AVX512
+/* Density pass for particles [i0, i1), one particle at a time: its own 27-cell scan (rows and
+ * row ends beyond H skipped), 16 candidates per vector. Returns the largest neighbour count. */
+SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int cubic)
+{
+    const int cap = s->nb_cap, capm1 = cap - 1;
+    int maxcnt = 0;
+    for (size_t i = i0; i < i1; i++) {
+        scan_acc acc;
+        acc.cnt = 0;
+        acc.wsum = 0.0f;
+        acc.wv = _mm512_setzero_ps();
+        scan_cells(s, s->x[i], s->y[i], s->z[i], (uint32_t)i, 0u, s->nb + i * (size_t)cap, capm1,
+                   &acc, cubic, 0);
+        const int n = density_finish(s, i, &acc, cubic);
+        if (n > maxcnt) maxcnt = n;
+    }
+    return maxcnt;
+}
+#else
 /* Density pass for the cells that start in particles [i0, i1) (each cell is done by the block
  * holding its first particle); returns the largest neighbour count. */
 SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int cubic)
 {
-    const int cap = s->nb_cap, capm1 = cap - 1;
     const uint32_t *restrict cid = s->cellid; /* sorted */
     int maxcnt = 0;
     size_t i = i0;
@@ -490,48 +705,16 @@ SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int
             }
             scan_group(s, c, g0, ng, cnt, ws, cubic);
             for (int t = 0; t < ng; t++) {
-                const size_t ip = g0 + (size_t)t;
-                uint32_t *restrict nb = s->nb + ip * (size_t)cap;
                 scan_acc acc = {cnt[t], ws[t]};
-                const int plain = acc.cnt;
-                if (s->any_wall) {
-                    const float xyz[3] = {s->x[ip], s->y[ip], s->z[ip]};
-                    int side[3], near = 0;
-                    for (int a = 0; a < 3; a++) {
-                        side[a] = near_wall(s, a, xyz[a]);
-                        if (side[a]) near |= 1 << a;
-                    }
-                    /* every non-empty subset of the near walls: mirrors, edges, corners */
-                    for (int m = 1; m < 8; m++) {
-                        if ((m & near) != m) continue;
-                        float qp[3];
-                        for (int a = 0; a < 3; a++) {
-                            qp[a] = xyz[a];
-                            if (m & (1 << a)) {
-                                const float w = side[a] == 1 ? s->lo[a] : s->hi[a];
-                                qp[a] = 2.0f * w - xyz[a];
-                            }
-                        }
-                        scan_cells(s, qp[0], qp[1], qp[2], UINT32_MAX,
-                                   (uint32_t)m << SQ__SPH_IMAGE_SHIFT, nb, capm1, &acc, cubic, m);
-                    }
-                }
-                const int n = acc.cnt;
+                const int n = density_finish(s, g0 + (size_t)t, &acc, cubic);
                 if (n > maxcnt) maxcnt = n;
-                s->nb_count[ip] = (uint16_t)(n < cap ? n : cap);
-                s->nb_plain[ip] = (uint16_t)(plain < cap ? plain : cap);
-                const float rho = s->mass * acc.wsum;
-                const float p = sq__sph_eos(s, rho);
-                s->rho[ip] = rho;
-                s->p[ip] = p;
-                s->vol[ip] = s->mass / rho;
-                s->pr2[ip] = p / (rho * rho);
             }
         }
         i = ce;
     }
     return maxcnt;
 }
+#endif
 
 SQ__SPH_CLONES static int density_block_poly6(sq_sph *restrict s, size_t i0, size_t i1)
 {
@@ -702,6 +885,58 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     const sq__sph_kern kk = s->k;
     const float xi = X[i], yi = Y[i], zi = Z[i];
     const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
+#if SQ__SPH_AVX512
+    /* 16 neighbours per vector, their x y z V vx vy vz gathered from the packed record */
+    (void)X; (void)Y; (void)Z; (void)VX; (void)VY; (void)VZ; (void)VOL;
+    const float *restrict P = s->rec;
+    const __m512 vxi_ = VSET1(xi), vyi_ = VSET1(yi), vzi_ = VSET1(zi);
+    const __m512 wvx = VSET1(vxi), wvy = VSET1(vyi), wvz = VSET1(vzi);
+    __m512 b0 = _mm512_setzero_ps(), b1 = b0, b2 = b0, b3 = b0, b4 = b0, b5 = b0;
+    __m512 g0 = b0, g1 = b0, g2 = b0, g3 = b0, g4 = b0, g5 = b0, g6 = b0, g7 = b0, g8 = b0;
+    for (int k0 = 0; k0 < nplain; k0 += 16) {
+        const __mmask16 live = v_live((uint32_t)(nplain - k0));
+        /* record index 4 j with scale 8 = 32 j bytes (j < 2^29, so 4 j < 2^31) */
+        const __m512i idx = _mm512_slli_epi32(_mm512_maskz_loadu_epi32(live, nb + k0), 2);
+        const __m512 z0 = _mm512_setzero_ps();
+        const __m512 dx = v_wrap(VSUB(vxi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 0, 8)), hx, Lx);
+        const __m512 dy = v_wrap(VSUB(vyi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 1, 8)), hy, Ly);
+        const __m512 dz = v_wrap(VSUB(vzi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 2, 8)), hz, Lz);
+        const __m512 vol = _mm512_mask_i32gather_ps(z0, live, idx, P + 3, 8);
+        const __m512 ux = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 4, 8), wvx);
+        const __m512 uy = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 5, 8), wvy);
+        const __m512 uz = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 6, 8), wvz);
+        const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
+        const __m512 ir = v_inv_dist(r2);
+        /* V_j ∇W = f d; dead lanes have V = 0 */
+        const __m512 f = VMUL(v_gradf(&kk, VMUL(r2, ir), ir, cubic), vol);
+        const __m512 gx = VMUL(f, dx), gy = VMUL(f, dy), gz = VMUL(f, dz);
+        /* B += V_j (x_j − x_i) ⊗ ∇W = −(d ⊗ f d) */
+        b0 = VSUB(b0, VMUL(dx, gx));
+        b1 = VSUB(b1, VMUL(dy, gy));
+        b2 = VSUB(b2, VMUL(dz, gz));
+        b3 = VSUB(b3, VMUL(dx, gy));
+        b4 = VSUB(b4, VMUL(dx, gz));
+        b5 = VSUB(b5, VMUL(dy, gz));
+        g0 = VADD(g0, VMUL(ux, gx));
+        g1 = VADD(g1, VMUL(ux, gy));
+        g2 = VADD(g2, VMUL(ux, gz));
+        g3 = VADD(g3, VMUL(uy, gx));
+        g4 = VADD(g4, VMUL(uy, gy));
+        g5 = VADD(g5, VMUL(uy, gz));
+        g6 = VADD(g6, VMUL(uz, gx));
+        g7 = VADD(g7, VMUL(uz, gy));
+        g8 = VADD(g8, VMUL(uz, gz));
+    }
+    float B[6], Gr[9];
+    {
+        const __m512 z0 = _mm512_setzero_ps();
+        const __m512 acc[16] = {b0, b1, b2, b3, b4, b5, g0, g1, g2, g3, g4, g5, g6, g7, g8, z0};
+        float sums[16];
+        _mm512_storeu_ps(sums, v_sum16(acc));
+        for (int t = 0; t < 6; t++) B[t] = sums[t];
+        for (int t = 0; t < 9; t++) Gr[t] = sums[6 + t];
+    }
+#else
     float b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0;
     float g0 = 0, g1 = 0, g2 = 0, g3 = 0, g4 = 0, g5 = 0, g6 = 0, g7 = 0, g8 = 0;
     /* gather the neighbours into short local arrays, then a clean vectorisable loop */
@@ -747,6 +982,7 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     }
     float B[6] = {b0, b1, b2, b3, b4, b5};
     float Gr[9] = {g0, g1, g2, g3, g4, g5, g6, g7, g8};
+#endif
     for (int k = nplain; k < ntot; k++) {
         image im;
         image_state(s, i, nb[k], 0, &im);
@@ -933,6 +1169,81 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         ti[t] = tensor ? TT[6 * i + (size_t)t] : 0.0f;
     }
     float a0 = 0, a1 = 0, a2 = 0, x0 = 0, x1 = 0, x2 = 0;
+#if SQ__SPH_AVX512
+    if (!tensor) {
+        /* 16 neighbours per vector: x y z V vx vy vz p/ρ² from the packed record, ρ and μ
+         * from their arrays; pair_force's arithmetic for the Morris and Müller forms */
+        const float *restrict P = s->rec;
+        const __m512 z0 = _mm512_setzero_ps();
+        const __m512 vxi_ = VSET1(xi), vyi_ = VSET1(yi), vzi_ = VSET1(zi);
+        const __m512 wvx = VSET1(vxi), wvy = VSET1(vyi), wvz = VSET1(vzi);
+        const __m512 vrho_i = VSET1(rho_i), virho_i = VSET1(irho_i), vpr2_i = VSET1(pr2_i);
+        const __m512 vmu_i = VSET1(mu_i), vpgc = VSET1(pgc), veps = VSET1(0.01f * kk.ell2);
+        const __m512 vnavc = VSET1(-avc), vnm = VSET1(-m), v2m = VSET1(2.0f * m);
+        __m512 va0 = z0, va1 = z0, va2 = z0, vx0 = z0, vx1 = z0, vx2 = z0;
+        for (int k0 = 0; k0 < nplain; k0 += 16) {
+            const __mmask16 live = v_live((uint32_t)(nplain - k0));
+            const __m512i jv = _mm512_maskz_loadu_epi32(live, nb + k0);
+            const __m512i idx = _mm512_slli_epi32(jv, 2); /* 32 j bytes with scale 8 */
+            const __m512 dx = v_wrap(VSUB(vxi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 0, 8)), hx, Lx);
+            const __m512 dy = v_wrap(VSUB(vyi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 1, 8)), hy, Ly);
+            const __m512 dz = v_wrap(VSUB(vzi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 2, 8)), hz, Lz);
+            const __m512 vol_j = _mm512_mask_i32gather_ps(z0, live, idx, P + 3, 8);
+            const __m512 ux = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 4, 8), wvx);
+            const __m512 uy = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 5, 8), wvy);
+            const __m512 uz = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 6, 8), wvz);
+            const __m512 pr2_j = _mm512_mask_i32gather_ps(z0, live, idx, P + 7, 8);
+            const __m512 rho_j = _mm512_mask_i32gather_ps(VSET1(1.0f), live, jv, RHO, 4);
+            const __m512 mu_j = _mm512_mask_i32gather_ps(z0, live, jv, MU, 4);
+            const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
+            const __m512 ir = v_inv_dist(r2);
+            const __m512 r = VMUL(r2, ir);
+            const __m512 f = _mm512_maskz_mov_ps(live, v_gradf(&kk, r, ir, cubic));
+            const __m512 fp = VMUL(f, vpgc);
+            const __m512 rsum = VADD(vrho_i, rho_j);
+            __m512 pp = VADD(vpr2_i, pr2_j);
+            if (avc != 0.0f) {
+                /* Monaghan: −α c ℓ min(v_ij·x_ij, 0) / ((r² + 0.01 ℓ²) ½ (ρ_i + ρ_j)) */
+                const __m512 vr = _mm512_sub_ps(z0, VADD(VADD(VMUL(ux, dx), VMUL(uy, dy)), VMUL(uz, dz)));
+                const __m512 num = VMUL(vnavc, _mm512_min_ps(vr, z0));
+                const __m512 den = VMUL(VMUL(VADD(r2, veps), VSET1(0.5f)), rsum);
+                pp = VADD(pp, _mm512_div_ps(num, den));
+            }
+            const __m512 cp = VMUL(VMUL(vnm, pp), fp);
+            va0 = VADD(va0, VMUL(cp, dx));
+            va1 = VADD(va1, VMUL(cp, dy));
+            va2 = VADD(va2, VMUL(cp, dz));
+            const __m512 cv = VMUL(vol_j, virho_i);
+            __m512 c;
+            if (visc == SQ_SPH_VISCOUS_MULLER) {
+                const __m512 w = VSUB(VSET1(1.0f), VMUL(r, VSET1(kk.inv_H)));
+                const __m512 lap = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(w, z0, _CMP_GT_OQ),
+                                                       VMUL(VSET1(kk.visc_lap_c), w));
+                c = VMUL(VMUL(VMUL(VSET1(0.5f), VADD(vmu_i, mu_j)), cv), lap);
+            } else {
+                const __m512 nmu = _mm512_sub_ps(z0, VADD(vmu_i, mu_j));
+                c = _mm512_div_ps(VMUL(VMUL(VMUL(nmu, cv), fp), r2), VADD(r2, veps));
+            }
+            va0 = VADD(va0, VMUL(c, ux));
+            va1 = VADD(va1, VMUL(c, uy));
+            va2 = VADD(va2, VMUL(c, uz));
+            const __m512 w = _mm512_maskz_mov_ps(live, v_w(&kk, r, r2, cubic));
+            const __m512 cx = _mm512_div_ps(VMUL(v2m, w), rsum);
+            vx0 = VADD(vx0, VMUL(cx, ux));
+            vx1 = VADD(vx1, VMUL(cx, uy));
+            vx2 = VADD(vx2, VMUL(cx, uz));
+        }
+        const __m512 acc[16] = {va0, va1, va2, vx0, vx1, vx2, z0, z0, z0, z0, z0, z0, z0, z0, z0, z0};
+        float sums[16];
+        _mm512_storeu_ps(sums, v_sum16(acc));
+        a0 = sums[0];
+        a1 = sums[1];
+        a2 = sums[2];
+        x0 = sums[3];
+        x1 = sums[4];
+        x2 = sums[5];
+    } else
+#endif
     SQ_OMP(omp simd reduction(+ : a0, a1, a2, x0, x1, x2))
     for (int k = 0; k < nplain; k++) {
         const uint32_t j = nb[k];
