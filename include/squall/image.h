@@ -1,7 +1,8 @@
 /* squall/image.h — float images on disk: PFM (portable float map) writing and reading, used to
  * keep linear renders (reference path tracer, GL linear read-back) for comparisons. Images in
  * memory are linear RGB floats, width*height*3, top row first; the file stores rows bottom to
- * top as the PFM format requires. The image metric (SSIM) is declared in squall/render.h. */
+ * top as the PFM format requires. The image metrics (SSIM, FLIP) are declared in
+ * squall/render.h. */
 #ifndef SQ_IMAGE_H
 #define SQ_IMAGE_H
 

@@ -91,6 +91,19 @@ SQ_API void sq_tonemap_rgba8(const float *rgb, int width, int height, float expo
  * set) for NULL images or a size <= 0. */
 SQ_API double sq_image_ssim(const uint8_t *a_rgba, const uint8_t *b_rgba, int width, int height);
 
+/* Mean LDR-FLIP (Andersson et al. 2020, "FLIP: A Difference Evaluator for Alternating Images")
+ * between two 8-bit sRGB RGBA images: 0 for identical images, up to 1. pixels_per_degree is the
+ * viewing condition (0 -> 67.02: 0.7 m from a 0.7 m wide 3840-pixel monitor; else [1, 300]).
+ * LDR-FLIP treats both images alike, so the result does not depend on the argument order.
+ * NaN (error text set) for NULL images, a size <= 0 or a bad pixels_per_degree. */
+SQ_API double sq_image_flip(const uint8_t *reference_rgba, const uint8_t *test_rgba, int width,
+                            int height, double pixels_per_degree);
+/* The same, also writing the per-pixel maps (width*height floats each; any may be NULL): the
+ * FLIP error ΔE = ΔE_c^(1 − ΔE_f), its colour part ΔE_c and its feature part ΔE_f. */
+SQ_API double sq_image_flip_maps(const uint8_t *reference_rgba, const uint8_t *test_rgba,
+                                 int width, int height, double pixels_per_degree,
+                                 float *error_map, float *colour_map, float *feature_map);
+
 #ifdef __cplusplus
 }
 #endif

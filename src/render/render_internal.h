@@ -115,6 +115,9 @@ void sq__volume_pass_destroy(sq_renderer *r);
 sq_result sq__volume_pass_prepare_shadow(sq_renderer *r, const sq_volume_view *v);
 /* Half-angle slicing into hdr_color, tested against depth_tex. */
 sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v);
+/* How the light array of the last frame was laid out: chunks (1 = unchunked) and planes per
+ * chunk; 0, 0 before any volume frame. For tests of the chunked path. */
+void sq__volume_pass_layout(const sq_renderer *r, int *chunks, int *chunk_len);
 
 /* ---- render_particles.c ------------------------------------------------------------------ */
 sq_result sq__particle_pass_create(sq_renderer *r);

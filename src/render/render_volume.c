@@ -878,6 +878,13 @@ static bool slab_in_box(const vol_plan *p, int k)
     return d + 0.5f * p->spacing > p->smin && d - 0.5f * p->spacing < p->smax;
 }
 
+void sq__volume_pass_layout(const sq_renderer *r, int *chunks, int *chunk_len)
+{
+    const sq__volume_pass *vp = r ? r->volume : NULL;
+    if (chunks) *chunks = vp ? vp->chunks : 0;
+    if (chunk_len) *chunk_len = vp ? vp->chunk_len : 0;
+}
+
 static int chunk_first(const sq__volume_pass *vp, int c) { return c * vp->chunk_len; }
 static int chunk_end(const sq__volume_pass *vp, const vol_plan *p, int c)
 {

@@ -133,6 +133,167 @@ SQ_TEST(ssim_structure_term_on_a_known_pair)
     free(b);
 }
 
+/* ---- FLIP (Andersson et al. 2020, LDR-FLIP) --------------------------------------------- */
+
+/* CIELAB L* of a grey sRGB byte (D65), written out here independently of flip.c */
+static double grey_lstar(int v)
+{
+    double c = v / 255.0;
+    double y = c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+    double f = y > 216.0 / 24389.0 ? cbrt(y) : (24389.0 / 27.0 * y + 16.0) / 116.0;
+    return 116.0 * f - 16.0;
+}
+
+/* The colour stage of FLIP for two flat grey images: the CSF filters keep a flat image, Hunt
+ * leaves a = b = 0 alone, so ΔE_c = compress(|ΔL*|^0.7) with cmax from the CIELAB values of the
+ * sRGB green and blue primaries (L, a, b = 87.7347, -86.1827, 83.1793 and 32.2970, 79.1875,
+ * -107.8602), and the feature part is 0. */
+static double flat_grey_flip(int u, int v)
+{
+    const double gl = 87.7347, ga = -86.1827, gb = 83.1793;
+    const double bl = 32.2970, ba = 79.1875, bb = -107.8602;
+    const double ha = 0.01 * gl * ga - 0.01 * bl * ba, hb = 0.01 * gl * gb - 0.01 * bl * bb;
+    const double cmax = pow(fabs(gl - bl) + sqrt(ha * ha + hb * hb), 0.7);
+    const double e = pow(fabs(grey_lstar(u) - grey_lstar(v)), 0.7);
+    return e < 0.4 * cmax ? 0.95 / (0.4 * cmax) * e
+                          : 0.95 + (e - 0.4 * cmax) / (0.6 * cmax) * 0.05;
+}
+
+SQ_TEST(flip_identical_is_exactly_zero)
+{
+    const int w = 47, h = 31;
+    uint8_t *a = image_new(w, h), *b = image_new(w, h);
+    fill_texture(a, w, h);
+    memcpy(b, a, (size_t)w * h * 4);
+    SQ_CHECK(sq_image_flip(a, b, w, h, 0.0) == 0.0);
+    SQ_CHECK(sq_image_flip(a, b, w, h, 20.0) == 0.0);
+    fill_grey(a, w, h, 0);
+    fill_grey(b, w, h, 0);
+    SQ_CHECK(sq_image_flip(a, b, w, h, 0.0) == 0.0);
+    free(a);
+    free(b);
+}
+
+SQ_TEST(flip_flat_images_follow_the_colour_formula)
+{
+    /* black against white lands above the compression knee (0.967), small grey steps below it */
+    const int w = 40, h = 30;
+    uint8_t *a = image_new(w, h), *b = image_new(w, h);
+    const int pairs[4][2] = {{0, 255}, {100, 110}, {20, 200}, {128, 129}};
+    float *fmap = (float *)malloc(sizeof(float) * w * h);
+    for (int k = 0; k < 4; k++) {
+        fill_grey(a, w, h, pairs[k][0]);
+        fill_grey(b, w, h, pairs[k][1]);
+        double got = sq_image_flip_maps(a, b, w, h, 0.0, NULL, NULL, fmap);
+        double expect = flat_grey_flip(pairs[k][0], pairs[k][1]);
+        float fmax = 0.0f;
+        for (int i = 0; i < w * h; i++) fmax = fmaxf(fmax, fmap[i]);
+        printf("flat %d vs %d: flip %.6f, formula %.6f, max feature part %.2g\n", pairs[k][0],
+               pairs[k][1], got, expect, (double)fmax);
+        SQ_CHECK_NEAR(got, expect, 2e-4); /* the primaries' Lab values are given to 1e-4 */
+        SQ_CHECK(fmax < 1e-6f);
+    }
+    free(fmap);
+    free(a);
+    free(b);
+}
+
+SQ_TEST(flip_grows_with_noise_and_is_symmetric)
+{
+    /* LDR-FLIP applies the same pipeline to both images and combines them with |ΔL|,
+     * ||Δ(a,b)|| and |Δ|edge||, |Δ|point||, all symmetric, so swapping the arguments gives the
+     * same value exactly (the asymmetric variant is HDR-FLIP, whose exposure range comes from
+     * the reference alone). */
+    const int w = 64, h = 48;
+    uint8_t *a = image_new(w, h), *b = image_new(w, h);
+    fill_texture(a, w, h);
+    double prev = 0.0;
+    const double amps[5] = {2, 8, 20, 50, 120};
+    for (int k = 0; k < 5; k++) {
+        add_noise(a, b, w, h, amps[k], 17);
+        double ab = sq_image_flip(a, b, w, h, 0.0), ba = sq_image_flip(b, a, w, h, 0.0);
+        printf("noise +-%g: flip %.5f (swapped %.5f)\n", amps[k], ab, ba);
+        SQ_CHECK(ab == ba);
+        SQ_CHECK(ab > prev);
+        SQ_CHECK(ab > 0.0 && ab < 1.0);
+        prev = ab;
+    }
+    SQ_CHECK(prev > 0.3);
+    free(a);
+    free(b);
+}
+
+SQ_TEST(flip_edge_shift_is_caught_by_the_feature_part)
+{
+    /* a vertical step (grey 60 | grey 200) moved by one pixel: the feature part responds along
+     * the edge and raises the error above the colour part; far from the edge it is 0. A uniform
+     * brightening (60 -> 70 on the dark side, same edge position) changes the colour part only. */
+    const int w = 64, h = 32, edge = 32;
+    uint8_t *a = image_new(w, h), *b = image_new(w, h), *c = image_new(w, h);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            fill_grey(a + 4 * (y * w + x), 1, 1, x < edge ? 60 : 200);
+            fill_grey(b + 4 * (y * w + x), 1, 1, x < edge + 1 ? 60 : 200);
+            fill_grey(c + 4 * (y * w + x), 1, 1, x < edge ? 70 : 200);
+        }
+    const size_t n = (size_t)w * h;
+    float *err = (float *)malloc(sizeof(float) * n), *col = (float *)malloc(sizeof(float) * n),
+          *feat = (float *)malloc(sizeof(float) * n);
+    double mean = sq_image_flip_maps(a, b, w, h, 0.0, err, col, feat);
+    double fmax_edge = 0.0, fmax_far = 0.0, col_edge = 0.0, err_edge = 0.0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const size_t p = (size_t)y * w + x;
+            if (x >= edge - 3 && x <= edge + 3) {
+                fmax_edge = fmax(fmax_edge, (double)feat[p]);
+                col_edge += (double)col[p];
+                err_edge += (double)err[p];
+            }
+            if (x < edge - 12 || x > edge + 13) fmax_far = fmax(fmax_far, (double)feat[p]);
+        }
+    printf("edge shift: mean flip %.5f; near the edge: max feature %.4f, colour sum %.3f, flip sum "
+           "%.3f; far from it: max feature %.2g\n",
+           mean, fmax_edge, col_edge, err_edge, fmax_far);
+    SQ_CHECK(fmax_edge > 0.2); /* measured 0.302 */
+    SQ_CHECK(err_edge > 1.2 * col_edge);
+    SQ_CHECK(fmax_far < 1e-6);
+    double mean_c = sq_image_flip_maps(a, c, w, h, 0.0, err, col, feat);
+    double fmax_c = 0.0, cmax_c = 0.0, fmax_c_far = 0.0;
+    for (size_t p = 0; p < n; p++) {
+        const int x = (int)(p % (size_t)w);
+        fmax_c = fmax(fmax_c, (double)feat[p]);
+        cmax_c = fmax(cmax_c, (double)col[p]);
+        if (x < edge - 12 || x > edge + 13) fmax_c_far = fmax(fmax_c_far, (double)feat[p]);
+    }
+    printf("uniform brightening: mean flip %.5f, max colour part %.4f, max feature part %.3g\n",
+           mean_c, cmax_c, fmax_c);
+    /* the edge's height changes by 10/255 of a grey level, so the edge detector sees a small
+     * difference at the edge only; away from it none */
+    SQ_CHECK(cmax_c > 0.05);
+    SQ_CHECK(fmax_c < fmax_edge / 2.0);
+    SQ_CHECK(fmax_c_far < 1e-6);
+    free(err);
+    free(col);
+    free(feat);
+    free(a);
+    free(b);
+    free(c);
+}
+
+SQ_TEST(flip_refuses_bad_input)
+{
+    const int w = 16, h = 16;
+    uint8_t *a = image_new(w, h);
+    fill_texture(a, w, h);
+    SQ_CHECK(isnan(sq_image_flip(a, NULL, w, h, 0.0)));
+    SQ_CHECK(isnan(sq_image_flip(a, a, 0, h, 0.0)));
+    SQ_CHECK(isnan(sq_image_flip(a, a, w, h, -5.0)));
+    SQ_CHECK(strstr(sq_last_error(), "pixels_per_degree = -5") != NULL);
+    /* tiny images and large pixels-per-degree (kernels wider than the image) still work */
+    SQ_CHECK(sq_image_flip(a, a, 3, 2, 200.0) == 0.0);
+    free(a);
+}
+
 static void temp_path(char *buf, size_t n, const char *name)
 {
     const char *dir = getenv("SQ_BUILD_DIR");
