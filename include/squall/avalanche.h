@@ -122,8 +122,9 @@ typedef struct sq_avalanche_state {
     double moving_fraction;     /* share of particles faster than moving_speed_mps */
     double max_speed_mps;
     double mean_speed_mps;
-    double max_height_m;        /* highest particle above the terrain (splash) */
-    double airborne_fraction;   /* share of particles more than airborne_m above the terrain */
+    double max_height_m;        /* highest particle above the terrain, along its normal (splash) */
+    double airborne_fraction;   /* share of particles more than airborne_m above the terrain
+                                   (along its normal) */
     double below_terrain_m;     /* deepest particle below the terrain surface (≥ 0) */
     double deposit_mean_m;      /* mean deposit depth over covered cells */
     double deposit_max_m;

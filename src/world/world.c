@@ -131,31 +131,33 @@ static void generate(const sq_terrain_desc *t, sq_world *w)
                 break;
             }
             case SQ_TERRAIN_MOUNTAIN: {
-                /* Slope descending toward +x, flattening with a smooth toe into the plain. */
+                /* Slope descending toward +x into a flat run-out plain. The toe is a C1 fillet:
+                 * over |u - toe| < w the profile is the parabola tangent to the slope at
+                 * toe - w and to the plain at toe + w, so neither the height nor the slope
+                 * jumps (a fast flow meeting a kink or step is launched). */
                 float len = w->dx * (float)(w->nx - 1);
                 float u = (x - w->origin.x) / len; /* 0 at the top edge, 1 at the far edge */
                 float tanb = tanf(t->slope_deg * (float)(SQ_PI / 180.0));
-                float toe = 0.55f; /* fraction of the length where the slope ends */
+                const float toe = 0.55f; /* fraction of the length where the slope ends */
+                const float fw = 0.1f;   /* half-width of the toe fillet, fraction of the length */
                 float top = toe * len * tanb;
                 float hs;
-                if (u < toe)
-                    hs = top * (1.0f - u / toe) + 0.0f;
-                else
+                if (u <= toe - fw)
+                    hs = top * (1.0f - u / toe);
+                else if (u < toe + fw) {
+                    float e = toe + fw - u; /* 0 .. 2 fw */
+                    hs = (top / toe) * e * e / (4.0f * fw);
+                } else
                     hs = 0.0f;
-                /* smooth the kink at the toe over 10 % of the length */
-                float k = (u - toe) / 0.1f;
-                if (k > -1.0f && k < 1.0f) {
-                    float s = 0.5f * (k + 1.0f);
-                    float slope_h = top * (1.0f - u / toe);
-                    hs = slope_h * (1.0f - s * s * (3.0f - 2.0f * s));
-                    if (hs < 0.0f) hs = 0.0f;
-                }
                 float ridges = t->relief_m * 0.15f *
                                sq_noise_fbm3(&nz, x * inv, y * inv, 0.7f, t->octaves, 2.0f, 0.5f);
-                /* a shallow gully along the fall line to channel the flow */
+                /* a shallow gully along the fall line to channel the flow; it flattens to 0.3 of
+                 * its depth across the same fillet (smoothstep: C1, no step at the toe) */
                 float cy = w->origin.y + 0.5f * w->dy * (float)(w->ny - 1);
+                float sg = (u - (toe - fw)) / (2.0f * fw);
+                sg = sg < 0.0f ? 0.0f : (sg > 1.0f ? 1.0f : sg);
                 float gully = -0.25f * t->relief_m * expf(-powf((y - cy) / (0.15f * len), 2.0f)) *
-                              (u < toe ? 1.0f : 0.3f);
+                              (1.0f - 0.7f * sg * sg * (3.0f - 2.0f * sg));
                 h += hs + ridges + gully;
                 break;
             }

@@ -224,7 +224,11 @@ static void evaluate(sq_avalanche *a)
         if (v2 > vmove2) moving++;
         if (v2 > vmax2) vmax2 = v2;
         vsum += sqrt(v2);
-        const double above = (double)v.z[i] - (double)sq_world_height_at(a->world, v.x[i], v.y[i]);
+        /* height above the terrain along its normal (the distance to the tangent plane): on a
+         * 35° slope the vertical height of a slab's top is 1/cos 35° = 1.22 x its thickness */
+        const double above =
+            ((double)v.z[i] - (double)sq_world_height_at(a->world, v.x[i], v.y[i])) *
+            (double)sq_world_normal_at(a->world, v.x[i], v.y[i]).z;
         if (above > hmax) hmax = above;
         if (above > pl->d.airborne_m) airborne++;
         if (-above > below) below = -above;

@@ -350,9 +350,9 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
         char why[512];
         snprintf(why, sizeof why, "%s", sq_last_error());
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "layers.avalanche: the SPH solver refuses the derived set-up (%zu "
-                        "particles): %s",
-                        pl.count, why);
+                        "%sparticles.spacing_m = %g m (support %g m): the release makes %zu "
+                        "particles and the SPH solver refuses the set-up: %s",
+                        P, pl.spacing, pl.support, pl.count, why);
     }
 
     /* deposit grid over the domain's footprint */
@@ -420,8 +420,9 @@ static sq_result validate_plan(sq_context *ctx, const sq_avalanche_desc *desc, c
     const uint64_t bytes = plan_bytes(pl);
     char what[256];
     snprintf(what, sizeof what,
-             "layers.avalanche: a release of %zu particles (%.4g m3 at spacing %g m, %llu bytes)",
-             pl->count, pl->volume_m3, pl->spacing, (unsigned long long)bytes);
+             "layers.avalanche.particles.spacing_m = %g m: a release of %.4g m3 makes %zu "
+             "particles, which",
+             pl->spacing, pl->volume_m3, pl->count);
     return sq_context_check_memory(ctx, bytes, what);
 }
 
