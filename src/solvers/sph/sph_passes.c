@@ -114,6 +114,41 @@ SQ__INLINE V16 v_wrap(V16 d, float h, float L)
     return _mm512_mask_add_ps(d, _mm512_cmp_ps_mask(d, VSET1(-h), _CMP_LT_OQ), d, VSET1(L));
 }
 SQ__INLINE float v_sum(V16 v) { return _mm512_reduce_add_ps(v); }
+
+/* The record of lanes beyond the list: so far away that every kernel term is exactly zero. */
+static const float sq__sph_far_rec[SQ__SPH_REC] __attribute__((aligned(32))) = {
+    1e18f, 1e18f, 1e18f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+
+/* The packed records (x y z V vx vy vz p/ρ²) of the plain list entries e[0..n), n ≤ 16, as
+ * eight field vectors f[0..7]: sixteen 32-byte loads and an 8×8 transpose per 256-bit half
+ * (24 shuffles) instead of eight 16-element gathers. Lane l holds entry
+ * (0 1 2 3 8 9 10 11 4 5 6 7 12 13 14 15)[l]; lanes ≥ n
+ * read sq__sph_far_rec. */
+SQ__INLINE void v_load_recs(const float *restrict P, const uint32_t *restrict e, int n, V16 f[8])
+{
+    V16 z[8], t[8], u[8];
+    for (int k = 0; k < 8; k++) {
+        const float *lo = k < n ? P + SQ__SPH_REC * (size_t)e[k] : sq__sph_far_rec;
+        const float *hi = k + 8 < n ? P + SQ__SPH_REC * (size_t)e[k + 8] : sq__sph_far_rec;
+        z[k] = _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(
+                                                       _mm256_load_ps(lo))),
+                                                   _mm256_castps_pd(_mm256_load_ps(hi)), 1));
+    }
+    for (int k = 0; k < 4; k++) {
+        t[2 * k] = _mm512_unpacklo_ps(z[2 * k], z[2 * k + 1]);
+        t[2 * k + 1] = _mm512_unpackhi_ps(z[2 * k], z[2 * k + 1]);
+    }
+    for (int h = 0; h < 2; h++) { /* entries 0–3 / 8–11 (h = 0) and 4–7 / 12–15 (h = 1) */
+        u[4 * h + 0] = _mm512_shuffle_ps(t[4 * h], t[4 * h + 2], 0x44);     /* x, vx */
+        u[4 * h + 1] = _mm512_shuffle_ps(t[4 * h], t[4 * h + 2], 0xEE);     /* y, vy */
+        u[4 * h + 2] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44); /* z, vz */
+        u[4 * h + 3] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE); /* V, p/ρ² */
+    }
+    for (int c = 0; c < 4; c++) {
+        f[c] = _mm512_shuffle_f32x4(u[c], u[4 + c], _MM_SHUFFLE(2, 0, 2, 0));
+        f[4 + c] = _mm512_shuffle_f32x4(u[c], u[4 + c], _MM_SHUFFLE(3, 1, 3, 1));
+    }
+}
 /* Lane sums of 16 vectors at once (lane k of the result = Σ v[k]) in a fixed tree: 45
  * shuffles and adds instead of 16 separate reductions. */
 SQ__INLINE V16 v_sum16(const V16 v[16])
@@ -324,6 +359,8 @@ typedef struct scan_acc {
     float wsum; /* Σ W over candidates (the density kernel) */
 #if SQ__SPH_AVX512
     __m512 wv;  /* lane sums of W (added to wsum at the end) */
+    float *r2;  /* NULL, or r² of the accepted entries, parallel to the list (W summed at the
+                   end over these instead of over every candidate) */
 #endif
 } scan_acc;
 
@@ -348,6 +385,7 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
     const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const __m512i vself = _mm512_set1_epi32((int)self), vtag = _mm512_set1_epi32((int)tag);
     __m512 wv = acc->wv;
+    float *restrict r2s = acc->r2;
     int cnt = acc->cnt;
     for (uint32_t b0 = b; b0 < e; b0 += 16) {
         const __mmask16 live = v_live(e - b0);
@@ -355,8 +393,6 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
         const __m512 dy = VSUB(vqy, _mm512_maskz_loadu_ps(live, Y + b0));
         const __m512 dz = VSUB(vqz, _mm512_maskz_loadu_ps(live, Z + b0));
         const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
-        const __m512 w = cubic ? v_w_cubic(&kk, v_sqrt_pos(r2)) : v_w_poly6(&kk, r2);
-        wv = _mm512_mask_add_ps(wv, live, wv, w);
         const __m512i jv = _mm512_add_epi32(_mm512_set1_epi32((int)b0), iota);
         const __mmask16 ok = _mm512_mask_cmp_ps_mask(live, r2, vH2, _CMP_LT_OQ) &
                              _mm512_cmpneq_epi32_mask(jv, vself);
@@ -364,12 +400,20 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
         if (cnt + 16 <= cap) {
             _mm512_storeu_si512((void *)(nb + cnt),
                                 _mm512_maskz_compress_epi32(ok, _mm512_or_si512(jv, vtag)));
-        } else {
+            if (r2s) _mm512_storeu_ps(r2s + cnt, _mm512_maskz_compress_ps(ok, r2));
+        } else { /* near the end of the list: one at a time, clamped (the caller regrows) */
+            float r2l[16];
+            _mm512_storeu_ps(r2l, r2);
             for (int t = 0; t < 16; t++) {
                 if (!((ok >> t) & 1)) continue;
                 const int k = cnt + __builtin_popcount((unsigned)ok & ((1u << t) - 1u));
                 nb[k < capm1 ? k : capm1] = (b0 + (uint32_t)t) | tag;
+                if (r2s && k <= capm1) r2s[k] = r2l[t];
             }
+        }
+        if (!r2s) { /* W over the live candidates (zero beyond H) */
+            const __m512 w = cubic ? v_w_cubic(&kk, v_sqrt_pos(r2)) : v_w_poly6(&kk, r2);
+            wv = _mm512_mask_add_ps(wv, live, wv, w);
         }
         cnt += nok;
     }
@@ -639,6 +683,20 @@ SQ__INLINE int density_finish(sq_sph *restrict s, size_t ip, scan_acc *acc, cons
         }
     }
 #if SQ__SPH_AVX512
+    if (acc->r2) {
+        /* the self term W(0) and W of the accepted entries (the other candidates have W = 0) */
+        const sq__sph_kern kk = s->k;
+        const int m = acc->cnt < cap ? acc->cnt : cap;
+        __m512 wv = acc->wv;
+        for (int k0 = 0; k0 < m; k0 += 16) {
+            const __mmask16 live = v_live((uint32_t)(m - k0));
+            const __m512 r2 = _mm512_maskz_loadu_ps(live, acc->r2 + k0);
+            const __m512 w = cubic ? v_w_cubic(&kk, v_sqrt_pos(r2)) : v_w_poly6(&kk, r2);
+            wv = _mm512_mask_add_ps(wv, live, wv, w);
+        }
+        acc->wsum += cubic ? sq__sph_w_cubic(&kk, 0.0f) : sq__sph_w_poly6(&kk, 0.0f);
+        acc->wv = wv;
+    }
     acc->wsum += v_sum(acc->wv);
 #endif
     const int n = acc->cnt;
@@ -664,17 +722,20 @@ SQ__INLINE int density_finish(sq_sph *restrict s, size_t ip, scan_acc *acc, cons
 }
 
 #if SQ__SPH_AVX512
+#define SQ__SPH_R2BUF 256
 /* Density pass for particles [i0, i1), one particle at a time: its own 27-cell scan (rows and
  * row ends beyond H skipped), 16 candidates per vector. Returns the largest neighbour count. */
 SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int cubic)
 {
     const int cap = s->nb_cap, capm1 = cap - 1;
     int maxcnt = 0;
+    float r2buf[SQ__SPH_R2BUF + 16];
     for (size_t i = i0; i < i1; i++) {
         scan_acc acc;
         acc.cnt = 0;
         acc.wsum = 0.0f;
         acc.wv = _mm512_setzero_ps();
+        acc.r2 = cap <= SQ__SPH_R2BUF ? r2buf : NULL; /* long lists: W inside the scan */
         scan_cells(s, s->x[i], s->y[i], s->z[i], (uint32_t)i, 0u, s->nb + i * (size_t)cap, capm1,
                    &acc, cubic, 0);
         const int n = density_finish(s, i, &acc, cubic);
@@ -894,17 +955,15 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     __m512 b0 = _mm512_setzero_ps(), b1 = b0, b2 = b0, b3 = b0, b4 = b0, b5 = b0;
     __m512 g0 = b0, g1 = b0, g2 = b0, g3 = b0, g4 = b0, g5 = b0, g6 = b0, g7 = b0, g8 = b0;
     for (int k0 = 0; k0 < nplain; k0 += 16) {
-        const __mmask16 live = v_live((uint32_t)(nplain - k0));
-        /* record index 4 j with scale 8 = 32 j bytes (j < 2^29, so 4 j < 2^31) */
-        const __m512i idx = _mm512_slli_epi32(_mm512_maskz_loadu_epi32(live, nb + k0), 2);
-        const __m512 z0 = _mm512_setzero_ps();
-        const __m512 dx = v_wrap(VSUB(vxi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 0, 8)), hx, Lx);
-        const __m512 dy = v_wrap(VSUB(vyi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 1, 8)), hy, Ly);
-        const __m512 dz = v_wrap(VSUB(vzi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 2, 8)), hz, Lz);
-        const __m512 vol = _mm512_mask_i32gather_ps(z0, live, idx, P + 3, 8);
-        const __m512 ux = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 4, 8), wvx);
-        const __m512 uy = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 5, 8), wvy);
-        const __m512 uz = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 6, 8), wvz);
+        __m512 rj[8]; /* the far record of lanes beyond the list gives f = 0, V = 0 */
+        v_load_recs(P, nb + k0, nplain - k0, rj);
+        const __m512 dx = v_wrap(VSUB(vxi_, rj[0]), hx, Lx);
+        const __m512 dy = v_wrap(VSUB(vyi_, rj[1]), hy, Ly);
+        const __m512 dz = v_wrap(VSUB(vzi_, rj[2]), hz, Lz);
+        const __m512 vol = rj[3];
+        const __m512 ux = VSUB(rj[4], wvx);
+        const __m512 uy = VSUB(rj[5], wvy);
+        const __m512 uz = VSUB(rj[6], wvz);
         const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
         const __m512 ir = v_inv_dist(r2);
         /* V_j ∇W = f d; dead lanes have V = 0 */
@@ -1181,18 +1240,23 @@ SQ__INLINE float force_particle(sq_sph *restrict s, size_t i, const int visc, co
         const __m512 vmu_i = VSET1(mu_i), vpgc = VSET1(pgc), veps = VSET1(0.01f * kk.ell2);
         const __m512 vnavc = VSET1(-avc), vnm = VSET1(-m), v2m = VSET1(2.0f * m);
         __m512 va0 = z0, va1 = z0, va2 = z0, vx0 = z0, vx1 = z0, vx2 = z0;
+        const __m512i vperm = _mm512_setr_epi32(0, 1, 2, 3, 8, 9, 10, 11, 4, 5, 6, 7, 12, 13, 14, 15);
         for (int k0 = 0; k0 < nplain; k0 += 16) {
-            const __mmask16 live = v_live((uint32_t)(nplain - k0));
-            const __m512i jv = _mm512_maskz_loadu_epi32(live, nb + k0);
-            const __m512i idx = _mm512_slli_epi32(jv, 2); /* 32 j bytes with scale 8 */
-            const __m512 dx = v_wrap(VSUB(vxi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 0, 8)), hx, Lx);
-            const __m512 dy = v_wrap(VSUB(vyi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 1, 8)), hy, Ly);
-            const __m512 dz = v_wrap(VSUB(vzi_, _mm512_mask_i32gather_ps(z0, live, idx, P + 2, 8)), hz, Lz);
-            const __m512 vol_j = _mm512_mask_i32gather_ps(z0, live, idx, P + 3, 8);
-            const __m512 ux = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 4, 8), wvx);
-            const __m512 uy = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 5, 8), wvy);
-            const __m512 uz = VSUB(_mm512_mask_i32gather_ps(z0, live, idx, P + 6, 8), wvz);
-            const __m512 pr2_j = _mm512_mask_i32gather_ps(z0, live, idx, P + 7, 8);
+            /* lanes in v_load_recs order; the index vector and live mask permuted alike */
+            const int n = nplain - k0;
+            const __mmask16 live = _mm512_cmplt_epi32_mask(vperm, _mm512_set1_epi32(n));
+            const __m512i jv = _mm512_permutexvar_epi32(
+                vperm, _mm512_maskz_loadu_epi32(v_live((uint32_t)n), nb + k0));
+            __m512 rj[8];
+            v_load_recs(P, nb + k0, n, rj);
+            const __m512 dx = v_wrap(VSUB(vxi_, rj[0]), hx, Lx);
+            const __m512 dy = v_wrap(VSUB(vyi_, rj[1]), hy, Ly);
+            const __m512 dz = v_wrap(VSUB(vzi_, rj[2]), hz, Lz);
+            const __m512 vol_j = rj[3];
+            const __m512 ux = VSUB(rj[4], wvx);
+            const __m512 uy = VSUB(rj[5], wvy);
+            const __m512 uz = VSUB(rj[6], wvz);
+            const __m512 pr2_j = rj[7];
             const __m512 rho_j = _mm512_mask_i32gather_ps(VSET1(1.0f), live, jv, RHO, 4);
             const __m512 mu_j = _mm512_mask_i32gather_ps(z0, live, jv, MU, 4);
             const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
