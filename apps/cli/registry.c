@@ -16,6 +16,9 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL},
     {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",
      "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL},
+    {"snowdrift", "village-snowdrift frame (1/24 s): D3Q15 wind, u*, snow transport/deposition/"
+     "erosion, flakes, drawables; per-stage ms",
+     "--preset village-snowdrift --spinup 48", sq_bench_snowdrift, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
     {NULL, NULL, NULL, NULL, NULL},
 };

@@ -149,6 +149,13 @@ typedef struct sq_lbm_totals {
 /* Returns desc with zero fields replaced by defaults (zero-is-physical fields stay). dt_s is
  * left 0 (it is chosen at create from the wind; see sq_lbm_get_info). */
 SQ_API sq_lbm_desc sq_lbm_desc_resolve(const sq_lbm_desc *desc);
+/* Fastest wind (m/s) the desc implies for the Mach check: max_wind_mps, else the wind with
+ * gusts at the top of its log-law profile (and moving walls). */
+SQ_API double sq_lbm_max_wind_mps(const sq_lbm_desc *desc);
+/* The time step sq_lbm_create uses: dt_s, else 0.08 Δx / sq_lbm_max_wind_mps (10 m/s if calm). */
+SQ_API double sq_lbm_time_step_s(const sq_lbm_desc *desc);
+/* Mach number above which sq_lbm_create refuses a wind (0.3). */
+SQ_API double sq_lbm_mach_limit(void);
 /* Bytes sq_lbm_create will allocate for desc (0 if cells is invalid). */
 SQ_API uint64_t sq_lbm_memory_bytes(const sq_lbm_desc *desc);
 
@@ -197,6 +204,10 @@ SQ_API sq_result sq_lbm_get_views(sq_lbm *lbm, sq_lbm_views *out);
  * u* = κ |u_t| / ln((Δx/2 + z0)/z0) with κ = 0.41 and u_t the velocity tangential to the
  * surface (the solid below is preferred); 0 elsewhere. */
 SQ_API sq_result sq_lbm_get_friction_velocity(sq_lbm *lbm, sq_field_view *out);
+/* The same u* for `count` cells only (cells[q] = x + nx (y + ny z)), into out[q]: for callers
+ * that need it on a surface list rather than the whole lattice. */
+SQ_API sq_result sq_lbm_get_friction_velocity_at(sq_lbm *lbm, int64_t count,
+                                                 const int64_t *cells, float *out);
 SQ_API sq_result sq_lbm_get_totals(sq_lbm *lbm, sq_lbm_totals *out);
 
 SQ_API const char *sq_lbm_collision_name(sq_lbm_collision c);

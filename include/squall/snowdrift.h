@@ -42,6 +42,8 @@ typedef struct sq_snowdrift_desc {
     int cells[3];                /* 0 -> 128 64 48 */
     double cell_size_m;          /* 0 -> 1 m */
     double center_m[2];          /* domain centre x, y; 0 is physical */
+    double dt_s;                 /* lattice (wind) time step; 0 -> automatic: the fastest wind
+                                  * with gusts moves 0.08 cells per step */
     /* wind (SPEC §5.2–5.5) */
     double wind_speed_mps;       /* mean wind at ref_height_m; 0 is physical (calm) */
     double wind_dir_deg;         /* direction the wind blows toward, deg from east; 0 is physical */
@@ -53,6 +55,8 @@ typedef struct sq_snowdrift_desc {
     int boundary;                /* sq_snowdrift_boundary; 0 = recycle (S1) */
     double eddy_viscosity_m2s;   /* background viscosity of the lattice air; 0 -> 0.01 m²/s */
     double smagorinsky_c;        /* Smagorinsky constant; 0 -> 0.16 */
+    double tau;                  /* lattice relaxation time (> 1/2); 0 -> from
+                                  * eddy_viscosity_m2s: 1/2 + 3 ν Δt/Δx² */
     /* snow (SPEC §5.6) */
     double snowfall_mmh;         /* water-equivalent snowfall rate; 0 is physical (none) */
     double speedup;              /* time-lapse factor of snowfall and erosion; 0 -> 1 */
@@ -68,6 +72,10 @@ typedef struct sq_snowdrift_desc {
     /* drawables */
     int visual_flakes;           /* falling-snow particles drawn; 0 -> 20000 */
     double flake_radius_m;       /* drawn flake radius; 0 -> 0.03 m */
+    /* smallest angular radius a flake is drawn with (mrad); a flake seen smaller is enlarged to
+     * it and made fainter by (true/drawn radius)², keeping its projected area x opacity (1.5 px
+     * at 360 px of height and a 55° field of view is about 4 mrad); 0 -> 4 */
+    double flake_min_mrad;
 } sq_snowdrift_desc;
 
 typedef struct sq_snowdrift sq_snowdrift;
@@ -80,6 +88,26 @@ typedef struct sq_snowdrift_budget {
     int64_t snow_cells;          /* cells filled with snow (solid for the wind) */
     double depth_mean_m, depth_max_m; /* deposited depth over the domain's columns */
 } sq_snowdrift_budget;
+
+/* Work done since creation and the wall-clock time of each stage (ms, summed over all calls;
+ * for benchmarks: `squall bench snowdrift`). */
+typedef struct sq_snowdrift_stats {
+    int64_t steps;          /* sq_snowdrift_step calls */
+    int64_t lbm_steps;      /* lattice (wind) steps */
+    int64_t snow_steps;     /* snow steps (each spans lbm_steps_per_snow_step wind steps) */
+    int lbm_steps_per_snow_step;
+    double lbm_dt_s;        /* wind step */
+    int64_t cells;          /* lattice cells */
+    double ms_lbm;          /* wind: collide + stream, boundaries, drive */
+    double ms_ustar;        /* friction velocity (and the velocity views it needs) */
+    double ms_transport;    /* snowfall + stochastic transport */
+    double ms_deposit;      /* deposition, roll-off, solidification */
+    double ms_erode;        /* erosion */
+    double ms_couple;       /* snow cells turned solid / fluid in the wind lattice */
+    double ms_flakes;       /* visual flakes moved by the wind */
+    double ms_derived;      /* drawables: snow cover heightfield, airborne-snow field */
+    double ms_budget;       /* budget / metrics */
+} sq_snowdrift_stats;
 
 SQ_API sq_result sq_snowdrift_desc_resolve(const sq_snowdrift_desc *in, sq_snowdrift_desc *out);
 SQ_API sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *desc,
@@ -97,6 +125,7 @@ SQ_API double sq_snowdrift_max_stable_dt(const sq_snowdrift *s);
 /* Changes the mean wind during a run (Mach-checked). */
 SQ_API sq_result sq_snowdrift_set_wind(sq_snowdrift *s, double speed_mps, double dir_deg);
 SQ_API void sq_snowdrift_get_budget(const sq_snowdrift *s, sq_snowdrift_budget *out);
+SQ_API void sq_snowdrift_get_stats(const sq_snowdrift *s, sq_snowdrift_stats *out);
 
 #ifdef __cplusplus
 }

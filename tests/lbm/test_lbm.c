@@ -618,6 +618,84 @@ SQ_TEST(friction_velocity_near_ground)
     sq_context_destroy(ctx);
 }
 
+/* u* on a list of cells equals the whole-lattice field there; cells edited to solid or fluid
+ * keep the views equal to a fresh recomputation of the whole lattice. */
+SQ_TEST(friction_velocity_at_cells_and_views_after_edits)
+{
+    sq_context *ctx = make_ctx(0);
+    const int nx = 12, ny = 10, nz = 8, n = nx * ny * nz;
+    sq_lbm_desc d = lu_desc(nx, ny, nz, 0.6, SQ_LBM_COLLISION_TRT);
+    d.dt_s = 0.01;
+    d.tau = 0;
+    d.viscosity_m2s = 1;
+    d.max_wind_mps = 5;
+    d.wind.roughness_m = 0.01;
+    d.bc[SQ_LBM_FACE_ZMIN] = SQ_LBM_BC_WALL;
+    d.bc[SQ_LBM_FACE_ZMAX] = SQ_LBM_BC_FREE_SLIP;
+    sq_lbm *l = NULL;
+    SQ_CHECK_OK(sq_lbm_create(ctx, &d, &l));
+    if (!l) return;
+    SQ_CHECK_OK(sq_lbm_set_solid(l, 5, 5, 0, true));
+    SQ_CHECK_OK(sq_lbm_set_solid(l, 5, 5, 1, true));
+    float *u = calloc(3 * (size_t)n, sizeof(float));
+    for (int c = 0; c < n; c++) {
+        u[c] = (float)(2.0 + 0.1 * (c % 7));
+        u[n + c] = (float)(0.5 * sin(0.3 * c));
+        u[2 * n + c] = 0.2f;
+    }
+    SQ_CHECK_OK(sq_lbm_init_fields(l, NULL, u, u + n, u + 2 * n));
+    SQ_CHECK_OK(sq_lbm_step(l, 3));
+    sq_field_view us;
+    SQ_CHECK_OK(sq_lbm_get_friction_velocity(l, &us));
+    int64_t cells[6] = {0, 5 + nx * (5 + ny * 2), 3 + nx * 4, 5 + nx * (5 + ny * 1),
+                        11 + nx * (9 + ny * 7), 6 + nx * (5 + ny * 1)};
+    float at[6];
+    SQ_CHECK_OK(sq_lbm_get_friction_velocity_at(l, 6, cells, at));
+    for (int q = 0; q < 6; q++) SQ_CHECK(at[q] == us.data[cells[q]]);
+    SQ_CHECK(at[1] > 0.0f && at[3] == 0.0f); /* on top of the solid cell; inside it */
+    const int64_t bad = n;
+    SQ_CHECK_ERR(sq_lbm_get_friction_velocity_at(l, 1, &bad, at), SQ_ERR_INVALID_ARG,
+                 "outside the lattice");
+    /* two more lattices with the same state and edits: l2's views were valid before the
+     * edits (patched in place), l3's are computed only after them */
+    sq_lbm *l2 = NULL;
+    SQ_CHECK_OK(sq_lbm_create(ctx, &d, &l2));
+    sq_lbm *l3 = NULL;
+    SQ_CHECK_OK(sq_lbm_create(ctx, &d, &l3));
+    if (l2 && l3) {
+        sq_lbm *ls[2] = {l2, l3};
+        for (int q = 0; q < 2; q++) {
+            SQ_CHECK_OK(sq_lbm_set_solid(ls[q], 5, 5, 0, true));
+            SQ_CHECK_OK(sq_lbm_set_solid(ls[q], 5, 5, 1, true));
+            SQ_CHECK_OK(sq_lbm_init_fields(ls[q], NULL, u, u + n, u + 2 * n));
+            SQ_CHECK_OK(sq_lbm_step(ls[q], 3));
+        }
+        sq_lbm_views v2, v3;
+        SQ_CHECK_OK(sq_lbm_get_views(l2, &v2)); /* views valid before the edits: patched */
+        for (int q = 0; q < 2; q++) {
+            SQ_CHECK_OK(sq_lbm_set_solid(ls[q], 2, 3, 3, true));
+            SQ_CHECK_OK(sq_lbm_set_solid(ls[q], 5, 5, 1, false));
+        }
+        SQ_CHECK_OK(sq_lbm_get_views(l2, &v2));
+        SQ_CHECK_OK(sq_lbm_get_views(l3, &v3)); /* computed from scratch */
+        SQ_CHECK(v2.density.data[2 + nx * (3 + ny * 3)] == 0.0f);
+        SQ_CHECK(v2.density.data[5 + nx * (5 + ny * 1)] > 0.0f);
+        double worst = 0;
+        for (int c = 0; c < n; c++) {
+            worst = fmax(worst, fabs((double)v2.density.data[c] - v3.density.data[c]));
+            for (int a = 0; a < 3; a++)
+                worst = fmax(worst, fabs((double)v2.u[a].data[c] - v3.u[a].data[c]));
+        }
+        printf("patched views vs recomputed: max difference %.3g\n", worst);
+        SQ_CHECK(worst < 1e-5);
+    }
+    sq_lbm_destroy(l3);
+    sq_lbm_destroy(l2);
+    free(u);
+    sq_lbm_destroy(l);
+    sq_context_destroy(ctx);
+}
+
 SQ_TEST(solid_turning_fluid_is_reinitialised)
 {
     sq_context *ctx = make_ctx(0);

@@ -601,7 +601,9 @@ SQ_TEST(phenomenon_snows_on_a_village)
         sq_drawable dr[4];
         const int nd = pl->drawables(s, dr, 4);
         SQ_CHECK(nd == 2);
-        SQ_CHECK(dr[0].kind == SQ_DRAWABLE_SURFACE && dr[0].u.surface.nx == 40);
+        /* the cover extends 24 columns beyond the 40 x 24 lattice on every side */
+        SQ_CHECK(dr[0].kind == SQ_DRAWABLE_SURFACE && dr[0].u.surface.nx == 40 + 48 &&
+                 dr[0].u.surface.ny == 24 + 48);
         SQ_CHECK(dr[1].kind == SQ_DRAWABLE_PARTICLES && dr[1].u.particles.count == 500);
         for (int f = 0; f < 500; f++) {
             const float *p = &dr[1].u.particles.position[3 * f];
@@ -617,6 +619,95 @@ SQ_TEST(phenomenon_snows_on_a_village)
     sq_snowdrift_destroy(s);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
+}
+
+/* The whole phenomenon (wind, surface u*, snow, visual flakes, tallies) gives the same bits on
+ * 1 and 2 threads; the drawn snow cover and the exported depth agree with the budget. */
+SQ_TEST(phenomenon_thread_count_does_not_change_anything)
+{
+    float *pos[2] = {NULL, NULL};
+    uint32_t *snow[2] = {NULL, NULL};
+    sq_snowdrift_budget bud[2];
+    int64_t n = 0;
+    int nfl = 0;
+    for (int th = 0; th < 2; th++) {
+        sq_context *ctx = make_ctx(th + 1);
+        sq_world *w = village(ctx);
+        if (!w) return;
+        sq_snowdrift_desc d;
+        memset(&d, 0, sizeof d);
+        d.cells[0] = 48;
+        d.cells[1] = 32;
+        d.cells[2] = 24; /* 36864 cells: above the kernels' parallel threshold */
+        d.wind_speed_mps = 7;
+        d.beaufort = 4.5;
+        d.snowfall_mmh = 5;
+        d.speedup = 20000;
+        d.visual_flakes = 6000;
+        d.seed = 5;
+        sq_snowdrift *s = NULL;
+        SQ_CHECK_OK(sq_snowdrift_create(ctx, &d, w, &s));
+        if (!s) {
+            sq_world_destroy(ctx, w);
+            return;
+        }
+        for (int f = 0; f < 30; f++) SQ_CHECK_OK(sq_snowdrift_step(s, 1.0 / 24.0));
+        const sq_phen_plugin *pl = sq_plugin_find("snowdrift");
+        sq_drawable dr[4];
+        const int nd = pl ? pl->drawables(s, dr, 4) : 0;
+        SQ_CHECK(nd == 2);
+        sq_snowdrift_get_budget(s, &bud[th]);
+        SQ_CHECK(bud[th].fallen_flakes == bud[th].airborne_flakes + bud[th].deposited_flakes +
+                                              bud[th].left_flakes);
+        n = s->snow->n;
+        nfl = s->nflakes;
+        snow[th] = malloc((size_t)n * 2 * sizeof(uint32_t));
+        memcpy(snow[th], s->snow->air, (size_t)n * sizeof(uint32_t));
+        memcpy(snow[th] + n, s->snow->dep, (size_t)n * sizeof(uint32_t));
+        pos[th] = malloc((size_t)nfl * 3 * sizeof(float));
+        memcpy(pos[th], s->fpos, (size_t)nfl * 3 * sizeof(float));
+        if (nd == 2) {
+            /* over the lattice the cover is ground + depth; beyond it the depth fades to
+             * nothing at the outer ring (no seam); the mean exported depth = the budget's */
+            const sq_surface_view *sv = &dr[0].u.surface;
+            const int M = s->margin, nx = s->nx, ny = s->ny;
+            SQ_CHECK(M >= 2 && sv->nx == nx + 2 * M && sv->ny == ny + 2 * M);
+            sq_named_field fl[8];
+            const int nf = pl->fields(s, fl, 8);
+            SQ_CHECK(nf == 5);
+            double sum = 0;
+            int bad_in = 0, bad_out = 0;
+            for (int jj = 0; jj < sv->ny; jj++)
+                for (int ii = 0; ii < sv->nx; ii++) {
+                    const int q = ii + sv->nx * jj, i = ii - M, j = jj - M;
+                    if (i >= 0 && i < nx && j >= 0 && j < ny) {
+                        const float dpt = s->depth[i + nx * j];
+                        bad_in += sv->height_m[q] != s->ground_z[q] + dpt;
+                        sum += dpt;
+                    } else if (ii == 0 || jj == 0 || ii == sv->nx - 1 || jj == sv->ny - 1) {
+                        bad_out += sv->height_m[q] != s->ground_z[q] || sv->coverage[q] != 0.0f;
+                    }
+                }
+            SQ_CHECK(bad_in == 0 && bad_out == 0);
+            SQ_CHECK_NEAR(sum / (nx * ny), bud[th].depth_mean_m, 1e-6);
+            SQ_CHECK(nf == 5 && fl[4].data == s->depth);
+        }
+        sq_snowdrift_destroy(s);
+        sq_world_destroy(ctx, w);
+        sq_context_destroy(ctx);
+    }
+    printf("30 frames: %llu flakes fell, %llu deposited, %lld snow cells\n",
+           (unsigned long long)bud[0].fallen_flakes, (unsigned long long)bud[0].deposited_flakes,
+           (long long)bud[0].snow_cells);
+    SQ_CHECK(bud[0].deposited_flakes > 0);
+    SQ_CHECK(memcmp(snow[0], snow[1], (size_t)n * 2 * sizeof(uint32_t)) == 0);
+    SQ_CHECK(memcmp(pos[0], pos[1], (size_t)nfl * 3 * sizeof(float)) == 0);
+    SQ_CHECK(bud[0].depth_mean_m == bud[1].depth_mean_m &&
+             bud[0].depth_max_m == bud[1].depth_max_m);
+    for (int th = 0; th < 2; th++) {
+        free(snow[th]);
+        free(pos[th]);
+    }
 }
 
 SQ_TEST(phenomenon_bad_desc_named)

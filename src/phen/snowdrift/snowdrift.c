@@ -11,6 +11,15 @@
 
 #define SNOW_PI 3.14159265358979323846
 #define FLAKE_STREAM 0x534E4F57464C4Bull /* RNG stream of the visual flakes */
+/* the drawn snow cover continues this far beyond the lattice, fading into the ground */
+#define COVER_MARGIN_M 24.0
+
+static int cover_margin(const sq_snowdrift_desc *d)
+{
+    int m = (int)ceil(COVER_MARGIN_M / d->cell_size_m);
+    const int cap = d->cells[0] > d->cells[1] ? d->cells[0] : d->cells[1];
+    return m < 2 ? 2 : m > cap ? cap : m;
+}
 
 static sq_lbm_desc lbm_desc(const sq_snowdrift_desc *d)
 {
@@ -18,6 +27,8 @@ static sq_lbm_desc lbm_desc(const sq_snowdrift_desc *d)
     memset(&l, 0, sizeof l);
     l.cells = (sq_dims){d->cells[0], d->cells[1], d->cells[2]};
     l.cell_size_m = d->cell_size_m;
+    l.dt_s = d->dt_s;
+    l.tau = d->tau;
     l.viscosity_m2s = d->eddy_viscosity_m2s;
     l.collision = SQ_LBM_COLLISION_SMAGORINSKY;
     l.smagorinsky_c = d->smagorinsky_c;
@@ -42,6 +53,8 @@ static sq_lbm_desc lbm_desc(const sq_snowdrift_desc *d)
     return l;
 }
 
+void sq__snowdrift_lbm_desc(const sq_snowdrift_desc *d, sq_lbm_desc *out) { *out = lbm_desc(d); }
+
 uint64_t sq_snowdrift_memory_bytes(const sq_snowdrift_desc *desc)
 {
     sq_snowdrift_desc d;
@@ -50,8 +63,12 @@ uint64_t sq_snowdrift_memory_bytes(const sq_snowdrift_desc *desc)
     const uint64_t n = (uint64_t)d.cells[0] * d.cells[1] * d.cells[2];
     const uint64_t cols = (uint64_t)d.cells[0] * d.cells[1];
     return sq_lbm_memory_bytes(&l) + n * 18 /* snow counts and flags */ +
-           n * sizeof(float) /* airborne-snow field */ + cols * 3 * sizeof(float) +
-           (uint64_t)d.visual_flakes * 5 * sizeof(float) + sizeof(struct sq_snowdrift);
+           n * 2 * sizeof(float) /* airborne-snow and surface-u* fields */ +
+           cols * 2 * (sizeof(int64_t) + sizeof(float)) /* surface list, grows if needed */ +
+           cols * sizeof(float) + (uint64_t)d.cells[1] * 5 * sizeof(double) +
+           (uint64_t)(d.cells[0] + 2 * cover_margin(&d)) * (d.cells[1] + 2 * cover_margin(&d)) *
+               (4 * sizeof(float) + sizeof(int64_t)) /* drawn snow cover */ +
+           (uint64_t)d.visual_flakes * 7 * sizeof(float) + sizeof(struct sq_snowdrift);
 }
 
 void sq_snowdrift_destroy(sq_snowdrift *s)
@@ -67,6 +84,15 @@ void sq_snowdrift_destroy(sq_snowdrift *s)
     sq_free(ctx, s->surf_h);
     sq_free(ctx, s->cover);
     sq_free(ctx, s->air_kgm3);
+    sq_free(ctx, s->ustar);
+    sq_free(ctx, s->surf);
+    sq_free(ctx, s->surf_us);
+    sq_free(ctx, s->ground_z);
+    sq_free(ctx, s->fade_w);
+    sq_free(ctx, s->src_col);
+    sq_free(ctx, s->fradius);
+    sq_free(ctx, s->ffade);
+    sq_free(ctx, s->tally_part);
     sq_free(ctx, s);
 }
 
@@ -80,12 +106,22 @@ static bool cell_of(const sq_snowdrift *s, const float p[3], int *i, int *j, int
     return *i >= 0 && *j >= 0 && *k >= 0 && *i < s->nx && *j < s->ny && *k < s->nz;
 }
 
-/* anywhere: uniformly in the air of the domain; else in the top layer */
-static void spawn_flake(sq_snowdrift *s, int f, bool anywhere)
+/* Whether the lattice cell (i, j, k) is solid for the snow and the wind (terrain, obstacles,
+ * filled snow cells); the snow's kinds and the wind's solid flags agree between steps. */
+static inline bool solid_cell(const sq_snowdrift *s, int i, int j, int k)
+{
+    return s->snow->kind[i + (int64_t)s->nx * (j + (int64_t)s->ny * k)] != SQ_SNOW_AIR;
+}
+
+/* Places flake f uniformly in the air of the domain (anywhere) or in the top layer. The draws
+ * are keyed by (key, flake, attempt), so flakes can be respawned in parallel and the result
+ * does not depend on the thread count. */
+static void spawn_flake(sq_snowdrift *s, int f, bool anywhere, uint64_t key)
 {
     for (int attempt = 0; attempt < 8; attempt++) {
         float u[4];
-        sq_rng_uniform4(s->d.seed, FLAKE_STREAM, s->spawn_counter++, u);
+        sq_rng_uniform4(s->d.seed, FLAKE_STREAM, (key << 24 | (uint64_t)f) * 8 + (uint64_t)attempt,
+                        u);
         float *p = &s->fpos[3 * f];
         p[0] = (float)(s->origin[0] + (double)u[0] * s->nx * s->h);
         p[1] = (float)(s->origin[1] + (double)u[1] * s->ny * s->h);
@@ -95,24 +131,31 @@ static void spawn_flake(sq_snowdrift *s, int f, bool anywhere)
         s->frot[f] = 6.2831853f * u[3];
         s->fspin[f] = (u[2] - 0.5f) * 3.0f;
         int i, j, k;
-        if (cell_of(s, p, &i, &j, &k) && !sq_lbm_is_solid(s->lbm, i, j, k)) return;
+        if (cell_of(s, p, &i, &j, &k) && !solid_cell(s, i, j, k)) return;
     }
 }
 
-/* Moves the visual flakes by (u − u_fall ẑ) dt with the lattice wind of their cell. */
+/* Moves the visual flakes by (u − u_fall ẑ) dt with the lattice wind of their cell; flakes that
+ * land or leave are respawned at the top (keyed by the step: thread-count independent). */
 static void move_flakes(sq_snowdrift *s, double dt, const sq_lbm_views *v)
 {
     const float fall = (float)s->d.fall_speed_mps;
     const double lx = s->nx * s->h, ly = s->ny * s->h;
+    const float *ux = v->u[0].data, *uy = v->u[1].data, *uz = v->u[2].data;
+    const int64_t sy = v->u[0].sy, sz = v->u[0].sz;
+    const uint64_t key = (uint64_t)s->steps + 1; /* key 0: the flakes placed at create */
+    const int nt = sq_context_threads(s->ctx);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(s->nflakes >= 4096))
     for (int f = 0; f < s->nflakes; f++) {
         float *p = &s->fpos[3 * f];
         int i, j, k;
         if (!cell_of(s, p, &i, &j, &k)) {
-            spawn_flake(s, f, false);
+            spawn_flake(s, f, false, key);
             continue;
         }
-        const float u = sq_view_get(&v->u[0], i, j, k), w = sq_view_get(&v->u[1], i, j, k);
-        const float z = sq_view_get(&v->u[2], i, j, k) - fall;
+        const int64_t c = i + j * sy + k * sz;
+        const float u = ux[c], w = uy[c];
+        const float z = uz[c] - fall;
         p[0] += (float)((double)u * dt);
         p[1] += (float)((double)w * dt);
         p[2] += (float)((double)z * dt);
@@ -122,8 +165,8 @@ static void move_flakes(sq_snowdrift *s, double dt, const sq_lbm_views *v)
         if ((double)p[0] >= s->origin[0] + lx) p[0] -= (float)lx;
         if ((double)p[1] < s->origin[1]) p[1] += (float)ly;
         if ((double)p[1] >= s->origin[1] + ly) p[1] -= (float)ly;
-        if (!cell_of(s, p, &i, &j, &k) || sq_lbm_is_solid(s->lbm, i, j, k))
-            spawn_flake(s, f, false); /* landed or left: a new flake at the top */
+        if (!cell_of(s, p, &i, &j, &k) || solid_cell(s, i, j, k))
+            spawn_flake(s, f, false, key); /* landed or left: a new flake at the top */
     }
 }
 
@@ -207,16 +250,30 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
     }
     const size_t cols = (size_t)s->nx * s->ny, n = cols * s->nz;
     bool ok = true;
+    s->margin = cover_margin(&d);
+    s->ex = s->nx + 2 * s->margin;
+    s->ey = s->ny + 2 * s->margin;
+    const size_t ecols = (size_t)s->ex * s->ey;
     s->depth = (float *)xalloc(s, cols * sizeof(float), &ok);
-    s->surf_h = (float *)xalloc(s, cols * sizeof(float), &ok);
-    s->cover = (float *)xalloc(s, cols * sizeof(float), &ok);
+    s->surf_h = (float *)xalloc(s, ecols * sizeof(float), &ok);
+    s->cover = (float *)xalloc(s, ecols * sizeof(float), &ok);
+    s->ground_z = (float *)xalloc(s, ecols * sizeof(float), &ok);
+    s->fade_w = (float *)xalloc(s, ecols * sizeof(float), &ok);
+    s->src_col = (int64_t *)xalloc(s, ecols * sizeof(int64_t), &ok);
     s->air_kgm3 = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->ustar = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->surf_cap = (int64_t)cols * 2;
+    s->surf = (int64_t *)xalloc(s, (size_t)s->surf_cap * sizeof(int64_t), &ok);
+    s->surf_us = (float *)xalloc(s, (size_t)s->surf_cap * sizeof(float), &ok);
+    s->tally_part = (double *)xalloc(s, (size_t)s->ny * 5 * sizeof(double), &ok);
     uint8_t *mask = (uint8_t *)xalloc(s, n, &ok);
     if (d.snowfall_mmh > 0) {
         s->nflakes = d.visual_flakes;
         s->fpos = (float *)xalloc(s, (size_t)s->nflakes * 3 * sizeof(float), &ok);
         s->frot = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
         s->fspin = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
+        s->fradius = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
+        s->ffade = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
     }
     if (!ok) {
         sq_free(ctx, mask);
@@ -248,7 +305,7 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
         sq_snowdrift_destroy(s);
         return r;
     }
-    for (int f = 0; f < s->nflakes; f++) spawn_flake(s, f, true);
+    for (int f = 0; f < s->nflakes; f++) spawn_flake(s, f, true, 0);
     /* as if it had been snowing for a while: the air holds the steady falling concentration,
      * λ flakes per top cell per step spread over the fall of (u_g dt/dx) cells per step
      * (counted as fallen, so the budget holds from the start) */
@@ -264,11 +321,77 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
             sn->fallen += m;
         }
     }
-    s->derived_dirty = true;
+    /* the drawn snow cover (static parts cached once): the ground under every drawn column,
+     * the lattice column whose depth it shows (periodic continuation across recycled faces,
+     * the edge column across open ones) and the weight fading that depth to 0 over the margin
+     * (smoothstep of the distance from the lattice, in columns) */
+    {
+        const int M = s->margin;
+        const bool per[2] = {d.boundary == SQ_SNOWDRIFT_RECYCLE, true};
+        for (int jj = 0; jj < s->ey; jj++)
+            for (int ii = 0; ii < s->ex; ii++) {
+                const int i = ii - M, j = jj - M;
+                const size_t q = (size_t)ii + (size_t)s->ex * jj;
+                const float x = (float)(s->origin[0] + (i + 0.5) * s->h);
+                const float y = (float)(s->origin[1] + (j + 0.5) * s->h);
+                s->ground_z[q] =
+                    world ? sq_world_surface_at(world, x, y) : (float)(s->origin[2] + s->h);
+                const int oi = i < 0 ? -i : i >= s->nx ? i - s->nx + 1 : 0;
+                const int oj = j < 0 ? -j : j >= s->ny ? j - s->ny + 1 : 0;
+                const double t = 1.0 - sqrt((double)oi * oi + (double)oj * oj) / M;
+                const double w = t <= 0 ? 0.0 : t * t * (3.0 - 2.0 * t);
+                s->fade_w[q] = (float)w;
+                int si = per[0] ? ((i % s->nx) + s->nx) % s->nx : i < 0 ? 0 : i >= s->nx ? s->nx - 1 : i;
+                int sj = per[1] ? ((j % s->ny) + s->ny) % s->ny : j < 0 ? 0 : j >= s->ny ? s->ny - 1 : j;
+                s->src_col[q] = si + (int64_t)s->nx * sj;
+            }
+    }
+    s->derived_dirty = s->air_dirty = true;
     sq_log(ctx, SQ_LOG_INFO, "snowdrift",
            "lattice %dx%dx%d of %g m, wind step %.4g s, snow every %d wind steps, flake %.3g kg",
            s->nx, s->ny, s->nz, s->h, s->lbm_dt, s->sub, s->snow->flake_mass_kg);
     *out = s;
+    return SQ_OK;
+}
+
+/* ---- friction velocity on the surface ----------------------------------------------------- */
+
+/* u* (SPEC §5.6 erosion) is needed only where snow can lift: air cells resting on a solid
+ * cell. The list of those cells is rebuilt from the snow's kinds (which the wind's solid flags
+ * follow), u* is computed there by the wind solver, and every other cell of the field stays 0. */
+static sq_result surface_friction_velocity(sq_snowdrift *s, sq_field_view *out)
+{
+    const sq__snow *sn = s->snow;
+    const int64_t cols = (int64_t)s->nx * s->ny;
+    for (int64_t q = 0; q < s->nsurf; q++) s->ustar[s->surf[q]] = 0.0f;
+    s->nsurf = 0;
+    int64_t m = 0;
+    for (int64_t c = cols; c < sn->n; c++) {
+        if (sn->kind[c] != SQ_SNOW_AIR || sn->kind[c - cols] == SQ_SNOW_AIR) continue;
+        if (m == s->surf_cap) { /* more surface than foreseen (overhangs): grow */
+            const int64_t cap = 2 * s->surf_cap;
+            int64_t *ns = (int64_t *)sq_alloc(s->ctx, (size_t)cap * sizeof(int64_t));
+            float *nu = (float *)sq_alloc(s->ctx, (size_t)cap * sizeof(float));
+            if (!ns || !nu) {
+                sq_free(s->ctx, ns);
+                sq_free(s->ctx, nu);
+                return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "snowdrift",
+                                "surface list of %lld cells: out of memory", (long long)cap);
+            }
+            memcpy(ns, s->surf, (size_t)m * sizeof(int64_t));
+            sq_free(s->ctx, s->surf);
+            sq_free(s->ctx, s->surf_us);
+            s->surf = ns;
+            s->surf_us = nu;
+            s->surf_cap = cap;
+        }
+        s->surf[m++] = c;
+    }
+    s->nsurf = m;
+    const sq_result r = sq_lbm_get_friction_velocity_at(s->lbm, m, s->surf, s->surf_us);
+    if (r != SQ_OK) return r;
+    for (int64_t q = 0; q < m; q++) s->ustar[s->surf[q]] = s->surf_us[q];
+    *out = (sq_field_view){s->ustar, {s->nx, s->ny, s->nz}, 1, s->nx, (ptrdiff_t)cols};
     return SQ_OK;
 }
 
@@ -284,25 +407,55 @@ sq_result sq_snowdrift_step(sq_snowdrift *s, double dt)
     const double chunk = s->sub * s->lbm_dt;
     sq_lbm_views v;
     while (s->t_acc >= chunk) {
+        double t0 = sq_time_now();
         sq_result r = sq_lbm_step(s->lbm, s->sub); /* wind: S1 §3.2 steps 1–5 */
+        double t1 = sq_time_now();
+        s->ms_lbm += 1e3 * (t1 - t0);
+        s->lbm_steps += s->sub;
         if (r == SQ_OK) r = sq_lbm_get_views(s->lbm, &v);
         sq_field_view us = {NULL, {0, 0, 0}, 0, 0, 0};
-        if (r == SQ_OK && !s->d.no_erosion) r = sq_lbm_get_friction_velocity(s->lbm, &us);
+        if (r == SQ_OK && !s->d.no_erosion) r = surface_friction_velocity(s, &us);
+        t0 = sq_time_now();
+        s->ms_ustar += 1e3 * (t0 - t1);
         if (r == SQ_OK) /* snow: steps 6–8 (transport, deposition, erosion) */
             r = sq__snow_step(s->snow, v.u, s->d.no_erosion ? NULL : &us, s->lbm);
         if (r != SQ_OK) return r;
         s->t_acc -= chunk;
         s->snow_steps++;
-        s->derived_dirty = true;
+        s->derived_dirty = s->air_dirty = true;
     }
     s->time_s += dt;
+    s->steps++;
     if (s->nflakes > 0) {
+        const double t0 = sq_time_now();
         sq_result r = sq_lbm_get_views(s->lbm, &v);
         if (r != SQ_OK) return r;
         move_flakes(s, dt, &v);
+        s->ms_flakes += 1e3 * (sq_time_now() - t0);
     }
     s->version++;
     return SQ_OK;
+}
+
+void sq_snowdrift_get_stats(const sq_snowdrift *s, sq_snowdrift_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!s) return;
+    out->steps = s->steps;
+    out->lbm_steps = s->lbm_steps;
+    out->snow_steps = s->snow_steps;
+    out->lbm_steps_per_snow_step = s->sub;
+    out->lbm_dt_s = s->lbm_dt;
+    out->cells = (int64_t)s->nx * s->ny * s->nz;
+    out->ms_lbm = s->ms_lbm;
+    out->ms_ustar = s->ms_ustar;
+    out->ms_transport = s->snow->ms_transport;
+    out->ms_deposit = s->snow->ms_deposit;
+    out->ms_erode = s->snow->ms_erode;
+    out->ms_couple = s->snow->ms_couple;
+    out->ms_flakes = s->ms_flakes;
+    out->ms_derived = s->ms_derived;
+    out->ms_budget = s->ms_budget;
 }
 
 double sq_snowdrift_max_stable_dt(const sq_snowdrift *s)
@@ -317,76 +470,156 @@ sq_result sq_snowdrift_set_wind(sq_snowdrift *s, double speed_mps, double dir_de
     return sq_lbm_set_wind(s->lbm, speed_mps, dir_deg);
 }
 
-/* Snow depth of column (i, j) in metres: snow-solid cells count full, resting flakes as their
- * share of a cell. */
-static double column_depth(const sq_snowdrift *s, int i, int j)
+/* One pass over the snow (rows of x in parallel, per-row partial sums added in row order, so
+ * the result does not depend on the thread count): the budget sums and the deposited depth of
+ * every column (snow-solid cells count full, resting flakes as their share of a cell), written
+ * to depth (may be NULL). */
+typedef struct snow_tally {
+    uint64_t airborne, deposited;
+    int64_t solid;
+    double depth_mean_m, depth_max_m;
+} snow_tally;
+
+static void tally(const sq_snowdrift *s, float *depth, snow_tally *t)
 {
     const sq__snow *sn = s->snow;
-    double flakes = 0;
-    for (int k = 0; k < s->nz; k++) {
-        const int64_t c = i + s->nx * (j + (int64_t)s->ny * k);
-        if (sn->kind[c] == SQ_SNOW_SOLID)
-            flakes += sn->p.threshold;
-        else if (sn->kind[c] == SQ_SNOW_AIR)
-            flakes += sn->dep[c];
+    const int nx = s->nx, ny = s->ny, nz = s->nz;
+    const int64_t cols = (int64_t)nx * ny;
+    const uint32_t thr = (uint32_t)sn->p.threshold;
+    const double thr_d = sn->p.threshold;
+    double *part = s->tally_part;
+    const int nt = sq_context_threads(s->ctx);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(sn->n >= 32768))
+    for (int j = 0; j < ny; j++) {
+        uint64_t air = 0, dep = 0, solid = 0;
+        double dsum = 0, dmax = 0;
+        for (int i0 = 0; i0 < nx; i0 += 256) {
+            const int m = nx - i0 < 256 ? nx - i0 : 256;
+            uint64_t fl[256];
+            for (int i = 0; i < m; i++) fl[i] = 0;
+            for (int k = 0; k < nz; k++) {
+                const int64_t c0 = i0 + (int64_t)nx * j + cols * k;
+                const uint8_t *kd = sn->kind + c0;
+                const uint32_t *a = sn->air + c0, *dp = sn->dep + c0;
+                for (int i = 0; i < m; i++) {
+                    air += a[i];
+                    dep += dp[i];
+                    solid += kd[i] == SQ_SNOW_SOLID;
+                    fl[i] += kd[i] == SQ_SNOW_SOLID ? thr : kd[i] == SQ_SNOW_AIR ? dp[i] : 0u;
+                }
+            }
+            for (int i = 0; i < m; i++) {
+                const double d = (double)fl[i] / thr_d * s->h;
+                if (depth) depth[i0 + i + (int64_t)nx * j] = (float)d;
+                dsum += d;
+                if (d > dmax) dmax = d;
+            }
+        }
+        part[5 * j + 0] = (double)air;
+        part[5 * j + 1] = (double)dep;
+        part[5 * j + 2] = (double)solid;
+        part[5 * j + 3] = dsum;
+        part[5 * j + 4] = dmax;
     }
-    return flakes / sn->p.threshold * s->h;
+    memset(t, 0, sizeof *t);
+    double dsum = 0;
+    for (int j = 0; j < ny; j++) {
+        t->airborne += (uint64_t)part[5 * j + 0];
+        t->deposited += (uint64_t)part[5 * j + 1];
+        t->solid += (int64_t)part[5 * j + 2];
+        dsum += part[5 * j + 3];
+        if (part[5 * j + 4] > t->depth_max_m) t->depth_max_m = part[5 * j + 4];
+    }
+    t->depth_mean_m = dsum / (double)cols;
 }
 
-/* The snow cover on top of the world's surface; coverage ramps over the first 5 cm. */
+/* The snow cover on top of the world's surface, for drawing; coverage ramps over the first
+ * 5 cm. Rebuilt only when a frame is drawn after the snow changed. */
 static void update_derived(sq_snowdrift *s)
 {
     if (!s->derived_dirty) return;
-    const sq__snow *sn = s->snow;
-    const int64_t cols = (int64_t)s->nx * s->ny;
-    const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h);
-    for (int64_t c = 0; c < cols * s->nz; c++) s->air_kgm3[c] = (float)(sn->air[c] * cell_kg);
-    for (int j = 0; j < s->ny; j++)
-        for (int i = 0; i < s->nx; i++) {
-            const double depth = column_depth(s, i, j);
-            const int64_t q = i + (int64_t)s->nx * j;
-            s->depth[q] = (float)depth;
-            const float x = (float)(s->origin[0] + (i + 0.5) * s->h);
-            const float y = (float)(s->origin[1] + (j + 0.5) * s->h);
-            const float zs = s->world ? sq_world_surface_at(s->world, x, y)
-                                      : (float)(s->origin[2] + s->h);
-            s->surf_h[q] = zs + (float)depth;
-            const float cv = (float)(depth / 0.05);
-            s->cover[q] = cv > 1.0f ? 1.0f : cv;
-        }
+    const double t0 = sq_time_now();
+    snow_tally t;
+    tally(s, s->depth, &t);
+    const int64_t ecols = (int64_t)s->ex * s->ey;
+    for (int64_t q = 0; q < ecols; q++) {
+        const float w = s->fade_w[q], dpt = s->depth[s->src_col[q]];
+        s->surf_h[q] = s->ground_z[q] + w * dpt;
+        const float cv = dpt * (1.0f / 0.05f);
+        s->cover[q] = w * (cv > 1.0f ? 1.0f : cv);
+    }
     s->derived_dirty = false;
+    s->ms_derived += 1e3 * (sq_time_now() - t0);
+}
+
+/* The airborne-snow mass concentration, only for field export. */
+static void update_air(sq_snowdrift *s)
+{
+    if (!s->air_dirty) return;
+    const sq__snow *sn = s->snow;
+    const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h);
+    const int nt = sq_context_threads(s->ctx);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(sn->n >= 32768))
+    for (int64_t c = 0; c < sn->n; c++) s->air_kgm3[c] = (float)(sn->air[c] * cell_kg);
+    s->air_dirty = false;
 }
 
 void sq_snowdrift_get_budget(const sq_snowdrift *s, sq_snowdrift_budget *out)
 {
     memset(out, 0, sizeof *out);
     if (!s) return;
-    sq__snow_budget b;
-    sq__snow_get_budget(s->snow, &b);
-    const double m = s->snow->flake_mass_kg;
-    out->fallen_flakes = b.fallen;
-    out->airborne_flakes = b.airborne;
-    out->deposited_flakes = b.deposited;
-    out->left_flakes = b.left;
-    out->eroded_flakes = b.eroded;
+    snow_tally t;
+    tally(s, NULL, &t);
+    const sq__snow *sn = s->snow;
+    const double m = sn->flake_mass_kg;
+    out->fallen_flakes = sn->fallen;
+    out->airborne_flakes = t.airborne;
+    out->deposited_flakes = t.deposited;
+    out->left_flakes = sn->left;
+    out->eroded_flakes = sn->eroded;
     out->flake_mass_kg = m;
-    out->fallen_kg = (double)b.fallen * m;
-    out->airborne_kg = (double)b.airborne * m;
-    out->deposited_kg = (double)b.deposited * m;
-    out->left_kg = (double)b.left * m;
-    out->snow_cells = b.solid_cells;
-    double sum = 0, mx = 0;
-    for (int j = 0; j < s->ny; j++)
-        for (int i = 0; i < s->nx; i++) {
-            const double dpt = column_depth(s, i, j);
-            sum += dpt;
-            if (dpt > mx) mx = dpt;
-        }
-    out->depth_mean_m = sum / ((double)s->nx * s->ny);
-    out->depth_max_m = mx;
+    out->fallen_kg = (double)sn->fallen * m;
+    out->airborne_kg = (double)t.airborne * m;
+    out->deposited_kg = (double)t.deposited * m;
+    out->left_kg = (double)sn->left * m;
+    out->snow_cells = t.solid;
+    out->depth_mean_m = t.depth_mean_m;
+    out->depth_max_m = t.depth_max_m;
 }
 
 /* ---- drawables, metrics, fields ------------------------------------------------------------ */
+
+void sq__snowdrift_observe(sq_snowdrift *s, const sq_camera *camera)
+{
+    if (!s || !camera) return;
+    const sq_camera c = sq_camera_resolve(*camera);
+    s->cam_pos = c.position_m;
+    s->have_camera = true;
+}
+
+/* Flakes seen smaller than the minimum angular radius are drawn at it, with their alpha scaled
+ * by (true/drawn radius)² so that projected area x opacity (what a flake too small to resolve
+ * contributes to a pixel) stays what it physically is. */
+static void size_flakes(sq_snowdrift *s)
+{
+    const float r0 = (float)s->d.flake_radius_m, amin = (float)(s->d.flake_min_mrad * 1e-3);
+    const sq_vec3 e = s->cam_pos;
+    const int nt = sq_context_threads(s->ctx);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(s->nflakes >= 16384))
+    for (int f = 0; f < s->nflakes; f++) {
+        const float *p = &s->fpos[3 * f];
+        const float dx = p[0] - e.x, dy = p[1] - e.y, dz = p[2] - e.z;
+        const float rmin = amin * sqrtf(dx * dx + dy * dy + dz * dz);
+        if (rmin > r0) {
+            const float q = r0 / rmin;
+            s->fradius[f] = rmin;
+            s->ffade[f] = q * q;
+        } else {
+            s->fradius[f] = r0;
+            s->ffade[f] = 1.0f;
+        }
+    }
+}
 
 int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
 {
@@ -398,10 +631,10 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
         d->kind = SQ_DRAWABLE_SURFACE;
         d->name = "snow-cover";
         sq_surface_view *v = &d->u.surface;
-        v->nx = s->nx;
-        v->ny = s->ny;
-        v->origin_m = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),
-                            0.0f);
+        v->nx = s->ex;
+        v->ny = s->ey;
+        v->origin_m = sq_v3((float)(s->origin[0] + (0.5 - s->margin) * s->h),
+                            (float)(s->origin[1] + (0.5 - s->margin) * s->h), 0.0f);
         v->dx_m = v->dy_m = (float)s->h;
         v->height_m = s->surf_h;
         v->coverage = s->cover;
@@ -418,6 +651,11 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
         p->position = s->fpos;
         p->rotation_rad = s->frot;
         p->radius_default_m = (float)s->d.flake_radius_m;
+        if (s->have_camera) {
+            size_flakes(s);
+            p->radius_m = s->fradius;
+            p->fade = s->ffade;
+        }
         p->tau_default = 2.0f; /* opaque flakes */
         for (int c = 0; c < 3; c++) {
             p->sigma_rel[c] = 1.0f;
@@ -433,8 +671,10 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
 
 int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max)
 {
+    const double t0 = sq_time_now();
     sq_snowdrift_budget b;
     sq_snowdrift_get_budget(s, &b);
+    s->ms_budget += 1e3 * (sq_time_now() - t0);
     const sq_lbm_info in = sq_lbm_get_info(s->lbm);
     int n = 0;
 #define PUT(nm, val, un)                                                                       \
@@ -457,6 +697,7 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max)
 {
     if (max < 5) return 0;
     update_derived(s);
+    update_air(s);
     sq_lbm_views v;
     if (sq_lbm_get_views(s->lbm, &v) != SQ_OK) return 0;
     const sq_vec3 o = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),

@@ -35,6 +35,7 @@ sq_result sq_snowdrift_desc_resolve(const sq_snowdrift_desc *in, sq_snowdrift_de
     DEF(d.snow_cfl, 0.5);
     DEF(d.visual_flakes, 20000);
     DEF(d.flake_radius_m, 0.03);
+    DEF(d.flake_min_mrad, 4.0);
     if (out) *out = d;
     return SQ_OK;
 }
@@ -45,7 +46,6 @@ static bool pos(double v) { return isfinite(v) && v > 0; }
 
 sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *in, const sq_world *w)
 {
-    (void)w;
     sq_snowdrift_desc d;
     sq_snowdrift_desc_resolve(in, &d);
     const char *P = "layers.snowdrift.";
@@ -97,6 +97,59 @@ sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *in, co
         BAD("%ssnow.saltation_kgm3 = %g; must be in (0, 1000] kg/m3", P, d.saltation_kgm3);
     if (!(pos(d.snow_cfl) && d.snow_cfl <= 1))
         BAD("%ssnow.cfl = %g; must be in (0, 1] cells per snow step", P, d.snow_cfl);
+    if (!(isfinite(d.dt_s) && d.dt_s >= 0 && d.dt_s <= 100))
+        BAD("%sdomain.dt_s = %g; must be in [0, 100] s (0 = automatic)", P, d.dt_s);
+    if (!(isfinite(d.tau) && (d.tau == 0 || d.tau > 0.5)) || d.tau > 100)
+        BAD("%swind.tau = %g; must be > 0.5 (the lattice viscosity (tau - 1/2)/3 must be "
+            "positive: BGK is unstable at zero viscosity) and <= 100, or 0 = from "
+            "wind.eddy_viscosity_m2s",
+            P, d.tau);
+    if (!(pos(d.flake_min_mrad) && d.flake_min_mrad <= 100))
+        BAD("%sdraw.flake_min_mrad = %g; must be in (0, 100] mrad", P, d.flake_min_mrad);
+    /* the wind lattice: relaxation time and Mach number (SPEC §5.3) */
+    {
+        sq_lbm_desc l;
+        sq__snowdrift_lbm_desc(&d, &l);
+        const double dt = sq_lbm_time_step_s(&l), h = d.cell_size_m;
+        if (d.tau == 0) {
+            const double tau = 0.5 + 3.0 * d.eddy_viscosity_m2s * dt / (h * h);
+            if (!(tau > 0.5))
+                BAD("%swind.eddy_viscosity_m2s = %g m2/s with domain.cell_size_m = %g m and a "
+                    "wind step of %g s gives tau = 1/2 + 3 nu dt/dx^2 = %.17g; must be > 0.5 "
+                    "(raise the viscosity or the step, or set wind.tau)",
+                    P, d.eddy_viscosity_m2s, h, dt, tau);
+        }
+        const double umax = sq_lbm_max_wind_mps(&l);
+        const double ulu = umax * dt / h, mach = ulu * sqrt(3.0), lim = sq_lbm_mach_limit();
+        if (mach > lim)
+            BAD("%sdomain.dt_s = %g s: the wind with gusts at the top of the domain, %.3g m/s, "
+                "moves %.3g cells per step (Mach %.2f > %.1f); lower domain.dt_s to at most %.3g "
+                "s (0 = automatic), raise domain.cell_size_m to at least %.3g m, or lower "
+                "wind.speed_mps or wind.beaufort",
+                P, d.dt_s, umax, ulu, mach, lim, 0.1 * h / umax, umax * dt / 0.1);
+    }
+    if (w) {
+        /* obstacles must lie inside the lattice: outside it the wind and the snow never see
+         * them, and one cut by the edge would be half a house */
+        const double x0 = d.center_m[0] - 0.5 * d.cells[0] * d.cell_size_m;
+        const double y0 = d.center_m[1] - 0.5 * d.cells[1] * d.cell_size_m;
+        const double x1 = x0 + d.cells[0] * d.cell_size_m, y1 = y0 + d.cells[1] * d.cell_size_m;
+        for (int o = 0; o < w->obstacle_count; o++) {
+            const sq_obstacle *ob = &w->obstacles[o];
+            const double yaw = (double)ob->yaw_deg * 3.14159265358979323846 / 180.0;
+            const double hx = 0.5 * (fabs(cos(yaw)) * (double)ob->size_m.x +
+                                     fabs(sin(yaw)) * (double)ob->size_m.y);
+            const double hy = 0.5 * (fabs(sin(yaw)) * (double)ob->size_m.x +
+                                     fabs(cos(yaw)) * (double)ob->size_m.y);
+            const double cx = (double)ob->center_m.x, cy = (double)ob->center_m.y;
+            if (cx - hx < x0 || cx + hx > x1 || cy - hy < y0 || cy + hy > y1)
+                BAD("world.obstacles[%d] (footprint x %.4g..%.4g m, y %.4g..%.4g m) is not "
+                    "inside the snowdrift lattice (x %.4g..%.4g m, y %.4g..%.4g m); move it, or "
+                    "move/enlarge the lattice with %sdomain.center_x_m/center_y_m, nx/ny or "
+                    "cell_size_m",
+                    o, cx - hx, cx + hx, cy - hy, cy + hy, x0, x1, y0, y1, P);
+        }
+    }
     if (d.visual_flakes < 0 || d.visual_flakes > 2000000)
         BAD("%sdraw.flakes = %d; must be in 0..2000000", P, d.visual_flakes);
     if (!(pos(d.flake_radius_m) && d.flake_radius_m <= 1))

@@ -94,6 +94,8 @@ typedef struct sq__snow {
     uint64_t step;
     uint64_t fallen, left, eroded;
     double flake_mass_kg;
+    /* wall-clock ms spent per stage since create (sq_snowdrift_get_stats) */
+    double ms_transport, ms_deposit, ms_erode, ms_couple;
 } sq__snow;
 
 /* ---- kernels (snowdrift_kernels.c): pure functions over arrays ---------------------------- */
@@ -178,14 +180,39 @@ struct sq_snowdrift {
     /* visual flakes */
     int nflakes;
     float *fpos, *frot, *fspin;
-    uint64_t spawn_counter;
-    /* derived drawables and fields */
-    float *depth, *surf_h, *cover; /* nx*ny */
-    float *air_kgm3;               /* nx*ny*nz */
-    bool derived_dirty;
+    /* friction velocity on the snow surface only: the cells of the surface list (air above
+     * a solid cell) hold u*, every other cell 0 */
+    float *ustar;                  /* nx*ny*nz */
+    int64_t *surf;                 /* surface cells (lattice index) */
+    float *surf_us;                /* their u* */
+    int64_t nsurf, surf_cap;
+    /* derived drawables and fields; the drawn snow cover extends `margin` columns beyond the
+     * lattice on every side (ex = nx + 2 margin, ey = ny + 2 margin), where the deposited depth
+     * (continued periodically across recycled faces) fades into the world's ground */
+    int margin, ex, ey;
+    float *depth;                  /* nx*ny: deposited depth of the lattice columns */
+    float *ground_z;               /* ex*ey: the world's surface height at column centres */
+    float *surf_h, *cover;         /* ex*ey: the drawn snow cover */
+    float *fade_w;                 /* ex*ey: weight of the lattice depth (1 inside) */
+    int64_t *src_col;              /* ex*ey: lattice column whose depth a drawn column shows */
+    /* flakes drawn with a minimum angular size (observe): radius and alpha per flake */
+    float *fradius, *ffade;
+    bool have_camera;
+    sq_vec3 cam_pos;
+    float cam_tan_half_fov;
+    float *air_kgm3;               /* nx*ny*nz, built only for fields() */
+    double *tally_part;            /* ny*5 per-row partial sums of the budget tally */
+    bool derived_dirty, air_dirty;
     uint64_t version;
+    /* timings (ms since create) */
+    int64_t steps, lbm_steps;
+    double ms_lbm, ms_ustar, ms_flakes, ms_derived, ms_budget;
 };
 
+/* The wind solver's desc for a resolved snowdrift desc. */
+void sq__snowdrift_lbm_desc(const sq_snowdrift_desc *d, sq_lbm_desc *out);
+/* The camera of the coming frame (flake sizes). */
+void sq__snowdrift_observe(sq_snowdrift *s, const sq_camera *camera);
 int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max);
 int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max);
 int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);

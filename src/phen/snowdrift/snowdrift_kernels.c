@@ -115,36 +115,115 @@ static inline void add_atomic(uint32_t *a, uint32_t v)
     *a += v;
 }
 
-void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float *uy,
-                        const float *uz, const uint8_t *kind, const uint32_t *air,
-                        uint32_t *air_next, uint32_t *land, uint64_t *left)
+static inline void add_to(uint32_t *a, uint32_t v, bool atomic)
 {
-    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
+    if (atomic)
+        add_atomic(a, v);
+    else
+        *a += v;
+}
+
+/* Philox4x32-10 of sq_rng_bits for up to SQ_SNOW_ROW lanes with one key, written lane-wise so
+ * the compiler vectorises it: out[l][q] = sq_rng_bits(seed, stream, index[l])[q] bit for bit
+ * (the first block of every cell of a row is drawn here at once). */
+#define SQ_SNOW_ROW 256
+static void philox_lanes(uint64_t seed, uint64_t stream, const uint64_t *index, int n,
+                         uint32_t out[4][SQ_SNOW_ROW])
+{
+    uint32_t c0[SQ_SNOW_ROW], c1[SQ_SNOW_ROW], c2[SQ_SNOW_ROW], c3[SQ_SNOW_ROW];
+    for (int l = 0; l < n; l++) {
+        c0[l] = (uint32_t)index[l];
+        c1[l] = (uint32_t)(index[l] >> 32);
+        c2[l] = (uint32_t)stream;
+        c3[l] = (uint32_t)(stream >> 32);
+    }
+    uint32_t k0 = (uint32_t)seed, k1 = (uint32_t)(seed >> 32);
+    for (int r = 0; r < 10; r++) {
+        for (int l = 0; l < n; l++) {
+            const uint64_t p0 = (uint64_t)0xD2511F53u * c0[l];
+            const uint64_t p1 = (uint64_t)0xCD9E8D57u * c2[l];
+            const uint32_t n0 = (uint32_t)(p1 >> 32) ^ c1[l] ^ k0;
+            const uint32_t n2 = (uint32_t)(p0 >> 32) ^ c3[l] ^ k1;
+            c0[l] = n0;
+            c1[l] = (uint32_t)p1;
+            c2[l] = n2;
+            c3[l] = (uint32_t)p0;
+        }
+        k0 += 0x9E3779B9u;
+        k1 += 0xBB67AE85u;
+    }
+    for (int l = 0; l < n; l++) {
+        out[0][l] = c0[l];
+        out[1][l] = c1[l];
+        out[2][l] = c2[l];
+        out[3][l] = c3[l];
+    }
+}
+
+/* Bernoulli(p) as sq__snow_binomial(r, 1, p) draws it (no draw for p <= 0 or p >= 1). */
+static inline uint32_t bernoulli(sq__snow_rng *r, double p)
+{
+    if (!(p > 0)) return 0;
+    if (p >= 1) return 1;
+    const double t = p * 4294967296.0;
+    const uint32_t thr = t >= 4294967295.0 ? 4294967295u : (uint32_t)t;
+    return rng_u32(r) < thr;
+}
+
+/* Moves the flakes of one x-row (j, k). */
+static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const float *ux,
+                                 const float *uy, const float *uz, const uint8_t *kind,
+                                 const uint32_t *air, uint32_t *air_next, uint32_t *land,
+                                 uint64_t *out, bool atomic)
+{
+    const int nx = kp->nx, ny = kp->ny, nz = kp->nz;
     const int64_t sy = nx, sz = (int64_t)nx * ny;
     const float s = kp->dt_over_dx, fall = kp->fall_cells;
-    const bool par = sz * nz >= SQ_SNOW_PAR_MIN;
-    uint64_t out = 0;
-    SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(+:out) if(par))
-    for (int k = 0; k < nz; k++) {
-        for (int j = 0; j < ny; j++) {
-            for (int i = 0; i < nx; i++) {
-                const int64_t c = i + j * sy + k * sz;
-                const uint32_t n = air[c];
-                if (n == 0) continue;
-                /* displacement in cells per step, S1 eq 8 */
-                float d[3] = {ux[c] * s, uy[c] * s, uz[c] * s - fall};
-                int step[3];
-                double pr[3];
-                for (int a = 0; a < 3; a++) {
-                    const float v = d[a] > 1.0f ? 1.0f : d[a] < -1.0f ? -1.0f : d[a];
-                    step[a] = v >= 0 ? 1 : -1;
-                    pr[a] = fabsf(v);
-                }
-                sq__snow_rng r;
-                sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_TRANSPORT, kp->step, c);
-                /* split n into the 8 groups (moves along x?, y?, z?) by binomial draws: the
-                 * axes are independent, as in S1 where one q is drawn per axis */
-                uint32_t g[8];
+    const uint64_t stream = ((uint64_t)SQ_SNOW_RNG_TRANSPORT << 56) ^ kp->step;
+    for (int i0 = 0; i0 < nx; i0 += SQ_SNOW_ROW) {
+        const int m = nx - i0 < SQ_SNOW_ROW ? nx - i0 : SQ_SNOW_ROW;
+        const int64_t c0 = i0 + j * sy + k * sz;
+        /* the occupied cells of this stretch and the first random block of each */
+        int occ[SQ_SNOW_ROW];
+        uint64_t idx[SQ_SNOW_ROW];
+        int no = 0;
+        for (int i = 0; i < m; i++) { /* branch-free compaction (occupancy is random) */
+            occ[no] = i;
+            idx[no] = (uint64_t)(c0 + i) << 20;
+            no += air[c0 + i] != 0;
+        }
+        if (no == 0) continue;
+        uint32_t blk[4][SQ_SNOW_ROW];
+        philox_lanes(kp->seed, stream, idx, no, blk);
+        for (int o = 0; o < no; o++) {
+            const int i = i0 + occ[o];
+            const int64_t c = c0 + occ[o];
+            const uint32_t n = air[c];
+            /* displacement in cells per step, S1 eq 8 */
+            const float d[3] = {ux[c] * s, uy[c] * s, uz[c] * s - fall};
+            int step[3];
+            double pr[3];
+            for (int a = 0; a < 3; a++) {
+                const float v = d[a] > 1.0f ? 1.0f : d[a] < -1.0f ? -1.0f : d[a];
+                step[a] = v >= 0 ? 1 : -1;
+                pr[a] = fabsf(v);
+            }
+            /* the cell's generator (sq__snow_rng_init) with its first block already drawn */
+            sq__snow_rng r;
+            r.seed = kp->seed;
+            r.stream = stream;
+            r.index = idx[o] + 1;
+            for (int q = 0; q < 4; q++) r.buf[q] = blk[q][o];
+            r.avail = 4;
+            /* split n into the 8 groups (moves along x?, y?, z?) by binomial draws: the axes
+             * are independent, as in S1 where one q is drawn per axis */
+            uint32_t g[8];
+            if (n == 1) { /* one flake: the same three draws, without the splitting */
+                const uint32_t mx = bernoulli(&r, pr[0]), my = bernoulli(&r, pr[1]);
+                const uint32_t mz = bernoulli(&r, pr[2]);
+                for (int q = 0; q < 8; q++) g[q] = 0;
+                g[mx | my << 1 | mz << 2] = 1;
+            } else {
                 const uint32_t mx = sq__snow_binomial(&r, n, pr[0]);
                 const uint32_t gx[2] = {n - mx, mx};
                 for (int bx = 0; bx < 2; bx++) {
@@ -156,50 +235,70 @@ void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float
                         g[bx | by << 1 | 1 << 2] = mz;
                     }
                 }
-                uint32_t stay = 0, landed = 0;
-                for (int m = 0; m < 8; m++) {
-                    const uint32_t cnt = g[m];
-                    if (cnt == 0) continue;
-                    if (m == 0) {
-                        stay += cnt;
-                        continue;
-                    }
-                    int ti = i + ((m & 1) ? step[0] : 0);
-                    int tj = j + ((m & 2) ? step[1] : 0);
-                    const int tk = k + ((m & 4) ? step[2] : 0);
-                    if (tk < 0) { /* the ground below the lattice */
-                        landed += cnt;
-                        continue;
-                    }
-                    if (tk >= nz) { /* out through the top */
-                        out += cnt;
-                        continue;
-                    }
-                    if (ti < 0 || ti >= nx) {
-                        if (!kp->periodic[0]) {
-                            out += cnt;
-                            continue;
-                        }
-                        ti = (ti + nx) % nx;
-                    }
-                    if (tj < 0 || tj >= ny) {
-                        if (!kp->periodic[1]) {
-                            out += cnt;
-                            continue;
-                        }
-                        tj = (tj + ny) % ny;
-                    }
-                    const int64_t t = ti + tj * sy + tk * sz;
-                    if (kind[t] != SQ_SNOW_AIR) {
-                        landed += cnt; /* hit a surface: deposition decides */
-                        continue;
-                    }
-                    add_atomic(&air_next[t], cnt);
-                }
-                if (stay) add_atomic(&air_next[c], stay);
-                land[c] = landed; /* only this iteration writes land[c] */
             }
+            uint32_t stay = 0, landed = 0;
+            for (int q = 0; q < 8; q++) {
+                const uint32_t cnt = g[q];
+                if (cnt == 0) continue;
+                if (q == 0) {
+                    stay += cnt;
+                    continue;
+                }
+                int ti = i + ((q & 1) ? step[0] : 0);
+                int tj = j + ((q & 2) ? step[1] : 0);
+                const int tk = k + ((q & 4) ? step[2] : 0);
+                if (tk < 0) { /* the ground below the lattice */
+                    landed += cnt;
+                    continue;
+                }
+                if (tk >= nz) { /* out through the top */
+                    *out += cnt;
+                    continue;
+                }
+                if (ti < 0 || ti >= nx) {
+                    if (!kp->periodic[0]) {
+                        *out += cnt;
+                        continue;
+                    }
+                    ti = (ti + nx) % nx;
+                }
+                if (tj < 0 || tj >= ny) {
+                    if (!kp->periodic[1]) {
+                        *out += cnt;
+                        continue;
+                    }
+                    tj = (tj + ny) % ny;
+                }
+                const int64_t t = ti + tj * sy + tk * sz;
+                if (kind[t] != SQ_SNOW_AIR) {
+                    landed += cnt; /* hit a surface: deposition decides */
+                    continue;
+                }
+                add_to(&air_next[t], cnt, atomic);
+            }
+            if (stay) add_to(&air_next[c], stay, atomic);
+            land[c] = landed; /* only this iteration writes land[c] */
         }
+    }
+}
+
+void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float *uy,
+                        const float *uz, const uint8_t *kind, const uint32_t *air,
+                        uint32_t *air_next, uint32_t *land, uint64_t *left)
+{
+    const int ny = kp->ny, nz = kp->nz, nt = kp->threads;
+    const int64_t n = (int64_t)kp->nx * ny * nz;
+    uint64_t out = 0;
+    if (nt > 1 && n >= SQ_SNOW_PAR_MIN) {
+        /* flakes move at most one cell: neighbouring planes may write the same cells */
+        SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(+:out))
+        for (int k = 0; k < nz; k++)
+            for (int j = 0; j < ny; j++)
+                transport_row(kp, j, k, ux, uy, uz, kind, air, air_next, land, &out, true);
+    } else {
+        for (int k = 0; k < nz; k++)
+            for (int j = 0; j < ny; j++)
+                transport_row(kp, j, k, ux, uy, uz, kind, air, air_next, land, &out, false);
     }
     *left += out;
 }

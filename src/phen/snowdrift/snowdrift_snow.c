@@ -158,6 +158,7 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
     kp.threads = sq_context_threads(s->ctx);
     const size_t bytes = (size_t)s->n * sizeof(uint32_t);
 
+    double t0 = sq_time_now(), t1;
     /* 1. snowfall at the top (S1 §3.2 initialisation 3) */
     s->fallen += sq__snow_inject(&kp, sq__snow_flakes_per_top_cell(&s->p), s->kind, s->air);
     /* 2. transport by the wind, S1 eqs 8–11 */
@@ -165,14 +166,23 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
     memset(s->changed, 0, (size_t)s->n);
     sq__snow_transport(&kp, u[0].data, u[1].data, u[2].data, s->kind, s->air, s->air_next,
                        s->land, &s->left);
+    t1 = sq_time_now();
+    s->ms_transport += 1e3 * (t1 - t0);
+    t0 = t1;
     /* 3. deposition and solidification at the threshold */
     sq__snow_settle(&kp, s->p.threshold, s->kind, s->land, s->dep, s->air_next, s->changed);
+    t1 = sq_time_now();
+    s->ms_deposit += 1e3 * (t1 - t0);
+    t0 = t1;
     /* 4. erosion where the friction velocity exceeds its threshold, S1 eqs 12–13 */
     s->eroded += sq__snow_erode(&kp, &s->p, ustar ? ustar->data : NULL, s->kind, s->dep,
                                 s->air_next, s->changed);
     uint32_t *t = s->air;
     s->air = s->air_next;
     s->air_next = t;
+    t1 = sq_time_now();
+    s->ms_erode += 1e3 * (t1 - t0);
+    t0 = t1;
     /* 5. solid snow obstructs the wind (bounce-back); eroded cells open again */
     if (lbm) {
         for (int64_t c = 0; c < s->n; c++) {
@@ -183,6 +193,7 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
             if (r != SQ_OK) return r;
         }
     }
+    s->ms_couple += 1e3 * (sq_time_now() - t0);
     s->step++;
     return SQ_OK;
 }

@@ -554,8 +554,10 @@ bool sq_lbm_is_solid(const sq_lbm *l, int i, int j, int k)
     return l->solid[sq__lbm_cell(l, i, j, k)] != 0;
 }
 
-/* Equilibrium from the mean ρ, u of the neighbours whose flag is 0 (fluid before the edit). */
-static void reinit_from_neighbours(sq_lbm *l, int x, int y, int z)
+/* Equilibrium from the mean ρ, u of the neighbours whose flag is 0 (fluid before the edit).
+ * Returns the cell's density and velocity (lattice units, as the views report them). */
+static void reinit_from_neighbours(sq_lbm *l, int x, int y, int z, double *rho_out,
+                                   double u_out[3])
 {
     const int parity = (int)(l->step & 1);
     double rho = 0, u[3] = {0, 0, 0};
@@ -576,7 +578,12 @@ static void reinit_from_neighbours(sq_lbm *l, int x, int y, int z)
         rho = 1.0;
     } else {
         rho /= n;
-        for (int a = 0; a < 3; a++) u[a] = u[a] / n - (parity == 0 ? 0.5 : -0.5) * l->g_step[a];
+        for (int a = 0; a < 3; a++) u[a] /= n;
+    }
+    *rho_out = rho;
+    for (int a = 0; a < 3; a++) {
+        u_out[a] = u[a];
+        if (n > 0) u[a] -= (parity == 0 ? 0.5 : -0.5) * l->g_step[a];
     }
     double feq[SQ_LBM_Q];
     sq__lbm_feq(rho, u, feq);
@@ -604,17 +611,27 @@ sq_result sq_lbm_set_solid(sq_lbm *l, int i, int j, int k, bool solid)
     const bool was = l->solid[c] != 0;
     if (was == solid) return SQ_OK;
     const int64_t r = j + (int64_t)k * l->ny;
+    double rho = 0, u[3] = {0, 0, 0};
     if (solid) {
         l->solid[c] = 1;
         l->row_solids[r]++;
     } else {
-        reinit_from_neighbours(l, i, j, k);
+        reinit_from_neighbours(l, i, j, k, &rho, u);
         l->solid[c] = 0;
         l->row_solids[r]--;
     }
     update_row_class(l, j, k);
     if (on_inflow_face(l, i, j, k)) l->inflow_dirty = true;
-    invalidate(l);
+    /* the density/velocity views stay valid: only this cell changed (0 when solid, the
+     * re-initialised equilibrium when fluid); boundaries and u* are redone */
+    l->bc_valid = false;
+    l->ustar_valid = false;
+    if (l->macro_valid) {
+        const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+        const int64_t o = i + (int64_t)l->nx * (j + (int64_t)l->ny * k);
+        l->macro[o] = (float)(rho * l->units.rho);
+        for (int a = 0; a < 3; a++) l->macro[(a + 1) * n + o] = (float)(u[a] * l->units.u);
+    }
     return SQ_OK;
 }
 
@@ -640,7 +657,10 @@ sq_result sq_lbm_set_solid_mask(sq_lbm *l, const uint8_t *mask)
         for (int z = 0; z < l->nz; z++)
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++)
-                    if (l->solid[sq__lbm_cell(l, x, y, z)] == 2) reinit_from_neighbours(l, x, y, z);
+                    if (l->solid[sq__lbm_cell(l, x, y, z)] == 2) {
+                        double rho, u[3];
+                        reinit_from_neighbours(l, x, y, z, &rho, u);
+                    }
         for (int z = 0; z < l->nz; z++)
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++) {
@@ -697,6 +717,41 @@ sq_result sq_lbm_get_views(sq_lbm *l, sq_lbm_views *out)
     return SQ_OK;
 }
 
+/* u* of interior cell (x, y, z) from the velocity views u (see sq_lbm_get_friction_velocity):
+ * the first wall among the neighbours below, at the sides, above; 0 in solid cells and away
+ * from walls. k = κ / ln((Δx/2 + z0)/z0). */
+static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], float k, int x,
+                                    int y, int z)
+{
+    /* neighbour order: below first, then the sides, then above */
+    static const int nb[6][3] = {{0, 0, -1}, {-1, 0, 0}, {1, 0, 0},
+                                 {0, -1, 0}, {0, 1, 0},  {0, 0, 1}};
+    static const int face_of[6] = {SQ_LBM_FACE_ZMIN, SQ_LBM_FACE_XMIN, SQ_LBM_FACE_XMAX,
+                                   SQ_LBM_FACE_YMIN, SQ_LBM_FACE_YMAX, SQ_LBM_FACE_ZMAX};
+    if (l->solid[sq__lbm_cell(l, x, y, z)]) return 0.0f;
+    const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z);
+    for (int m = 0; m < 6; m++) {
+        const int qx = x + nb[m][0], qy = y + nb[m][1], qz = z + nb[m][2];
+        const bool outside =
+            qx < 0 || qy < 0 || qz < 0 || qx >= l->nx || qy >= l->ny || qz >= l->nz;
+        const bool wall = outside ? l->desc.bc[face_of[m]] == SQ_LBM_BC_WALL
+                                  : l->solid[sq__lbm_cell(l, qx, qy, qz)] != 0;
+        if (!wall) continue;
+        /* tangential velocity: drop the component along the normal */
+        float v[3] = {u[0][o], u[1][o], u[2][o]};
+        for (int a = 0; a < 3; a++)
+            if (nb[m][a] != 0) v[a] = 0.0f;
+        return k * sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    }
+    return 0.0f;
+}
+
+static float friction_factor(const sq_lbm *l)
+{
+    const double z0 = l->desc.wind.roughness_m;
+    return (float)(LBM_KAPPA / log((0.5 * l->units.dx + z0) / z0));
+}
+
 sq_result sq_lbm_get_friction_velocity(sq_lbm *l, sq_field_view *out)
 {
     if (!l || !out)
@@ -704,43 +759,42 @@ sq_result sq_lbm_get_friction_velocity(sq_lbm *l, sq_field_view *out)
     if (!l->ustar_valid) {
         if (!l->macro_valid) compute_macro(l);
         const int64_t n = (int64_t)l->nx * l->ny * l->nz;
-        const float *u[3] = {l->macro + n, l->macro + 2 * n, l->macro + 3 * n};
-        const double z0 = l->desc.wind.roughness_m;
-        const float k = (float)(LBM_KAPPA / log((0.5 * l->units.dx + z0) / z0));
-        /* neighbour order: below first, then the sides, then above */
-        static const int nb[6][3] = {{0, 0, -1}, {-1, 0, 0}, {1, 0, 0},
-                                     {0, -1, 0}, {0, 1, 0},  {0, 0, 1}};
-        static const int face_of[6] = {SQ_LBM_FACE_ZMIN, SQ_LBM_FACE_XMIN, SQ_LBM_FACE_XMAX,
-                                       SQ_LBM_FACE_YMIN, SQ_LBM_FACE_YMAX, SQ_LBM_FACE_ZMAX};
+        const float *const u[3] = {l->macro + n, l->macro + 2 * n, l->macro + 3 * n};
+        const float k = friction_factor(l);
         const int nt = sq_context_threads(l->ctx);
         SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
         for (int z = 0; z < l->nz; z++)
             for (int y = 0; y < l->ny; y++)
-                for (int x = 0; x < l->nx; x++) {
-                    const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z);
-                    float us = 0.0f;
-                    if (!l->solid[sq__lbm_cell(l, x, y, z)]) {
-                        for (int m = 0; m < 6; m++) {
-                            const int qx = x + nb[m][0], qy = y + nb[m][1], qz = z + nb[m][2];
-                            const bool outside = qx < 0 || qy < 0 || qz < 0 || qx >= l->nx ||
-                                                 qy >= l->ny || qz >= l->nz;
-                            const bool wall =
-                                outside ? l->desc.bc[face_of[m]] == SQ_LBM_BC_WALL
-                                        : l->solid[sq__lbm_cell(l, qx, qy, qz)] != 0;
-                            if (!wall) continue;
-                            /* tangential velocity: drop the component along the normal */
-                            float v[3] = {u[0][o], u[1][o], u[2][o]};
-                            for (int a = 0; a < 3; a++)
-                                if (nb[m][a] != 0) v[a] = 0.0f;
-                            us = k * sqrtf(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-                            break;
-                        }
-                    }
-                    l->ustar[o] = us;
-                }
+                for (int x = 0; x < l->nx; x++)
+                    l->ustar[x + (int64_t)l->nx * (y + (int64_t)l->ny * z)] =
+                        friction_velocity_cell(l, u, k, x, y, z);
         l->ustar_valid = true;
     }
     *out = interior_view(l, l->ustar);
+    return SQ_OK;
+}
+
+sq_result sq_lbm_get_friction_velocity_at(sq_lbm *l, int64_t count, const int64_t *cells,
+                                          float *out)
+{
+    if (!l || count < 0 || (count > 0 && (!cells || !out)))
+        return sq__set_error(SQ_ERR_INVALID_ARG,
+                             "sq_lbm_get_friction_velocity_at: NULL argument or count < 0");
+    if (!l->macro_valid) compute_macro(l);
+    const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+    const float *const u[3] = {l->macro + n, l->macro + 2 * n, l->macro + 3 * n};
+    const float k = friction_factor(l);
+    const int64_t sxy = (int64_t)l->nx * l->ny;
+    for (int64_t q = 0; q < count; q++) {
+        const int64_t c = cells[q];
+        if (c < 0 || c >= n)
+            return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
+                            "friction_velocity_at: cell index %lld is outside the lattice "
+                            "(0..%lld)",
+                            (long long)c, (long long)(n - 1));
+        const int z = (int)(c / sxy), y = (int)((c % sxy) / l->nx), x = (int)(c % l->nx);
+        out[q] = friction_velocity_cell(l, u, k, x, y, z);
+    }
     return SQ_OK;
 }
 

@@ -92,6 +92,24 @@ double sq__lbm_max_wind_mps(const sq_lbm_desc *d)
     return u;
 }
 
+double sq_lbm_max_wind_mps(const sq_lbm_desc *desc)
+{
+    if (!desc) return 0.0;
+    const sq_lbm_desc d = sq_lbm_desc_resolve(desc);
+    return sq__lbm_max_wind_mps(&d);
+}
+
+double sq_lbm_time_step_s(const sq_lbm_desc *desc)
+{
+    if (!desc) return 0.0;
+    const sq_lbm_desc d = sq_lbm_desc_resolve(desc);
+    if (d.dt_s > 0) return d.dt_s;
+    const double umax = sq__lbm_max_wind_mps(&d);
+    return LBM_U_AUTO * d.cell_size_m / (umax > 0 ? umax : 10.0);
+}
+
+double sq_lbm_mach_limit(void) { return LBM_MACH_REFUSE; }
+
 static bool finite_nonneg(double v) { return isfinite(v) && v >= 0; }
 
 sq_result sq__lbm_validate(sq_context *ctx, const sq_lbm_desc *d)
