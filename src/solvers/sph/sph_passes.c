@@ -367,19 +367,19 @@ typedef struct scan_acc {
 /* Candidates j in [b, e) seen from the query point q (already shifted for periodicity), in
  * chunks: a vectorisable loop computes r² and the density kernel W (which is zero beyond H, so
  * it needs no test), then a branch-free loop appends the accepted ones (r < H, j ≠ self). */
-#define SQ__SPH_SCAN_CHUNK 64
-SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, float qx, float qy,
-                           float qz, uint32_t self, uint32_t tag, uint32_t *restrict nb,
-                           int capm1, scan_acc *acc, int cubic)
-{
-    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
-    const float H2 = s->k.H2;
-    const sq__sph_kern kk = s->k;
 #if SQ__SPH_AVX512
-    /* 16 candidates per vector: r², W (zero beyond H, summed over the live lanes), and the
-     * accepted ones (r < H, j ≠ self) compressed to the front of a vector stored at the end of
-     * the list (the entries beyond the count are scratch). */
-    (void)H2;
+/* n candidates at X[t], Y[t], Z[t] with particle index J[t] (J = NULL: base + t) seen from the
+ * query point q, 16 per vector: r², and the accepted ones (r < H, j ≠ self) compressed to the
+ * front of a vector stored at the end of the list (the entries beyond the count are scratch),
+ * with their r² alongside (acc->r2, W summed at the end) or W summed here (acc->r2 = NULL;
+ * W is zero beyond H, so every live candidate is summed). */
+SQ__INLINE void scan_vec(const sq__sph_kern *restrict kp, const float *restrict X,
+                         const float *restrict Y, const float *restrict Z,
+                         const uint32_t *restrict J, uint32_t base, uint32_t n, float qx, float qy,
+                         float qz, uint32_t self, uint32_t tag, uint32_t *restrict nb, int capm1,
+                         scan_acc *acc, int cubic)
+{
+    const sq__sph_kern kk = *kp;
     const int cap = capm1 + 1;
     const __m512 vqx = VSET1(qx), vqy = VSET1(qy), vqz = VSET1(qz), vH2 = VSET1(kk.H2);
     const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
@@ -387,13 +387,14 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
     __m512 wv = acc->wv;
     float *restrict r2s = acc->r2;
     int cnt = acc->cnt;
-    for (uint32_t b0 = b; b0 < e; b0 += 16) {
-        const __mmask16 live = v_live(e - b0);
-        const __m512 dx = VSUB(vqx, _mm512_maskz_loadu_ps(live, X + b0));
-        const __m512 dy = VSUB(vqy, _mm512_maskz_loadu_ps(live, Y + b0));
-        const __m512 dz = VSUB(vqz, _mm512_maskz_loadu_ps(live, Z + b0));
+    for (uint32_t t0 = 0; t0 < n; t0 += 16) {
+        const __mmask16 live = v_live(n - t0);
+        const __m512 dx = VSUB(vqx, _mm512_maskz_loadu_ps(live, X + t0));
+        const __m512 dy = VSUB(vqy, _mm512_maskz_loadu_ps(live, Y + t0));
+        const __m512 dz = VSUB(vqz, _mm512_maskz_loadu_ps(live, Z + t0));
         const __m512 r2 = VADD(VADD(VMUL(dx, dx), VMUL(dy, dy)), VMUL(dz, dz));
-        const __m512i jv = _mm512_add_epi32(_mm512_set1_epi32((int)b0), iota);
+        const __m512i jv = J ? _mm512_maskz_loadu_epi32(live, J + t0)
+                             : _mm512_add_epi32(_mm512_set1_epi32((int)(base + t0)), iota);
         const __mmask16 ok = _mm512_mask_cmp_ps_mask(live, r2, vH2, _CMP_LT_OQ) &
                              _mm512_cmpneq_epi32_mask(jv, vself);
         const int nok = __builtin_popcount((unsigned)ok);
@@ -403,15 +404,17 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
             if (r2s) _mm512_storeu_ps(r2s + cnt, _mm512_maskz_compress_ps(ok, r2));
         } else { /* near the end of the list: one at a time, clamped (the caller regrows) */
             float r2l[16];
+            uint32_t jl[16];
             _mm512_storeu_ps(r2l, r2);
+            _mm512_storeu_si512((void *)jl, jv);
             for (int t = 0; t < 16; t++) {
                 if (!((ok >> t) & 1)) continue;
                 const int k = cnt + __builtin_popcount((unsigned)ok & ((1u << t) - 1u));
-                nb[k < capm1 ? k : capm1] = (b0 + (uint32_t)t) | tag;
+                nb[k < capm1 ? k : capm1] = jl[t] | tag;
                 if (r2s && k <= capm1) r2s[k] = r2l[t];
             }
         }
-        if (!r2s) { /* W over the live candidates (zero beyond H) */
+        if (!r2s) {
             const __m512 w = cubic ? v_w_cubic(&kk, v_sqrt_pos(r2)) : v_w_poly6(&kk, r2);
             wv = _mm512_mask_add_ps(wv, live, wv, w);
         }
@@ -419,7 +422,24 @@ SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, flo
     }
     acc->wv = wv;
     acc->cnt = cnt;
+}
+#endif
+
+/* Candidates j in [b, e) seen from the query point q (already shifted for periodicity), in
+ * chunks: a vectorisable loop computes r² and the density kernel W (which is zero beyond H, so
+ * it needs no test), then a branch-free loop appends the accepted ones (r < H, j ≠ self). */
+#define SQ__SPH_SCAN_CHUNK 64
+SQ__INLINE void scan_range(const sq_sph *restrict s, uint32_t b, uint32_t e, float qx, float qy,
+                           float qz, uint32_t self, uint32_t tag, uint32_t *restrict nb,
+                           int capm1, scan_acc *acc, int cubic)
+{
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+#if SQ__SPH_AVX512
+    scan_vec(&s->k, X + b, Y + b, Z + b, NULL, b, e - b, qx, qy, qz, self, tag, nb, capm1, acc,
+             cubic);
 #else
+    const float H2 = s->k.H2;
+    const sq__sph_kern kk = s->k;
     float r2b[SQ__SPH_SCAN_CHUNK];
     int cnt = acc->cnt;
     for (uint32_t b0 = b; b0 < e; b0 += SQ__SPH_SCAN_CHUNK) {
@@ -723,23 +743,135 @@ SQ__INLINE int density_finish(sq_sph *restrict s, size_t ip, scan_acc *acc, cons
 
 #if SQ__SPH_AVX512
 #define SQ__SPH_R2BUF 256
-/* Density pass for particles [i0, i1), one particle at a time: its own 27-cell scan (rows and
- * row ends beyond H skipped), 16 candidates per vector. Returns the largest neighbour count. */
+#define SQ__SPH_CANDS 1024
+/* The candidates of one cell's particles: the 27 cells around it, row by row (x-contiguous
+ * cells as one range), positions shifted by the periodic wrap, so that every particle of the
+ * cell scans one contiguous packed array instead of nine ranges. */
+typedef struct cand_buf {
+    float x[SQ__SPH_CANDS], y[SQ__SPH_CANDS], z[SQ__SPH_CANDS];
+    uint32_t j[SQ__SPH_CANDS];
+} cand_buf;
+
+/* Fills cb for cell c; returns the count, or -1 if more than SQ__SPH_CANDS. */
+static int collect_cands(const sq_sph *restrict s, uint32_t c, cand_buf *restrict cb)
+{
+    const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
+    const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
+    const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    const uint32_t *restrict st = s->cell_start;
+    int n = 0;
+    for (int dz = -1; dz <= 1; dz++) {
+        int kz = cz + dz;
+        float sz = 0.0f; /* subtracted from the candidates' coordinates for a wrapped row */
+        if (kz < 0) {
+            if (!s->periodic[2]) continue;
+            kz += nz;
+            sz = s->len[2];
+        } else if (kz >= nz) {
+            if (!s->periodic[2]) continue;
+            kz -= nz;
+            sz = -s->len[2];
+        }
+        for (int dy = -1; dy <= 1; dy++) {
+            int ky = cy + dy;
+            float sy = 0.0f;
+            if (ky < 0) {
+                if (!s->periodic[1]) continue;
+                ky += ny;
+                sy = s->len[1];
+            } else if (ky >= ny) {
+                if (!s->periodic[1]) continue;
+                ky -= ny;
+                sy = -s->len[1];
+            }
+            const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
+            uint32_t rb[3], re[3];
+            float rs[3];
+            int nr = 0;
+            if (s->periodic[0] && (cx == 0 || cx == nx - 1)) {
+                for (int dx = -1; dx <= 1; dx++) {
+                    int kx = cx + dx;
+                    float sx = 0.0f;
+                    if (kx < 0) {
+                        kx += nx;
+                        sx = s->len[0];
+                    } else if (kx >= nx) {
+                        kx -= nx;
+                        sx = -s->len[0];
+                    }
+                    rb[nr] = st[row + (uint32_t)kx];
+                    re[nr] = st[row + (uint32_t)kx + 1];
+                    rs[nr++] = sx;
+                }
+            } else {
+                const int xa = cx > 0 ? cx - 1 : 0, xb = cx < nx - 1 ? cx + 1 : nx - 1;
+                rb[0] = st[row + (uint32_t)xa];
+                re[0] = st[row + (uint32_t)xb + 1];
+                rs[0] = 0.0f;
+                nr = 1;
+            }
+            for (int q = 0; q < nr; q++) {
+                const uint32_t m = re[q] - rb[q];
+                if ((uint32_t)n + m > SQ__SPH_CANDS) return -1;
+                const __m512 vsx = VSET1(rs[q]), vsy = VSET1(sy), vsz = VSET1(sz);
+                const __m512i iota =
+                    _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+                const uint32_t b0 = rb[q];
+                for (uint32_t t = 0; t < m; t += 16) {
+                    const __mmask16 live = v_live(m - t);
+                    const uint32_t o = (uint32_t)n + t;
+                    _mm512_mask_storeu_ps(cb->x + o, live,
+                                          VSUB(_mm512_maskz_loadu_ps(live, X + b0 + t), vsx));
+                    _mm512_mask_storeu_ps(cb->y + o, live,
+                                          VSUB(_mm512_maskz_loadu_ps(live, Y + b0 + t), vsy));
+                    _mm512_mask_storeu_ps(cb->z + o, live,
+                                          VSUB(_mm512_maskz_loadu_ps(live, Z + b0 + t), vsz));
+                    _mm512_mask_storeu_epi32(
+                        cb->j + o, live, _mm512_add_epi32(_mm512_set1_epi32((int)(b0 + t)), iota));
+                }
+                n += (int)m;
+            }
+        }
+    }
+    return n;
+}
+
+/* Density pass for the cells that start in particles [i0, i1) (each cell is done by the block
+ * holding its first particle): the cell's candidates are packed once, then each particle scans
+ * them 16 per vector (a cell with too many candidates: each particle scans its own 27 cells).
+ * Returns the largest neighbour count. */
 SQ__INLINE int density_cells(sq_sph *restrict s, size_t i0, size_t i1, const int cubic)
 {
     const int cap = s->nb_cap, capm1 = cap - 1;
+    const uint32_t *restrict cid = s->cellid; /* sorted */
     int maxcnt = 0;
     float r2buf[SQ__SPH_R2BUF + 16];
-    for (size_t i = i0; i < i1; i++) {
-        scan_acc acc;
-        acc.cnt = 0;
-        acc.wsum = 0.0f;
-        acc.wv = _mm512_setzero_ps();
-        acc.r2 = cap <= SQ__SPH_R2BUF ? r2buf : NULL; /* long lists: W inside the scan */
-        scan_cells(s, s->x[i], s->y[i], s->z[i], (uint32_t)i, 0u, s->nb + i * (size_t)cap, capm1,
-                   &acc, cubic, 0);
-        const int n = density_finish(s, i, &acc, cubic);
-        if (n > maxcnt) maxcnt = n;
+    cand_buf cb __attribute__((aligned(64)));
+    size_t i = i0;
+    if (i > 0)
+        while (i < i1 && cid[i] == cid[i - 1]) i++;
+    while (i < i1) {
+        const uint32_t c = cid[i];
+        const size_t ce = s->cell_start[c + 1];
+        const int nc = collect_cands(s, c, &cb);
+        for (size_t ip = i; ip < ce; ip++) {
+            scan_acc acc;
+            acc.cnt = 0;
+            acc.wsum = 0.0f;
+            acc.wv = _mm512_setzero_ps();
+            acc.r2 = cap <= SQ__SPH_R2BUF ? r2buf : NULL; /* long lists: W inside the scan */
+            uint32_t *restrict nb = s->nb + ip * (size_t)cap;
+            if (nc >= 0)
+                scan_vec(&s->k, cb.x, cb.y, cb.z, cb.j, 0u, (uint32_t)nc, s->x[ip], s->y[ip],
+                         s->z[ip], (uint32_t)ip, 0u, nb, capm1, &acc, cubic);
+            else
+                scan_cells(s, s->x[ip], s->y[ip], s->z[ip], (uint32_t)ip, 0u, nb, capm1, &acc,
+                           cubic, 0);
+            const int n = density_finish(s, ip, &acc, cubic);
+            if (n > maxcnt) maxcnt = n;
+        }
+        i = ce;
     }
     return maxcnt;
 }
@@ -932,8 +1064,10 @@ SQ__INLINE float wrap1(float d, float h, float L)
     return d < -h ? d + L : d;
 }
 
-SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtonian,
-                                 const int corrected, const int cubic)
+/* The sums of particle i's strain pass: B = Σ V_j (x_j − x_i) ⊗ ∇W (xx yy zz xy xz yz) and
+ * Gr = Σ V_j (v_j − v_i) ⊗ ∇W (row-major), plain entries then mirror images. */
+SQ__INLINE void strain_sums(sq_sph *restrict s, size_t i, const int cubic, float B[6],
+                            float Gr[9])
 {
     const int cap = s->nb_cap;
     const uint32_t *restrict nb = s->nb + i * (size_t)cap;
@@ -986,7 +1120,6 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
         g7 = VADD(g7, VMUL(uz, gy));
         g8 = VADD(g8, VMUL(uz, gz));
     }
-    float B[6], Gr[9];
     {
         const __m512 z0 = _mm512_setzero_ps();
         const __m512 acc[16] = {b0, b1, b2, b3, b4, b5, g0, g1, g2, g3, g4, g5, g6, g7, g8, z0};
@@ -1039,8 +1172,21 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
             g8 += uz * gz;
         }
     }
-    float B[6] = {b0, b1, b2, b3, b4, b5};
-    float Gr[9] = {g0, g1, g2, g3, g4, g5, g6, g7, g8};
+    B[0] = b0;
+    B[1] = b1;
+    B[2] = b2;
+    B[3] = b3;
+    B[4] = b4;
+    B[5] = b5;
+    Gr[0] = g0;
+    Gr[1] = g1;
+    Gr[2] = g2;
+    Gr[3] = g3;
+    Gr[4] = g4;
+    Gr[5] = g5;
+    Gr[6] = g6;
+    Gr[7] = g7;
+    Gr[8] = g8;
 #endif
     for (int k = nplain; k < ntot; k++) {
         image im;
@@ -1060,6 +1206,12 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
         Gr[3] += uy * gx; Gr[4] += uy * gy; Gr[5] += uy * gz;
         Gr[6] += uz * gx; Gr[7] += uz * gy; Gr[8] += uz * gz;
     }
+}
+
+/* Particle i's correction L = B⁻¹ (or I), G = Gr L, |γ̇|, μ and τ from its sums; returns μ. */
+SQ__INLINE float strain_tail(sq_sph *restrict s, size_t i, const float B[6], const float Gr[9],
+                             const int newtonian, const int corrected)
+{
     float L[6] = {1, 1, 1, 0, 0, 0};
     if (corrected) sym_inverse(B, L);
     float *restrict Ls = s->L + 6 * i;
@@ -1085,6 +1237,121 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
     return mu;
 }
 
+SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtonian,
+                                 const int corrected, const int cubic)
+{
+    float B[6], Gr[9];
+    strain_sums(s, i, cubic, B, Gr);
+    return strain_tail(s, i, B, Gr, newtonian, corrected);
+}
+
+#if SQ__SPH_AVX512
+/* strain_tail for the nt ≤ 16 particles i0 + t at once (lane t), from their sums B[c][t] and
+ * Gr[c][t]: the same operations in the same order, 16 lanes wide. Returns max μ. */
+SQ__INLINE float strain_tail16(sq_sph *restrict s, size_t i0, int nt, float B[6][16],
+                               float Gr[9][16], const int newtonian, const int corrected)
+{
+    for (int t = nt; t < 16; t++) { /* idle lanes: B = I, Gr = 0 */
+        for (int c = 0; c < 6; c++) B[c][t] = c < 3 ? 1.0f : 0.0f;
+        for (int c = 0; c < 9; c++) Gr[c][t] = 0.0f;
+    }
+    const __m512 one = VSET1(1.0f), z0 = _mm512_setzero_ps();
+    __m512 L[6] = {one, one, one, z0, z0, z0};
+    if (corrected) { /* sym_inverse */
+        const __m512 a = _mm512_loadu_ps(B[0]), b = _mm512_loadu_ps(B[1]), c = _mm512_loadu_ps(B[2]);
+        const __m512 d = _mm512_loadu_ps(B[3]), e = _mm512_loadu_ps(B[4]), f = _mm512_loadu_ps(B[5]);
+        const __m512 cxx = VSUB(VMUL(b, c), VMUL(f, f)), cyy = VSUB(VMUL(a, c), VMUL(e, e));
+        const __m512 czz = VSUB(VMUL(a, b), VMUL(d, d)), cxy = VSUB(VMUL(e, f), VMUL(d, c));
+        const __m512 cxz = VSUB(VMUL(d, f), VMUL(b, e)), cyz = VSUB(VMUL(d, e), VMUL(a, f));
+        const __m512 det = VADD(VADD(VMUL(a, cxx), VMUL(d, cxy)), VMUL(e, cxz));
+        const __mmask16 m1 = _mm512_cmp_ps_mask(det, VSET1(SQ__SPH_DET_MIN), _CMP_GE_OQ);
+        const __m512 id = _mm512_div_ps(one, det);
+        const __mmask16 m2 =
+            m1 & _mm512_cmp_ps_mask(VMUL(VADD(VADD(cxx, cyy), czz), id), VSET1(SQ__SPH_TRACE_MAX),
+                                    _CMP_LE_OQ);
+        L[0] = _mm512_mask_blend_ps(m2, one, VMUL(cxx, id));
+        L[1] = _mm512_mask_blend_ps(m2, one, VMUL(cyy, id));
+        L[2] = _mm512_mask_blend_ps(m2, one, VMUL(czz, id));
+        L[3] = _mm512_mask_blend_ps(m2, z0, VMUL(cxy, id));
+        L[4] = _mm512_mask_blend_ps(m2, z0, VMUL(cxz, id));
+        L[5] = _mm512_mask_blend_ps(m2, z0, VMUL(cyz, id));
+    }
+    /* G = Gr L (L symmetric) */
+    const __m512 Lm[3][3] = {{L[0], L[3], L[4]}, {L[3], L[1], L[5]}, {L[4], L[5], L[2]}};
+    __m512 G[9];
+    for (int a = 0; a < 3; a++) {
+        const __m512 r0 = _mm512_loadu_ps(Gr[3 * a]), r1 = _mm512_loadu_ps(Gr[3 * a + 1]);
+        const __m512 r2 = _mm512_loadu_ps(Gr[3 * a + 2]);
+        for (int b = 0; b < 3; b++)
+            G[3 * a + b] = VADD(VADD(VMUL(r0, Lm[0][b]), VMUL(r1, Lm[1][b])), VMUL(r2, Lm[2][b]));
+    }
+    const __m512 half = VSET1(0.5f);
+    const __m512 D[6] = {G[0], G[4], G[8], VMUL(half, VADD(G[1], G[3])),
+                         VMUL(half, VADD(G[2], G[6])), VMUL(half, VADD(G[5], G[7]))};
+    const __m512 dd =
+        VADD(VADD(VADD(VMUL(D[0], D[0]), VMUL(D[1], D[1])), VMUL(D[2], D[2])),
+             VMUL(VSET1(2.0f), VADD(VADD(VMUL(D[3], D[3]), VMUL(D[4], D[4])), VMUL(D[5], D[5]))));
+    const __m512 gam = _mm512_sqrt_ps(VMUL(VSET1(2.0f), dd));
+    float gl[16], mul[16], Ll[6][16], Gl[9][16], Dl[6][16];
+    _mm512_storeu_ps(gl, gam);
+    const sq__sph_rheo *rh = &s->rheo;
+    if (newtonian) {
+        _mm512_storeu_ps(mul, VSET1(rh->mu));
+    } else if (rh->kind == SQ_SPH_RHEOLOGY_CROSS && rh->n == 2.0f) {
+        /* sq__sph_rheo_mu for Cross with n = 2 */
+        const __m512 kg = VMUL(VSET1(rh->k), gam);
+        __m512 mu = VADD(VSET1(rh->mu_inf), _mm512_div_ps(VSET1(rh->mu0 - rh->mu_inf),
+                                                          VADD(one, VMUL(kg, kg))));
+        if (rh->mu_cap > 0.0f)
+            mu = _mm512_mask_blend_ps(_mm512_cmp_ps_mask(mu, VSET1(rh->mu_cap), _CMP_GT_OQ), mu,
+                                      VSET1(rh->mu_cap));
+        _mm512_storeu_ps(mul, mu);
+    } else {
+        for (int t = 0; t < nt; t++) mul[t] = sq__sph_rheo_mu(rh, gl[t]);
+    }
+    for (int c = 0; c < 6; c++) _mm512_storeu_ps(Ll[c], L[c]);
+    for (int c = 0; c < 9; c++) _mm512_storeu_ps(Gl[c], G[c]);
+    const int tensor = s->visc == SQ_SPH_VISCOUS_TENSOR;
+    if (tensor)
+        for (int c = 0; c < 6; c++) _mm512_storeu_ps(Dl[c], D[c]);
+    float m = 0.0f;
+    for (int t = 0; t < nt; t++) {
+        const size_t i = i0 + (size_t)t;
+        float *restrict Ls = s->L + 6 * i;
+        for (int c = 0; c < 6; c++) Ls[c] = Ll[c][t];
+        float *restrict Gs = s->G + 9 * i;
+        for (int c = 0; c < 9; c++) Gs[c] = Gl[c][t];
+        s->gam[i] = gl[t];
+        const float mu = mul[t];
+        if (tensor) {
+            float *restrict tau = s->tau + 6 * i;
+            for (int c = 0; c < 6; c++) tau[c] = 2.0f * mu * Dl[c][t];
+        }
+        s->mu[i] = mu;
+        m = mu > m ? mu : m;
+    }
+    return m;
+}
+
+#define SQ__SPH_STRAIN_BLOCK(NAME, NEWT, CORR, CUBIC)                                         \
+    SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
+    {                                                                                       \
+        float m = 0.0f;                                                                     \
+        for (size_t b = i0; b < i1; b += 16) {                                              \
+            const int nt = (int)(i1 - b < 16 ? i1 - b : 16);                                \
+            float B[6][16], Gr[9][16];                                                      \
+            for (int t = 0; t < nt; t++) {                                                  \
+                float Bt[6], Gt[9];                                                         \
+                strain_sums(s, b + (size_t)t, CUBIC, Bt, Gt);                               \
+                for (int c = 0; c < 6; c++) B[c][t] = Bt[c];                                \
+                for (int c = 0; c < 9; c++) Gr[c][t] = Gt[c];                               \
+            }                                                                               \
+            const float mu = strain_tail16(s, b, nt, B, Gr, NEWT, CORR);                    \
+            m = mu > m ? mu : m;                                                            \
+        }                                                                                   \
+        return m;                                                                           \
+    }
+#else
 #define SQ__SPH_STRAIN_BLOCK(NAME, NEWT, CORR, CUBIC)                                         \
     SQ__SPH_CLONES static float NAME(sq_sph *restrict s, size_t i0, size_t i1)               \
     {                                                                                       \
@@ -1095,6 +1362,7 @@ SQ__INLINE float strain_particle(sq_sph *restrict s, size_t i, const int newtoni
         }                                                                                   \
         return m;                                                                           \
     }
+#endif
 SQ__SPH_STRAIN_BLOCK(strain_block_000, 0, 0, 0)
 SQ__SPH_STRAIN_BLOCK(strain_block_001, 0, 0, 1)
 SQ__SPH_STRAIN_BLOCK(strain_block_010, 0, 1, 0)
