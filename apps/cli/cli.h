@@ -87,6 +87,7 @@ typedef struct sq_cli_case {
     const char *usage; /* options, for --help */
     int (*bench)(const sq_bench_args *a);
     int (*validate)(int argc, char **argv);
+    const char *details; /* optional: one line per option, shown by `CASE --help` */
 } sq_cli_case;
 
 extern const sq_cli_case sq_cli_bench_cases[];    /* NULL-name terminated */

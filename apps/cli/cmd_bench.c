@@ -7,51 +7,15 @@
 #include "cli.h"
 #include "commands.h"
 
-/* Full option lists and descriptions of bench cases whose registry line (registry.c) gives only
- * the common options; `squall bench --help` shows the option list, `squall bench CASE --help`
- * both. */
-typedef struct bench_help {
-    const char *name, *usage, *details;
-} bench_help;
-
-static const bench_help bench_helps[] = {
-    {"render-volume",
-     "--width 1280 --height 720 --size 128 --slices 128 --light 256 --particles 100000 "
-     "--only volume|particles|base",
-     "  --width W, --height H  frame size in pixels (default 1280 x 720; 16..16384)\n"
-     "  --size N               dust volume of N^3 cells (default 128; 4..1024), fBm noise\n"
-     "  --slices K             half-angle slices through the volume (default 128; 1..4096)\n"
-     "  --light L              light-buffer texels per side (default 256; 8..4096); the light\n"
-     "                         array holds one L^2 RGBA16F layer per slice (128 slices at 256:\n"
-     "                         68 MB) and is swept in chunks above 256 MB (or a quarter of\n"
-     "                         the context's memory limit, 80 % of RAM by default)\n"
-     "  --particles P          soft particles in the particle configuration (default 100000)\n"
-     "  --only WHAT            measure one configuration: volume (the dust volume alone),\n"
-     "                         particles (the soft particles alone) or base (sky and terrain\n"
-     "                         only: the base renderer's share); default: all three, one JSON\n"
-     "                         line each\n"
-     "Each frame is draw + 8-bit read-back (which waits for the GL work). The JSON carries the\n"
-     "GL renderer string: figures from llvmpipe (CPU) and from a GPU are not comparable.\n"},
-    {NULL, NULL, NULL},
-};
-
-static const bench_help *find_help(const char *name)
+static const char *case_usage(const sq_cli_case *c)
 {
-    for (const bench_help *h = bench_helps; h->name; h++)
-        if (strcmp(h->name, name) == 0) return h;
-    return NULL;
+    return c->usage ? c->usage : "";
 }
 
-static const char *case_usage(const sq_cli_case *c, bool bench)
-{
-    const bench_help *h = bench ? find_help(c->name) : NULL;
-    return h ? h->usage : (c->usage ? c->usage : "");
-}
-
-static void list_cases(FILE *f, const sq_cli_case *cases, bool bench)
+static void list_cases(FILE *f, const sq_cli_case *cases)
 {
     for (const sq_cli_case *c = cases; c->name; c++) {
-        const char *u = case_usage(c, bench);
+        const char *u = case_usage(c);
         fprintf(f, "  %-16s %s%s%s\n", c->name, c->summary, *u ? "  options: " : "", u);
     }
 }
@@ -72,7 +36,7 @@ int sq_cmd_bench(int argc, char **argv)
                    "reps after warm-up),\nms_min, ms_max, steps_per_s, stream_gbps (STREAM triad "
                    "measured in the same run) and case-specific keys.\nPerformance is measured here, "
                    "never in tests. Run on a quiet machine.\n\ncases:\n");
-        list_cases(f, sq_cli_bench_cases, true);
+        list_cases(f, sq_cli_bench_cases);
         return argc < 2 ? SQ_EXIT_USAGE : SQ_EXIT_OK;
     }
     const sq_cli_case *c = find_case(sq_cli_bench_cases, argv[1]);
@@ -81,10 +45,9 @@ int sq_cmd_bench(int argc, char **argv)
         return SQ_EXIT_USAGE;
     }
     if (sq_cli_flag(argc, argv, "--help")) {
-        const bench_help *h = find_help(c->name);
         printf("squall bench %s: %s\noptions: %s --reps N --warmup N --threads N\n", c->name,
-               c->summary, case_usage(c, true));
-        if (h && h->details) printf("%s", h->details);
+               c->summary, case_usage(c));
+        if (c->details) printf("%s", c->details);
         return SQ_EXIT_OK;
     }
     sq_bench_args a;
@@ -108,7 +71,7 @@ int sq_cmd_validate(int argc, char **argv)
         FILE *f = argc < 2 ? stderr : stdout;
         fprintf(f, "usage: squall validate CASE [options]\n\nRuns a validation case and prints CSV "
                    "(header line, then rows) for comparison with the literature.\n\ncases:\n");
-        list_cases(f, sq_cli_validate_cases, false);
+        list_cases(f, sq_cli_validate_cases);
         return argc < 2 ? SQ_EXIT_USAGE : SQ_EXIT_OK;
     }
     const sq_cli_case *c = find_case(sq_cli_validate_cases, argv[1]);
@@ -117,7 +80,8 @@ int sq_cmd_validate(int argc, char **argv)
         return SQ_EXIT_USAGE;
     }
     if (sq_cli_flag(argc, argv, "--help")) {
-        printf("squall validate %s: %s\noptions: %s\n", c->name, c->summary, c->usage ? c->usage : "");
+        printf("squall validate %s: %s\noptions: %s\n", c->name, c->summary, case_usage(c));
+        if (c->details) printf("%s", c->details);
         return SQ_EXIT_OK;
     }
     return c->validate(argc - 2, argv + 2);

@@ -3,32 +3,49 @@
 #include "cli.h"
 #include "cases.h"
 
+static const char render_volume_details[] =
+    "  --width W, --height H  frame size in pixels (default 1280 x 720; 16..16384)\n"
+    "  --size N               dust volume of N^3 cells (default 128; 4..1024), fBm noise\n"
+    "  --slices K             half-angle slices through the volume (default 128; 1..4096)\n"
+    "  --light L              light-buffer texels per side (default 256; 8..4096); the light\n"
+    "                         array holds one L^2 RGBA16F layer per slice (128 slices at 256:\n"
+    "                         68 MB) and is swept in chunks above 256 MB (or a quarter of\n"
+    "                         the context's memory limit, 80 % of RAM by default)\n"
+    "  --particles P          soft particles in the particle configuration (default 100000)\n"
+    "  --only WHAT            measure one configuration: volume (the dust volume alone),\n"
+    "                         particles (the soft particles alone) or base (sky and terrain\n"
+    "                         only: the base renderer's share); default: all three, one JSON\n"
+    "                         line each\n"
+    "Each frame is draw + 8-bit read-back (which waits for the GL work). The JSON carries the\n"
+    "GL renderer string: figures from llvmpipe (CPU) and from a GPU are not comparable.\n";
+
 const sq_cli_case sq_cli_bench_cases[] = {
-    {"stream", "STREAM triad memory bandwidth only", "", sq_bench_stream_case, NULL},
+    {"stream", "STREAM triad memory bandwidth only", "", sq_bench_stream_case, NULL, NULL},
     {"render-volume", "GL ms per frame: 128^3 dust volume, 10^5 soft particles, neither",
-     "--width 1280 --height 720 --size 128 --slices 128 --particles 100000",
-     sq_bench_render_volume, NULL},
+     "--width 1280 --height 720 --size 128 --slices 128 --light 256 --particles 100000 "
+     "--only volume|particles|base",
+     sq_bench_render_volume, NULL, render_volume_details},
     {"grid", "MAC-grid fluid step: MacCormack advection + MGPCG projection + 2 scalars",
-     "--grid 64|128", sq_bench_grid, NULL},
+     "--grid 64|128", sq_bench_grid, NULL, NULL},
     {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box",
-     "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL},
+     "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
-     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL},
+     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL, NULL},
     {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",
-     "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL},
+     "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL, NULL},
     {"snowdrift", "village-snowdrift frame (1/24 s): D3Q15 wind, u*, snow transport/deposition/"
      "erosion, flakes, drawables; per-stage ms",
-     "--preset village-snowdrift --spinup 48", sq_bench_snowdrift, NULL},
-    /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL}, */
-    {NULL, NULL, NULL, NULL, NULL},
+     "--preset village-snowdrift --spinup 48", sq_bench_snowdrift, NULL, NULL},
+    /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL, NULL}, */
+    {NULL, NULL, NULL, NULL, NULL, NULL},
 };
 
 const sq_cli_case sq_cli_validate_cases[] = {
     {"lbm-cavity", "lid-driven cavity (D3Q15, TRT): centre-line profiles vs Ghia et al. 1982",
-     "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity},
+     "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity, NULL},
     {"dam-break", "SPH water-column collapse (n^2 = 2): surge front Z(T) vs Martin & Moyce 1952",
      "--a 0.25 --spacing 0.01 --t-end 0.6 --alpha 0.02 --kernel cubic|muller", NULL,
-     sq_validate_dam_break},
-    /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity}, */
-    {NULL, NULL, NULL, NULL, NULL},
+     sq_validate_dam_break, NULL},
+    /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity, NULL}, */
+    {NULL, NULL, NULL, NULL, NULL, NULL},
 };
