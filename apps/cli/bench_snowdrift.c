@@ -2,15 +2,16 @@
  * wind-driven snow phenomenon of a preset (SPEC §5; by default the village-snowdrift preset's
  * world and snowdrift layer exactly as `squall simulate` builds them) stepped frame by frame,
  * a frame being 1/fps of simulated time (1/24 s for the preset) followed by what the CLI asks of
- * the layer every frame: the drawables (snow cover heightfield, flakes) and the metrics (snow
- * budget). After --spinup frames (default 48 = 2 s of snowfall and drifting) and --warmup
+ * the layer every frame: the camera (flake sizes; the preset's first camera), the drawables
+ * (snow cover heightfield, flakes) and the metrics (snow budget). After --spinup frames (default 48 = 2 s of snowfall and drifting) and --warmup
  * frames, --reps frames are timed (median, min, max). One JSON line: the common keys
  * (ms_per_step = ms per frame, steps_per_s = frames per simulated second of wall time) plus
  * frames_per_s, lbm_steps_per_frame, snow_steps_per_frame, the MLUPS of the wind part, and the
  * mean ms per frame of each stage over the timed frames (ms_lbm: collide + stream, boundaries,
  * drive; ms_ustar: velocity views + friction velocity; ms_transport: snowfall + transport;
  * ms_deposit: deposition, roll-off, solidification; ms_erode; ms_couple: snow cells passed to
- * the wind lattice; ms_flakes: visual flakes; ms_derived: drawables; ms_budget: metrics), read
+ * the wind lattice; ms_flakes: visual flakes moved and sized; ms_derived: snow cover; ms_budget:
+ * metrics), read
  * from sq_snowdrift_get_stats outside the timed calls. */
 #include <math.h>
 #include <stdio.h>
@@ -38,6 +39,7 @@ enum {
 typedef struct snow_bench {
     const sq_phen_plugin *pl;
     sq_snowdrift *s;
+    sq_camera camera;
     double frame_dt;
     sq_result err;
 } snow_bench;
@@ -61,6 +63,7 @@ static sq_result frame(snow_bench *b)
 {
     sq_result r = b->pl->step(b->s, b->frame_dt);
     if (r != SQ_OK) return r;
+    if (b->pl->observe) b->pl->observe(b->s, &b->camera);
     sq_drawable dr[4];
     (void)b->pl->drawables(b->s, dr, 4);
     sq_metric m[32];
@@ -146,6 +149,7 @@ int sq_bench_snowdrift(const sq_bench_args *a)
     memset(&b, 0, sizeof b);
     b.pl = pl;
     b.frame_dt = sq_scene_frame_dt(scene);
+    b.camera = sq_scene_camera(scene); /* the preset's first camera (flake sizes) */
     if (r == SQ_OK) r = sq_snowdrift_create(a->ctx, &d, sq_scene_world(scene), &b.s);
     if (r != SQ_OK) {
         sq_cli_error("bench snowdrift: %s", sq_last_error());

@@ -73,8 +73,8 @@ typedef struct sq_snowdrift_desc {
     int visual_flakes;           /* falling-snow particles drawn; 0 -> 20000 */
     double flake_radius_m;       /* drawn flake radius; 0 -> 0.03 m */
     /* smallest angular radius a flake is drawn with (mrad); a flake seen smaller is enlarged to
-     * it and made fainter by (true/drawn radius)², keeping its projected area x opacity (1.5 px
-     * at 360 px of height and a 55° field of view is about 4 mrad); 0 -> 4 */
+     * it and made fainter by (true/drawn radius)², keeping its projected area x opacity (a
+     * radius of 0.9 px at 360 px of height and a 55° field of view is 2.5 mrad); 0 -> 2.5 */
     double flake_min_mrad;
 } sq_snowdrift_desc;
 

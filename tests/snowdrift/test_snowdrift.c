@@ -609,6 +609,31 @@ SQ_TEST(phenomenon_snows_on_a_village)
             const float *p = &dr[1].u.particles.position[3 * f];
             SQ_CHECK(p[0] >= -20.0f && p[0] <= 20.0f && p[1] >= -12.0f && p[1] <= 12.0f);
         }
+        /* flakes seen smaller than draw.flake_min_mrad are drawn at it with alpha scaled by
+         * (true/drawn radius)^2: projected area x opacity is kept */
+        SQ_CHECK(dr[1].u.particles.radius_m == NULL); /* no camera observed yet */
+        sq_camera cam;
+        memset(&cam, 0, sizeof cam);
+        cam.position_m = sq_v3(-60.0f, -40.0f, 12.0f);
+        cam.target_m = sq_v3(0.0f, 0.0f, 2.0f);
+        SQ_CHECK(pl->observe != NULL);
+        if (pl->observe) pl->observe(s, &cam);
+        SQ_CHECK(pl->drawables(s, dr, 4) == 2);
+        const sq_particles_view *pv = &dr[1].u.particles;
+        SQ_CHECK(pv->radius_m != NULL && pv->fade != NULL);
+        int enlarged = 0, bad = 0;
+        const double r0 = s->d.flake_radius_m, amin = s->d.flake_min_mrad * 1e-3;
+        for (int f = 0; pv->radius_m && f < pv->count; f++) {
+            const float *p = &pv->position[3 * f];
+            const double dist = sqrt(pow(p[0] + 60.0, 2) + pow(p[1] + 40.0, 2) +
+                                     pow(p[2] - 12.0, 2));
+            const double r = pv->radius_m[f], a = pv->fade[f];
+            bad += fabs(r - fmax(r0, amin * dist)) > 1e-5 * r;
+            bad += fabs(a * r * r - r0 * r0) > 1e-5 * r0 * r0;
+            enlarged += r > r0;
+        }
+        printf("flakes: %d of %d enlarged to the minimum angular size\n", enlarged, pv->count);
+        SQ_CHECK(bad == 0 && enlarged > 0);
         sq_metric m[16];
         const int nm = pl->metrics(s, m, 16);
         SQ_CHECK(nm >= 6);

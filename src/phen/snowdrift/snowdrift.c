@@ -652,7 +652,9 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
         p->rotation_rad = s->frot;
         p->radius_default_m = (float)s->d.flake_radius_m;
         if (s->have_camera) {
+            const double t0 = sq_time_now();
             size_flakes(s);
+            s->ms_flakes += 1e3 * (sq_time_now() - t0);
             p->radius_m = s->fradius;
             p->fade = s->ffade;
         }

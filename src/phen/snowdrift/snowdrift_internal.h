@@ -137,6 +137,8 @@ typedef struct sq__snow_rng {
     uint64_t seed, stream, index;
     uint32_t buf[4];
     int avail;
+    bool has_next;    /* next holds the block of `index`, drawn ahead (batched kernels) */
+    uint32_t next[4];
 } sq__snow_rng;
 void sq__snow_rng_init(sq__snow_rng *r, uint64_t seed, int purpose, uint64_t step, int64_t cell);
 float sq__snow_rng_uniform(sq__snow_rng *r);   /* [0, 1), 24 bits */

@@ -22,12 +22,19 @@ void sq__snow_rng_init(sq__snow_rng *r, uint64_t seed, int purpose, uint64_t ste
     r->stream = ((uint64_t)purpose << 56) ^ step;
     r->index = (uint64_t)cell << 20;
     r->avail = 0;
+    r->has_next = false;
 }
 
 static uint32_t rng_u32(sq__snow_rng *r)
 {
     if (r->avail == 0) {
-        sq_rng_bits(r->seed, r->stream, r->index++, r->buf);
+        if (r->has_next) {
+            for (int q = 0; q < 4; q++) r->buf[q] = r->next[q];
+            r->has_next = false;
+            r->index++;
+        } else {
+            sq_rng_bits(r->seed, r->stream, r->index++, r->buf);
+        }
         r->avail = 4;
     }
     return r->buf[--r->avail];
@@ -183,18 +190,24 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
     for (int i0 = 0; i0 < nx; i0 += SQ_SNOW_ROW) {
         const int m = nx - i0 < SQ_SNOW_ROW ? nx - i0 : SQ_SNOW_ROW;
         const int64_t c0 = i0 + j * sy + k * sz;
-        /* the occupied cells of this stretch and the first random block of each */
-        int occ[SQ_SNOW_ROW];
-        uint64_t idx[SQ_SNOW_ROW];
-        int no = 0;
+        /* the occupied cells of this stretch and the first random block of each; the second
+         * block too for cells holding several flakes (up to 12 draws) */
+        int occ[SQ_SNOW_ROW], slot2[SQ_SNOW_ROW];
+        uint64_t idx[SQ_SNOW_ROW], idx2[SQ_SNOW_ROW];
+        int no = 0, n2 = 0;
         for (int i = 0; i < m; i++) { /* branch-free compaction (occupancy is random) */
+            const uint32_t a = air[c0 + i];
             occ[no] = i;
             idx[no] = (uint64_t)(c0 + i) << 20;
-            no += air[c0 + i] != 0;
+            slot2[no] = a > 1 ? n2 : -1;
+            idx2[n2] = idx[no] + 1;
+            n2 += a > 1;
+            no += a != 0;
         }
         if (no == 0) continue;
-        uint32_t blk[4][SQ_SNOW_ROW];
+        uint32_t blk[4][SQ_SNOW_ROW], blk2[4][SQ_SNOW_ROW];
         philox_lanes(kp->seed, stream, idx, no, blk);
+        if (n2 > 0) philox_lanes(kp->seed, stream, idx2, n2, blk2);
         for (int o = 0; o < no; o++) {
             const int i = i0 + occ[o];
             const int64_t c = c0 + occ[o];
@@ -215,6 +228,9 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
             r.index = idx[o] + 1;
             for (int q = 0; q < 4; q++) r.buf[q] = blk[q][o];
             r.avail = 4;
+            r.has_next = slot2[o] >= 0;
+            if (r.has_next)
+                for (int q = 0; q < 4; q++) r.next[q] = blk2[q][slot2[o]];
             /* split n into the 8 groups (moves along x?, y?, z?) by binomial draws: the axes
              * are independent, as in S1 where one q is drawn per axis */
             uint32_t g[8];

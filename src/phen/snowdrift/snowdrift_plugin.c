@@ -19,6 +19,10 @@ static const sq_param params[] = {
       "Cubic cell edge of the wind and snow lattice. Chosen: 1 m resolves houses and drifts."),
     D("domain.center_x_m", center_m[0], "m", 0, -1e7, 1e7, Z, "Domain centre, x."),
     D("domain.center_y_m", center_m[1], "m", 0, -1e7, 1e7, Z, "Domain centre, y."),
+    D("domain.dt_s", dt_s, "s", 0, 0, 100, Z,
+      "Lattice (wind) time step; 0 = automatic: the fastest wind (with gusts, at the top of "
+      "its profile) moves 0.08 cells per step (Mach 0.14; SPEC 5.3 asks for < 0.1-0.17). "
+      "Refused above Mach 0.3."),
     D("wind.speed_mps", wind_speed_mps, "m/s", 0, 0, 80, Z,
       "Mean wind at wind.ref_height_m (S1 demo: Beaufort 4.5, about 7 m/s); 0 = calm."),
     D("wind.dir_deg", wind_dir_deg, "deg", 0, -360, 360, Z,
@@ -43,6 +47,9 @@ static const sq_param params[] = {
       "Smagorinsky model adds the resolved-strain part."),
     D("wind.smagorinsky_c", smagorinsky_c, "1", 0.16, 0.01, 1, 0,
       "Smagorinsky constant of the sub-grid eddy viscosity (SPEC 5.3)."),
+    D("wind.tau", tau, "1", 0, 0, 100, Z,
+      "Lattice relaxation time; must exceed 1/2 (S1's 0.5 is zero viscosity, unstable: SPEC "
+      "5.3); 0 = from wind.eddy_viscosity_m2s."),
     D("snow.snowfall_mmh", snowfall_mmh, "mm/h", 0, 0, 1000, Z,
       "Snowfall rate as water equivalent (1 mm/h = 1 kg m-2 h-1); 0 = no snowfall."),
     D("snow.speedup", speedup, "1", 1, 1e-6, 1e9, 0,
@@ -73,10 +80,15 @@ static const sq_param params[] = {
       "Falling-snow particles drawn (carried by the lattice wind)."),
     D("draw.flake_radius_m", flake_radius_m, "m", 0.03, 0.001, 1, 0,
       "Radius of a drawn flake (S1: flakes up to 10 mm; larger reads better on screen)."),
+    D("draw.flake_min_mrad", flake_min_mrad, "mrad", 2.5, 0.01, 100, 0,
+      "Smallest angular radius a flake is drawn with: farther flakes are enlarged to it and "
+      "made fainter by (true/drawn radius)^2, keeping projected area x opacity. Chosen: "
+      "2.5 mrad is a radius of 0.9 px at 360 px of height and 1.7 px at 720 px (55 deg field "
+      "of view): distant flakes stay visible as soft dots."),
 };
 
-SQ__PHEN_PLUGIN(snowdrift,
+SQ__PHEN_PLUGIN_OBSERVING(snowdrift,
     "wind-driven snowfall and drifts: D3Q15 lattice-Boltzmann wind, snow on the lattice with "
     "deposition and erosion (S1)",
-    0);
+    0, sq__snowdrift_observe);
 

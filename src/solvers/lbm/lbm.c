@@ -239,23 +239,19 @@ static double gust_factor(const sq_lbm *l, double t)
     return a0 + (a1 - a0) * w;
 }
 
-/* Mean horizontal velocity (l.u.) of the fluid cells in the reference plane. */
+/* Mean horizontal velocity (l.u.) of the fluid cells in the reference plane (vectorised rows,
+ * the same moments as the density/velocity views). */
 static void measure_ref_plane(const sq_lbm *l, double u[2])
 {
-    double sx = 0, sy = 0;
+    const int parity = (int)(l->step & 1);
+    const float h = parity == 0 ? 0.5f : -0.5f;
+    const float gh[3] = {h * (float)l->g_step[0], h * (float)l->g_step[1],
+                         h * (float)l->g_step[2]};
+    double s[2];
     int64_t n = 0;
-    for (int y = 0; y < l->ny; y++)
-        for (int x = 0; x < l->nx; x++) {
-            const int64_t c = sq__lbm_cell(l, x, y, l->k_ref);
-            if (l->solid[c]) continue;
-            double rho, v[3];
-            cell_macro(l, c, &rho, v);
-            sx += v[0];
-            sy += v[1];
-            n++;
-        }
-    u[0] = n ? sx / (double)n : 0.0;
-    u[1] = n ? sy / (double)n : 0.0;
+    sq__lbm_plane_velocity(l, parity, gh, l->k_ref, s, &n);
+    u[0] = n ? s[0] / (double)n : 0.0;
+    u[1] = n ? s[1] / (double)n : 0.0;
 }
 
 /* Adds the velocity v (l.u.) to every fluid cell without changing its density:

@@ -142,6 +142,10 @@ void sq__lbm_scatter(sq_lbm *l, int64_t c, int parity, const double f[SQ_LBM_Q])
 /* Density and velocity of all interior cells, scaled (0 in solid cells); see lbm_kernels.c. */
 void sq__lbm_macro(const sq_lbm *l, int parity, const float gh[3], float rho_scale,
                    float u_scale, float *rho_out, float *ux_out, float *uy_out, float *uz_out);
+/* Sum of the horizontal velocity (l.u., shifted by gh like sq__lbm_macro) over the fluid
+ * cells of plane z, and their number. */
+void sq__lbm_plane_velocity(const sq_lbm *l, int parity, const float gh[3], int z,
+                            double u_sum[2], int64_t *fluid);
 /* D3Q15 equilibrium (SPEC §5.2 corrected). */
 void sq__lbm_feq(double rho, const double u[3], double feq[SQ_LBM_Q]);
 

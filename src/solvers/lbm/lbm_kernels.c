@@ -381,6 +381,35 @@ void sq__lbm_macro(const sq_lbm *l, int parity, const float gh[3], float rho_sca
     }
 }
 
+void sq__lbm_plane_velocity(const sq_lbm *l, int parity, const float gh[3], int z,
+                            double u_sum[2], int64_t *fluid)
+{
+    const int nx = l->nx;
+    const int64_t S = l->stride;
+    int64_t so[SQ_LBM_Q];
+    for (int i = 0; i < SQ_LBM_Q; i++) so[i] = (int64_t)(parity == 0 ? i : sq__lbm_opp[i]) * S;
+    double sx = 0, sy = 0;
+    int64_t n = 0;
+    for (int y = 0; y < l->ny; y++) {
+        for (int x0 = 0; x0 < nx; x0 += 256) {
+            const int m = nx - x0 < 256 ? nx - x0 : 256;
+            const int64_t base = sq__lbm_cell(l, x0, y, z);
+            const float *q[SQ_LBM_Q];
+            for (int i = 0; i < SQ_LBM_Q; i++) q[i] = l->f + so[i] + base;
+            float ro[256], uo[256], vo[256], wo[256];
+            macro_row(q, l->solid + base, m, gh, 1.0f, 1.0f, ro, uo, vo, wo);
+            for (int x = 0; x < m; x++) {
+                sx += (double)uo[x];
+                sy += (double)vo[x];
+                n += l->solid[base + x] == 0;
+            }
+        }
+    }
+    u_sum[0] = sx;
+    u_sum[1] = sy;
+    *fluid = n;
+}
+
 void sq__lbm_gather(const sq_lbm *l, int64_t c, int parity, double f[SQ_LBM_Q])
 {
     for (int i = 0; i < SQ_LBM_Q; i++) {
