@@ -668,7 +668,7 @@ SQ_TEST(phenomenon_thread_count_does_not_change_anything)
         d.beaufort = 4.5;
         d.snowfall_mmh = 5;
         d.speedup = 20000;
-        d.visual_flakes = 6000;
+        d.visual_flakes = 5000;
         d.seed = 5;
         sq_snowdrift *s = NULL;
         SQ_CHECK_OK(sq_snowdrift_create(ctx, &d, w, &s));
@@ -676,7 +676,7 @@ SQ_TEST(phenomenon_thread_count_does_not_change_anything)
             sq_world_destroy(ctx, w);
             return;
         }
-        for (int f = 0; f < 30; f++) SQ_CHECK_OK(sq_snowdrift_step(s, 1.0 / 24.0));
+        for (int f = 0; f < 15; f++) SQ_CHECK_OK(sq_snowdrift_step(s, 1.0 / 24.0));
         const sq_phen_plugin *pl = sq_plugin_find("snowdrift");
         sq_drawable dr[4];
         const int nd = pl ? pl->drawables(s, dr, 4) : 0;
@@ -721,7 +721,7 @@ SQ_TEST(phenomenon_thread_count_does_not_change_anything)
         sq_world_destroy(ctx, w);
         sq_context_destroy(ctx);
     }
-    printf("30 frames: %llu flakes fell, %llu deposited, %lld snow cells\n",
+    printf("15 frames: %llu flakes fell, %llu deposited, %lld snow cells\n",
            (unsigned long long)bud[0].fallen_flakes, (unsigned long long)bud[0].deposited_flakes,
            (long long)bud[0].snow_cells);
     SQ_CHECK(bud[0].deposited_flakes > 0);

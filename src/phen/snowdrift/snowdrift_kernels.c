@@ -234,11 +234,13 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
             /* split n into the 8 groups (moves along x?, y?, z?) by binomial draws: the axes
              * are independent, as in S1 where one q is drawn per axis */
             uint32_t g[8];
+            int qlo = 0, qhi = 8;
             if (n == 1) { /* one flake: the same three draws, without the splitting */
                 const uint32_t mx = bernoulli(&r, pr[0]), my = bernoulli(&r, pr[1]);
                 const uint32_t mz = bernoulli(&r, pr[2]);
-                for (int q = 0; q < 8; q++) g[q] = 0;
-                g[mx | my << 1 | mz << 2] = 1;
+                qlo = (int)(mx | my << 1 | mz << 2);
+                qhi = qlo + 1;
+                g[qlo] = 1;
             } else {
                 const uint32_t mx = sq__snow_binomial(&r, n, pr[0]);
                 const uint32_t gx[2] = {n - mx, mx};
@@ -253,7 +255,7 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
                 }
             }
             uint32_t stay = 0, landed = 0;
-            for (int q = 0; q < 8; q++) {
+            for (int q = qlo; q < qhi; q++) {
                 const uint32_t cnt = g[q];
                 if (cnt == 0) continue;
                 if (q == 0) {
@@ -276,14 +278,14 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
                         *out += cnt;
                         continue;
                     }
-                    ti = (ti + nx) % nx;
+                    ti = ti < 0 ? ti + nx : ti - nx;
                 }
                 if (tj < 0 || tj >= ny) {
                     if (!kp->periodic[1]) {
                         *out += cnt;
                         continue;
                     }
-                    tj = (tj + ny) % ny;
+                    tj = tj < 0 ? tj + ny : tj - ny;
                 }
                 const int64_t t = ti + tj * sy + tk * sz;
                 if (kind[t] != SQ_SNOW_AIR) {
