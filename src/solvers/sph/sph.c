@@ -172,8 +172,9 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
         ok &= *fa[k] != NULL;
     }
     s->L = (float *)sq_alloc_zero(ctx, 6 * np * sizeof(float));
-    s->G = (float *)sq_alloc_zero(ctx, 9 * np * sizeof(float));
-    s->tau = (float *)sq_alloc_zero(ctx, 6 * np * sizeof(float));
+    const int tensor = d.viscous == SQ_SPH_VISCOUS_TENSOR; /* G and τ: only this form reads them */
+    s->G = tensor ? (float *)sq_alloc_zero(ctx, 9 * np * sizeof(float)) : NULL;
+    s->tau = tensor ? (float *)sq_alloc_zero(ctx, 6 * np * sizeof(float)) : NULL;
     s->rec = (float *)sq_alloc_zero(ctx, SQ__SPH_REC * np * sizeof(float));
     s->id = (uint32_t *)sq_alloc_zero(ctx, np * sizeof(uint32_t));
     s->cellid = (uint32_t *)sq_alloc(ctx, np * sizeof(uint32_t));
@@ -191,7 +192,7 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->cell_start = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->hist = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->red = (double *)sq_alloc_zero(ctx, 8 * (size_t)s->nt * sizeof(double));
-    ok &= s->L && s->G && s->tau && s->rec && s->id && s->cellid && s->perm && s->nb_count &&
+    ok &= s->L && (!tensor || (s->G && s->tau)) && s->rec && s->id && s->cellid && s->perm && s->nb_count &&
           s->nb_plain && s->cell_start && s->hist && s->red;
     if (!ok) {
         sq_sph_destroy(s);

@@ -387,7 +387,8 @@ sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in)
 sq_result sq_sph_desc_validate(const sq_sph_desc *desc) { return sq__sph_validate(NULL, desc); }
 
 /* Floats per particle in the state arrays (see struct sq_sph). */
-enum { SPH_FLOATS_PER_PARTICLE = 3 * 5 + 4 + 6 + 9 + 6 + 2 + 8 /* packed record */ };
+enum { SPH_FLOATS_PER_PARTICLE = 3 * 5 + 4 + 6 + 2 + 8 /* packed record */,
+       SPH_FLOATS_TENSOR = 9 + 6 /* G and τ, only for the TENSOR viscous form */ };
 
 uint64_t sq_sph_memory_bytes(const sq_sph_desc *desc, size_t particles)
 {
@@ -401,7 +402,9 @@ uint64_t sq_sph_memory_bytes(const sq_sph_desc *desc, size_t particles)
     uint64_t cells = n[0] * n[1] * n[2];
     uint64_t np = (uint64_t)particles;
     int cap = d.neighbour_capacity > 0 ? d.neighbour_capacity : 64;
-    uint64_t per = 4u * SPH_FLOATS_PER_PARTICLE /* state */
+    const uint64_t floats = SPH_FLOATS_PER_PARTICLE +
+                            (d.viscous == SQ_SPH_VISCOUS_TENSOR ? SPH_FLOATS_TENSOR : 0);
+    uint64_t per = 4u * floats /* state */
                    + 4u /* id */ + 4u + 4u /* cellid, perm */ + 44u /* reorder targets */
                    + 2u + 2u /* neighbour counts */ + 4u * (uint64_t)cap;
     uint64_t grid = 2u * 4u * (cells + 2u); /* cell_start + histogram */

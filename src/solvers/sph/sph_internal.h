@@ -214,8 +214,9 @@ struct sq_sph {
     float *sx, *sy, *sz;      /* XSPH correction ε Σ ... (velocity units) */
     float *rho, *p, *vol, *pr2; /* density, pressure, m/ρ, p/ρ² */
     float *L;                 /* 6 per particle (xx yy zz xy xz yz): inverse correction */
-    float *G;                 /* 9 per particle: velocity gradient (row-major ∂v_a/∂x_b) */
-    float *tau;               /* 6 per particle: deviatoric stress 2 μ D */
+    float *G;                 /* 9 per particle: velocity gradient (row-major ∂v_a/∂x_b);
+                                 TENSOR viscous form only (NULL otherwise) */
+    float *tau;               /* 6 per particle: deviatoric stress 2 μ D; TENSOR only */
     float *gam, *mu;          /* |γ̇| and μ */
     /* Packed j-side data of the strain and force passes, 8 floats (32 bytes) per particle:
      * x y z m/ρ vx vy vz p/ρ², written by the density pass (one half cache line per neighbour

@@ -13,7 +13,12 @@
  *            XSPH ε Σ 2m/(ρ_i + ρ_j) (v_j − v_i) W_ij (eq. 3.47).
  * Every loop writes only its own particle i, so results do not depend on the thread count.
  * Neighbour-list entries are j | mask << 29, mask = the axes across whose walls j is mirrored;
- * plain entries come first (nb_plain of them), image entries after. */
+ * plain entries come first (nb_plain of them), image entries after.
+ * With AVX-512 the neighbour loops run 16 lanes wide (see SQ__SPH_AVX512 below): the density
+ * pass packs each cell's 27-cell candidates once and appends the accepted ones with a compress;
+ * strain and forces read the j-side data from one packed 32-byte record per particle (rec,
+ * written by the density pass) with row loads and transposes. Same per-pair arithmetic; only
+ * the order of the sums over neighbours differs from the portable loops. */
 #include <string.h>
 
 #include "solvers/sph/sph_internal.h"
@@ -1216,12 +1221,17 @@ SQ__INLINE float strain_tail(sq_sph *restrict s, size_t i, const float B[6], con
     if (corrected) sym_inverse(B, L);
     float *restrict Ls = s->L + 6 * i;
     for (int t = 0; t < 6; t++) Ls[t] = L[t];
-    /* G = Gr L (L symmetric) */
+    /* G = Gr L (L symmetric); stored for the mirror images of the TENSOR form */
     const float Lm[3][3] = {{L[0], L[3], L[4]}, {L[3], L[1], L[5]}, {L[4], L[5], L[2]}};
-    float *restrict G = s->G + 9 * i;
+    const int tensor = s->visc == SQ_SPH_VISCOUS_TENSOR;
+    float G[9];
     for (int a = 0; a < 3; a++)
         for (int b = 0; b < 3; b++)
             G[3 * a + b] = Gr[3 * a] * Lm[0][b] + Gr[3 * a + 1] * Lm[1][b] + Gr[3 * a + 2] * Lm[2][b];
+    if (tensor) {
+        float *restrict Gs = s->G + 9 * i;
+        for (int c = 0; c < 9; c++) Gs[c] = G[c];
+    }
     const float D[6] = {G[0], G[4], G[8], 0.5f * (G[1] + G[3]), 0.5f * (G[2] + G[6]),
                         0.5f * (G[5] + G[7])};
     const float dd = D[0] * D[0] + D[1] * D[1] + D[2] * D[2] +
@@ -1229,7 +1239,7 @@ SQ__INLINE float strain_tail(sq_sph *restrict s, size_t i, const float B[6], con
     const float gam = sqrtf(2.0f * dd);
     s->gam[i] = gam;
     const float mu = newtonian ? s->rheo.mu : sq__sph_rheo_mu(&s->rheo, gam);
-    if (s->visc == SQ_SPH_VISCOUS_TENSOR) {
+    if (tensor) {
         float *restrict tau = s->tau + 6 * i;
         for (int t = 0; t < 6; t++) tau[t] = 2.0f * mu * D[t];
     }
@@ -1310,20 +1320,21 @@ SQ__INLINE float strain_tail16(sq_sph *restrict s, size_t i0, int nt, float B[6]
         for (int t = 0; t < nt; t++) mul[t] = sq__sph_rheo_mu(rh, gl[t]);
     }
     for (int c = 0; c < 6; c++) _mm512_storeu_ps(Ll[c], L[c]);
-    for (int c = 0; c < 9; c++) _mm512_storeu_ps(Gl[c], G[c]);
     const int tensor = s->visc == SQ_SPH_VISCOUS_TENSOR;
-    if (tensor)
+    if (tensor) {
+        for (int c = 0; c < 9; c++) _mm512_storeu_ps(Gl[c], G[c]);
         for (int c = 0; c < 6; c++) _mm512_storeu_ps(Dl[c], D[c]);
+    }
     float m = 0.0f;
     for (int t = 0; t < nt; t++) {
         const size_t i = i0 + (size_t)t;
         float *restrict Ls = s->L + 6 * i;
         for (int c = 0; c < 6; c++) Ls[c] = Ll[c][t];
-        float *restrict Gs = s->G + 9 * i;
-        for (int c = 0; c < 9; c++) Gs[c] = Gl[c][t];
         s->gam[i] = gl[t];
         const float mu = mul[t];
         if (tensor) {
+            float *restrict Gs = s->G + 9 * i;
+            for (int c = 0; c < 9; c++) Gs[c] = Gl[c][t];
             float *restrict tau = s->tau + 6 * i;
             for (int c = 0; c < 6; c++) tau[c] = 2.0f * mu * Dl[c][t];
         }
