@@ -1,10 +1,11 @@
-/* test_avalanche.c — the snow avalanche phenomenon (SPEC §7): the release slab's particle count
- * against its volume, bad input (messages name the key, value and rule; a release too large for
- * the memory limit is refused before anything is allocated), mass conservation and the terrain
- * and obstacle colliders, a slab that flows downhill and comes to rest on the run-out with the
- * Coulomb bound on the centre-of-mass α angle, the deposit map integrating to the released
- * volume, S2's claim that the Cross rheology does not splash like water (at S2's scale), blow-up
- * as SQ_ERR_UNSTABLE, sub-stepping logged once, and the plug-in's metrics, fields and drawables. */
+/* test_avalanche.c — the snow avalanche phenomenon (SPEC §7): the mountain terrain's C1 toe, the
+ * release slab's particle count against its volume, bad input (messages name the key, value and
+ * rule; a release too large for the memory limit is refused before anything is allocated), mass
+ * conservation and the terrain and obstacle colliders, a slab that flows downhill and comes to
+ * rest on the run-out with the Coulomb bound on the centre-of-mass α angle, the deposit map
+ * integrating to the released volume, S2's claim that the Cross rheology does not splash like
+ * water (at S2's scale), blow-up as SQ_ERR_UNSTABLE, sub-stepping logged once, and the plug-in's
+ * metrics, fields and drawables. */
 #include "sq_test.h"
 #include "phen/avalanche/avalanche_internal.h"
 #include "squall/avalanche.h"

@@ -387,12 +387,24 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         const int nx = pl->dep_nx, ny = pl->dep_ny;
         const size_t cells = (size_t)nx * (size_t)ny;
         sq__aval_smooth3(a->dep_depth, a->dep_smooth, nx, ny);
+        /* The surface covers the snow that has come to rest (slower than
+         * metrics.moving_speed_mps): the moving flow is seen as its lit spheres, the deposit
+         * fills in as it settles. dep_acc is free after evaluate(); dep_height holds the
+         * smoothed resting depth until it is overwritten below. */
+        const sq_sph_view v = sq_sph_particles(a->sph);
+        memset(a->dep_acc, 0, cells * sizeof(double));
+        sq__aval_deposit_accumulate_resting(v.x, v.y, v.vx, v.vy, v.vz, v.density, v.count,
+                                            pl->d.moving_speed_mps, a->particle_mass,
+                                            pl->d.density_kgm3, pl->dep_origin[0],
+                                            pl->dep_origin[1], pl->dep_cell, nx, ny, a->dep_acc);
+        const double inv_area = 1.0 / (pl->dep_cell * pl->dep_cell);
+        for (size_t c = 0; c < cells; c++) a->dep_cover[c] = (float)(a->dep_acc[c] * inv_area);
+        sq__aval_smooth3(a->dep_cover, a->dep_height, nx, ny);
         const float full = (float)(0.5 * pl->spacing); /* full coverage from half a layer */
         for (size_t c = 0; c < cells; c++) {
-            const float h = a->dep_smooth[c];
-            a->dep_height[c] = a->dep_terrain[c] + h;
-            float f = h / full;
+            float f = a->dep_height[c] / full;
             a->dep_cover[c] = f > 1.0f ? 1.0f : f < 0.0f ? 0.0f : f;
+            a->dep_height[c] = a->dep_terrain[c] + a->dep_smooth[c];
         }
         sq_drawable *d = &out[n++];
         memset(d, 0, sizeof *d);

@@ -44,12 +44,12 @@ struct sq_avalanche {
     sq_avalanche_state st;
     float *scratch;               /* count: fall-line coordinates for the front quantile */
     /* deposit map */
-    double *dep_acc;              /* dep_nx*dep_ny: volume per cell (m³) */
+    double *dep_acc;              /* dep_nx*dep_ny: volume per cell (m³); scratch after evaluate */
     float *dep_depth;             /* depth (m) */
     float *dep_smooth;            /* display: smoothed depth */
     float *dep_terrain;           /* terrain height at the cell centres */
     float *dep_height;            /* terrain + smoothed depth (surface drawable) */
-    float *dep_cover;             /* coverage of the surface drawable */
+    float *dep_cover;             /* coverage of the surface drawable (snow at rest) */
     /* particles drawable */
     float *pos;                   /* 3*count */
     /* powder cloud */
@@ -67,6 +67,12 @@ float sq__aval_select(float *a, size_t n, size_t k);
 void sq__aval_deposit_accumulate(const float *x, const float *y, const float *rho, size_t n,
                                  double mass, double rho0, double x0, double y0, double cell,
                                  int nx, int ny, double *acc);
+/* The same for the particles at rest only (|v| <= v_rest): the settled part of the deposit. */
+void sq__aval_deposit_accumulate_resting(const float *x, const float *y, const float *vx,
+                                         const float *vy, const float *vz, const float *rho,
+                                         size_t n, double v_rest, double mass, double rho0,
+                                         double x0, double y0, double cell, int nx, int ny,
+                                         double *acc);
 /* 3x3 binomial smoothing (1 2 1)²/16 with clamped edges; dst and src must not overlap. */
 void sq__aval_smooth3(const float *src, float *dst, int nx, int ny);
 /* Ordered-dither threshold in [0, 1) of the 4x4 Bayer matrix at lattice column (i, j). */

@@ -51,6 +51,24 @@ void sq__aval_deposit_accumulate(const float *x, const float *y, const float *rh
     }
 }
 
+void sq__aval_deposit_accumulate_resting(const float *x, const float *y, const float *vx,
+                                         const float *vy, const float *vz, const float *rho,
+                                         size_t n, double v_rest, double mass, double rho0,
+                                         double x0, double y0, double cell, int nx, int ny,
+                                         double *acc)
+{
+    const double inv = 1.0 / cell, v2max = v_rest * v_rest;
+    for (size_t p = 0; p < n; p++) {
+        const double u2 = (double)vx[p] * (double)vx[p] + (double)vy[p] * (double)vy[p] +
+                          (double)vz[p] * (double)vz[p];
+        if (!(u2 <= v2max)) continue;
+        const double fx = ((double)x[p] - x0) * inv, fy = ((double)y[p] - y0) * inv;
+        if (!(fx >= 0.0 && fy >= 0.0 && fx < (double)nx && fy < (double)ny)) continue;
+        const double r = rho && (double)rho[p] > rho0 ? (double)rho[p] : rho0;
+        acc[(size_t)fy * (size_t)nx + (size_t)fx] += mass / r;
+    }
+}
+
 void sq__aval_smooth3(const float *src, float *dst, int nx, int ny)
 {
     for (int j = 0; j < ny; j++) {

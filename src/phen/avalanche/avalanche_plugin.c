@@ -78,9 +78,9 @@ static const sq_param params[] = {
     D("numerics.artificial_viscosity", artificial_viscosity, "1", 0.1, 1e-6, 1, A,
       "Monaghan artificial viscosity alpha for approaching pairs (not in S2). Chosen: 0.1. "
       "Flowing snow compacts inelastically, weakly compressible SPH rebounds elastically; "
-      "measured on the preset: without it particles reach 37 m/s (the flow ~27 m/s), the "
-      "deposit thins to 0.3 m and runs out 224 m (alpha 12.4 deg); with 0.1: 169 m, 15.7 deg; "
-      "with 0.5: 174 m, 15.3 deg."),
+      "measured on the preset: without it particles reach 34 m/s (the flow 21 m/s mean), the "
+      "deposit thins to 0.6 m and runs out 219 m (alpha 12.7 deg); with 0.1: 201 m, 13.6 deg, "
+      "1.0 m; with 0.5: 205 m, 13.4 deg, 0.9 m."),
     B("numerics.no_artificial_viscosity", no_artificial_viscosity,
       "Switch the artificial viscosity off (alpha = 0)."),
     D("numerics.dt_max_s", dt_max_s, "s", 0, 0, 10, Z | A,
@@ -99,13 +99,15 @@ static const sq_param params[] = {
       "Quantile of the particles' fall-line coordinate taken as the front (robust against "
       "single splashed particles)."),
     D("metrics.airborne_m", airborne_m, "m", 2, 1e-6, 1e4, 0,
-      "A particle this far above the terrain counts as airborne (airborne_fraction)."),
+      "A particle this far above the terrain, measured along the terrain normal, counts as "
+      "airborne (airborne_fraction); keep it above the slab thickness."),
     D("render.radius_factor", radius_factor, "1", 0.6, 0.01, 10, 0,
       "Radius of the drawn snow spheres in particle spacings."),
     D("render.albedo", albedo, "1", 0.9, 0.01, 1, 0,
       "Albedo of the snow spheres and the deposit (fresh/wet snow ~0.8-0.9)."),
     B("render.no_deposit_surface", no_deposit_surface,
-      "Do not draw the deposit surface (terrain + depth, material snow) under the particles."),
+      "Do not draw the deposit surface (terrain + depth, material snow; it covers the snow "
+      "at rest, slower than metrics.moving_speed_mps) under the particles."),
     B("powder.enabled", powder,
       "Draw a powder cloud: fast particles shed suspended snow into a coarse grid that "
       "diffuses and settles (a visual model; S2 does not simulate the powder cloud)."),
