@@ -1086,8 +1086,13 @@ SQ__INLINE void strain_sums(sq_sph *restrict s, size_t i, const int cubic, float
     const float xi = X[i], yi = Y[i], zi = Z[i];
     const float vxi = VX[i], vyi = VY[i], vzi = VZ[i];
 #if SQ__SPH_AVX512
-    /* 16 neighbours per vector, their x y z V vx vy vz gathered from the packed record */
-    (void)X; (void)Y; (void)Z; (void)VX; (void)VY; (void)VZ; (void)VOL;
+    /* 16 neighbours per vector, their x y z V vx vy vz read from the packed records (X … VOL
+     * serve only the portable loop) */
+    (void)Y;
+    (void)Z;
+    (void)VY;
+    (void)VZ;
+    (void)VOL;
     const float *restrict P = s->rec;
     const __m512 vxi_ = VSET1(xi), vyi_ = VSET1(yi), vzi_ = VSET1(zi);
     const __m512 wvx = VSET1(vxi), wvy = VSET1(vyi), wvz = VSET1(vzi);
