@@ -133,7 +133,7 @@ def bands():
          lambda x, y: fx1 < x <= fx1 + 5 and fy0 <= y <= fy1),
         ("fence: lee 5-15 m",
          lambda x, y: fx1 + 5 < x <= fx1 + 15 and fy0 <= y <= fy1),
-        ("open ground (|y| >= 24 m)", lambda x, y: abs(y) >= 24),
+        ("open ground (y <= -24 m or y >= 24 m)", lambda x, y: abs(y) >= 24),
         ("whole map", lambda x, y: True),
     ]
     return out
