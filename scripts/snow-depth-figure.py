@@ -16,9 +16,11 @@ inside the footprint, edges included (as the lattice voxelises it). Docs: docs/p
 section "Windward and leeward deposition".
 
 usage:
-  snow-depth-figure.py stats LABEL=A.png[,B.png,...] [LABEL=...]
+  snow-depth-figure.py stats [--yaw90] LABEL=A.png[,B.png,...] [LABEL=...]
   snow-depth-figure.py image DEPTH.png OUT.png [--max M] [--scale S] [--smooth R] [--wind]
 
+--yaw90: the houses turned by 90 degrees (yaw_deg: 90; ridges north-south, so the west roof
+half is the windward slope); only the band geometry changes.
 --smooth R averages each cell with the cells of the same kind (ground, or the same obstacle's
 roof) in the (2R+1) x (2R+1) window around it; roofs and ground are never mixed.
 """
@@ -155,6 +157,10 @@ def band_means(path):
 
 
 def cmd_stats(args):
+    global HOUSES
+    if args and args[0] == "--yaw90":
+        HOUSES = [(n, cx, cy, sy, sx) for n, cx, cy, sx, sy in HOUSES]
+        args = args[1:]
     groups = []
     for a in args:
         label, _, files = a.partition("=")
