@@ -33,8 +33,9 @@
  * the light sweep keeps one checkpoint layer per chunk plus the layers of one chunk, and the
  * eye pass recomputes a chunk's layers from its checkpoint when it needs them (at most one
  * more light sweep). With render.volume_noise on, the noise perturbation of the density is
- * baked once per frame into a 3D texture (volume_bake.comp) so the passes fetch one texel
- * set per sample. */
+ * baked once per frame into a 3D texture (volume_bake.comp; twice the density's resolution per
+ * axis while that stays within 4 Mi voxels, so the noise's finer octaves add detail below the
+ * simulation's cell size) so the passes fetch one texel set per sample. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -48,8 +49,15 @@
 #define VOL_MARGIN_SPACINGS 2.0f   /* box growth for the slice polygons, in slice spacings */
 #define VOL_HARRIS_GAMMA_SR 0.09   /* forward solid angle kept in the beam (Harris 2001) */
 #define VOL_NOISE_N 32             /* tileable value-noise texture for coordinate noise */
-#define VOL_NOISE_AMP_VOXELS 1.0f  /* perturbation amplitude (S0 Fig 3.12) */
-#define VOL_NOISE_FREQ 0.25f       /* noise cells per voxel */
+#define VOL_NOISE_AMP_VOXELS 3.0f  /* perturbation amplitude, density voxels (S0 Fig 3.12) */
+#define VOL_NOISE_FREQ 0.25f       /* noise cells per density voxel (first octave) */
+#define VOL_NOISE_DRIFT 0.06f      /* noise cells per simulated second: the pattern evolves
+                                      slowly, so that detail does not flicker between frames */
+#define VOL_BAKE_UPSAMPLE 2        /* the bake samples this many points per density voxel and
+                                      axis (the noise's finer octaves show below the grid's
+                                      cell size) ... */
+#define VOL_BAKE_MAX_VOXELS ((size_t)1 << 22) /* ... while the bake stays within 4 Mi voxels
+                                                 (16 MB); at the density's size otherwise */
 #define VOL_RNG_STREAM 0x766f6c756d65ull /* "volume" */
 #define VOL_LIGHT_BUDGET_BYTES ((uint64_t)256 << 20) /* light array above which it is chunked
                                                         (or a quarter of the context's memory
@@ -340,10 +348,12 @@ static void make_plan(const sq_renderer *r, const sq_volume_view *v, vol_plan *p
         p->forward[c] = (float)((1.0 - w2) * hg_cone_fraction(g1, mu_c) +
                                 w2 * hg_cone_fraction(g2, mu_c));
     }
-    const float t = (float)fmod(r->time_s, 1.0e4);
-    p->noise_offset[0] = 0.05f * t;
-    p->noise_offset[1] = 0.031f * t;
-    p->noise_offset[2] = 0.017f * t;
+    /* noise texture coordinates (one unit = VOL_NOISE_N cells): a slow drift, different on
+     * each axis */
+    const float t = (float)fmod(r->time_s, 1.0e5) * (VOL_NOISE_DRIFT / (float)VOL_NOISE_N);
+    p->noise_offset[0] = 1.0f * t;
+    p->noise_offset[1] = 0.62f * t;
+    p->noise_offset[2] = 0.34f * t;
 }
 
 /* ---- resources -------------------------------------------------------------------------- */
@@ -847,13 +857,20 @@ static GLuint shading_density(sq_renderer *r, const sq_volume_view *v, const vol
     if (vp->baked_valid && vp->baked_data == v->density && vp->baked_version == v->version &&
         memcmp(vp->baked_offset, p->noise_offset, sizeof vp->baked_offset) == 0)
         return vp->baked_tex;
+    const size_t cells = (size_t)v->nx * (size_t)v->ny * (size_t)v->nz;
+    const int up = cells * VOL_BAKE_UPSAMPLE * VOL_BAKE_UPSAMPLE * VOL_BAKE_UPSAMPLE <=
+                           VOL_BAKE_MAX_VOXELS
+                       ? VOL_BAKE_UPSAMPLE
+                       : 1;
+    const int bx = v->nx * up, by = v->ny * up, bz = v->nz * up;
     if (!vp->baked_tex) {
         glCreateTextures(GL_TEXTURE_3D, 1, &vp->baked_tex);
-        glTextureStorage3D(vp->baked_tex, 1, GL_R32F, v->nx, v->ny, v->nz);
+        glTextureStorage3D(vp->baked_tex, 1, GL_R32F, bx, by, bz);
         set_linear_clamp(vp->baked_tex);
     }
     const GLuint prog = vp->prog_bake;
-    glProgramUniform3i(prog, glGetUniformLocation(prog, "u_dims"), v->nx, v->ny, v->nz);
+    glProgramUniform3i(prog, glGetUniformLocation(prog, "u_dims"), bx, by, bz);
+    glProgramUniform3i(prog, glGetUniformLocation(prog, "u_src_dims"), v->nx, v->ny, v->nz);
     u1f(prog, "u_noise_amp", VOL_NOISE_AMP_VOXELS);
     u1f(prog, "u_noise_freq", VOL_NOISE_FREQ / (float)VOL_NOISE_N);
     u3a(prog, "u_noise_offset", p->noise_offset);
@@ -861,7 +878,7 @@ static GLuint shading_density(sq_renderer *r, const sq_volume_view *v, const vol
     glBindTextureUnit(5, vp->noise_tex);
     glBindImageTexture(0, vp->baked_tex, 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
     glUseProgram(prog);
-    glDispatchCompute((GLuint)(v->nx + 7) / 8, (GLuint)(v->ny + 7) / 8, (GLuint)v->nz);
+    glDispatchCompute((GLuint)(bx + 7) / 8, (GLuint)(by + 7) / 8, (GLuint)bz);
     glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
     glBindImageTexture(0, 0, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
     vp->baked_valid = true;

@@ -100,13 +100,17 @@ vec3 sq_ambient(vec3 n)
     return sky * up + ground * (1.0 - up);
 }
 
-// Aerial perspective: blends radiance toward the horizon sky with distance.
+// Aerial perspective: blends radiance toward the horizon sky with distance. Over the last half
+// of the way to the far plane the blend also goes to 1: a terrain that reaches beyond the far
+// plane then meets the sky drawn behind it (the horizon colour just below the horizon) without
+// a step where it is clipped, instead of ending in a bright edge.
 vec3 sq_haze(vec3 L, vec3 p)
 {
     vec3 v = p - u_cam_pos.xyz;
     float dist = length(v);
     float beta = 1.0e-5 * (1.0 + 2.0 * max(u_sun_radiance.w - 1.0, 0.0)); // 1/m
-    float f = 1.0 - exp(-beta * dist);
+    float far = u_sky_horizon.w;
+    float f = max(1.0 - exp(-beta * dist), smoothstep(0.5 * far, far, dist));
     vec3 d = v / max(dist, 1e-3);
     vec3 inscatter = sq_sky_radiance(normalize(vec3(d.xy, max(d.z, 0.02))), false);
     return mix(L, inscatter, f);
