@@ -815,11 +815,25 @@ static void update_derived(sq_sandstorm *s)
             }
         }
     /* Display only: the drawable fades to zero over the outer 2.5 cells of the open faces (not
-     * the ground) so the finite domain shows no box edges; metrics and fields use the
-     * untapered values below (the visibility planes are computed before this taper). */
+     * the ground) so the finite domain shows no box edges, and the ground cells are filled from
+     * above (below); metrics and fields use the unmodified values (the visibility planes are
+     * computed before these edits). */
     for (int v = 0; v < s->d.vis_height_count; v++)
         sq__sand_visibility_plane(s->density, nx, ny, nz, s->ground_k, s->ground_z1,
                                   (float)s->h, s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
+    /* Display only: the ground cells below each column's first fluid cell hold the value of that
+     * cell, so that trilinear sampling between the last solid and the first fluid cell centre
+     * does not thin the densest, near-ground dust toward zero (the opaque terrain hides what is
+     * below its surface; the renderer's depth test does the rest). */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            const int k0 = s->ground_k[(size_t)j * nx + i];
+            if (k0 <= 0) continue;
+            const size_t plane = (size_t)nx * ny, col = (size_t)j * nx + i;
+            const float v = s->density[(size_t)k0 * plane + col];
+            for (int k = 0; k < k0; k++) s->density[(size_t)k * plane + col] = v;
+        }
     float mx = 0.0f;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : mx))
     for (int kk = 0; kk < nz; kk++)
