@@ -580,33 +580,26 @@ static inline float coord(const sq_sph *s, int a, size_t i)
     return a == 0 ? s->x[i] : a == 1 ? s->y[i] : s->z[i];
 }
 
-/* The plain neighbours of a group of ng ≤ SQ__SPH_GROUP particles of one cell c (consecutive
- * from g0): the 27 cells around c are the same for all of them, so each candidate j is tested
- * against the whole group in one vectorisable loop (distance, density kernel), and a short
- * branch-free loop appends it to the lists that accept it. The lists come out exactly as a
- * per-particle scan of the same cells would make them. */
-#define SQ__SPH_GROUP 16
-SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, int *restrict cnt,
-                           float *restrict ws, const int cubic)
+/* The particle ranges of the 27 cells around cell c, in the order every scan uses (z rows, then
+ * y rows; in each row the x-contiguous cells as one range, or three ranges when the row wraps
+ * periodically), each with the shift (sx, sy, sz) to subtract from its particles' coordinates
+ * for a wrapped row. Rows outside a non-periodic domain are left out. */
+typedef struct cell_ranges {
+    int n;
+    uint32_t b[27], e[27];
+    float sx[27], sy[27], sz[27];
+} cell_ranges;
+
+SQ__INLINE void neighbour_ranges(const sq_sph *restrict s, uint32_t c, cell_ranges *restrict r)
 {
     const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
-    const int cap = s->nb_cap, capm1 = cap - 1;
     const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
     const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
-    const float H2 = s->k.H2;
-    const sq__sph_kern kk = s->k;
-    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
     const uint32_t *restrict st = s->cell_start;
-    uint32_t *restrict nb = s->nb + g0 * (size_t)cap;
-    float gx[SQ__SPH_GROUP], gy[SQ__SPH_GROUP], gz[SQ__SPH_GROUP], r2b[SQ__SPH_GROUP];
-    for (int t = 0; t < ng; t++) {
-        gx[t] = X[g0 + (size_t)t];
-        gy[t] = Y[g0 + (size_t)t];
-        gz[t] = Z[g0 + (size_t)t];
-    }
+    r->n = 0;
     for (int dz = -1; dz <= 1; dz++) {
         int kz = cz + dz;
-        float sz = 0.0f; /* added to the group's coordinates for a wrapped row */
+        float sz = 0.0f;
         if (kz < 0) {
             if (!s->periodic[2]) continue;
             kz += nz;
@@ -629,10 +622,6 @@ SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, in
                 sy = -s->len[1];
             }
             const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
-            /* one or three x ranges (three when the row wraps periodically) */
-            uint32_t rb[3], re[3];
-            float rs[3];
-            int nr = 0;
             if (s->periodic[0] && (cx == 0 || cx == nx - 1)) {
                 for (int dx = -1; dx <= 1; dx++) {
                     int kx = cx + dx;
@@ -644,35 +633,62 @@ SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, in
                         kx -= nx;
                         sx = -s->len[0];
                     }
-                    rb[nr] = st[row + (uint32_t)kx];
-                    re[nr] = st[row + (uint32_t)kx + 1];
-                    rs[nr++] = sx;
+                    r->b[r->n] = st[row + (uint32_t)kx];
+                    r->e[r->n] = st[row + (uint32_t)kx + 1];
+                    r->sx[r->n] = sx;
+                    r->sy[r->n] = sy;
+                    r->sz[r->n++] = sz;
                 }
             } else {
                 const int xa = cx > 0 ? cx - 1 : 0, xb = cx < nx - 1 ? cx + 1 : nx - 1;
-                rb[0] = st[row + (uint32_t)xa];
-                re[0] = st[row + (uint32_t)xb + 1];
-                rs[0] = 0.0f;
-                nr = 1;
+                r->b[r->n] = st[row + (uint32_t)xa];
+                r->e[r->n] = st[row + (uint32_t)xb + 1];
+                r->sx[r->n] = 0.0f;
+                r->sy[r->n] = sy;
+                r->sz[r->n++] = sz;
             }
-            for (int q = 0; q < nr; q++) {
-                const float sx = rs[q];
-                for (uint32_t j = rb[q]; j < re[q]; j++) {
-                    const float xj = X[j] - sx, yj = Y[j] - sy, zj = Z[j] - sz;
-                    SQ_OMP(omp simd)
-                    for (int t = 0; t < ng; t++) {
-                        const float ex = gx[t] - xj, ey = gy[t] - yj, ez = gz[t] - zj;
-                        const float r2 = ex * ex + ey * ey + ez * ez;
-                        r2b[t] = r2;
-                        ws[t] += cubic ? sq__sph_w_cubic(&kk, sq__sph_sqrt(r2)) : sq__sph_w_poly6(&kk, r2);
-                    }
-                    const size_t jr = j - g0; /* j relative to the group (self test) */
-                    for (int t = 0; t < ng; t++) {
-                        const int k = cnt[t];
-                        nb[(size_t)t * (size_t)cap + (size_t)(k < capm1 ? k : capm1)] = j;
-                        cnt[t] = k + (int)((r2b[t] < H2) & (jr != (size_t)t));
-                    }
-                }
+        }
+    }
+}
+
+/* The plain neighbours of a group of ng ≤ SQ__SPH_GROUP particles of one cell c (consecutive
+ * from g0): the 27 cells around c are the same for all of them, so each candidate j is tested
+ * against the whole group in one vectorisable loop (distance, density kernel), and a short
+ * branch-free loop appends it to the lists that accept it. The lists come out exactly as a
+ * per-particle scan of the same cells would make them. */
+#define SQ__SPH_GROUP 16
+SQ__INLINE void scan_group(sq_sph *restrict s, uint32_t c, size_t g0, int ng, int *restrict cnt,
+                           float *restrict ws, const int cubic)
+{
+    const int cap = s->nb_cap, capm1 = cap - 1;
+    const float H2 = s->k.H2;
+    const sq__sph_kern kk = s->k;
+    const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
+    uint32_t *restrict nb = s->nb + g0 * (size_t)cap;
+    float gx[SQ__SPH_GROUP], gy[SQ__SPH_GROUP], gz[SQ__SPH_GROUP], r2b[SQ__SPH_GROUP];
+    for (int t = 0; t < ng; t++) {
+        gx[t] = X[g0 + (size_t)t];
+        gy[t] = Y[g0 + (size_t)t];
+        gz[t] = Z[g0 + (size_t)t];
+    }
+    cell_ranges rg;
+    neighbour_ranges(s, c, &rg);
+    for (int q = 0; q < rg.n; q++) {
+        const float sx = rg.sx[q], sy = rg.sy[q], sz = rg.sz[q];
+        for (uint32_t j = rg.b[q]; j < rg.e[q]; j++) {
+            const float xj = X[j] - sx, yj = Y[j] - sy, zj = Z[j] - sz;
+            SQ_OMP(omp simd)
+            for (int t = 0; t < ng; t++) {
+                const float ex = gx[t] - xj, ey = gy[t] - yj, ez = gz[t] - zj;
+                const float r2 = ex * ex + ey * ey + ez * ez;
+                r2b[t] = r2;
+                ws[t] += cubic ? sq__sph_w_cubic(&kk, sq__sph_sqrt(r2)) : sq__sph_w_poly6(&kk, r2);
+            }
+            const size_t jr = j - g0; /* j relative to the group (self test) */
+            for (int t = 0; t < ng; t++) {
+                const int k = cnt[t];
+                nb[(size_t)t * (size_t)cap + (size_t)(k < capm1 ? k : capm1)] = j;
+                cnt[t] = k + (int)((r2b[t] < H2) & (jr != (size_t)t));
             }
         }
     }
@@ -760,84 +776,29 @@ typedef struct cand_buf {
 /* Fills cb for cell c; returns the count, or -1 if more than SQ__SPH_CANDS. */
 static int collect_cands(const sq_sph *restrict s, uint32_t c, cand_buf *restrict cb)
 {
-    const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
-    const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
-    const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
     const float *restrict X = s->x, *restrict Y = s->y, *restrict Z = s->z;
-    const uint32_t *restrict st = s->cell_start;
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    cell_ranges rg;
+    neighbour_ranges(s, c, &rg);
     int n = 0;
-    for (int dz = -1; dz <= 1; dz++) {
-        int kz = cz + dz;
-        float sz = 0.0f; /* subtracted from the candidates' coordinates for a wrapped row */
-        if (kz < 0) {
-            if (!s->periodic[2]) continue;
-            kz += nz;
-            sz = s->len[2];
-        } else if (kz >= nz) {
-            if (!s->periodic[2]) continue;
-            kz -= nz;
-            sz = -s->len[2];
+    for (int q = 0; q < rg.n; q++) {
+        const uint32_t m = rg.e[q] - rg.b[q];
+        if ((uint32_t)n + m > SQ__SPH_CANDS) return -1;
+        const __m512 vsx = VSET1(rg.sx[q]), vsy = VSET1(rg.sy[q]), vsz = VSET1(rg.sz[q]);
+        const uint32_t b0 = rg.b[q];
+        for (uint32_t t = 0; t < m; t += 16) {
+            const __mmask16 live = v_live(m - t);
+            const uint32_t o = (uint32_t)n + t;
+            _mm512_mask_storeu_ps(cb->x + o, live,
+                                  VSUB(_mm512_maskz_loadu_ps(live, X + b0 + t), vsx));
+            _mm512_mask_storeu_ps(cb->y + o, live,
+                                  VSUB(_mm512_maskz_loadu_ps(live, Y + b0 + t), vsy));
+            _mm512_mask_storeu_ps(cb->z + o, live,
+                                  VSUB(_mm512_maskz_loadu_ps(live, Z + b0 + t), vsz));
+            _mm512_mask_storeu_epi32(cb->j + o, live,
+                                     _mm512_add_epi32(_mm512_set1_epi32((int)(b0 + t)), iota));
         }
-        for (int dy = -1; dy <= 1; dy++) {
-            int ky = cy + dy;
-            float sy = 0.0f;
-            if (ky < 0) {
-                if (!s->periodic[1]) continue;
-                ky += ny;
-                sy = s->len[1];
-            } else if (ky >= ny) {
-                if (!s->periodic[1]) continue;
-                ky -= ny;
-                sy = -s->len[1];
-            }
-            const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
-            uint32_t rb[3], re[3];
-            float rs[3];
-            int nr = 0;
-            if (s->periodic[0] && (cx == 0 || cx == nx - 1)) {
-                for (int dx = -1; dx <= 1; dx++) {
-                    int kx = cx + dx;
-                    float sx = 0.0f;
-                    if (kx < 0) {
-                        kx += nx;
-                        sx = s->len[0];
-                    } else if (kx >= nx) {
-                        kx -= nx;
-                        sx = -s->len[0];
-                    }
-                    rb[nr] = st[row + (uint32_t)kx];
-                    re[nr] = st[row + (uint32_t)kx + 1];
-                    rs[nr++] = sx;
-                }
-            } else {
-                const int xa = cx > 0 ? cx - 1 : 0, xb = cx < nx - 1 ? cx + 1 : nx - 1;
-                rb[0] = st[row + (uint32_t)xa];
-                re[0] = st[row + (uint32_t)xb + 1];
-                rs[0] = 0.0f;
-                nr = 1;
-            }
-            for (int q = 0; q < nr; q++) {
-                const uint32_t m = re[q] - rb[q];
-                if ((uint32_t)n + m > SQ__SPH_CANDS) return -1;
-                const __m512 vsx = VSET1(rs[q]), vsy = VSET1(sy), vsz = VSET1(sz);
-                const __m512i iota =
-                    _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-                const uint32_t b0 = rb[q];
-                for (uint32_t t = 0; t < m; t += 16) {
-                    const __mmask16 live = v_live(m - t);
-                    const uint32_t o = (uint32_t)n + t;
-                    _mm512_mask_storeu_ps(cb->x + o, live,
-                                          VSUB(_mm512_maskz_loadu_ps(live, X + b0 + t), vsx));
-                    _mm512_mask_storeu_ps(cb->y + o, live,
-                                          VSUB(_mm512_maskz_loadu_ps(live, Y + b0 + t), vsy));
-                    _mm512_mask_storeu_ps(cb->z + o, live,
-                                          VSUB(_mm512_maskz_loadu_ps(live, Z + b0 + t), vsz));
-                    _mm512_mask_storeu_epi32(
-                        cb->j + o, live, _mm512_add_epi32(_mm512_set1_epi32((int)(b0 + t)), iota));
-                }
-                n += (int)m;
-            }
-        }
+        n += (int)m;
     }
     return n;
 }
