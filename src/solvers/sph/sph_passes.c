@@ -476,6 +476,24 @@ static inline float gap(float v, float a, float w)
     return sq__maxf(sq__maxf(a - v, v - (a + w)), 0.0f);
 }
 
+/* Wraps the cell index *k along axis a into the grid. False when it lies outside a non-periodic
+ * axis; otherwise *shift is the coordinate shift of the wrapped image (+len below the grid,
+ * −len above it, 0 inside). */
+SQ__INLINE bool wrap_cell(const sq_sph *restrict s, int a, int *k, float *shift)
+{
+    *shift = 0.0f;
+    if (*k < 0) {
+        if (!s->periodic[a]) return false;
+        *k += s->n[a];
+        *shift = s->len[a];
+    } else if (*k >= s->n[a]) {
+        if (!s->periodic[a]) return false;
+        *k -= s->n[a];
+        *shift = -s->len[a];
+    }
+    return true;
+}
+
 /* All candidates in the 27 cells around the query point (x, y, z); rows (and the end cells of
  * each x-row) farther than H from the query are skipped. Axes in fixmask (the mirrored axes of
  * an image query, which lies outside the domain) scan only the wall cell. */
@@ -495,31 +513,17 @@ SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, 
     const int xl = (fixmask & 1) ? 0 : -1, xh = (fixmask & 1) ? 0 : 1;
     for (int dz = zl; dz <= zh; dz++) {
         int kz = cz + dz;
-        float qz = z;
-        if (kz < 0) {
-            if (!s->periodic[2]) continue;
-            kz += nz;
-            qz = z + s->len[2];
-        } else if (kz >= nz) {
-            if (!s->periodic[2]) continue;
-            kz -= nz;
-            qz = z - s->len[2];
-        }
+        float shz;
+        if (!wrap_cell(s, 2, &kz, &shz)) continue;
+        const float qz = z + shz;
         const float ez = gap(qz, s->lo[2] + (float)kz * cell[2], cell[2]);
         const float remz = H2 - ez * ez;
         if (remz <= 0.0f) continue;
         for (int dy = yl; dy <= yh; dy++) {
             int ky = cy + dy;
-            float qy = y;
-            if (ky < 0) {
-                if (!s->periodic[1]) continue;
-                ky += ny;
-                qy = y + s->len[1];
-            } else if (ky >= ny) {
-                if (!s->periodic[1]) continue;
-                ky -= ny;
-                qy = y - s->len[1];
-            }
+            float shy;
+            if (!wrap_cell(s, 1, &ky, &shy)) continue;
+            const float qy = y + shy;
             const float ey = gap(qy, s->lo[1] + (float)ky * cell[1], cell[1]);
             const float rem = remz - ey * ey;
             if (rem <= 0.0f) continue;
@@ -528,14 +532,9 @@ SQ__INLINE void scan_cells(const sq_sph *restrict s, float x, float y, float z, 
             if (s->periodic[0] && (xa < 0 || xb >= nx)) {
                 for (int dx = xl; dx <= xh; dx++) {
                     int kx = cx + dx;
-                    float qx = x;
-                    if (kx < 0) {
-                        kx += nx;
-                        qx = x + s->len[0];
-                    } else if (kx >= nx) {
-                        kx -= nx;
-                        qx = x - s->len[0];
-                    }
+                    float shx;
+                    (void)wrap_cell(s, 0, &kx, &shx); /* x is periodic here */
+                    const float qx = x + shx;
                     const float ex = gap(qx, s->lo[0] + (float)kx * cell[0], cell[0]);
                     if (ex * ex >= rem) continue;
                     scan_range(s, st[row + (uint32_t)kx], st[row + (uint32_t)kx + 1], qx, qy, qz,
@@ -592,47 +591,25 @@ typedef struct cell_ranges {
 
 SQ__INLINE void neighbour_ranges(const sq_sph *restrict s, uint32_t c, cell_ranges *restrict r)
 {
-    const int nx = s->n[0], ny = s->n[1], nz = s->n[2];
+    const int nx = s->n[0], ny = s->n[1];
     const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
     const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
     const uint32_t *restrict st = s->cell_start;
     r->n = 0;
     for (int dz = -1; dz <= 1; dz++) {
         int kz = cz + dz;
-        float sz = 0.0f;
-        if (kz < 0) {
-            if (!s->periodic[2]) continue;
-            kz += nz;
-            sz = s->len[2];
-        } else if (kz >= nz) {
-            if (!s->periodic[2]) continue;
-            kz -= nz;
-            sz = -s->len[2];
-        }
+        float sz;
+        if (!wrap_cell(s, 2, &kz, &sz)) continue;
         for (int dy = -1; dy <= 1; dy++) {
             int ky = cy + dy;
-            float sy = 0.0f;
-            if (ky < 0) {
-                if (!s->periodic[1]) continue;
-                ky += ny;
-                sy = s->len[1];
-            } else if (ky >= ny) {
-                if (!s->periodic[1]) continue;
-                ky -= ny;
-                sy = -s->len[1];
-            }
+            float sy;
+            if (!wrap_cell(s, 1, &ky, &sy)) continue;
             const uint32_t row = ((uint32_t)kz * (uint32_t)ny + (uint32_t)ky) * (uint32_t)nx;
             if (s->periodic[0] && (cx == 0 || cx == nx - 1)) {
                 for (int dx = -1; dx <= 1; dx++) {
                     int kx = cx + dx;
-                    float sx = 0.0f;
-                    if (kx < 0) {
-                        kx += nx;
-                        sx = s->len[0];
-                    } else if (kx >= nx) {
-                        kx -= nx;
-                        sx = -s->len[0];
-                    }
+                    float sx;
+                    (void)wrap_cell(s, 0, &kx, &sx); /* x is periodic here */
                     r->b[r->n] = st[row + (uint32_t)kx];
                     r->e[r->n] = st[row + (uint32_t)kx + 1];
                     r->sx[r->n] = sx;
