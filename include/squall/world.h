@@ -21,7 +21,9 @@ typedef enum sq_terrain_kind {
     SQ_TERRAIN_HILLS = 2,     /* fBm gradient noise */
     SQ_TERRAIN_DUNES = 3,     /* transverse dunes (sharp crests) plus noise */
     SQ_TERRAIN_MOUNTAIN = 4,  /* a slope for avalanches: inclined plane + ridges + run-out */
-    SQ_TERRAIN_HEIGHTMAP = 5  /* 16-bit PNG heightmap (loaded by the io layer) */
+    SQ_TERRAIN_HEIGHTMAP = 5, /* 16-bit PNG heightmap (loaded by the io layer) */
+    SQ_TERRAIN_GRID = 6       /* float heights in metres on a regular grid (a DEM, WRF's HGT,
+                                 or the caller's own array) */
 } sq_terrain_kind;
 
 typedef enum sq_terrain_material {
@@ -53,6 +55,12 @@ typedef struct sq_terrain_desc {
     int heightmap_w, heightmap_h;
     float metres_per_px;
     float height_min_m, height_max_m;
+    /* grid: float heights in metres (borrowed for the create call). Sample (i, j) is
+     * grid_heights_m[j*grid_w + i] at (origin.x + i*grid_dx_m, origin.y + j*grid_dy_m): row 0 is
+     * the SOUTH edge, x east, y north. Every value must be finite (fill no-data before). */
+    const float *grid_heights_m;
+    int grid_w, grid_h;
+    float grid_dx_m, grid_dy_m;
 } sq_terrain_desc;
 
 typedef enum sq_obstacle_kind {
@@ -92,6 +100,12 @@ typedef struct sq_world_desc {
     sq_sky_desc sky;
     const sq_obstacle *obstacles; /* borrowed for the create call */
     int obstacle_count;
+    /* Georeference (optional): the coordinate reference system of the world's x/y as WKT (or any
+     * string PROJ accepts, e.g. "EPSG:32632"), copied at create; NULL or "" = a local metric frame
+     * with no CRS. World (x, y) + crs_offset_m = (easting, northing) in that CRS, so world
+     * coordinates stay small (float precision) while outputs are georeferenced. */
+    const char *crs_wkt;
+    double crs_offset_m[2];
 } sq_world_desc;
 
 /* The world after creation: read-only for phenomena and the renderer. */
@@ -115,6 +129,9 @@ typedef struct sq_world {
     sq_vec3 sky_horizon;   /* linear RGB sky radiance at the horizon */
     sq_vec3 ground_albedo;
     float turbidity;
+    /* georeference: NULL when the world has no CRS (owned by the world) */
+    char *crs_wkt;
+    double crs_offset_m[2];
     uint64_t generation;   /* changes when terrain or obstacles change (e.g. heightmap edit) */
 } sq_world;
 

@@ -2,7 +2,8 @@
  * from date/time/latitude, a simple analytic sky colour model, and camera helpers.
  * Terrain kinds: hills (fBm gradient noise), dunes (asymmetric transverse ridges: gentle
  * windward slope, steep slip face near the 30-34 degree angle of repose, plus noise), mountain
- * (an inclined release slope that flattens into a run-out plain, with ridges), heightmap. */
+ * (an inclined release slope that flattens into a run-out plain, with ridges), heightmap (16-bit
+ * PNG), grid (float heights given by the caller: DEMs, WRF terrain). */
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -19,7 +20,7 @@ sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out)
     if (in) d = *in;
     sq_terrain_desc *t = &d.terrain;
     if (t->kind == SQ_TERRAIN_DEFAULT) t->kind = SQ_TERRAIN_HILLS;
-    if (t->kind != SQ_TERRAIN_HEIGHTMAP) {
+    if (t->kind != SQ_TERRAIN_HEIGHTMAP && t->kind != SQ_TERRAIN_GRID) {
         if (t->size_m[0] == 0.0f) t->size_m[0] = 2000.0f;
         if (t->size_m[1] == 0.0f) t->size_m[1] = 2000.0f;
         if (t->resolution[0] == 0) t->resolution[0] = 257;
@@ -57,6 +58,28 @@ static sq_result validate(sq_context *ctx, const sq_world_desc *d)
             return sq__fail(ctx, SQ_ERR_TOO_LARGE, "world",
                             "world.terrain: heightmap of %dx%d pixels; at most %d pixels",
                             t->heightmap_w, t->heightmap_h, WORLD_MAX_SAMPLES);
+    } else if (t->kind == SQ_TERRAIN_GRID) {
+        if (!t->grid_heights_m || t->grid_w < 2 || t->grid_h < 2)
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                            "world.terrain: height grid of %dx%d samples; at least 2x2 needed",
+                            t->grid_w, t->grid_h);
+        if ((int64_t)t->grid_w * t->grid_h > WORLD_MAX_SAMPLES)
+            return sq__fail(ctx, SQ_ERR_TOO_LARGE, "world",
+                            "world.terrain: height grid of %dx%d samples; at most %d samples",
+                            t->grid_w, t->grid_h, WORLD_MAX_SAMPLES);
+        if (!(t->grid_dx_m > 0.0f) || !isfinite(t->grid_dx_m) || !(t->grid_dy_m > 0.0f) ||
+            !isfinite(t->grid_dy_m))
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                            "world.terrain: grid spacing %g x %g m; both must be > 0",
+                            (double)t->grid_dx_m, (double)t->grid_dy_m);
+        size_t n = (size_t)t->grid_w * (size_t)t->grid_h;
+        for (size_t k = 0; k < n; k++)
+            if (!isfinite(t->grid_heights_m[k]) || fabsf(t->grid_heights_m[k]) > 1.0e5f)
+                return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                                "world.terrain: height grid sample (%zu, %zu) = %g m; heights "
+                                "must be finite and within +-100 km (fill no-data first)",
+                                k % (size_t)t->grid_w, k / (size_t)t->grid_w,
+                                (double)t->grid_heights_m[k]);
     } else {
         for (int a = 0; a < 2; a++) {
             if (!(t->size_m[a] > 0.0f) || !isfinite(t->size_m[a]))
@@ -117,6 +140,9 @@ static void generate(const sq_terrain_desc *t, sq_world *w)
                 h += t->height_min_m + (t->height_max_m - t->height_min_m) * v / 65535.0f;
                 break;
             }
+            case SQ_TERRAIN_GRID:
+                h += t->grid_heights_m[(size_t)j * (size_t)t->grid_w + (size_t)i];
+                break;
             case SQ_TERRAIN_DUNES: {
                 float a = t->dune_dir_deg * (float)(SQ_PI / 180.0);
                 float along = x * cosf(a) + y * sinf(a);
@@ -254,6 +280,11 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         nx = t->heightmap_w;
         ny = t->heightmap_h;
         dx = dy = t->metres_per_px;
+    } else if (t->kind == SQ_TERRAIN_GRID) {
+        nx = t->grid_w;
+        ny = t->grid_h;
+        dx = t->grid_dx_m;
+        dy = t->grid_dy_m;
     } else {
         nx = t->resolution[0];
         ny = t->resolution[1];
@@ -282,6 +313,17 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->origin = sq_v3(-0.5f * ex, -0.5f * ey, 0.0f);
     w->terrain_kind = t->kind;
     w->terrain_material = t->material;
+    if (d.crs_wkt && d.crs_wkt[0]) {
+        size_t len = strlen(d.crs_wkt) + 1;
+        w->crs_wkt = (char *)sq_alloc(ctx, len);
+        if (!w->crs_wkt) {
+            sq_world_destroy(ctx, w);
+            return SQ_ERR_OUT_OF_MEMORY;
+        }
+        memcpy(w->crs_wkt, d.crs_wkt, len);
+        w->crs_offset_m[0] = d.crs_offset_m[0];
+        w->crs_offset_m[1] = d.crs_offset_m[1];
+    }
     generate(t, w);
     compute_normals(w);
     w->obstacle_count = d.obstacle_count;
@@ -313,6 +355,7 @@ void sq_world_destroy(sq_context *ctx, sq_world *w)
     if (!w) return;
     sq_free(ctx, w->heights);
     sq_free(ctx, w->normals);
+    sq_free(ctx, w->crs_wkt);
     sq_free(ctx, w);
 }
 

@@ -1,4 +1,7 @@
 /* test_world.c — terrain generation, sun position, obstacles, camera paths. */
+#include <math.h>
+#include <string.h>
+
 #include "sq_test.h"
 #include "squall/world.h"
 
@@ -61,6 +64,45 @@ SQ_TEST(heightmap_maps_range_and_slope_normals)
     sq_world_destroy(ctx, w);
     d.terrain.metres_per_px = 0.0f;
     SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "metres_per_px = 0");
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(float_grid_terrain_rows_south_first_with_crs)
+{
+    sq_context *ctx = mkctx();
+    /* heights rise toward north: h = 200 + 5 j over a 3 x 4 grid at 20 m x 10 m */
+    float h[3 * 4];
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 3; i++) h[j * 3 + i] = 200.0f + 5.0f * (float)j;
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_GRID;
+    d.terrain.grid_heights_m = h;
+    d.terrain.grid_w = 3;
+    d.terrain.grid_h = 4;
+    d.terrain.grid_dx_m = 20.0f;
+    d.terrain.grid_dy_m = 10.0f;
+    d.terrain.origin_set = true;
+    d.crs_wkt = "EPSG:32632";
+    d.crs_offset_m[0] = 640000.0;
+    d.crs_offset_m[1] = 5170000.0;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    SQ_CHECK(w->nx == 3 && w->ny == 4);
+    SQ_CHECK_NEAR(w->dx, 20.0, 0.0);
+    SQ_CHECK_NEAR(w->dy, 10.0, 0.0);
+    SQ_CHECK_NEAR(sq_world_height_at(w, 0.0f, 0.0f), 200.0, 1e-4);   /* south row */
+    SQ_CHECK_NEAR(sq_world_height_at(w, 20.0f, 30.0f), 215.0, 1e-4); /* north row */
+    /* slope 5 m per 10 m toward north: normal (0, -0.5, 1)/|.| */
+    sq_vec3 n = sq_world_normal_at(w, 20.0f, 15.0f);
+    SQ_CHECK_NEAR(n.y, -0.5 / sqrt(1.25), 1e-4);
+    SQ_CHECK(w->crs_wkt != NULL && strcmp(w->crs_wkt, "EPSG:32632") == 0);
+    SQ_CHECK_NEAR(w->crs_offset_m[1], 5170000.0, 0.0);
+    sq_world_destroy(ctx, w);
+    h[5] = NAN;
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "sample (2, 1) = nan");
+    h[5] = 200.0f;
+    d.terrain.grid_dy_m = 0.0f;
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "grid spacing");
     sq_context_destroy(ctx);
 }
 
