@@ -203,6 +203,23 @@ SQ_API sq_result sq_wrf_world_desc(sq_wrf *w, double time_s, sq_world_desc *desc
 SQ_API void sq_wrf_cloud_optical_depth(const sq_wrf_info *info, const sq_wrf_state *s,
                                        float *out);
 
+/* ---- export: CF-1.8 NetCDF of the derived fields (src/io/wrf_export.c) --------------------- */
+typedef struct sq_wrf_export_desc {
+    const char *path;   /* output file; written to a temporary name and renamed when complete */
+    int index;          /* stored time to write; -1: the time time_s (interpolated between) */
+    double time_s;      /* used when index < 0 */
+    bool overwrite;     /* replace an existing path */
+} sq_wrf_export_desc;
+
+/* Writes netCDF-4 with CF-1.8 metadata: dimensions (bottom_top, south_north, west_east), the
+ * projected coordinates x(west_east), y(south_north) in metres with a grid_mapping variable
+ * "crs" (CF projection attributes, crs_wkt, the PROJ string), lat/lon auxiliary coordinates, a
+ * scalar time coordinate; float variables z, height_above_ground, pressure, theta, temperature,
+ * air_density, qvapor, u, v, w, cloud_water, cloud_ice, snow, rain, graupel (the species the
+ * file has), extinction (cloud water + ice, m-1), and 2D terrain_height and
+ * cloud_optical_depth. Nothing is written when reading or checking the time fails. */
+SQ_API sq_result sq_wrf_export_netcdf(sq_wrf *w, const sq_wrf_export_desc *desc);
+
 #ifdef __cplusplus
 }
 #endif
