@@ -5,7 +5,7 @@
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 L=layers.slide
 # particle spacing and support radius <= 0 (the parameter table's range; 0 support = auto)
-expect 2 "\(avalanche\).particles.spacing_m = 0 m: outside the range \[0.001, 100\] m" -- \
+expect 2 "preset alpine-avalanche \(--set\): layers.slide.particles.spacing_m = 0 m: outside the range \[0.001, 100\] m" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.spacing_m=0
 expect 2 "particles.spacing_m = -0.5 m: outside the range \[0.001, 100\] m" -- \
     render alpine-avalanche -o v.mp4 --set $L.particles.spacing_m=-0.5
