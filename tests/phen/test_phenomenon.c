@@ -208,7 +208,7 @@ SQ_TEST(scene_layers_are_handles)
     memcpy(bad, "0.05", 4);
     sq_cfg *cfg = NULL;
     SQ_CHECK_OK(sq_cfg_parse(ctx, text, strlen(text), "t.yaml", &cfg));
-    sq_scene_desc sdsc = {cfg, NULL, false};
+    sq_scene_desc sdsc = {.cfg = cfg};
     sq_scene *s = NULL;
     sq_result r = sq_scene_create(ctx, &sdsc, &s);
     printf("scene refusal: %s\n", sq_last_error());

@@ -52,7 +52,7 @@ static sq_scene *mkscene(sq_context *ctx, const char *extra_output)
     sq_cfg *cfg = NULL;
     SQ_CHECK_OK(sq_cfg_parse(ctx, text, strlen(text), "run.yaml", &cfg));
     if (!cfg) return NULL;
-    sq_scene_desc sd = {cfg, NULL, false};
+    sq_scene_desc sd = {.cfg = cfg};
     sq_scene *s = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &sd, &s));
     sq_cfg_destroy(cfg);
