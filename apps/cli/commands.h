@@ -11,5 +11,6 @@ int sq_cmd_bench(int argc, char **argv);
 int sq_cmd_validate(int argc, char **argv);
 int sq_cmd_visibility(int argc, char **argv);
 int sq_cmd_wrf(int argc, char **argv);
+int sq_cmd_view(int argc, char **argv);  /* apps/viewer/ (built with GTK 4) */
 
 #endif

@@ -22,6 +22,9 @@ static const command commands[] = {
     {"scenes", sq_cmd_scenes, "list the built-in scene presets"},
     {"scene", sq_cmd_scene, "scene show NAME: print a preset as YAML to start from"},
     {"params", sq_cmd_params, "list every parameter of a layer or section with unit, default, range"},
+#ifdef SQ_HAVE_VIEWER
+    {"view", sq_cmd_view, "open a scene in a window: live simulation, camera, parameters"},
+#endif
     {"info", sq_cmd_info, "version, OpenGL renderer, threads and compiled-in features"},
     {"bench", sq_cmd_bench, "benchmarks: JSON lines with timings and the STREAM bandwidth"},
     {"validate", sq_cmd_validate, "validation cases printing CSV for comparison with literature"},

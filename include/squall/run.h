@@ -127,7 +127,9 @@ SQ_API sq_result sq_run_advance(sq_run *run);
 SQ_API sq_result sq_run_draw(sq_run *run);
 /* SQ_RUN_GL_CURRENT_CONTEXT only: draws the latest advanced frame into the caller's framebuffer
  * (sq_renderer_draw_to; target->content SQ_TARGET_FRAME for a viewer, DRAWABLES_OVER to put the
- * phenomena over the caller's own geometry). No read-back, no frame outputs. */
+ * phenomena over the caller's own geometry). No read-back, no frame outputs. With a camera
+ * override (sq_run_set_camera) it draws from the override as it is now, so that a viewer's camera
+ * moves at the display rate even while the simulation is paused or slow. */
 SQ_API sq_result sq_run_draw_to(sq_run *run, const sq_render_target *target);
 /* Every remaining frame: advance, and draw unless SQ_RUN_SIMULATE. */
 SQ_API sq_result sq_run_execute(sq_run *run);

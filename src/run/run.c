@@ -367,9 +367,13 @@ sq_result sq_run_draw_to(sq_run *run, const sq_render_target *target)
     sq_result r = take_slot(run, &slot);
     if (r != SQ_OK) return r;
     const sq__run_frame_slot *s = &run->slots[slot];
+    /* an interactive camera moves at the display's rate, also while the simulation waits */
+    mtx_lock(&run->lock);
+    const sq_camera cam = run->camera_override ? run->camera : s->camera;
+    mtx_unlock(&run->lock);
     r = create_renderer(run);
     if (r == SQ_OK)
-        r = sq_renderer_draw_to(run->renderer, target, sq_scene_world(run->scene), &s->camera,
+        r = sq_renderer_draw_to(run->renderer, target, sq_scene_world(run->scene), &cam,
                                 s->drawables, s->count, s->time_s);
     release_slot(run);
     return r;

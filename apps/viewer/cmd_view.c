@@ -1,0 +1,470 @@
+/* cmd_view.c — `squall view [SCENE|PRESET]`: a GTK 4 window whose GtkGLArea (OpenGL 4.5 core)
+ * shows the scene drawn by the library's renderer straight into the widget's framebuffer
+ * (sq_run in pumped mode: SQ_RUN_GL_CURRENT_CONTEXT + sq_run_draw_to), while the simulation
+ * advances on its own thread (view_sim.c) at the scene's time scale and the drawing shows the
+ * latest frame. `--frames N --screenshot FILE.png` runs N frames in the window, writes the last
+ * one and exits (for scripts and tests). Here: options, the scene and run, the window and the
+ * GL area's callbacks. */
+#include <epoxy/gl.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../cli/cli.h"
+#include "../cli/commands.h"
+#include "view.h"
+
+#define VIEW_INTERACTIVE_FRAMES 1000000 /* output.frames' upper limit: 11.5 h at 24 fps */
+
+static void view_usage(void)
+{
+    printf("usage: squall view [SCENE.yaml|PRESET] [options]\n\n"
+           "Opens a window that runs the scene: the simulation steps on its own thread at the\n"
+           "scene's time scale (output.time_scale simulated seconds per second) and the window\n"
+           "draws the latest state with the OpenGL renderer. Without SCENE: %s.\n\n"
+           "options:\n"
+           "  --size WxH           drawing area in pixels (default: output.width x height)\n"
+           "  --set KEY=VALUE      override any scene key, as for squall render\n"
+           "  --paused             start paused (after the warm-up frame)\n"
+           "  --frames N           run N frames (frame 0 = after the warm-up), then exit\n"
+           "  --screenshot FILE    with --frames: write the last frame as PNG (safe output)\n"
+           "  --overwrite          replace an existing screenshot\n"
+           "  --threads N          simulation worker threads (default: all cores)\n"
+           "  --quiet              only errors\n\n"
+           "keys: Space pause/run, N single step, R reset, +/- speed, Tab orbit/fly camera,\n"
+           "      C back to the scene's camera path, F frame the phenomenon, W A S D Q E move,\n"
+           "      mouse drag look/turn, wheel zoom (orbit) or speed (fly), H HUD, Esc quit.\n"
+           "See docs/viewer.md. Exit codes: 0 success, 1 runtime failure (no display, GL),\n"
+           "2 usage or input error.\n",
+           sq_preset_default());
+}
+
+static bool takes_value(const char *a)
+{
+    const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", NULL};
+    for (int i = 0; v[i]; i++)
+        if (strcmp(a, v[i]) == 0) return true;
+    return false;
+}
+
+static bool known_option(const char *a)
+{
+    const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", "--overwrite",
+                       "--quiet", "--verbose", "--paused", NULL};
+    for (int i = 0; v[i]; i++)
+        if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
+            return true;
+    return false;
+}
+
+static int fail(sq_result r)
+{
+    const char *e = sq_last_error();
+    sq_cli_error("%s", e && *e ? e : sq_result_name(r));
+    return sq_cli_exit_code(r);
+}
+
+/* ---- scene and run ------------------------------------------------------------------------- */
+
+/* The run's scene: a copy of the user's cfg with the frame count of the viewer (the user's cfg
+ * stays as the user wrote it, for saving). */
+static sq_result scene_from_cfg(viewer *v, sq_scene **out)
+{
+    char *yaml = sq_cfg_to_yaml(v->cfg);
+    if (!yaml) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: cannot copy the scene");
+    sq_cfg *copy = NULL;
+    sq_result r = sq_cfg_parse(v->ctx, yaml, strlen(yaml), v->cfg->source, &copy);
+    free(yaml);
+    if (r != SQ_OK) return r;
+    snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
+    char set[64];
+    snprintf(set, sizeof set, "output.frames=%d", v->frames > 0 ? v->frames : VIEW_INTERACTIVE_FRAMES);
+    r = sq_cfg_set(copy, set);
+    if (r == SQ_OK) {
+        sq_scene_desc sd = {.cfg = copy, .load_heightmap = sq_scene_heightmap_loader,
+                            .load_dem = sq_dem_load, .load_area = sq_area_load};
+        r = sq_scene_create(v->ctx, &sd, out);
+    }
+    sq_cfg_destroy(copy);
+    return r;
+}
+
+/* Bounds of the phenomena's fields (for "frame the phenomenon"), read before the thread starts. */
+static void phenomenon_box(viewer *v)
+{
+    v->have_box = false;
+    for (int i = 0; i < sq_scene_layer_count(v->scene); i++) {
+        sq_phenomenon *p = sq_scene_layer(v->scene, i);
+        sq_named_field f;
+        if (!p || sq_phenomenon_field_count(p) < 1 || sq_phenomenon_field(p, 0, &f) != SQ_OK)
+            continue;
+        const sq_vec3 lo = sq_v3(f.origin_m.x - 0.5f * f.spacing_m.x,
+                                 f.origin_m.y - 0.5f * f.spacing_m.y,
+                                 f.origin_m.z - 0.5f * f.spacing_m.z);
+        const sq_vec3 hi = sq_v3(lo.x + f.nx * f.spacing_m.x, lo.y + f.ny * f.spacing_m.y,
+                                 lo.z + (f.nz > 1 ? f.nz : 1) * f.spacing_m.z);
+        if (!v->have_box) {
+            v->box_lo = lo;
+            v->box_hi = hi;
+        } else {
+            v->box_lo = sq_v3(fminf(v->box_lo.x, lo.x), fminf(v->box_lo.y, lo.y), fminf(v->box_lo.z, lo.z));
+            v->box_hi = sq_v3(fmaxf(v->box_hi.x, hi.x), fmaxf(v->box_hi.y, hi.y), fmaxf(v->box_hi.z, hi.z));
+        }
+        v->have_box = true;
+    }
+}
+
+static sq_result start_run(viewer *v)
+{
+    sq_result r = scene_from_cfg(v, &v->scene);
+    if (r != SQ_OK) return r;
+    phenomenon_box(v);
+    const sq_scene_output *o = sq_scene_output_settings(v->scene);
+    v->sim = view_sim_create(o->fps, o->steps_per_frame);
+    if (!v->sim) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: no memory for the simulation");
+    sq_run_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.scene = v->scene;
+    rd.render = SQ_RUN_GL_CURRENT_CONTEXT;
+    rd.snapshot = true; /* advance (simulation thread) and draw_to (GTK thread) overlap */
+    rd.sinks = view_sim_sinks(v->sim);
+    r = sq_run_create(v->ctx, &rd, &v->run);
+    if (r != SQ_OK) return r;
+    if (v->cam.mode != VIEW_CAM_PATH) {
+        const sq_camera c = view_camera_get(&v->cam);
+        sq_run_set_camera(v->run, &c);
+    }
+    if (!view_sim_start(v->sim, v->run, v->paused_start))
+        return sq_set_error(SQ_ERR_INTERNAL, "view: cannot start the simulation thread");
+    v->drawn_frames = 0;
+    v->redraw = true;
+    return SQ_OK;
+}
+
+/* Stops the thread, then destroys the run (its renderer in the GL area's context) and scene. */
+static void stop_run(viewer *v)
+{
+    view_sim_destroy(v->sim);
+    v->sim = NULL;
+    if (v->run) {
+        if (v->area && gtk_widget_get_realized(v->area))
+            gtk_gl_area_make_current(GTK_GL_AREA(v->area));
+        sq_run_destroy(v->run);
+        v->run = NULL;
+    }
+    sq_scene_destroy(v->scene);
+    v->scene = NULL;
+}
+
+sq_result view_rebuild(viewer *v)
+{
+    stop_run(v);
+    const sq_result r = start_run(v);
+    if (r != SQ_OK) {
+        const char *e = sq_last_error();
+        snprintf(v->gl_error, sizeof v->gl_error, "%s", e && *e ? e : sq_result_name(r));
+    }
+    return r;
+}
+
+/* ---- the GL area ----------------------------------------------------------------------------- */
+
+static void on_realize(GtkGLArea *area, gpointer user)
+{
+    viewer *v = (viewer *)user;
+    gtk_gl_area_make_current(area);
+    GError *e = gtk_gl_area_get_error(area);
+    if (e) {
+        snprintf(v->gl_error, sizeof v->gl_error, "no OpenGL 4.5 core context for the window: %s",
+                 e->message);
+        return;
+    }
+    GdkGLContext *c = gtk_gl_area_get_context(area);
+    int maj = 0, min = 0;
+    gdk_gl_context_get_version(c, &maj, &min);
+    if (maj * 10 + min < 45 || gdk_gl_context_get_use_es(c))
+        snprintf(v->gl_error, sizeof v->gl_error,
+                 "the window's OpenGL context is %s %d.%d; the renderer needs OpenGL 4.5 core",
+                 gdk_gl_context_get_use_es(c) ? "OpenGL ES" : "OpenGL", maj, min);
+}
+
+static void on_resize(GtkGLArea *area, int width, int height, gpointer user)
+{
+    (void)area;
+    viewer *v = (viewer *)user;
+    v->fb_width = width;
+    v->fb_height = height;
+    v->redraw = true;
+}
+
+static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
+{
+    (void)context;
+    viewer *v = (viewer *)user;
+    const int frames = v->run ? sq_run_frame_index(v->run) : 0;
+    if (v->gl_error[0] || !v->run || frames == 0 || v->fb_width < 1 || v->fb_height < 1) {
+        glClearColor(0.18f, 0.18f, 0.2f, 1.0f); /* before the warm-up frame, or after an error */
+        glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+        return TRUE;
+    }
+    GLint fbo = 0;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &fbo);
+    sq_render_target t = {(unsigned)fbo, v->fb_width, v->fb_height, SQ_TARGET_FRAME,
+                          SQ_TARGET_DISPLAY};
+    const double t0 = sq_time_now();
+    const sq_result r = sq_run_draw_to(v->run, &t);
+    if (r != SQ_OK) {
+        const char *e = sq_last_error();
+        snprintf(v->gl_error, sizeof v->gl_error, "drawing frame %d: %s", frames - 1,
+                 e && *e ? e : sq_result_name(r));
+        return TRUE;
+    }
+    if (v->shot_pending && frames >= v->shot_frame) {
+        const sq_result s = view_shot_write(v, v->shot_path, v->fb_width, v->fb_height);
+        v->shot_pending = false;
+        if (s != SQ_OK) {
+            const char *e = sq_last_error();
+            snprintf(v->gl_error, sizeof v->gl_error, "%s", e && *e ? e : sq_result_name(s));
+            v->exit_code = sq_cli_exit_code(s);
+        } else {
+            v->shot_done = true;
+        }
+    }
+    glFinish(); /* the draw time below is the GL work, not only its submission */
+    const double ms = (sq_time_now() - t0) * 1e3;
+    v->draw_ms = v->draw_ms > 0 ? 0.8 * v->draw_ms + 0.2 * ms : ms;
+    v->drawn_frames = frames;
+    v->fps_count++;
+    (void)area;
+    return TRUE;
+}
+
+/* Every display frame: camera keys, then a draw when there is a new frame or a change. */
+static gboolean on_tick(GtkWidget *w, GdkFrameClock *clock, gpointer user)
+{
+    (void)w;
+    (void)clock;
+    viewer *v = (viewer *)user;
+    const double now = sq_time_now();
+    view_input_tick(v, now);
+    if (v->run && (v->redraw || sq_run_frame_index(v->run) != v->drawn_frames)) {
+        v->redraw = false;
+        gtk_gl_area_queue_render(GTK_GL_AREA(v->area));
+    }
+    if (now - v->fps_t0 >= 1.0) {
+        v->fps = v->fps_count / (now - v->fps_t0);
+        v->fps_count = 0;
+        v->fps_t0 = now;
+    }
+    /* --frames N: done when the last frame is drawn (and written) */
+    if (v->frames > 0 && !v->quit) {
+        view_sim_stats st;
+        view_sim_stats_get(v->sim, &st);
+        if (st.error[0]) {
+            sq_cli_error("%s", st.error);
+            v->exit_code = SQ_EXIT_RUNTIME;
+            v->quit = true;
+        } else if (v->gl_error[0]) {
+            sq_cli_error("%s", v->gl_error);
+            if (v->exit_code == SQ_EXIT_OK) v->exit_code = SQ_EXIT_RUNTIME;
+            v->quit = true;
+        } else if (st.done && v->drawn_frames >= v->frames && !v->shot_pending) {
+            v->quit = true;
+        }
+    }
+    return G_SOURCE_CONTINUE;
+}
+
+static gboolean on_hud_timer(gpointer user)
+{
+    view_hud_update((viewer *)user);
+    return G_SOURCE_CONTINUE;
+}
+
+static gboolean on_close(GtkWindow *w, gpointer user)
+{
+    (void)w;
+    ((viewer *)user)->quit = true;
+    return TRUE; /* the main loop below tears down in order */
+}
+
+static void build_window(viewer *v)
+{
+    v->window = gtk_window_new();
+    gtk_window_set_title(GTK_WINDOW(v->window), "squall view");
+    gtk_window_set_default_size(GTK_WINDOW(v->window), v->width, v->height);
+    g_signal_connect(v->window, "close-request", G_CALLBACK(on_close), v);
+
+    GtkWidget *overlay = gtk_overlay_new();
+    v->area = gtk_gl_area_new();
+    gtk_gl_area_set_required_version(GTK_GL_AREA(v->area), 4, 5);
+    gtk_gl_area_set_has_depth_buffer(GTK_GL_AREA(v->area), TRUE);
+    gtk_gl_area_set_auto_render(GTK_GL_AREA(v->area), FALSE);
+    gtk_widget_set_size_request(v->area, v->width, v->height);
+    gtk_widget_set_hexpand(v->area, TRUE);
+    gtk_widget_set_vexpand(v->area, TRUE);
+    gtk_widget_set_focusable(v->area, TRUE);
+    g_signal_connect(v->area, "realize", G_CALLBACK(on_realize), v);
+    g_signal_connect(v->area, "resize", G_CALLBACK(on_resize), v);
+    g_signal_connect(v->area, "render", G_CALLBACK(on_render), v);
+    gtk_overlay_set_child(GTK_OVERLAY(overlay), v->area);
+
+    v->hud = gtk_label_new("");
+    gtk_widget_add_css_class(v->hud, "squall-hud");
+    gtk_widget_set_halign(v->hud, GTK_ALIGN_START);
+    gtk_widget_set_valign(v->hud, GTK_ALIGN_START);
+    gtk_widget_set_can_target(v->hud, FALSE);
+    gtk_overlay_add_overlay(GTK_OVERLAY(overlay), v->hud);
+    v->message = gtk_label_new("");
+    gtk_widget_add_css_class(v->message, "squall-message");
+    gtk_label_set_wrap(GTK_LABEL(v->message), TRUE);
+    gtk_widget_set_halign(v->message, GTK_ALIGN_CENTER);
+    gtk_widget_set_valign(v->message, GTK_ALIGN_END);
+    gtk_widget_set_can_target(v->message, FALSE);
+    gtk_widget_set_visible(v->message, FALSE);
+    gtk_overlay_add_overlay(GTK_OVERLAY(overlay), v->message);
+
+    GtkCssProvider *css = gtk_css_provider_new();
+    gtk_css_provider_load_from_data(
+        css,
+        ".squall-hud { font-family: monospace; font-size: 10pt; color: #f0f0f0;"
+        " background-color: rgba(0,0,0,0.55); padding: 6px; margin: 6px; border-radius: 4px; }"
+        ".squall-message { color: #fff; background-color: rgba(160,20,20,0.85); padding: 8px;"
+        " margin: 12px; border-radius: 4px; }",
+        -1);
+    gtk_style_context_add_provider_for_display(gdk_display_get_default(),
+                                               GTK_STYLE_PROVIDER(css),
+                                               GTK_STYLE_PROVIDER_PRIORITY_APPLICATION);
+    g_object_unref(css);
+
+    gtk_window_set_child(GTK_WINDOW(v->window), overlay);
+    view_input_attach(v);
+    gtk_widget_add_tick_callback(v->area, on_tick, v, NULL);
+    g_timeout_add(250, on_hud_timer, v);
+}
+
+/* ---- the command ------------------------------------------------------------------------------ */
+
+static int parse_args(viewer *v, int argc, char **argv)
+{
+    for (int i = 1; i < argc; i++) {
+        if (argv[i][0] == '-') {
+            if (!known_option(argv[i])) {
+                sq_cli_error("unknown option '%s' (see squall view --help)", argv[i]);
+                return SQ_EXIT_USAGE;
+            }
+            if (takes_value(argv[i])) {
+                if (i + 1 >= argc) {
+                    sq_cli_error("%s needs a value (see squall view --help)", argv[i]);
+                    return SQ_EXIT_USAGE;
+                }
+                i++;
+            }
+            continue;
+        }
+        if (v->scene_arg) {
+            sq_cli_error("more than one scene given ('%s' and '%s')", v->scene_arg, argv[i]);
+            return SQ_EXIT_USAGE;
+        }
+        v->scene_arg = argv[i];
+    }
+    if (!v->scene_arg) v->scene_arg = sq_preset_default();
+    v->overwrite = sq_cli_flag(argc, argv, "--overwrite");
+    v->paused_start = sq_cli_flag(argc, argv, "--paused");
+    v->screenshot = sq_cli_value(argc, argv, "--screenshot");
+    if (!sq_cli_int(argc, argv, "--frames", 0, 1, VIEW_INTERACTIVE_FRAMES, &v->frames))
+        return SQ_EXIT_USAGE;
+    if (v->screenshot && v->frames == 0) {
+        sq_cli_error("--screenshot %s needs --frames N (the frame to write)", v->screenshot);
+        return SQ_EXIT_USAGE;
+    }
+    const char *size = sq_cli_value(argc, argv, "--size");
+    if (size) {
+        char tail = 0;
+        if (sscanf(size, "%dx%d%c", &v->width, &v->height, &tail) != 2 || v->width < 16 ||
+            v->height < 16 || v->width > 8192 || v->height > 8192) {
+            sq_cli_error("--size %s: expected WIDTHxHEIGHT, each in 16..8192, e.g. 1280x720", size);
+            return SQ_EXIT_USAGE;
+        }
+    }
+    return SQ_EXIT_OK;
+}
+
+/* The scene as the CLI loads it: file or preset, --set overrides, every rule checked (with the
+ * CLI's messages) before a window opens. */
+static int load_scene(viewer *v, int argc, char **argv)
+{
+    sq_result r = sq_cfg_load(v->ctx, v->scene_arg, &v->cfg);
+    if (r != SQ_OK) return fail(r);
+    if (!realpath(v->scene_arg, v->scene_real)) v->scene_real[0] = 0;
+    for (int i = 1; i < argc && r == SQ_OK; i++)
+        if (strcmp(argv[i], "--set") == 0 && i + 1 < argc) r = sq_cfg_set(v->cfg, argv[++i]);
+    if (r != SQ_OK) return fail(r);
+    sq_scene_desc sd = {.cfg = v->cfg, .load_heightmap = sq_scene_heightmap_loader,
+                        .load_dem = sq_dem_load, .load_area = sq_area_load,
+                        .validate_only = true};
+    sq_scene *check = NULL;
+    r = sq_scene_create(v->ctx, &sd, &check);
+    if (r != SQ_OK) return fail(r);
+    const sq_scene_output *o = sq_scene_output_settings(check);
+    if (v->width == 0) {
+        v->width = o->width;
+        v->height = o->height;
+    }
+    sq_scene_destroy(check);
+    if (v->screenshot) {
+        r = view_shot_check(v, v->screenshot);
+        if (r == SQ_OK) r = sq_output_check(v->screenshot, v->overwrite);
+        if (r != SQ_OK) return fail(r);
+        snprintf(v->shot_path, sizeof v->shot_path, "%s", v->screenshot);
+        v->shot_pending = true;
+        v->shot_frame = v->frames;
+    }
+    return SQ_EXIT_OK;
+}
+
+int sq_cmd_view(int argc, char **argv)
+{
+    if (sq_cli_flag(argc, argv, "--help") || sq_cli_flag(argc, argv, "-h")) {
+        view_usage();
+        return SQ_EXIT_OK;
+    }
+    viewer *v = (viewer *)calloc(1, sizeof *v);
+    if (!v) return SQ_EXIT_RUNTIME;
+    v->hud_on = true;
+    int rc = parse_args(v, argc, argv);
+    if (rc == SQ_EXIT_OK && sq_cli_context(argc, argv, &v->ctx) != SQ_OK) rc = SQ_EXIT_USAGE;
+    if (rc == SQ_EXIT_OK) rc = load_scene(v, argc, argv);
+    /* without a session bus (Xvfb, ssh) GTK's accessibility bridge only prints a warning */
+    if (!getenv("DBUS_SESSION_BUS_ADDRESS")) setenv("GTK_A11Y", "none", 0);
+    if (rc == SQ_EXIT_OK && !gtk_init_check()) {
+        const char *d = getenv("DISPLAY"), *wd = getenv("WAYLAND_DISPLAY");
+        sq_cli_error("cannot open a window: no display (DISPLAY=%s, WAYLAND_DISPLAY=%s); run it "
+                     "under a desktop session or xvfb-run",
+                     d ? d : "unset", wd ? wd : "unset");
+        rc = SQ_EXIT_RUNTIME;
+    }
+    if (rc != SQ_EXIT_OK) goto done;
+
+    build_window(v);
+    gtk_window_present(GTK_WINDOW(v->window));
+    v->fps_t0 = sq_time_now();
+    const sq_result r = start_run(v);
+    if (r != SQ_OK) {
+        rc = fail(r);
+        v->quit = true;
+    }
+    while (!v->quit) g_main_context_iteration(NULL, TRUE);
+    if (v->frames == 0 && v->gl_error[0] && rc == SQ_EXIT_OK) rc = SQ_EXIT_OK;
+    if (rc == SQ_EXIT_OK) rc = v->exit_code;
+    stop_run(v);
+    gtk_window_destroy(GTK_WINDOW(v->window));
+    while (g_main_context_pending(NULL)) g_main_context_iteration(NULL, FALSE);
+done:
+    sq_cfg_destroy(v->cfg);
+    if (v->ctx) sq_context_destroy(v->ctx);
+    free(v);
+    return rc;
+}

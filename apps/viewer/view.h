@@ -1,0 +1,79 @@
+/* view.h — the state of `squall view` shared by its parts: the window and GL area (cmd_view.c),
+ * the simulation thread (view_sim.c), the camera (view_camera.c), the HUD and keys
+ * (view_input.c), screenshots (view_shot.c). */
+#ifndef SQ_VIEW_H
+#define SQ_VIEW_H
+
+#include <gtk/gtk.h>
+#include <stdbool.h>
+
+#include "squall/io.h"
+#include "squall/run.h"
+#include "squall/scene.h"
+#include "view_camera.h"
+#include "view_sim.h"
+
+#define VIEW_PATH_MAX 1024
+
+typedef struct viewer {
+    /* options */
+    const char *scene_arg;
+    int frames;            /* --frames N: run N frames and exit; 0: interactive */
+    const char *screenshot; /* --screenshot FILE.png (with --frames) */
+    bool overwrite;
+    int width, height;     /* GL area size request */
+    bool paused_start;
+    char scene_real[VIEW_PATH_MAX]; /* realpath of a scene file ("" for a preset): never written */
+
+    sq_context *ctx;
+    sq_cfg *cfg;           /* the user's scene as edited (--set, panel); what "save" writes */
+    sq_scene *scene;
+    sq_run *run;
+    view_sim *sim;
+    bool have_box;         /* bounds of the phenomena (for "frame the phenomenon") */
+    sq_vec3 box_lo, box_hi;
+
+    /* window */
+    GtkWidget *window, *area, *hud, *message;
+    bool hud_on;
+    int fb_width, fb_height; /* GL area framebuffer in pixels */
+    bool quit;
+    int exit_code;
+
+    /* camera */
+    view_camera cam;       /* used when cam.mode != VIEW_CAM_PATH (then the run's override) */
+    bool keys[8];          /* W A S D Q E Shift held */
+    double drag_x0, drag_y0;
+    double last_tick_s;
+
+    /* drawing */
+    int drawn_frames;      /* sq_run_frame_index when the last draw started */
+    bool redraw;           /* camera or size changed: draw even without a new frame */
+    double draw_ms;        /* smoothed GL time of one draw (ms) */
+    double fps;            /* draws per wall second */
+    int fps_count;
+    double fps_t0;
+    char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
+
+    /* screenshot: written by the next draw showing frame >= shot_frame */
+    bool shot_pending;
+    int shot_frame;
+    char shot_path[VIEW_PATH_MAX];
+    bool shot_done;
+} viewer;
+
+/* view_shot.c: the GL area's framebuffer (bound now) -> PNG, rows top first, written under the
+ * safe-output rules (temporary + rename, no replacement without overwrite, never the scene). */
+sq_result view_shot_write(viewer *v, const char *path, int width, int height);
+/* SQ_ERR_INVALID_ARG when path is the scene file (inputs are never written). */
+sq_result view_shot_check(const viewer *v, const char *path);
+
+/* view_input.c: keys, mouse, wheel and the HUD. */
+void view_input_attach(viewer *v);
+void view_input_tick(viewer *v, double now_s);
+void view_hud_update(viewer *v);
+
+/* cmd_view.c: rebuild the scene from v->cfg (reset), keeping the camera. */
+sq_result view_rebuild(viewer *v);
+
+#endif

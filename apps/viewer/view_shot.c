@@ -1,0 +1,51 @@
+/* view_shot.c — screenshots of the GL area: the framebuffer bound for drawing (the GtkGLArea's)
+ * read back as 8-bit RGBA, flipped to rows top first and written as PNG through the library's
+ * writer (temporary name, renamed when complete; an existing file only with --overwrite).
+ * The scene file is never a screenshot's destination. */
+#include <epoxy/gl.h>
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "view.h"
+
+sq_result view_shot_check(const viewer *v, const char *path)
+{
+    char real[VIEW_PATH_MAX];
+    if (v->scene_real[0] && realpath(path, real) && strcmp(real, v->scene_real) == 0)
+        return sq_set_error(SQ_ERR_INVALID_ARG,
+                            "screenshot '%s' is the scene file being viewed; inputs are never "
+                            "written",
+                            path);
+    return SQ_OK;
+}
+
+sq_result view_shot_write(viewer *v, const char *path, int width, int height)
+{
+    sq_result r = view_shot_check(v, path);
+    if (r != SQ_OK) return r;
+    const size_t row = (size_t)width * 4;
+    uint8_t *px = (uint8_t *)malloc(row * (size_t)height);
+    uint8_t *tmp = (uint8_t *)malloc(row);
+    if (!px || !tmp) {
+        free(px);
+        free(tmp);
+        return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "screenshot '%s': no memory", path);
+    }
+    GLint fbo = 0;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &fbo);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, px);
+    for (int y = 0; y < height / 2; y++) { /* GL rows are bottom first */
+        uint8_t *a = px + (size_t)y * row, *b = px + (size_t)(height - 1 - y) * row;
+        memcpy(tmp, a, row);
+        memcpy(a, b, row);
+        memcpy(b, tmp, row);
+    }
+    for (size_t i = 3; i < row * (size_t)height; i += 4) px[i] = 255; /* opaque picture */
+    r = sq_png_write_rgba8(path, width, height, px, v->overwrite);
+    free(px);
+    free(tmp);
+    return r;
+}

@@ -1,0 +1,52 @@
+/* view_sim.h — the viewer's simulation thread: pumps sq_run_advance of a run (snapshot mode) at
+ * the scene's time scale (one frame every 1 / (output.fps * speed) wall seconds when it keeps up),
+ * with pause, single step and speed, and keeps what the HUD shows (frames, scene steps per wall
+ * second, simulated time, the latest metrics) and the first error (which pauses it). The drawing
+ * thread only reads these under the lock; it never waits for a step. */
+#ifndef SQ_VIEW_SIM_H
+#define SQ_VIEW_SIM_H
+
+#include <stdbool.h>
+#include <threads.h>
+
+#include "squall/run.h"
+
+#define VIEW_SIM_MAX_METRICS 32
+
+typedef struct view_metric {
+    char name[96];
+    char unit[24];
+    double value;
+} view_metric;
+
+typedef struct view_sim_stats {
+    int frames;             /* frames advanced (the latest shown is frames - 1) */
+    int frame_count;        /* frames in the run */
+    double sim_time_s;      /* simulated time of the latest frame */
+    double steps_per_s;     /* scene steps per wall second over the last second or so */
+    double speed;           /* wall-time multiplier of the scene's time scale */
+    bool paused, done, busy; /* busy: a step is running now */
+    int metric_count;
+    view_metric metrics[VIEW_SIM_MAX_METRICS];
+    char error[512];        /* non-empty: the run stopped with this message (paused) */
+} view_sim_stats;
+
+typedef struct view_sim view_sim;
+
+/* A simulation side for a run that does not exist yet: create it, put view_sim_sinks(s) in the
+ * sq_run_desc (snapshot = true), create the run, then view_sim_start. */
+view_sim *view_sim_create(int fps, int steps_per_frame);
+sq_run_sinks view_sim_sinks(view_sim *s);
+/* Starts the thread on run (borrowed until view_sim_destroy). paused: start paused (the first
+ * frame, after the warm-up, is still advanced so that there is something to draw). */
+bool view_sim_start(view_sim *s, sq_run *run, bool paused);
+/* Stops the thread (after the step that is running) and frees everything. */
+void view_sim_destroy(view_sim *s);
+
+void view_sim_set_paused(view_sim *s, bool paused);
+void view_sim_toggle_pause(view_sim *s);
+void view_sim_single_step(view_sim *s);   /* pauses and advances one frame */
+void view_sim_set_speed(view_sim *s, double speed); /* clamped to [1/64, 64] */
+double view_sim_speed(view_sim *s);
+void view_sim_stats_get(view_sim *s, view_sim_stats *out);
+#endif
