@@ -17,6 +17,7 @@
 #include "squall/io.h"
 #include "squall/render.h"
 #include "squall/scene.h"
+#include "squall/wrf.h"
 
 #define MAX_DRAWABLES 32
 #define MAX_METRICS 128
@@ -358,7 +359,7 @@ int sq_cmd_render(int argc, char **argv)
         return rc != SQ_EXIT_OK ? rc : fail(r, NULL);
     }
 
-    sq_scene_desc sd = {cfg, sq_scene_heightmap_loader, false};
+    sq_scene_desc sd = {cfg, sq_scene_heightmap_loader, false, sq_scene_wrf_world_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     sq_cfg_destroy(cfg);

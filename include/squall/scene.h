@@ -94,10 +94,18 @@ typedef struct sq_scene sq_scene;
 typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint16_t **out,
                                          int *width, int *height);
 
+/* Fills a world description from a WRF file (supplied by the io layer:
+ * sq_scene_wrf_world_loader in squall/wrf.h): the terrain (HGT) as a float grid, the
+ * georeference and the sun's date and place. *owned receives one allocation (sq_alloc) holding
+ * what desc points to; the scene frees it with sq_free after creating the world. */
+typedef sq_result (*sq_wrf_world_loader)(sq_context *ctx, const char *path, sq_world_desc *desc,
+                                         void **owned);
+
 typedef struct sq_scene_desc {
     const sq_cfg *cfg;
     sq_heightmap_loader load_heightmap; /* NULL: heightmap terrains are refused */
     bool validate_only;                 /* resolve and check everything, create no phenomena */
+    sq_wrf_world_loader load_wrf_world; /* NULL: terrain kind wrf is refused */
 } sq_scene_desc;
 
 SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);

@@ -19,9 +19,13 @@ typedef struct sq__world_section {
     uint64_t terrain_seed;
     char heightmap[SQ_PARAM_STRING_MAX];
     float metres_per_px, height_min_m, height_max_m;
+    char wrf[SQ_PARAM_STRING_MAX];
+    float vertical_exaggeration;
     float sun_direction[3];
     int day_of_year;
     float hour, latitude_deg, irradiance;
+    char sun_date[SQ_PARAM_STRING_MAX];
+    float longitude_deg, clock_scale;
     float turbidity;
     int city_rows, city_cols;
     float city_block_m, city_street_m, city_height_min_m, city_height_max_m;
