@@ -445,9 +445,15 @@ static sq_result open_file(sq_wrf *w, int index, const char *path, wrf_entry **e
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) in.has_species[s] = f->varid[WV_QCLOUD + s] >= 0;
     in.has_ice_number = f->varid[WV_QNICE] >= 0;
     in.has_rain_number = f->varid[WV_QNRAIN] >= 0;
-    double mp = -1;
-    att_double(w, path, ncid, "MP_PHYSICS", false, "", &mp, NULL);
-    in.mp_physics = (int)mp;
+    /* MP_PHYSICS is informative only: absent or malformed gives -1 */
+    int mp = -1;
+    nc_type mp_type;
+    size_t mp_len = 0;
+    if (nc_inq_att(ncid, NC_GLOBAL, "MP_PHYSICS", &mp_type, &mp_len) != NC_NOERR ||
+        mp_len != 1 || mp_type == NC_CHAR || mp_type == NC_STRING ||
+        nc_get_att_int(ncid, NC_GLOBAL, "MP_PHYSICS", &mp) != NC_NOERR)
+        mp = -1;
+    in.mp_physics = mp;
     if (index == 0) {
         w->info = in;
         text_att(ncid, "TITLE", w->title, sizeof w->title);

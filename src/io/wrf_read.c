@@ -257,11 +257,9 @@ sq_result sq__wrf_alloc_buffers(sq_wrf *w)
     raw->u = carve(&cur, nz * ny * (nx + 1));
     raw->v = carve(&cur, nz * (ny + 1) * nx);
     raw->hgt = carve(&cur, nx * ny);
-    for (int s = 0; s < 2; s++) {
-        r = alloc_fields(w, &w->slot[s]);
-        if (r != SQ_OK) return r;
-    }
-    return alloc_fields(w, &w->out);
+    for (int s = 0; s < 3 && r == SQ_OK; s++) r = alloc_fields(w, s < 2 ? &w->slot[s] : &w->out);
+    if (r != SQ_OK) sq__wrf_free_buffers(w); /* all or nothing: the next read tries again */
+    return r;
 }
 
 void sq__wrf_free_buffers(sq_wrf *w)

@@ -713,6 +713,25 @@ SQ_TEST(refusals_name_file_and_variable)
     cleanup();
 }
 
+SQ_TEST(memory_limit_refuses_before_allocating)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd = {0};
+    cd.memory_limit_bytes = 300000; /* the sample's caches need ~605 kB */
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    sq_wrf *w = open1(ctx, SAMPLE);
+    if (w) {
+        SQ_CHECK(sq_wrf_memory_bytes(w) > 600000 && sq_wrf_memory_bytes(w) < 700000);
+        sq_wrf_state s;
+        SQ_CHECK_ERR(sq_wrf_read_index(w, 0, &s), SQ_ERR_TOO_LARGE,
+                     "WRF fields of 10 x 8 x 27 points (raw + 3 derived sets) needs");
+        SQ_CHECK_ERR(sq_wrf_read_index(w, 1, &s), SQ_ERR_TOO_LARGE, "memory limit");
+        sq_wrf_close(w);
+    }
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
+    sq_context_destroy(ctx);
+}
+
 SQ_TEST(cloud_optical_depth_is_the_column_sum)
 {
     fx_desc d = fx_default(1);
