@@ -134,6 +134,56 @@ static sq_result expect_kind(const apply_ctx *a, const sq_cfg_node *n, sq_cfg_ki
 }
 
 /* ---- sections ------------------------------------------------------------------------------ */
+/* terrain.kind = wrf through the io layer's loader (terrain grid, georeference, the file's sun
+ * clock), and sun.date: a sun that follows the scene clock. On failure *owned is NULL. */
+static sq_result world_from_wrf_and_date(sq_context *ctx, const sq_scene_desc *sd,
+                                         const sq__world_section *ws, bool wrf_terrain,
+                                         sq_world_desc *wd, void **owned)
+{
+    const sq_cfg *cfg = sd->cfg;
+    *owned = NULL;
+    if (wrf_terrain) {
+        if (!ws->wrf[0] || !sd->load_wrf_world)
+            return sq__fail(ctx, !ws->wrf[0] ? SQ_ERR_INVALID_ARG : SQ_ERR_UNSUPPORTED, "scene",
+                            "%s: world.terrain.kind = wrf %s", cfg->source,
+                            !ws->wrf[0] ? "needs world.terrain.wrf (a WRF output file)"
+                                        : "needs a WRF loader (this program does not supply one)");
+        char path[1024];
+        if (ws->wrf[0] == '/' || !cfg->base_dir[0])
+            snprintf(path, sizeof path, "%s", ws->wrf);
+        else
+            snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws->wrf);
+        const sq_vec3 dir = wd->sun.direction;
+        sq_result r = sd->load_wrf_world(ctx, path, wd, owned);
+        if (r != SQ_OK) return r;
+        /* an explicit direction or date overrides the file's sun */
+        wd->sun.direction = dir;
+        if (sq_v3_len(dir) > 0.0f || ws->sun_date[0]) wd->sun.utc_set = false;
+        wd->sun.clock_scale = ws->clock_scale;
+    }
+    if (ws->sun_date[0]) {
+        int y = 0, mo = 0, d = 0, h = 0, mi = 0, sec = 0;
+        char sep = ' ';
+        const int got = sscanf(ws->sun_date, "%4d-%2d-%2d%c%2d:%2d:%2d", &y, &mo, &d, &sep, &h,
+                               &mi, &sec);
+        if (!(got == 3 || got == 7) || (got == 7 && sep != ' ' && sep != 'T' && sep != '_') ||
+            mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || sec > 60 || h < 0 ||
+            mi < 0 || sec < 0) {
+            sq_free(ctx, *owned);
+            *owned = NULL;
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: world.sun.date = '%s'; expected 'YYYY-MM-DD hh:mm:ss' (UTC)",
+                            cfg->source, ws->sun_date);
+        }
+        wd->sun.utc_set = true;
+        wd->sun.utc_start_unix_s = sq_unix_time(y, mo, d, h, mi, (double)sec);
+        wd->sun.latitude_deg = ws->latitude_deg;
+        wd->sun.longitude_deg = ws->longitude_deg;
+        wd->sun.clock_scale = ws->clock_scale;
+    }
+    return SQ_OK;
+}
+
 static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_cfg_node *node,
                              sq_world **out)
 {
@@ -141,10 +191,17 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     sq__world_section ws;
     sq_params_defaults(sq__world_params, sq__world_param_count, &ws);
     apply_ctx a = {cfg, "world"};
-    static const char *const skip[] = {"obstacles", NULL};
+    static const char *const skip[] = {"obstacles", "areas", NULL};
     sq_obstacle *obs = (sq_obstacle *)calloc(SQ_MAX_OBSTACLES, sizeof *obs);
-    if (!obs) return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
-    int nobs = 0;
+    sq__area_item *areas = (sq__area_item *)calloc(SQ_MAX_WORLD_AREAS, sizeof *areas);
+    sq__scene_geo *geo = (sq__scene_geo *)calloc(1, sizeof *geo);
+    if (!obs || !areas || !geo) {
+        free(obs);
+        free(areas);
+        free(geo);
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    }
+    int nobs = 0, nareas = 0;
     sq_result r = SQ_OK;
     if (node) {
         r = expect_kind(&a, node, SQ_CFG_MAP, "world");
@@ -183,6 +240,26 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
                 ob->albedo = sq_v3(it.albedo[0], it.albedo[1], it.albedo[2]);
             }
         }
+        const sq_cfg_node *al = sq_cfg_get(node, "areas");
+        if (r == SQ_OK && al) {
+            r = expect_kind(&a, al, SQ_CFG_SEQ, "world.areas");
+            for (const sq_cfg_node *o = r == SQ_OK ? al->child : NULL; r == SQ_OK && o; o = o->next) {
+                char sec[64];
+                snprintf(sec, sizeof sec, "world.areas[%d]", nareas);
+                apply_ctx oa = {cfg, sec};
+                if (nareas >= SQ_MAX_WORLD_AREAS) {
+                    r = sq__set_error(SQ_ERR_INVALID_ARG, "%s: world.areas: more than %d",
+                                      cfg->source, SQ_MAX_WORLD_AREAS);
+                    break;
+                }
+                r = expect_kind(&oa, o, SQ_CFG_MAP, sec);
+                if (r != SQ_OK) break;
+                sq_params_defaults(sq__area_params, sq__area_param_count, &areas[nareas]);
+                r = apply_map(&oa, o, "", sq__area_params, sq__area_param_count, &areas[nareas],
+                              NULL);
+                nareas++;
+            }
+        }
     }
     /* procedural city: rows x cols blocks separated by streets */
     for (int rr = 0; r == SQ_OK && rr < ws.city_rows; rr++)
@@ -203,11 +280,13 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         }
     if (r != SQ_OK) {
         free(obs);
+        free(areas);
+        free(geo);
         return relog(ctx, r);
     }
     sq_world_desc wd = {0};
     /* "wrf" is the last choice of terrain.kind: a float grid from the file */
-    const bool wrf_terrain = ws.terrain_kind == 6;
+    const bool wrf_terrain = ws.terrain_kind == SQ__TERRAIN_CHOICE_WRF;
     wd.terrain.kind = wrf_terrain ? SQ_TERRAIN_GRID : (sq_terrain_kind)ws.terrain_kind;
     wd.terrain.vertical_exaggeration = ws.vertical_exaggeration;
     wd.terrain.material = (sq_terrain_material)ws.terrain_material;
@@ -242,52 +321,18 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     wd.obstacle_count = nobs;
     uint16_t *hm = NULL;
     void *wrf_owned = NULL;
-    if (wrf_terrain) {
-        if (!ws.wrf[0] || !sd->load_wrf_world) {
-            free(obs);
-            return sq__fail(ctx, !ws.wrf[0] ? SQ_ERR_INVALID_ARG : SQ_ERR_UNSUPPORTED, "scene",
-                            "%s: world.terrain.kind = wrf %s", cfg->source,
-                            !ws.wrf[0] ? "needs world.terrain.wrf (a WRF output file)"
-                                       : "needs a WRF loader (this program does not supply one)");
-        }
-        char path[1024];
-        if (ws.wrf[0] == '/' || !cfg->base_dir[0])
-            snprintf(path, sizeof path, "%s", ws.wrf);
-        else
-            snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws.wrf);
-        r = sd->load_wrf_world(ctx, path, &wd, &wrf_owned);
-        if (r != SQ_OK) {
-            free(obs);
-            return r;
-        }
-        /* an explicit direction or date overrides the file's sun */
-        if (sq_v3_len(wd.sun.direction) > 0.0f || ws.sun_date[0]) wd.sun.utc_set = false;
-        if (sq_v3_len(wd.sun.direction) == 0.0f && !ws.sun_date[0])
-            wd.sun.clock_scale = ws.clock_scale;
-    }
-    if (ws.sun_date[0]) {
-        int y, mo, d, h = 0, mi = 0, sec = 0;
-        char sep = ' ';
-        const int got = sscanf(ws.sun_date, "%4d-%2d-%2d%c%2d:%2d:%2d", &y, &mo, &d, &sep, &h,
-                               &mi, &sec);
-        if (!(got == 3 || got == 7) || (got == 7 && sep != ' ' && sep != 'T' && sep != '_') ||
-            mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || sec > 60 || h < 0 ||
-            mi < 0 || sec < 0) {
-            free(obs);
-            sq_free(ctx, wrf_owned);
-            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
-                            "%s: world.sun.date = '%s'; expected 'YYYY-MM-DD hh:mm:ss' (UTC)",
-                            cfg->source, ws.sun_date);
-        }
-        wd.sun.utc_set = true;
-        wd.sun.utc_start_unix_s = sq_unix_time(y, mo, d, h, mi, (double)sec);
-        wd.sun.latitude_deg = ws.latitude_deg;
-        wd.sun.longitude_deg = ws.longitude_deg;
-        wd.sun.clock_scale = ws.clock_scale;
+    r = world_from_wrf_and_date(ctx, sd, &ws, wrf_terrain, &wd, &wrf_owned);
+    if (r != SQ_OK) {
+        free(obs);
+        free(areas);
+        free(geo);
+        return r;
     }
     if (wd.terrain.kind == SQ_TERRAIN_HEIGHTMAP) {
         if (!ws.heightmap[0]) {
             free(obs);
+            free(areas);
+            free(geo);
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
                             "%s: world.terrain.kind = heightmap needs world.terrain.heightmap "
                             "(a 16-bit PNG path)",
@@ -295,6 +340,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         }
         if (!sd->load_heightmap) {
             free(obs);
+            free(areas);
+            free(geo);
             return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene", "heightmap terrains need a loader");
         }
         char path[1024];
@@ -305,6 +352,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         r = sd->load_heightmap(ctx, path, &hm, &wd.terrain.heightmap_w, &wd.terrain.heightmap_h);
         if (r != SQ_OK) {
             free(obs);
+            free(areas);
+            free(geo);
             return r;
         }
         wd.terrain.heightmap = hm;
@@ -312,10 +361,14 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         wd.terrain.height_min_m = ws.height_min_m;
         wd.terrain.height_max_m = ws.height_max_m;
     }
-    r = sq_world_create(ctx, &wd, out);
+    r = sq__scene_geo_world(ctx, sd, &ws, areas, nareas, &wd, geo);
+    if (r == SQ_OK) r = sq_world_create(ctx, &wd, out);
+    sq__scene_geo_release(ctx, geo);
     sq_free(ctx, hm);
     sq_free(ctx, wrf_owned);
     free(obs);
+    free(areas);
+    free(geo);
     return r;
 }
 

@@ -272,7 +272,7 @@ SQ_TEST(scene_terrain_from_wrf_with_moving_sun)
              SAMPLE);
     sq_cfg *cfg = NULL;
     SQ_CHECK_OK(sq_cfg_parse(ctx, text, strlen(text), "wrf.yaml", &cfg));
-    sq_scene_desc d = {cfg, NULL, false, sq_scene_wrf_world_loader};
+    sq_scene_desc d = {.cfg = cfg, .load_wrf_world = sq_scene_wrf_world_loader};
     sq_scene *s = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
     sq_wrf *w = open1(ctx, SAMPLE);
