@@ -30,12 +30,16 @@ static void view_usage(void)
            "  --paused             start paused (after the warm-up frame)\n"
            "  --frames N           run N frames (frame 0 = after the warm-up), then exit\n"
            "  --screenshot FILE    with --frames: write the last frame as PNG (safe output)\n"
-           "  --overwrite          replace an existing screenshot\n"
+           "  --script FILE        timed actions: wait N, set KEY VALUE, screenshot F, save F,\n"
+           "                       panel-keys SECTION F, pause, run, step, quit (docs/viewer.md)\n"
+           "  --no-panel           hide the parameter panel (P toggles it)\n"
+           "  --overwrite          replace existing screenshots and saved files\n"
            "  --threads N          simulation worker threads (default: all cores)\n"
            "  --quiet              only errors\n\n"
            "keys: Space pause/run, N single step, R reset, +/- speed, Tab orbit/fly camera,\n"
            "      C back to the scene's camera path, F frame the phenomenon, W A S D Q E move,\n"
-           "      mouse drag look/turn, wheel zoom (orbit) or speed (fly), H HUD, Esc quit.\n"
+           "      mouse drag look/turn, wheel zoom (orbit) or speed (fly), H HUD, P panel,\n"
+           "      V record MP4 (view-record.mp4), Ctrl+S save the scene (view-saved.yaml), Esc quit.\n"
            "See docs/viewer.md. Exit codes: 0 success, 1 runtime failure (no display, GL),\n"
            "2 usage or input error.\n",
            sq_preset_default());
@@ -43,7 +47,8 @@ static void view_usage(void)
 
 static bool takes_value(const char *a)
 {
-    const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", NULL};
+    const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", "--script",
+                       NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0) return true;
     return false;
@@ -52,7 +57,7 @@ static bool takes_value(const char *a)
 static bool known_option(const char *a)
 {
     const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", "--overwrite",
-                       "--quiet", "--verbose", "--paused", NULL};
+                       "--quiet", "--verbose", "--paused", "--script", "--no-panel", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -221,6 +226,7 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
                  e && *e ? e : sq_result_name(r));
         return TRUE;
     }
+    view_record_frame(v, frames - 1);
     if (v->shot_pending && frames >= v->shot_frame) {
         const sq_result s = view_shot_write(v, v->shot_path, v->fb_width, v->fb_height);
         v->shot_pending = false;
@@ -258,8 +264,9 @@ static gboolean on_tick(GtkWidget *w, GdkFrameClock *clock, gpointer user)
         v->fps_count = 0;
         v->fps_t0 = now;
     }
+    if (v->script && !v->quit && v->fb_width > 0) view_script_tick(v, v->script);
     /* --frames N: done when the last frame is drawn (and written) */
-    if (v->frames > 0 && !v->quit) {
+    if (v->frames > 0 && !v->quit && !v->script) {
         view_sim_stats st;
         view_sim_stats_get(v->sim, &st);
         if (st.error[0]) {
@@ -332,14 +339,23 @@ static void build_window(viewer *v)
         ".squall-hud { font-family: monospace; font-size: 10pt; color: #f0f0f0;"
         " background-color: rgba(0,0,0,0.55); padding: 6px; margin: 6px; border-radius: 4px; }"
         ".squall-message { color: #fff; background-color: rgba(160,20,20,0.85); padding: 8px;"
-        " margin: 12px; border-radius: 4px; }",
+        " margin: 12px; border-radius: 4px; }"
+        ".squall-error { color: #c01c28; }",
         -1);
     gtk_style_context_add_provider_for_display(gdk_display_get_default(),
                                                GTK_STYLE_PROVIDER(css),
                                                GTK_STYLE_PROVIDER_PRIORITY_APPLICATION);
     g_object_unref(css);
 
-    gtk_window_set_child(GTK_WINDOW(v->window), overlay);
+    GtkWidget *paned = gtk_paned_new(GTK_ORIENTATION_HORIZONTAL);
+    gtk_paned_set_start_child(GTK_PANED(paned), overlay);
+    gtk_paned_set_resize_start_child(GTK_PANED(paned), TRUE);
+    gtk_paned_set_shrink_start_child(GTK_PANED(paned), FALSE);
+    v->panel = view_panel_build(v);
+    gtk_paned_set_end_child(GTK_PANED(paned), v->panel);
+    gtk_paned_set_resize_end_child(GTK_PANED(paned), FALSE);
+    gtk_widget_set_visible(v->panel, v->panel_on);
+    gtk_window_set_child(GTK_WINDOW(v->window), paned);
     view_input_attach(v);
     gtk_widget_add_tick_callback(v->area, on_tick, v, NULL);
     g_timeout_add(250, on_hud_timer, v);
@@ -374,6 +390,8 @@ static int parse_args(viewer *v, int argc, char **argv)
     v->overwrite = sq_cli_flag(argc, argv, "--overwrite");
     v->paused_start = sq_cli_flag(argc, argv, "--paused");
     v->screenshot = sq_cli_value(argc, argv, "--screenshot");
+    v->script_path = sq_cli_value(argc, argv, "--script");
+    v->panel_on = !sq_cli_flag(argc, argv, "--no-panel");
     if (!sq_cli_int(argc, argv, "--frames", 0, 1, VIEW_INTERACTIVE_FRAMES, &v->frames))
         return SQ_EXIT_USAGE;
     if (v->screenshot && v->frames == 0) {
@@ -422,6 +440,10 @@ static int load_scene(viewer *v, int argc, char **argv)
         v->shot_pending = true;
         v->shot_frame = v->frames;
     }
+    if (v->script_path) {
+        const sq_result r2 = view_script_load(v, v->script_path, &v->script);
+        if (r2 != SQ_OK) return fail(r2);
+    }
     return SQ_EXIT_OK;
 }
 
@@ -459,10 +481,17 @@ int sq_cmd_view(int argc, char **argv)
     while (!v->quit) g_main_context_iteration(NULL, TRUE);
     if (v->frames == 0 && v->gl_error[0] && rc == SQ_EXIT_OK) rc = SQ_EXIT_OK;
     if (rc == SQ_EXIT_OK) rc = v->exit_code;
+    if (v->rec) {
+        gtk_gl_area_make_current(GTK_GL_AREA(v->area));
+        const sq_result rr = view_record_stop(v);
+        if (rr != SQ_OK && rc == SQ_EXIT_OK) rc = fail(rr);
+    }
     stop_run(v);
     gtk_window_destroy(GTK_WINDOW(v->window));
+    view_panel_free(v);
     while (g_main_context_pending(NULL)) g_main_context_iteration(NULL, FALSE);
 done:
+    view_script_free(v->script);
     sq_cfg_destroy(v->cfg);
     if (v->ctx) sq_context_destroy(v->ctx);
     free(v);

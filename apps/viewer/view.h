@@ -14,6 +14,9 @@
 #include "view_sim.h"
 
 #define VIEW_PATH_MAX 1024
+#define VIEW_MAX_ROWS 1024
+
+typedef struct view_script view_script;
 
 typedef struct viewer {
     /* options */
@@ -23,6 +26,8 @@ typedef struct viewer {
     bool overwrite;
     int width, height;     /* GL area size request */
     bool paused_start;
+    bool panel_on;
+    const char *script_path;
     char scene_real[VIEW_PATH_MAX]; /* realpath of a scene file ("" for a preset): never written */
 
     sq_context *ctx;
@@ -60,11 +65,27 @@ typedef struct viewer {
     int shot_frame;
     char shot_path[VIEW_PATH_MAX];
     bool shot_done;
+
+    /* parameter panel (view_panel.c) and script (view_script.c) */
+    GtkWidget *panel, *panel_status;
+    bool panel_updating;   /* widgets being set from the scene: no change signals */
+    void *panel_rows[VIEW_MAX_ROWS];
+    int panel_row_count;
+    view_script *script;
+
+    /* recording (view_record.c) */
+    sq_video_writer *rec;
+    int rec_width, rec_height, rec_last_frame, rec_frames;
+    uint8_t *rec_px;
+    char rec_path[VIEW_PATH_MAX];
+    char rec_error[VIEW_PATH_MAX + 512];
 } viewer;
 
 /* view_shot.c: the GL area's framebuffer (bound now) -> PNG, rows top first, written under the
  * safe-output rules (temporary + rename, no replacement without overwrite, never the scene). */
 sq_result view_shot_write(viewer *v, const char *path, int width, int height);
+/* Reads the bound framebuffer's (0,0)-(width,height) as RGBA, rows top first, alpha 255. */
+bool view_shot_read(int width, int height, uint8_t *px);
 /* SQ_ERR_INVALID_ARG when path is the scene file (inputs are never written). */
 sq_result view_shot_check(const viewer *v, const char *path);
 
@@ -72,6 +93,33 @@ sq_result view_shot_check(const viewer *v, const char *path);
 void view_input_attach(viewer *v);
 void view_input_tick(viewer *v, double now_s);
 void view_hud_update(viewer *v);
+
+/* view_panel.c: the parameter panel generated from the tables (see the file). */
+GtkWidget *view_panel_build(viewer *v);
+void view_panel_refresh(viewer *v);
+void view_panel_free(viewer *v);
+/* The keys the panel lists for section (e.g. "layers.storm"), one per line; returns the count. */
+int view_panel_keys(const viewer *v, const char *section, char *buf, size_t size);
+/* Sets a key as the panel's widget would, without asking (scripts). */
+sq_result view_panel_set(viewer *v, const char *full_key, const char *value, bool *rebuilt);
+
+/* view_script.c: --script FILE (see the file for the actions), checked before the window opens. */
+sq_result view_script_load(viewer *v, const char *path, view_script **out);
+void view_script_tick(viewer *v, view_script *s);
+void view_script_free(view_script *s);
+
+/* view_record.c: MP4 of the frames shown (each new simulation frame once), through the library's
+ * H.264 writer (temporary name, renamed by stop). The size is the GL area's, rounded down to even. */
+sq_result view_record_start(viewer *v, const char *path);
+void view_record_frame(viewer *v, int frame);   /* in the GL callback, after the draw */
+sq_result view_record_stop(viewer *v);           /* closes and renames; no-op when not recording */
+void view_record_abort(viewer *v);
+
+/* view_save.c: the scene as edited (and the camera as it is) to YAML, safe output. */
+sq_result view_save_scene(viewer *v, const char *path);
+
+/* view_param.c */
+bool view_param_known(const viewer *v, const char *full_key);
 
 /* cmd_view.c: rebuild the scene from v->cfg (reset), keeping the camera. */
 sq_result view_rebuild(viewer *v);

@@ -33,6 +33,43 @@ static void apply_camera(viewer *v)
     v->redraw = true;
 }
 
+/* Ctrl+S: view-saved.yaml in the working directory (then -1, -2 ... if it exists). */
+static void save_interactive(viewer *v)
+{
+    char path[64] = "view-saved.yaml";
+    for (int i = 1; i < 1000 && sq_output_check(path, false) != SQ_OK; i++)
+        snprintf(path, sizeof path, "view-saved-%d.yaml", i);
+    const sq_result r = view_save_scene(v, path);
+    char msg[700];
+    if (r == SQ_OK)
+        snprintf(msg, sizeof msg, "scene saved to %s", path);
+    else
+        snprintf(msg, sizeof msg, "%s", sq_last_error());
+    if (v->panel_status) gtk_label_set_text(GTK_LABEL(v->panel_status), msg);
+}
+
+/* V: starts recording to view-record.mp4 (then -1, -2 ...), or stops and keeps the file. */
+static void toggle_record(viewer *v)
+{
+    char msg[VIEW_PATH_MAX + 700];
+    sq_result r;
+    if (v->rec) {
+        char path[VIEW_PATH_MAX];
+        snprintf(path, sizeof path, "%s", v->rec_path);
+        const int n = v->rec_frames;
+        r = view_record_stop(v);
+        if (r == SQ_OK) snprintf(msg, sizeof msg, "recorded %d frames to %s", n, path);
+    } else {
+        char path[64] = "view-record.mp4";
+        for (int i = 1; i < 1000 && sq_output_check(path, false) != SQ_OK; i++)
+            snprintf(path, sizeof path, "view-record-%d.mp4", i);
+        r = view_record_start(v, path);
+        if (r == SQ_OK) snprintf(msg, sizeof msg, "recording to %s (V stops)", path);
+    }
+    if (r != SQ_OK) snprintf(msg, sizeof msg, "%s", sq_last_error());
+    if (v->panel_status) gtk_label_set_text(GTK_LABEL(v->panel_status), msg);
+}
+
 static int key_slot(guint k)
 {
     switch (gdk_keyval_to_lower(k)) {
@@ -54,6 +91,10 @@ static gboolean on_key(GtkEventControllerKey *c, guint keyval, guint code, GdkMo
     (void)c;
     (void)code;
     viewer *v = (viewer *)user;
+    if ((mods & GDK_CONTROL_MASK) && gdk_keyval_to_lower(keyval) == GDK_KEY_s) {
+        save_interactive(v);
+        return TRUE;
+    }
     if (mods & (GDK_CONTROL_MASK | GDK_ALT_MASK)) return FALSE;
     const int slot = key_slot(keyval);
     if (slot >= 0) {
@@ -87,6 +128,11 @@ static gboolean on_key(GtkEventControllerKey *c, guint keyval, guint code, GdkMo
             view_camera_frame_box(&v->cam, v->box_lo, v->box_hi);
             apply_camera(v);
         }
+        break;
+    case GDK_KEY_v: toggle_record(v); break;
+    case GDK_KEY_p:
+        v->panel_on = !v->panel_on;
+        gtk_widget_set_visible(v->panel, v->panel_on);
         break;
     case GDK_KEY_h:
         v->hud_on = !v->hud_on;
@@ -178,10 +224,10 @@ void view_hud_update(viewer *v)
     size_t n = 0;
     const char *state = st.error[0] ? "STOPPED" : st.done ? "done" : st.paused ? "paused" : "running";
     n += (size_t)snprintf(text + n, sizeof text - n,
-                          "%s  frame %d  t = %.2f s  speed x%g\n"
+                          "%s%s  frame %d  t = %.2f s  speed x%g\n"
                           "draw %.1f fps (%.1f ms/draw, %dx%d)  sim %.1f steps/s\n"
                           "camera: %s",
-                          state, st.frames > 0 ? st.frames - 1 : 0, st.sim_time_s, st.speed,
+                          v->rec ? "REC " : "", state, st.frames > 0 ? st.frames - 1 : 0, st.sim_time_s, st.speed,
                           v->fps, v->draw_ms, v->fb_width, v->fb_height,
                           st.paused ? 0.0 : st.steps_per_s,
                           v->cam.mode == VIEW_CAM_PATH    ? "scene path"

@@ -20,18 +20,11 @@ sq_result view_shot_check(const viewer *v, const char *path)
     return SQ_OK;
 }
 
-sq_result view_shot_write(viewer *v, const char *path, int width, int height)
+bool view_shot_read(int width, int height, uint8_t *px)
 {
-    sq_result r = view_shot_check(v, path);
-    if (r != SQ_OK) return r;
     const size_t row = (size_t)width * 4;
-    uint8_t *px = (uint8_t *)malloc(row * (size_t)height);
     uint8_t *tmp = (uint8_t *)malloc(row);
-    if (!px || !tmp) {
-        free(px);
-        free(tmp);
-        return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "screenshot '%s': no memory", path);
-    }
+    if (!tmp) return false;
     GLint fbo = 0;
     glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &fbo);
     glBindFramebuffer(GL_READ_FRAMEBUFFER, (GLuint)fbo);
@@ -44,8 +37,20 @@ sq_result view_shot_write(viewer *v, const char *path, int width, int height)
         memcpy(b, tmp, row);
     }
     for (size_t i = 3; i < row * (size_t)height; i += 4) px[i] = 255; /* opaque picture */
+    free(tmp);
+    return true;
+}
+
+sq_result view_shot_write(viewer *v, const char *path, int width, int height)
+{
+    sq_result r = view_shot_check(v, path);
+    if (r != SQ_OK) return r;
+    uint8_t *px = (uint8_t *)malloc((size_t)width * 4 * (size_t)height);
+    if (!px || !view_shot_read(width, height, px)) {
+        free(px);
+        return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "screenshot '%s': no memory", path);
+    }
     r = sq_png_write_rgba8(path, width, height, px, v->overwrite);
     free(px);
-    free(tmp);
     return r;
 }

@@ -29,7 +29,8 @@
  * S as its desc type first (`#define S sq_<n>_desc`); only <n>_plugin.c files include this
  * header, so the short names stay local to them.
  *   D  double, I int, B bool, E enum ("a|b|c"), V3 float[3] ("x y z" default text),
- *   FL float list with a count field; Z and A are the flags zero-is-physical and advanced. */
+ *   FL float list with a count field; Z, A and L are the flags zero-is-physical, advanced and
+ *   live (a change may apply to a running scene: rendering, forcing, emission). */
 #define D(key, field, unit, def, lo, hi, flags, doc)                                               \
     {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
 #define I(key, field, unit, def, lo, hi, doc)                                                      \
@@ -45,6 +46,7 @@
      offsetof(S, cnt), 0, doc}
 #define Z SQ_PARAM_ZERO_IS_PHYSICAL
 #define A SQ_PARAM_ADVANCED
+#define L SQ_PARAM_LIVE
 
 #define SQ__PHEN_MEMORY_0(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc))
 #define SQ__PHEN_MEMORY_1(n, desc, w) sq_##n##_memory_bytes((const sq_##n##_desc *)(desc), (w))

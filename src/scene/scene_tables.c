@@ -27,6 +27,15 @@
      offsetof(S, cnt), 0, doc}
 #define STR(key, field, deftext, doc)                                                          \
     {key, SQ_PARAM_STRING, "", offsetof(S, field), 0, 0, 0, deftext, NULL, 0, 0, 0, doc}
+/* live entries (SQ_PARAM_LIVE): a change may apply to a running scene (camera, rendering) */
+#define F_LIVE(key, field, unit, def, lo, hi, doc)                                             \
+    {key, SQ_PARAM_FLOAT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, SQ_PARAM_LIVE, doc}
+#define I_LIVE(key, field, unit, def, lo, hi, doc)                                             \
+    {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, SQ_PARAM_LIVE, doc}
+#define B_LIVE(key, field, def, doc)                                                           \
+    {key, SQ_PARAM_BOOL, "", offsetof(S, field), def, 0, 1, NULL, NULL, 0, 0, SQ_PARAM_LIVE, doc}
+#define V3_LIVE(key, field, unit, deftext, lo, hi, doc)                                        \
+    {key, SQ_PARAM_VEC3, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, 0, 0, SQ_PARAM_LIVE, doc}
 
 #define S sq__world_section
 const sq_param sq__world_params[] = {
@@ -155,12 +164,12 @@ const size_t sq__area_param_count = sizeof sq__area_params / sizeof sq__area_par
 
 #define S sq__camera_section
 const sq_param sq__camera_params[] = {
-    V3("position", position, "m", "-600 -600 120", -1e7, 1e7, "Eye position."),
-    V3("target", target, "m", "0 0 40", -1e7, 1e7, "Point looked at."),
-    V3("up", up, "1", "0 0 1", -1, 1, "Up direction."),
-    F("fov_deg", fov_deg, "deg", 50, 1, 170, "Vertical field of view."),
-    F("near_m", near_m, "m", 0.5, 1e-3, 1e4, "Near clipping distance."),
-    F("far_m", far_m, "m", 20000, 1, 1e7, "Far clipping distance."),
+    V3_LIVE("position", position, "m", "-600 -600 120", -1e7, 1e7, "Eye position."),
+    V3_LIVE("target", target, "m", "0 0 40", -1e7, 1e7, "Point looked at."),
+    V3_LIVE("up", up, "1", "0 0 1", -1, 1, "Up direction."),
+    F_LIVE("fov_deg", fov_deg, "deg", 50, 1, 170, "Vertical field of view."),
+    F_LIVE("near_m", near_m, "m", 0.5, 1e-3, 1e4, "Near clipping distance."),
+    F_LIVE("far_m", far_m, "m", 20000, 1, 1e7, "Far clipping distance."),
 };
 const size_t sq__camera_param_count = sizeof sq__camera_params / sizeof sq__camera_params[0];
 #undef S
@@ -198,10 +207,10 @@ const sq_param sq__output_params[] = {
     {"fields_every", SQ_PARAM_INT, "1", offsetof(S, fields_every), 0, 0, 1000000, NULL, NULL, 0,
      0, SQ_PARAM_ZERO_IS_PHYSICAL, "Write fields every N frames; 0 = last frame only."},
     E("fields_format", fields_format, 0, "netcdf|vtk|both", "Field file format."),
-    F("exposure", exposure, "1", 1, 0.01, 100, "Linear exposure before tone mapping."),
-    I("volume_slices", volume_slices, "1", 128, 8, 1024, "Half-angle slices for volumes."),
-    I("light_buffer", light_buffer, "px", 256, 32, 4096, "Light buffer resolution for volumes."),
-    B("volume_noise", volume_noise, 1,
+    F_LIVE("exposure", exposure, "1", 1, 0.01, 100, "Linear exposure before tone mapping."),
+    I_LIVE("volume_slices", volume_slices, "1", 128, 8, 1024, "Half-angle slices for volumes."),
+    I_LIVE("light_buffer", light_buffer, "px", 256, 32, 4096, "Light buffer resolution for volumes."),
+    B_LIVE("volume_noise", volume_noise, 1,
       "Perturb volume texture coordinates with noise for detail (S0 Fig. 3.12)."),
 };
 const size_t sq__output_param_count = sizeof sq__output_params / sizeof sq__output_params[0];

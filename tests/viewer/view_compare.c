@@ -3,9 +3,11 @@
  * Y = 0.299 R + 0.587 G + 0.114 B (0..255), the fraction of pure black pixels (what a NaN or an
  * unwritten framebuffer shows), the mean luma of the top and bottom halves; for two images of
  * the same size also the SSIM and LDR-FLIP between them (squall/render.h).
- * usage: view_compare A.png [B.png] */
+ * With one .mp4 argument: {"video": {width, height, frames, codec, mean_luma}} (sq_video_probe).
+ * usage: view_compare A.png [B.png] | view_compare CLIP.mp4 */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "squall/core.h"
 #include "squall/io.h"
@@ -53,6 +55,19 @@ int main(int argc, char **argv)
     sq_context *ctx = NULL;
     sq_context_desc d = {0};
     if (sq_context_create(&d, &ctx) != SQ_OK) return 1;
+    const size_t len = strlen(argv[1]);
+    if (argc == 2 && len > 4 && strcmp(argv[1] + len - 4, ".mp4") == 0) {
+        sq_video_info vi;
+        if (sq_video_probe(ctx, argv[1], &vi) != SQ_OK) {
+            fprintf(stderr, "view_compare: %s\n", sq_last_error());
+            return 1;
+        }
+        printf("{\"video\": {\"width\": %d, \"height\": %d, \"frames\": %d, \"codec\": \"%s\", "
+               "\"mean_luma\": %.4f}}\n",
+               vi.width, vi.height, vi.frames, vi.codec, vi.mean_luma);
+        sq_context_destroy(ctx);
+        return 0;
+    }
     uint8_t *img[2] = {NULL, NULL};
     int w[2] = {0, 0}, h[2] = {0, 0};
     for (int i = 0; i + 1 < argc; i++)

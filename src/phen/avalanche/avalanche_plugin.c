@@ -101,9 +101,9 @@ static const sq_param params[] = {
     D("metrics.airborne_m", airborne_m, "m", 2, 1e-6, 1e4, 0,
       "A particle this far above the terrain, measured along the terrain normal, counts as "
       "airborne (airborne_fraction); keep it above the slab thickness."),
-    D("render.radius_factor", radius_factor, "1", 0.6, 0.01, 10, 0,
+    D("render.radius_factor", radius_factor, "1", 0.6, 0.01, 10, L,
       "Radius of the drawn snow spheres in particle spacings."),
-    D("render.albedo", albedo, "1", 0.9, 0.01, 1, 0,
+    D("render.albedo", albedo, "1", 0.9, 0.01, 1, L,
       "Albedo of the snow spheres and the deposit (fresh/wet snow ~0.8-0.9)."),
     B("render.no_deposit_surface", no_deposit_surface,
       "Do not draw the deposit surface (terrain + depth, material snow; it covers the snow "

@@ -23,9 +23,9 @@ static const sq_param params[] = {
       "Lattice (wind) time step; 0 = automatic: the fastest wind (with gusts, at the top of "
       "its profile) moves 0.08 cells per step (Mach 0.14; SPEC 5.3 asks for < 0.1-0.17). "
       "Refused above Mach 0.3."),
-    D("wind.speed_mps", wind_speed_mps, "m/s", 0, 0, 80, Z,
+    D("wind.speed_mps", wind_speed_mps, "m/s", 0, 0, 80, Z | L,
       "Mean wind at wind.ref_height_m (S1 demo: Beaufort 4.5, about 7 m/s); 0 = calm."),
-    D("wind.dir_deg", wind_dir_deg, "deg", 0, -360, 360, Z,
+    D("wind.dir_deg", wind_dir_deg, "deg", 0, -360, 360, Z | L,
       "Direction the wind blows toward, counter-clockwise from east."),
     D("wind.beaufort", beaufort, "1", 0, 0, 12, Z,
       "Gust level n_B: gusts v = mu_g v_mean sin(alpha), mu_g = n_B/20, alpha uniform in "
@@ -50,7 +50,7 @@ static const sq_param params[] = {
     D("wind.tau", tau, "1", 0, 0, 100, Z,
       "Lattice relaxation time; must exceed 1/2 (S1's 0.5 is zero viscosity, unstable: SPEC "
       "5.3); 0 = from wind.eddy_viscosity_m2s."),
-    D("snow.snowfall_mmh", snowfall_mmh, "mm/h", 0, 0, 1000, Z,
+    D("snow.snowfall_mmh", snowfall_mmh, "mm/h", 0, 0, 1000, Z | L,
       "Snowfall rate as water equivalent (1 mm/h = 1 kg m-2 h-1); 0 = no snowfall."),
     D("snow.speedup", speedup, "1", 1, 1e-6, 1e9, 0,
       "Time-lapse factor on snowfall and erosion: drifts build this many times faster than "
@@ -78,9 +78,9 @@ static const sq_param params[] = {
       "step spans."),
     I("draw.flakes", visual_flakes, "1", 20000, 0, 2000000,
       "Falling-snow particles drawn (carried by the lattice wind)."),
-    D("draw.flake_radius_m", flake_radius_m, "m", 0.03, 0.001, 1, 0,
+    D("draw.flake_radius_m", flake_radius_m, "m", 0.03, 0.001, 1, L,
       "Radius of a drawn flake (S1: flakes up to 10 mm; larger reads better on screen)."),
-    D("draw.flake_min_mrad", flake_min_mrad, "mrad", 2.5, 0.01, 100, 0,
+    D("draw.flake_min_mrad", flake_min_mrad, "mrad", 2.5, 0.01, 100, L,
       "Smallest angular radius a flake is drawn with: farther flakes are enlarged to it and "
       "made fainter by (true/drawn radius)^2, keeping projected area x opacity. Chosen: "
       "2.5 mrad is a radius of 0.9 px at 360 px of height and 1.7 px at 720 px (55 deg field "

@@ -1,0 +1,205 @@
+/* view_param.c — the parameter tables seen from the viewer (see view_param.h). */
+#include "view_param.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "view.h"
+
+int view_param_groups(const viewer *v, view_group *out, int max)
+{
+    int n = 0;
+    const char *sections[] = {"world", "camera", "output"};
+    for (int i = 0; i < 3 && n < max; i++) {
+        size_t count = 0;
+        const sq_param *t = sq_scene_section_params(sections[i], &count);
+        if (!t) continue;
+        view_group *g = &out[n++];
+        snprintf(g->section, sizeof g->section, "%s", sections[i]);
+        snprintf(g->title, sizeof g->title, "%s", sections[i]);
+        g->params = t;
+        g->count = count;
+    }
+    const sq_cfg_node *layers = sq_cfg_get(v->cfg->root, "layers");
+    int index = 0;
+    for (const sq_cfg_node *l = layers ? layers->child : NULL; l && n < max; l = l->next, index++) {
+        const sq_cfg_node *type = sq_cfg_get(l, "type"), *name = sq_cfg_get(l, "name");
+        const sq_phen_plugin *pl = type && type->value ? sq_plugin_find(type->value) : NULL;
+        if (!pl) continue;
+        view_group *g = &out[n++];
+        const char *nm = name && name->value ? name->value : pl->name;
+        /* --set addresses a layer by name, else by type (the first of that type), else index */
+        if (name && name->value)
+            snprintf(g->section, sizeof g->section, "layers.%s", nm);
+        else
+            snprintf(g->section, sizeof g->section, "layers.%d", index);
+        snprintf(g->title, sizeof g->title, "layer %s (%s)", nm, pl->name);
+        g->params = pl->params;
+        g->count = pl->param_count;
+    }
+    return n;
+}
+
+/* The node of a dotted key under a map (keys may be nested maps or written with dots). */
+static const sq_cfg_node *find_node(const sq_cfg_node *map, const char *key)
+{
+    if (!map || map->kind != SQ_CFG_MAP) return NULL;
+    for (const sq_cfg_node *c = map->child; c; c = c->next) {
+        if (!c->key) continue;
+        const size_t k = strlen(c->key);
+        if (strcmp(c->key, key) == 0) return c;
+        if (strncmp(c->key, key, k) == 0 && key[k] == '.') {
+            const sq_cfg_node *r = find_node(c, key + k + 1);
+            if (r) return r;
+        }
+    }
+    return NULL;
+}
+
+static const sq_cfg_node *section_node(const viewer *v, const char *section)
+{
+    if (strncmp(section, "layers.", 7) != 0) return find_node(v->cfg->root, section);
+    const sq_cfg_node *layers = sq_cfg_get(v->cfg->root, "layers");
+    const char *part = section + 7;
+    char *end = NULL;
+    const long idx = strtol(part, &end, 10);
+    int i = 0;
+    for (const sq_cfg_node *l = layers ? layers->child : NULL; l; l = l->next, i++) {
+        const sq_cfg_node *name = sq_cfg_get(l, "name");
+        if ((*part && !*end && i == idx) || (name && name->value && strcmp(name->value, part) == 0))
+            return l;
+    }
+    return NULL;
+}
+
+void view_param_current(const viewer *v, const char *section, const char *key, char *buf,
+                        size_t size)
+{
+    buf[0] = 0;
+    const sq_cfg_node *n = find_node(section_node(v, section), key);
+    if (!n) return;
+    if (n->kind == SQ_CFG_SCALAR) {
+        snprintf(buf, size, "%s", n->value ? n->value : "");
+        return;
+    }
+    size_t len = 0;
+    for (const sq_cfg_node *c = n->child; c && len + 2 < size; c = c->next)
+        len += (size_t)snprintf(buf + len, size - len, "%s%s", len ? " " : "",
+                                c->value ? c->value : "");
+}
+
+void view_param_default(const sq_param *p, char *buf, size_t size)
+{
+    switch (p->type) {
+    case SQ_PARAM_BOOL: snprintf(buf, size, "%s", p->def != 0.0 ? "true" : "false"); break;
+    case SQ_PARAM_ENUM: {
+        const char *c = p->choices ? p->choices : "";
+        for (int i = 0; i < (int)p->def && strchr(c, '|'); i++) c = strchr(c, '|') + 1;
+        const char *bar = strchr(c, '|');
+        const int len = bar ? (int)(bar - c) : (int)strlen(c);
+        snprintf(buf, size, "%.*s", len, c);
+        break;
+    }
+    case SQ_PARAM_VEC3:
+    case SQ_PARAM_STRING:
+    case SQ_PARAM_FLOATS: snprintf(buf, size, "%s", p->def_text ? p->def_text : ""); break;
+    case SQ_PARAM_U64:
+    case SQ_PARAM_INT: snprintf(buf, size, "%.0f", p->def); break;
+    default: snprintf(buf, size, "%.9g", p->def); break;
+    }
+}
+
+const sq_param *view_param_find(const viewer *v, const char *full_key, view_group *group)
+{
+    view_group g[VIEW_MAX_GROUPS];
+    const int n = view_param_groups(v, g, VIEW_MAX_GROUPS);
+    for (int i = 0; i < n; i++) {
+        const size_t s = strlen(g[i].section);
+        if (strncmp(full_key, g[i].section, s) != 0 || full_key[s] != '.') continue;
+        const sq_param *p = sq_params_find(g[i].params, g[i].count, full_key + s + 1);
+        if (p) {
+            if (group) *group = g[i];
+            return p;
+        }
+    }
+    return NULL;
+}
+
+bool view_param_known(const viewer *v, const char *full_key)
+{
+    return view_param_find(v, full_key, NULL) != NULL;
+}
+
+/* A copy of the user's scene with the assignment, checked by the scene loader (validate only). */
+static sq_result check_assignment(viewer *v, const char *assignment)
+{
+    char *yaml = sq_cfg_to_yaml(v->cfg);
+    if (!yaml) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: cannot copy the scene");
+    sq_cfg *copy = NULL;
+    sq_result r = sq_cfg_parse(v->ctx, yaml, strlen(yaml), v->cfg->source, &copy);
+    free(yaml);
+    if (r != SQ_OK) return r;
+    snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
+    r = sq_cfg_set(copy, assignment);
+    if (r == SQ_OK) {
+        sq_scene_desc sd = {.cfg = copy, .load_heightmap = sq_scene_heightmap_loader,
+                            .load_dem = sq_dem_load, .load_area = sq_area_load,
+                            .validate_only = true};
+        sq_scene *s = NULL;
+        r = sq_scene_create(v->ctx, &sd, &s);
+        sq_scene_destroy(s);
+    }
+    sq_cfg_destroy(copy);
+    return r;
+}
+
+static bool parse_vec3(const char *s, float out[3])
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", s);
+    for (char *c = buf; *c; c++)
+        if (*c == '[' || *c == ']' || *c == ',') *c = ' ';
+    char tail[2];
+    return sscanf(buf, "%f %f %f %1s", &out[0], &out[1], &out[2], tail) == 3;
+}
+
+/* camera.* applies to the viewer's camera at once (the next draw shows it). */
+static void apply_camera_key(viewer *v, const char *key, const char *value)
+{
+    sq_camera c = v->cam.mode != VIEW_CAM_PATH ? view_camera_get(&v->cam) : sq_run_camera(v->run);
+    float x[3];
+    const double d = atof(value);
+    if (strcmp(key, "fov_deg") == 0) c.fov_y_deg = (float)d;
+    else if (strcmp(key, "near_m") == 0) c.near_m = (float)d;
+    else if (strcmp(key, "far_m") == 0) c.far_m = (float)d;
+    else if (strcmp(key, "position") == 0 && parse_vec3(value, x)) c.position_m = sq_v3(x[0], x[1], x[2]);
+    else if (strcmp(key, "target") == 0 && parse_vec3(value, x)) c.target_m = sq_v3(x[0], x[1], x[2]);
+    else if (strcmp(key, "up") == 0 && parse_vec3(value, x)) c.up = sq_v3(x[0], x[1], x[2]);
+    const view_cam_mode mode = v->cam.mode != VIEW_CAM_PATH ? v->cam.mode : VIEW_CAM_ORBIT;
+    view_camera_take(&v->cam, &c, mode);
+    const sq_camera now = view_camera_get(&v->cam);
+    sq_run_set_camera(v->run, &now);
+    v->redraw = true;
+}
+
+sq_result view_param_apply(viewer *v, const char *full_key, const char *value, bool *rebuilt)
+{
+    *rebuilt = false;
+    char assignment[1400];
+    snprintf(assignment, sizeof assignment, "%s=%s", full_key, value);
+    sq_result r = check_assignment(v, assignment);
+    if (r != SQ_OK) return r;
+    r = sq_cfg_set(v->cfg, assignment);
+    if (r != SQ_OK) return r;
+    view_group g;
+    const sq_param *p = view_param_find(v, full_key, &g);
+    if (p && (p->flags & SQ_PARAM_LIVE) && strcmp(g.section, "camera") == 0 && v->run &&
+        sq_run_frame_index(v->run) > 0) {
+        apply_camera_key(v, p->key, value);
+        return SQ_OK;
+    }
+    *rebuilt = true;
+    return view_rebuild(v);
+}

@@ -1,0 +1,48 @@
+#!/bin/bash
+# label: smoke
+# The parameter panel and --script in a real window: the panel lists every key of
+# `squall params <layer>` and of `squall params output` (it is generated from the same tables);
+# a value the CLI refuses is refused with the CLI's message; a rebuild key restarts the scene and
+# a live camera key does not; more dust (urban.concentration_kg_m3 from 6.4e-6 to 6e-5 kg/m3,
+# visibility ~600 m -> ~60 m) lowers the picture's contrast as Koschmieder's law says it must
+# (the apparent contrast of an object at distance d falls as exp(-beta_ext d)): the standard
+# deviation of the luma drops to less than 60 % of the light-dust picture's.
+. "$SQ_SOURCE_DIR/tests/viewer/view_lib.sh"
+
+cat > keys.txt <<'S'
+panel-keys layers.dust dust_keys.txt
+panel-keys output output_keys.txt
+S
+view urban-dust --size 160x96 --script keys.txt > out.txt 2> err.txt || fail "keys script exited $?: $(cat err.txt)"
+"$SQ" params sandstorm | awk '/^  [a-z]/ {print $1}' > want_dust.txt
+"$SQ" params output | awk '/^  [a-z]/ {print $1}' > want_output.txt
+[ -s want_dust.txt ] || fail "squall params sandstorm listed no keys"
+diff want_dust.txt dust_keys.txt > /dev/null || fail "panel keys of layers.dust differ from squall params sandstorm: $(diff want_dust.txt dust_keys.txt | head -5)"
+diff want_output.txt output_keys.txt > /dev/null || fail "panel keys of output differ from squall params output: $(diff want_output.txt output_keys.txt | head -5)"
+
+# a refused value: the CLI's message, exit 2, nothing written
+cli_msg=$("$SQ" simulate urban-dust --frames 1 --set layers.dust.wind.bernoulli_pa=-5 2>&1 >/dev/null | sed 's/^squall: //')
+printf 'wait 1\nset layers.dust.wind.bernoulli_pa -5\nscreenshot never.png\n' > bad.txt
+view urban-dust --size 160x96 --script bad.txt > /dev/null 2> err.txt
+rc=$?
+[ "$rc" = 2 ] || fail "bad value: exit $rc, expected 2 ($(cat err.txt))"
+grep -qF -- "bad.txt:2: $cli_msg" err.txt || fail "bad value: '$(cat err.txt)' does not carry the CLI's message '$cli_msg'"
+[ -e never.png ] && fail "a screenshot was written after the refused value"
+
+# rebuild vs live, and more dust -> lower contrast
+cat > dust.txt <<'S'
+wait 1
+screenshot light.png
+set camera.fov_deg 55
+set layers.dust.urban.concentration_kg_m3 [6e-5]
+wait 1
+screenshot heavy.png
+S
+view urban-dust --size 320x180 --script dust.txt > out.txt 2> err.txt || fail "dust script exited $?: $(cat err.txt)"
+grep -q "set camera.fov_deg = 55: live" out.txt || fail "camera.fov_deg not applied live: $(cat out.txt)"
+grep -q "set layers.dust.urban.concentration_kg_m3 = \[6e-5\]: scene restarted" out.txt || fail "concentration not a rebuild: $(cat out.txt)"
+"$CMP" light.png heavy.png > cmp.json || fail "compare exited $?"
+json cmp.json 'd["a"]["sd"] > 3.0 and d["b"]["black"] < 0.01'
+json cmp.json 'd["b"]["sd"] < 0.6 * d["a"]["sd"]'
+ls -a | grep -q "tmp" && fail "temporary files left: $(ls -a)"
+finish
