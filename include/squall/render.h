@@ -26,6 +26,12 @@ typedef struct sq_render_desc {
     bool single_scatter_only; /* ablation: no multiple forward scattering in the light buffer */
     bool isotropic_phase;  /* ablation: g = 0 */
     uint64_t seed;         /* slice jitter */
+    /* sun shadows of opaque geometry (cascaded shadow maps fitted to the view) */
+    bool shadows_off;      /* no opaque shadows */
+    int shadow_map_size;   /* texels per side of each cascade; 0 -> 2048 */
+    int shadow_cascades;   /* 1..4; 0 -> 3 */
+    float shadow_distance_m; /* shadows up to this view depth (m), fading out over the last
+                                15 %; 0 -> 1500 */
     const char *egl_device; /* NULL: surfaceless platform, else "device" platform hint */
 } sq_render_desc;
 
