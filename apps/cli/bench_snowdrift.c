@@ -119,7 +119,7 @@ int sq_bench_snowdrift(const sq_bench_args *a)
         return sq_cli_exit_code(r);
     }
     /* the scene's world and output settings (no layers created) */
-    sq_scene_desc sd = {cfg, sq_scene_heightmap_loader, true};
+    sq_scene_desc sd = {cfg, sq_scene_heightmap_loader, true, sq_scene_mesh_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(a->ctx, &sd, &scene);
     if (r != SQ_OK) {

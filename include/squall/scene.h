@@ -94,10 +94,15 @@ typedef struct sq_scene sq_scene;
 typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint16_t **out,
                                          int *width, int *height);
 
+/* Loads a mesh file for the scene (supplied by the io layer: sq_scene_mesh_loader). */
+typedef sq_result (*sq_mesh_loader)(sq_context *ctx, const sq_mesh_import_desc *desc,
+                                    sq_mesh **out);
+
 typedef struct sq_scene_desc {
     const sq_cfg *cfg;
     sq_heightmap_loader load_heightmap; /* NULL: heightmap terrains are refused */
     bool validate_only;                 /* resolve and check everything, create no phenomena */
+    sq_mesh_loader load_mesh;           /* NULL: world.meshes are refused */
 } sq_scene_desc;
 
 SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);
