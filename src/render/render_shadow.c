@@ -141,13 +141,13 @@ static sq_mat4 light_matrix(sq_vec3 lx, sq_vec3 ly, sq_vec3 lz, float cx, float 
     return m;
 }
 
-sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w)
+sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
 {
     sq__shadow_pass *s = r->shadow;
     shadow_block blk;
     memset(&blk, 0, sizeof blk);
     const bool sun_up = w->sun_dir.z > 0.0f;
-    if (s->enabled && sun_up) {
+    if (draw && s->enabled && sun_up) {
         const double t0 = sq_time_now();
         const int C = s->cascades;
         const float n = r->near_m, f = fminf(r->far_m, s->distance_m);
