@@ -72,7 +72,9 @@ typedef struct sq_mesh {
     int material_count;
     sq_mesh_material *materials;
     sq_vec3 bounds_min, bounds_max;   /* of LOD 0, mesh frame */
-    bool solid;                       /* closed: a solid for the solvers (else surfaces only) */
+    bool solid;                       /* closed and consistently oriented (every edge used as
+                                         often in each direction) and not declared open: a solid
+                                         for the solvers; else drawn two-sided, surfaces only */
     int64_t degenerate_dropped;       /* zero-area triangles removed at creation */
     uint64_t bytes;                   /* heap bytes held (all LODs, textures) */
 } sq_mesh;
@@ -91,7 +93,7 @@ typedef struct sq_mesh_desc {
     int material_count;       /* 0 -> one grey material */
     const sq_mesh_material *materials; /* copied (textures too) */
     float crease_angle_deg;   /* for computed normals; 0 -> 45 */
-    bool open;                /* not closed: drawn, but not a solid for the solvers */
+    bool open;                /* not a solid even if closed (roads, ground tiles) */
 } sq_mesh_desc;
 
 /* Bytes sq_mesh_create needs for desc with lods levels in all (LOD 0 included): the check done

@@ -145,69 +145,6 @@ static void bvh_free(sq_context *ctx, bvh *b)
     memset(b, 0, sizeof *b);
 }
 
-typedef struct pos_key {
-    float p[3];
-    int32_t i;
-} pos_key;
-
-static int cmp_pos(const void *a, const void *b)
-{
-    const pos_key *x = a, *y = b;
-    for (int k = 0; k < 3; k++)
-        if (x->p[k] != y->p[k]) return x->p[k] < y->p[k] ? -1 : 1;
-    return 0;
-}
-
-static int cmp_u64(const void *a, const void *b)
-{
-    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : (x > y);
-}
-
-/* True when every edge (on positions, welded exactly) is used as often in each direction:
- * the surface is closed and consistently oriented, so its winding number is defined. */
-static bool balanced_edges(sq_context *ctx, const sq_mesh_lod *l)
-{
-    const int nv = l->vertex_count;
-    /* weld by exact position: sort vertex ids by position */
-    int32_t *weld = sq_alloc(ctx, (size_t)nv * sizeof(int32_t));
-    pos_key *keys = sq_alloc(ctx, (size_t)nv * sizeof(pos_key));
-    const int64_t ne = l->index_count;
-    uint64_t *edges = sq_alloc(ctx, (size_t)ne * sizeof(uint64_t));
-    bool ok = weld && keys && edges;
-    if (ok) {
-        for (int v = 0; v < nv; v++) {
-            memcpy(keys[v].p, &l->positions[3 * v], sizeof keys[v].p);
-            keys[v].i = v;
-        }
-        qsort(keys, (size_t)nv, sizeof(pos_key), cmp_pos);
-        int32_t id = -1;
-        for (int s = 0; s < nv; s++) {
-            if (s == 0 || cmp_pos(&keys[s], &keys[s - 1]) != 0) id++;
-            weld[keys[s].i] = id;
-        }
-        /* each directed edge as (min, max) with the direction in the low bit */
-        for (int64_t f = 0; f < ne / 3; f++)
-            for (int k = 0; k < 3; k++) {
-                const uint32_t a = (uint32_t)weld[l->indices[3 * f + k]];
-                const uint32_t b = (uint32_t)weld[l->indices[3 * f + (k + 1) % 3]];
-                const uint64_t lo = a < b ? a : b, hi = a < b ? b : a;
-                edges[3 * f + k] = (lo << 33) | (hi << 1) | (a < b ? 1u : 0u);
-            }
-        qsort(edges, (size_t)ne, sizeof(uint64_t), cmp_u64);
-        for (int64_t s = 0; s < ne && ok;) {
-            int64_t e = s, fwd = 0;
-            while (e < ne && (edges[e] >> 1) == (edges[s] >> 1)) fwd += (int64_t)(edges[e++] & 1u);
-            if (2 * fwd != e - s) ok = false;
-            s = e;
-        }
-    }
-    sq_free(ctx, weld);
-    sq_free(ctx, keys);
-    sq_free(ctx, edges);
-    return ok;
-}
-
 static sq_result build_mesh_accel(sq_context *ctx, const sq_mesh *m, mesh_accel *out)
 {
     memset(out, 0, sizeof *out);
@@ -242,12 +179,7 @@ static sq_result build_mesh_accel(sq_context *ctx, const sq_mesh *m, mesh_accel 
                    3 * sizeof(float));
     }
     out->tri_count = nt;
-    out->solid = m->solid && balanced_edges(ctx, l);
-    if (m->solid && !out->solid)
-        sq_log(ctx, SQ_LOG_INFO, MODULE,
-               "mesh %s is not closed (or not consistently oriented): drawn, but not a solid "
-               "for the solvers",
-               m->name);
+    out->solid = m->solid;
     return SQ_OK;
 }
 
