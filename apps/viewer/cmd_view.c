@@ -35,6 +35,7 @@ static void view_usage(void)
            "  --no-panel           hide the parameter panel (P toggles it)\n"
            "  --overwrite          replace existing screenshots and saved files\n"
            "  --threads N          simulation worker threads (default: all cores)\n"
+           "  --json               at exit, one JSON line: draw and simulation rates of the run\n"
            "  --quiet              only errors\n\n"
            "keys: Space pause/run, N single step, R reset, +/- speed, Tab orbit/fly camera,\n"
            "      C back to the scene's camera path, F frame the phenomenon, W A S D Q E move,\n"
@@ -57,7 +58,7 @@ static bool takes_value(const char *a)
 static bool known_option(const char *a)
 {
     const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", "--overwrite",
-                       "--quiet", "--verbose", "--paused", "--script", "--no-panel", NULL};
+                       "--quiet", "--verbose", "--paused", "--script", "--no-panel", "--json", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -239,7 +240,15 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
         }
     }
     glFinish(); /* the draw time below is the GL work, not only its submission */
-    const double ms = (sq_time_now() - t0) * 1e3;
+    const double t1 = sq_time_now(), ms = (t1 - t0) * 1e3;
+    if (v->draw_count++ == 0) v->t_first_draw_s = t1;
+    v->draw_ms_sum += ms;
+    if (v->lat_pending) {
+        v->lat_pending = false;
+        printf("shown %s after %.1f ms (%d frames advanced in between)\n", v->lat_key,
+               (t1 - v->lat_t0_s) * 1e3, v->lat_frame0 < 0 ? frames : frames - v->lat_frame0);
+        fflush(stdout);
+    }
     v->draw_ms = v->draw_ms > 0 ? 0.8 * v->draw_ms + 0.2 * ms : ms;
     v->drawn_frames = frames;
     v->fps_count++;
@@ -301,7 +310,8 @@ static void build_window(viewer *v)
 {
     v->window = gtk_window_new();
     gtk_window_set_title(GTK_WINDOW(v->window), "squall view");
-    gtk_window_set_default_size(GTK_WINDOW(v->window), v->width, v->height);
+    gtk_window_set_default_size(GTK_WINDOW(v->window), v->width + (v->panel_on ? 400 : 0),
+                                v->height);
     g_signal_connect(v->window, "close-request", G_CALLBACK(on_close), v);
 
     GtkWidget *overlay = gtk_overlay_new();
@@ -354,6 +364,7 @@ static void build_window(viewer *v)
     v->panel = view_panel_build(v);
     gtk_paned_set_end_child(GTK_PANED(paned), v->panel);
     gtk_paned_set_resize_end_child(GTK_PANED(paned), FALSE);
+    gtk_paned_set_shrink_end_child(GTK_PANED(paned), FALSE);
     gtk_widget_set_visible(v->panel, v->panel_on);
     gtk_window_set_child(GTK_WINDOW(v->window), paned);
     view_input_attach(v);
@@ -362,6 +373,41 @@ static void build_window(viewer *v)
 }
 
 /* ---- the command ------------------------------------------------------------------------------ */
+
+/* --json: the rates of this run (frame 0, the warm-up, is not in the simulation rate). */
+static void print_json(viewer *v)
+{
+    view_sim_stats st;
+    view_sim_stats_get(v->sim, &st);
+    const double now = sq_time_now();
+    const double draw_wall = now - v->t_first_draw_s;
+    const double sim_frames = st.frames > 1 ? st.frames - 1 : 0;
+    const char *gl = v->area && gtk_widget_get_realized(v->area) ? "" : "none";
+    char renderer[160] = "";
+    if (!*gl) {
+        gtk_gl_area_make_current(GTK_GL_AREA(v->area));
+        snprintf(renderer, sizeof renderer, "%s", (const char *)glGetString(GL_RENDERER));
+    }
+    sq_json j;
+    sq_json_begin(&j);
+    sq_json_str(&j, "command", "view");
+    sq_json_str(&j, "scene", v->scene ? sq_scene_name(v->scene) : "");
+    sq_json_int(&j, "width", v->fb_width);
+    sq_json_int(&j, "height", v->fb_height);
+    sq_json_str(&j, "gl_renderer", renderer);
+    sq_json_int(&j, "frames", st.frames);
+    sq_json_int(&j, "steps_per_frame", st.steps_per_frame);
+    sq_json_num(&j, "simulated_s", st.sim_time_s);
+    sq_json_int(&j, "draws", v->draw_count);
+    sq_json_num(&j, "draw_ms_mean", v->draw_count ? v->draw_ms_sum / v->draw_count : (double)NAN);
+    sq_json_num(&j, "draws_per_s", v->draw_count > 1 && draw_wall > 0 ? (v->draw_count - 1) / draw_wall : (double)NAN);
+    sq_json_num(&j, "draw_fps_max", v->draw_count ? 1e3 * v->draw_count / v->draw_ms_sum : (double)NAN);
+    sq_json_num(&j, "sim_steps_per_s", st.t_last_s > st.t_frame0_s ? sim_frames * st.steps_per_frame / (st.t_last_s - st.t_frame0_s) : (double)NAN);
+    sq_json_num(&j, "sim_steps_per_busy_s", st.busy_s > 0 ? sim_frames * st.steps_per_frame / st.busy_s : (double)NAN);
+    sq_json_num(&j, "sim_frames_per_s", st.t_last_s > st.t_frame0_s ? sim_frames / (st.t_last_s - st.t_frame0_s) : (double)NAN);
+    sq_json_num(&j, "scene_fps", (double)sq_scene_output_settings(v->scene)->fps);
+    sq_json_end(&j, stdout);
+}
 
 static int parse_args(viewer *v, int argc, char **argv)
 {
@@ -392,6 +438,7 @@ static int parse_args(viewer *v, int argc, char **argv)
     v->screenshot = sq_cli_value(argc, argv, "--screenshot");
     v->script_path = sq_cli_value(argc, argv, "--script");
     v->panel_on = !sq_cli_flag(argc, argv, "--no-panel");
+    v->json = sq_cli_flag(argc, argv, "--json");
     if (!sq_cli_int(argc, argv, "--frames", 0, 1, VIEW_INTERACTIVE_FRAMES, &v->frames))
         return SQ_EXIT_USAGE;
     if (v->screenshot && v->frames == 0) {
@@ -481,6 +528,7 @@ int sq_cmd_view(int argc, char **argv)
     while (!v->quit) g_main_context_iteration(NULL, TRUE);
     if (v->frames == 0 && v->gl_error[0] && rc == SQ_EXIT_OK) rc = SQ_EXIT_OK;
     if (rc == SQ_EXIT_OK) rc = v->exit_code;
+    if (rc == SQ_EXIT_OK && v->json) print_json(v);
     if (v->rec) {
         gtk_gl_area_make_current(GTK_GL_AREA(v->area));
         const sq_result rr = view_record_stop(v);

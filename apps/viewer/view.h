@@ -58,6 +58,15 @@ typedef struct viewer {
     double fps;            /* draws per wall second */
     int fps_count;
     double fps_t0;
+    double draw_ms_sum;    /* over every draw of the run, for --json */
+    int draw_count;
+    double t_first_draw_s;
+    bool json;
+    /* latency of a change (script `set`): from applying it to the first draw that shows it */
+    bool lat_pending;
+    double lat_t0_s;
+    int lat_frame0;        /* sq_run_frame_index when applied (-1: the scene restarted) */
+    char lat_key[200];
     char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
 
     /* screenshot: written by the next draw showing frame >= shot_frame */

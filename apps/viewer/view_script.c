@@ -4,7 +4,7 @@
  *   wait-end                until the run's last frame is drawn (with --frames N)
  *   set KEY VALUE           as the panel does (no confirmation): KEY = section.key, e.g.
  *                           layers.dust.urban.concentration_kg_m3 or output.exposure
- *   screenshot FILE.png     the next drawn frame
+ *   screenshot FILE.png     the next drawn frame (the GL area's pixels)
  *   save FILE.yaml          the scene as edited, as YAML that `squall render` reads
  *   panel-keys SECTION FILE the keys the panel lists for SECTION (e.g. layers.storm), one a line
  *   record FILE.mp4         start recording every new frame shown (H.264, output.fps)
@@ -182,6 +182,8 @@ void view_script_tick(viewer *v, view_script *s)
             break;
         case A_SET: {
             bool rebuilt = false;
+            const double t0 = sq_time_now();
+            const int f0 = v->run ? sq_run_frame_index(v->run) : 0;
             const sq_result r = view_panel_set(v, a->a, a->b, &rebuilt);
             if (r != SQ_OK) {
                 script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
@@ -189,6 +191,11 @@ void view_script_tick(viewer *v, view_script *s)
             }
             printf("set %s = %s: %s\n", a->a, a->b, rebuilt ? "scene restarted" : "live");
             fflush(stdout);
+            v->lat_pending = true;
+            v->lat_t0_s = t0;
+            v->lat_frame0 = rebuilt ? -1 : f0;
+            v->redraw = true;
+            snprintf(v->lat_key, sizeof v->lat_key, "%.199s", a->a);
             break;
         }
         case A_SHOT:

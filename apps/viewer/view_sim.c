@@ -58,6 +58,7 @@ view_sim *view_sim_create(int fps, int steps_per_frame)
     s->frame_wall_s = 1.0 / (fps > 0 ? fps : 24);
     s->steps_per_frame = steps_per_frame > 0 ? steps_per_frame : 1;
     s->st.speed = 1.0;
+    s->st.steps_per_frame = s->steps_per_frame;
     return s;
 }
 
@@ -110,6 +111,7 @@ static int sim_main(void *arg)
         if (single) s->steps_requested--;
         s->st.busy = true;
         mtx_unlock(&s->lock);
+        const double t_start = sq_time_now();
 
         const sq_result r = sq_run_advance(s->run); /* the step: no lock held */
         char err[512] = "";
@@ -127,6 +129,9 @@ static int sim_main(void *arg)
         } else {
             s->st.frames = sq_run_frame_index(s->run);
             s->st.done = sq_run_done(s->run);
+            if (s->st.frames == 1) s->st.t_frame0_s = now;
+            else s->st.busy_s += now - t_start;
+            s->st.t_last_s = now;
         }
         if (s->st.frames == 1 || s->window_t0 == 0.0) {
             /* the warm-up frame is not counted in the rate */

@@ -26,6 +26,10 @@ typedef struct view_sim_stats {
     double steps_per_s;     /* scene steps per wall second over the last second or so */
     double speed;           /* wall-time multiplier of the scene's time scale */
     bool paused, done, busy; /* busy: a step is running now */
+    /* wall clock (sq_time_now) when frame 0 (after the warm-up) and the latest frame were done,
+     * and the wall seconds spent in advances since frame 0: steps/s over the run */
+    double t_frame0_s, t_last_s, busy_s;
+    int steps_per_frame;
     int metric_count;
     view_metric metrics[VIEW_SIM_MAX_METRICS];
     char error[512];        /* non-empty: the run stopped with this message (paused) */

@@ -9,7 +9,8 @@ view() {
     if [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" ]; then
         "$SQ" view "$@"
     else
-        xvfb-run -a -s "-screen 0 1280x800x24" "$SQ" view "$@"
+        # a display number of this test's own (xvfb-run -a races when tests run in parallel)
+        xvfb-run -n $((200 + $$ % 5000)) -s "-screen 0 1280x800x24" "$SQ" view "$@"
     fi
 }
 
