@@ -220,6 +220,10 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
     sq_render_target t = {(unsigned)fbo, v->fb_width, v->fb_height, SQ_TARGET_FRAME,
                           SQ_TARGET_DISPLAY};
     const double t0 = sq_time_now();
+    /* the renderer writes colour, never alpha: GTK composites the area's texture with its
+     * alpha, so it must be opaque */
+    glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     const sq_result r = sq_run_draw_to(v->run, &t);
     if (r != SQ_OK) {
         const char *e = sq_last_error();

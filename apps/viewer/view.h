@@ -93,7 +93,7 @@ typedef struct viewer {
 /* view_shot.c: the GL area's framebuffer (bound now) -> PNG, rows top first, written under the
  * safe-output rules (temporary + rename, no replacement without overwrite, never the scene). */
 sq_result view_shot_write(viewer *v, const char *path, int width, int height);
-/* Reads the bound framebuffer's (0,0)-(width,height) as RGBA, rows top first, alpha 255. */
+/* Reads the bound framebuffer's (0,0)-(width,height) as RGBA, rows top first. */
 bool view_shot_read(int width, int height, uint8_t *px);
 /* SQ_ERR_INVALID_ARG when path is the scene file (inputs are never written). */
 sq_result view_shot_check(const viewer *v, const char *path);

@@ -1,5 +1,5 @@
 /* view_shot.c — screenshots of the GL area: the framebuffer bound for drawing (the GtkGLArea's)
- * read back as 8-bit RGBA, flipped to rows top first and written as PNG through the library's
+ * read back as 8-bit RGBA (alpha as GTK composites it), flipped to rows top first and written as PNG through the library's
  * writer (temporary name, renamed when complete; an existing file only with --overwrite).
  * The scene file is never a screenshot's destination. */
 #include <epoxy/gl.h>
@@ -36,7 +36,6 @@ bool view_shot_read(int width, int height, uint8_t *px)
         memcpy(a, b, row);
         memcpy(b, tmp, row);
     }
-    for (size_t i = 3; i < row * (size_t)height; i += 4) px[i] = 255; /* opaque picture */
     free(tmp);
     return true;
 }

@@ -15,6 +15,7 @@
 
 typedef struct stats {
     double mean, sd, black, top, bottom;
+    int alpha_min; /* the window composites the picture with its alpha: 255 = opaque */
 } stats;
 
 static stats luma_stats(const uint8_t *px, int w, int h)
@@ -23,8 +24,10 @@ static stats luma_stats(const uint8_t *px, int w, int h)
     double sum = 0, sum2 = 0, top = 0, bottom = 0;
     long black = 0;
     const long n = (long)w * h;
+    s.alpha_min = 255;
     for (long i = 0; i < n; i++) {
         const uint8_t *p = px + 4 * i;
+        if (p[3] < s.alpha_min) s.alpha_min = p[3];
         const double y = 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2];
         sum += y;
         sum2 += y * y;
@@ -42,8 +45,8 @@ static stats luma_stats(const uint8_t *px, int w, int h)
 static void print_stats(const char *key, const stats *s, int w, int h)
 {
     printf("\"%s\": {\"width\": %d, \"height\": %d, \"mean\": %.4f, \"sd\": %.4f, \"black\": %.6f, "
-           "\"top\": %.4f, \"bottom\": %.4f}",
-           key, w, h, s->mean, s->sd, s->black, s->top, s->bottom);
+           "\"top\": %.4f, \"bottom\": %.4f, \"alpha_min\": %d}",
+           key, w, h, s->mean, s->sd, s->black, s->top, s->bottom, s->alpha_min);
 }
 
 int main(int argc, char **argv)

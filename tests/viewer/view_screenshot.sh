@@ -15,6 +15,7 @@ view urban-dust --frames 2 --size 320x180 --screenshot shot.png > out.txt 2> err
 json cmp.json 'd["a"]["width"] == 320 and d["a"]["height"] == 180'
 json cmp.json 'd["a"]["sd"] > 3.0'                  # a picture, not a flat colour
 json cmp.json 'd["a"]["black"] < 0.01'               # no black (NaN / unwritten) pixels
+json cmp.json 'd["a"]["alpha_min"] == 255'           # opaque: the window shows it as it is
 json cmp.json 'abs(d["a"]["mean"] - d["b"]["mean"]) <= 0.03 * d["b"]["mean"]'
 json cmp.json 'd["ssim"] >= 0.95'
 ls -a | grep -q "tmp" && fail "temporary files left: $(ls -a)"
