@@ -14,13 +14,12 @@ SQ_LABEL(physics)
  * linear in the concentration, inverse in r_eff, zero for no or bad water. */
 SQ_TEST(extinction_formula)
 {
-    SQ_CHECK_REL(sq_cloud_extinction(0.3, 10e-6, 1000.0), 0.045, 1e-14);
-    SQ_CHECK_REL(sq_cloud_extinction(0.6, 10e-6, 1000.0), 0.090, 1e-14);
-    SQ_CHECK_REL(sq_cloud_extinction(0.3, 20e-6, 1000.0), 0.0225, 1e-14);
-    SQ_CHECK(sq_cloud_extinction(0.0, 10e-6, 1000.0) == 0.0);
-    SQ_CHECK(sq_cloud_extinction(-1e-9, 10e-6, 1000.0) == 0.0);
-    SQ_CHECK(sq_cloud_extinction(NAN, 10e-6, 1000.0) == 0.0);
-    SQ_CHECK(sq_cloud_extinction(0.3, 0.0, 1000.0) == 0.0);
+    SQ_CHECK_REL(sq_cloud_extinction(0.3 * 1e-3, 1000.0, 10e-6), 0.045, 1e-14);
+    SQ_CHECK_REL(sq_cloud_extinction(0.6 * 1e-3, 1000.0, 10e-6), 0.090, 1e-14);
+    SQ_CHECK_REL(sq_cloud_extinction(0.3 * 1e-3, 1000.0, 20e-6), 0.0225, 1e-14);
+    SQ_CHECK(sq_cloud_extinction(0.0 * 1e-3, 1000.0, 10e-6) == 0.0);
+    SQ_CHECK(sq_cloud_extinction(-1e-9 * 1e-3, 1000.0, 10e-6) == 0.0);
+    SQ_CHECK(sq_cloud_extinction(NAN * 1e-3, 1000.0, 10e-6) == 0.0);
 }
 
 /* Stephens (1978): tau = 3 LWP / (2 rho_w r_e); LWP = 100 g/m² of 10 µm droplets gives tau = 15.
@@ -29,7 +28,8 @@ SQ_TEST(optical_depth_of_liquid_water_path)
 {
     double tau = 0.0;
     const int n = 50;
-    for (int k = 0; k < n; k++) tau += sq_cloud_extinction(0.2, 10e-6, 1000.0) * (500.0 / n);
+    for (int k = 0; k < n; k++)
+        tau += sq_cloud_extinction(0.2 * 1e-3, 1000.0, 10e-6) * (500.0 / n);
     SQ_CHECK_REL(tau, 15.0, 1e-12);
 }
 
@@ -51,14 +51,14 @@ SQ_TEST(extinction_matches_mie_for_droplets)
     sq_bulk_optics b;
     SQ_CHECK_OK(sq_bulk_optics_compute(&d, &b));
     SQ_CHECK_REL(b.effective_radius_m, reff, 1e-3);
-    const double geometric = sq_cloud_extinction(1000.0, reff, 1000.0); /* 1 kg/m³: m²/kg */
+    const double geometric = sq_cloud_extinction(1000.0 * 1e-3, 1000.0, reff); /* 1 kg/m³: m²/kg */
     const double mie = b.mass_extinction_m2_per_kg;
     printf("mass extinction: Mie %.2f m2/kg, geometric %.2f m2/kg (ratio %.4f), g = %.4f\n", mie,
            geometric, mie / geometric, b.asymmetry);
     SQ_CHECK(mie > geometric);
     SQ_CHECK_REL(mie, geometric, 0.06);
     /* and the droplet asymmetry default agrees with Mie to 0.02 */
-    SQ_CHECK_NEAR(b.asymmetry, SQ_CLOUD_G_DROPLET, 0.02);
+    SQ_CHECK_NEAR(b.asymmetry, SQ_CLOUD_DROPLET_G, 0.02);
 }
 
 /* The published Stoelinga–Warner cloud-liquid extinction of NCEP UPP (reference/wrf_format.md):
@@ -68,7 +68,8 @@ SQ_TEST(extinction_vs_stoelinga_warner)
 {
     const double c[] = {0.05, 0.1, 0.2, 0.3, 0.5, 0.8, 1.0};
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
-        const double ours = sq_cloud_extinction(c[i], SQ_CLOUD_REFF_DROPLET_M, 1000.0) * 1e3;
+        const double ours =
+            sq_cloud_extinction(c[i] * 1e-3, 1000.0, SQ_CLOUD_DROPLET_R_EFF_M) * 1e3;
         const double sw = 144.7 * pow(c[i], 0.88);
         SQ_CHECK_MSG(ours / sw > 0.7 && ours / sw < 1.3, "C = %g g/m3: ours %.2f /km, UPP %.2f /km",
                      c[i], ours, sw);
@@ -117,30 +118,30 @@ SQ_TEST(mixture_weights)
 {
     sq_cloud_optics o;
     SQ_CHECK_OK(sq_cloud_optics_resolve(NULL, &o));
-    float c[SQ_HYDRO_COUNT] = {0.3f, 0.0f, 0.0f, 0.0f};
+    float c[SQ_HYDRO_COUNT] = {0.3f, 0.0f, 0.0f, 0.0f, 0.0f};
     double g = 0;
     const double b1 = sq_cloud_mixture(&o, c, NULL, &g);
     SQ_CHECK_REL(b1, 0.045, 1e-6);
     SQ_CHECK_NEAR(g, 0.85, 1e-12);
     c[1] = 0.05f;
-    const double bi = sq_cloud_extinction(0.05f, SQ_CLOUD_REFF_ICE_M, 917.0);
+    const double bi = sq_cloud_extinction((double)0.05f * 1e-3, 917.0, SQ_CLOUD_ICE_R_EFF_M);
     const double b2 = sq_cloud_mixture(&o, c, NULL, &g);
-    SQ_CHECK_REL(b2, sq_cloud_extinction(0.3f, 10e-6, 1000.0) + bi, 1e-12);
-    SQ_CHECK_NEAR(g, (sq_cloud_extinction(0.3f, 10e-6, 1000.0) * 0.85 + bi * 0.75) / b2, 1e-12);
+    SQ_CHECK_REL(b2, sq_cloud_extinction((double)0.3f * 1e-3, 1000.0, 10e-6) + bi, 1e-12);
+    SQ_CHECK_NEAR(g, (sq_cloud_extinction((double)0.3f * 1e-3, 1000.0, 10e-6) * 0.85 + bi * 0.75) / b2, 1e-12);
     /* a per-cell effective radius overrides the default for that species only */
-    const float r[SQ_HYDRO_COUNT] = {20e-6f, 0.0f, 0.0f, 0.0f};
-    SQ_CHECK_REL(sq_cloud_mixture(&o, c, r, NULL), sq_cloud_extinction(0.3f, 20e-6f, 1000.0) + bi,
+    const float r[SQ_HYDRO_COUNT] = {20e-6f, 0.0f, 0.0f, 0.0f, 0.0f};
+    SQ_CHECK_REL(sq_cloud_mixture(&o, c, r, NULL), sq_cloud_extinction((double)0.3f * 1e-3, 1000.0, (double)20e-6f) + bi,
                  1e-6);
-    const float none[SQ_HYDRO_COUNT] = {0, 0, 0, 0};
+    const float none[SQ_HYDRO_COUNT] = {0, 0, 0, 0, 0};
     SQ_CHECK(sq_cloud_mixture(&o, none, NULL, &g) == 0.0 && g == 0.0);
 }
 
 SQ_TEST(resolve_defaults_and_errors)
 {
-    sq_cloud_optics o = {{0, 0, 0, 0}, {0, 0, 0, 0}};
+    sq_cloud_optics o = {{0, 0, 0, 0, 0}, {0, 0, 0, 0, 0}};
     SQ_CHECK_OK(sq_cloud_optics_resolve(&o, &o));
-    SQ_CHECK(o.r_eff_m[SQ_HYDRO_CLOUD] == SQ_CLOUD_REFF_DROPLET_M);
-    SQ_CHECK(o.g[SQ_HYDRO_ICE] == SQ_CLOUD_G_ICE);
+    SQ_CHECK(o.r_eff_m[SQ_HYDRO_CLOUD] == SQ_CLOUD_DROPLET_R_EFF_M);
+    SQ_CHECK(o.g[SQ_HYDRO_ICE] == SQ_CLOUD_ICE_G);
     o.r_eff_m[SQ_HYDRO_SNOW] = 1e-9;
     SQ_CHECK(sq_cloud_optics_resolve(&o, &o) == SQ_ERR_INVALID_ARG);
     SQ_CHECK(strstr(sq_last_error(), "r_eff_m[snow]") != NULL);
@@ -150,6 +151,7 @@ SQ_TEST(resolve_defaults_and_errors)
     SQ_CHECK(strstr(sq_last_error(), "g[rain]") != NULL);
     SQ_CHECK(sq_hydrometeor_density(SQ_HYDRO_SNOW) == 917.0);
     SQ_CHECK(sq_hydrometeor_density(SQ_HYDRO_RAIN) == 1000.0);
+    SQ_CHECK(sq_hydrometeor_density(SQ_HYDRO_GRAUPEL) == 917.0);
 }
 
 /* Rayleigh: integrates to 1 over the sphere, 3/(8 pi) forward, 3/(16 pi) at 90 degrees. */
