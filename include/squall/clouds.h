@@ -68,18 +68,18 @@ typedef struct sq_clouds_desc {
     /* optics (include/squall/optics.h defaults) */
     double reff_droplet_um, reff_ice_um, reff_snow_um, reff_rain_um; /* 0 -> 10, 25, 100, 500 */
     double g_droplet, g_ice;          /* 0 -> 0.85, 0.75 */
-    bool reff_from_number;            /* r_eff of ice and rain from QNICE/QNRAIN when present */
+    bool reff_fixed;                  /* ignore QNICE/QNRAIN (else r_eff of ice and rain from them) */
     bool rayleigh;                    /* S4's Rayleigh phase (seed reproduction only) */
     /* clouds */
     double threshold_g_m3;            /* condensate above which a cell is cloud; 0 -> 0.01 */
-    bool subgrid;                     /* sub-grid fBm structure inside model cells */
+    bool no_subgrid;                  /* no sub-grid fBm structure inside model cells */
     double subgrid_scale_m;           /* horizontal size of sub-grid cells; 0 -> 6000 m */
     double cloud_fraction;            /* coverage when the file has no CLDFRA; 0 -> 1 */
     /* particles */
     int particles;                    /* total; 0 -> 15000 */
     double radius_m;                  /* billboard radius; 0 -> from the particle spacing */
     double lifetime_s;                /* 0 -> 1800 s */
-    bool structured;                  /* draw structured particles (clusters) */
+    bool plain;                       /* draw every particle, not the structured particles */
     double cluster_radius_m;          /* position thresholds sigma = 1 - r / range; 0 -> radius */
     double sigma_density, sigma_stage, sigma_phase; /* thresholds; 0 is physical */
     int symbolic;                     /* sq_clouds_symbolic */
@@ -91,12 +91,12 @@ typedef struct sq_clouds_desc {
     double albedo;                    /* single-scattering albedo; 0 -> 0.999 */
     double gamma_sr;                  /* forward solid angle kept in the light; 0 -> 0.09 sr */
     int light_buffer;                 /* MFS light-buffer texels per side; 0 -> 512 */
-    bool multiple_scattering;         /* add the diffuse (two-stream) light to Harris MFS */
-    bool shadows;                     /* clouds shadow the terrain */
+    bool harris_only;                 /* no diffuse (two-stream) light added to Harris MFS */
+    bool no_shadows;                  /* clouds do not shadow the terrain */
     double dist_3d_m;                 /* particles nearer than this; 0 -> 60 km */
     double dist_impostor_m;           /* impostors farther than this; 0 -> 90 km */
     double impostor_angle_deg;        /* refresh tolerance; 0 -> 2 deg */
-    bool impostors;
+    bool no_impostors;                /* particles at every distance */
     int volume_cells[3];              /* volume mode voxels; 0 -> 128 128 48 */
     double vertical_exaggeration;     /* heights above the datum scaled; 0 -> 1 */
 } sq_clouds_desc;

@@ -14,10 +14,14 @@
  *      A second buffer carries the plain Beer transmittance (no in-scatter) for the diffuse
  *      term; the sun buffer after the last particle is the clouds' shadow on the ground.
  *   2. Diffuse light (view.multiple_scattering). Harris MFS keeps only the forward peak; the
- *      light scattered out of it diffuses. At slant optical depth tau_s = -ln(Beer) from the
- *      sunlit edge, a conservative two-stream (Eddington) slab transmits
- *          T_2s = 1 / (1 + 3/4 (1 - g) tau_s)
- *      of the incident flux (direct + diffuse); its diffuse part is max(T_2s - I_k, 0).
+ *      light scattered out of it diffuses through the cloud. Along the particle's sun ray the
+ *      cloud has the (delta-scaled) optical depth S = (1 - g) tau_t in all (tau_t from the
+ *      final Beer buffer at the particle) and s = (1 - g) tau_s between the particle and the
+ *      sunlit edge. A conservative Eddington slab of that depth transmits T = 1 / (1 + 3/4 S)
+ *      and reflects R = 1 - T; its diffuse radiance falls about linearly from the lit face
+ *      (reflected light, ~E) to the shadowed face (transmitted light, E T):
+ *          J_d = E (1 - e^-tau_t) (T + R (1 - s / S)),
+ *      the first factor taking it to zero in thin cloud, where light is scattered once.
  *   3. Zenith sweep for the sky's ambient light: Beer transmittance from above turned into the
  *      two-stream transmission of diffuse light, 1 / (1 + 3/4 (1 - g) tau_up).
  * Splat cross-sections: a particle's splat carries the attenuation cross-section of the
@@ -378,11 +382,17 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
         }
         return SQ_OK;
     }
-    for (int i = 0; i < n; i++) {
-        const float tau_s = -logf(fmaxf(L->direct[i], 1e-30f));
-        const float t2s = 1.0f / (1.0f + 0.75f * (1.0f - particle_g(v, i)) * tau_s);
-        const float d = t2s - L->sun[i];
-        L->diffuse[i] = d > 0.0f ? d : 0.0f;
+    for (int q = 0; q < n; q++) {
+        const int i = (int)L->idx[q]; /* still in sun order: the same reads as the sweep */
+        const float *p = v->position + 3 * i;
+        const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
+        const float tau_t = -logf(fmaxf(buf_read(&s, L->buf_d, sq_v3_dot(x, s.e1),
+                                                 sq_v3_dot(x, s.e2)), 1e-30f));
+        const float tau_s = fminf(-logf(fmaxf(L->direct[i], 1e-30f)), tau_t);
+        const float k = 1.0f - particle_g(v, i);
+        const float S = k * tau_t, T = 1.0f / (1.0f + 0.75f * S), R = 1.0f - T;
+        const float depth = S > 1e-6f ? k * tau_s / S : 0.0f;
+        L->diffuse[i] = -expm1f(-tau_t) * (T + R * (1.0f - depth));
     }
     sweep z;
     sweep_frame(v, sq_v3(0.0f, 0.0f, -1.0f), size, &z);

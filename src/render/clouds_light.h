@@ -31,7 +31,7 @@ typedef struct sq__cloud_light {
     int n;
     float *sun;     /* I_k: light reaching particle k as a ratio to the sun (Harris MFS) */
     float *direct;  /* Beer transmittance toward the sun (no in-scatter) */
-    float *diffuse; /* multiply scattered share: two-stream transmission - I_k (>= 0) */
+    float *diffuse; /* multiply scattered radiance / E: Eddington slab along the sun ray */
     float *sky;     /* ambient transmittance from above (two-stream on the zenith depth) */
     /* the sun sweep's buffer after every particle: light arriving below the clouds */
     int nx, ny;

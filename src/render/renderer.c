@@ -238,6 +238,7 @@ static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int coun
                                 drawable_name(d), p->count, p->position ? "set" : "NULL");
             break;
         }
+        case SQ_DRAWABLE_CLOUDS: break; /* checked by the cloud pass */
         case SQ_DRAWABLE_NONE: break;
         default:
             return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
@@ -718,6 +719,10 @@ sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camer
         if ((res = sq__volume_pass_prepare_shadow(r, &drawables[i].u.volume)) != SQ_OK)
             return res;
     }
+    for (int i = 0; i < count; i++)
+        if (drawables[i].kind == SQ_DRAWABLE_CLOUDS &&
+            (res = sq__clouds_pass_prepare(r, &drawables[i].u.clouds)) != SQ_OK)
+            return res;
     upload_frame_block(r, world); /* with the sun shadow, if any */
 
     bind_scene_state(r);
@@ -741,6 +746,11 @@ sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camer
         if (drawables[i].kind != SQ_DRAWABLE_PARTICLES) continue;
         bind_scene_state(r);
         if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
+    }
+    for (int i = 0; i < count; i++) {
+        if (drawables[i].kind != SQ_DRAWABLE_CLOUDS) continue;
+        bind_scene_state(r);
+        if ((res = sq__clouds_pass_draw(r, &drawables[i].u.clouds)) != SQ_OK) return res;
     }
     pass_tonemap(r);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -953,6 +963,7 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
     if (res == SQ_OK) res = create_programs(r);
     if (res == SQ_OK) res = sq__volume_pass_create(r);
     if (res == SQ_OK) res = sq__particle_pass_create(r);
+    if (res == SQ_OK) res = sq__clouds_pass_create(r);
     if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
     if (res != SQ_OK) {
         sq_renderer_destroy(r);
@@ -969,6 +980,7 @@ void sq_renderer_destroy(sq_renderer *r)
     if (!r) return;
     sq_context *ctx = r->ctx;
     if (r->gl && sq__gl_context_make_current(r->gl) == SQ_OK) {
+        sq__clouds_pass_destroy(r);
         sq__particle_pass_destroy(r);
         sq__volume_pass_destroy(r);
         if (r->base)
