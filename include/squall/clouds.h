@@ -88,6 +88,7 @@ typedef struct sq_clouds_desc {
     bool splat_opacity;               /* Harris/S4: T = 1 - (1 - e^-tau_splat) eta(t) */
     double eta1;                      /* splat peak eta_1; 0 -> 0.4 (S4) */
     double tau_splat;                 /* S4's tau_k; 0 -> 80 */
+    double splat_noise;               /* splat texture noise amplitude; 0 is physical (none) */
     double albedo;                    /* single-scattering albedo; 0 -> 0.999 */
     double gamma_sr;                  /* forward solid angle kept in the light; 0 -> 0.09 sr */
     int light_buffer;                 /* MFS light-buffer texels per side; 0 -> 512 */

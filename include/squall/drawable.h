@@ -122,6 +122,7 @@ typedef struct sq_clouds_view {
     bool rayleigh;             /* S4's Rayleigh phase instead of HG (seed reproduction) */
     bool splat_opacity;        /* Harris/S4 opacity from the splat alpha */
     float eta1, tau_splat;     /* splat peak eta_1 (S4 0.4) and S4's tau_k = 80 */
+    float splat_noise;         /* 0..1: eta(t) times a mean-one noise of this amplitude (texture) */
     float gamma_sr;            /* forward solid angle kept in the light (Harris 0.09 sr) */
     int light_buffer;          /* light-buffer texels per side (0 -> 512) */
     bool multiple_scattering;  /* add the diffuse (two-stream) light to the forward MFS light */

@@ -148,8 +148,33 @@ SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
 SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
 /* World bounds of the terrain: min/max x, y and heights. */
 SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);
-/* Sun direction (toward the sun) from day of year, local solar time and latitude. */
+/* Sun direction (toward the sun) from day of year, local solar time and latitude (Cooper's
+ * declination; about 1 degree accurate: for scenes without a date). */
 SQ_API sq_vec3 sq_sun_direction(int day_of_year, float hour_solar, float latitude_deg);
+
+/* ---- the sun at a date and place (src/world/sun.c) --------------------------------------- */
+/* Position of the sun for an instant (UTC) and a place: the NOAA solar calculator's algorithm
+ * (Meeus, "Astronomical Algorithms", ch. 25, low-precision solar coordinates; about 0.01 degree
+ * for years 1900-2100). True solar time = UTC + longitude/15 h + equation of time. */
+typedef struct sq_sun_position {
+    double declination_deg;      /* apparent declination */
+    double equation_of_time_min; /* apparent minus mean solar time, minutes (about -14..+16) */
+    double true_solar_time_h;    /* local apparent solar time at the longitude, 0..24 h */
+    double hour_angle_deg;       /* 0 at solar noon, positive in the afternoon, -180..180 */
+    double zenith_deg;           /* geometric zenith angle (no refraction), 0..180 */
+    double elevation_deg;        /* apparent elevation: 90 - zenith + refraction (Saemundsson,
+                                    1010 hPa, 10 C; none below -1 degree) */
+    double azimuth_deg;          /* from true north, clockwise (east 90, south 180), 0..360 */
+} sq_sun_position;
+
+/* unix_time_s: seconds since 1970-01-01 00:00:00 UTC; latitude north, longitude east. */
+SQ_API sq_sun_position sq_sun_position_at(double unix_time_s, double latitude_deg,
+                                          double longitude_deg);
+/* Unit vector toward the sun (apparent elevation) in east-north-up axes. */
+SQ_API sq_vec3 sq_sun_position_direction(const sq_sun_position *p);
+/* Seconds since 1970-01-01 00:00:00 UTC of a proleptic Gregorian UTC date and time (no leap
+ * seconds). Fields are not range-checked: month 13 is January of the next year. */
+SQ_API double sq_unix_time(int year, int month, int day, int hour, int minute, double second);
 
 /* ---- camera ------------------------------------------------------------------------------ */
 typedef struct sq_camera {

@@ -233,7 +233,12 @@ sq_result sq_cfg_load_preset(sq_context *ctx, const char *name, sq_cfg **out)
     }
     char src[128];
     snprintf(src, sizeof src, "preset %s", name);
-    return sq_cfg_parse(ctx, text, strlen(text), src, out);
+    sq_result r = sq_cfg_parse(ctx, text, strlen(text), src, out);
+#ifdef SQ_PRESET_DIR
+    /* relative paths in a preset (data files) are taken against the source tree's scenes/ */
+    if (r == SQ_OK) snprintf((*out)->base_dir, sizeof (*out)->base_dir, "%s", SQ_PRESET_DIR);
+#endif
+    return r;
 }
 
 sq_result sq_cfg_load(sq_context *ctx, const char *file_or_preset, sq_cfg **out)

@@ -276,6 +276,7 @@ static void set_common_uniforms(sq_renderer *r, const sq_clouds_view *v, GLuint 
     glProgramUniform1f(prog, glGetUniformLocation(prog, "u_splat_peak"),
                        -expm1f(-v->tau_splat) * v->eta1);
     glProgramUniform1i(prog, glGetUniformLocation(prog, "u_rayleigh"), v->rayleigh);
+    glProgramUniform1f(prog, glGetUniformLocation(prog, "u_noise"), v->splat_noise);
 }
 
 static void set_camera_uniforms(GLuint prog, const sq_mat4 *view_proj, sq_vec3 cam, sq_vec3 right,

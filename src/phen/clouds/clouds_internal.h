@@ -127,7 +127,7 @@ typedef struct sq__cloud_grid {
     float x0, y0;       /* world x, y of mass point (0, 0) */
     double duration_s;  /* last stored time - first (0: a single time or analytic) */
     bool analytic;
-    char description[160];
+    char description[640];
 } sq__cloud_grid;
 
 /* Opens the desc's source (the WRF file, or an analytic field placed over the world's terrain);

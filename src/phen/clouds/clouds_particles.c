@@ -7,7 +7,8 @@
  * particle of radius r whose sprite's optical depth integrates to tau 0.3 pi r² carries the
  * field's extinction cross-section when
  *     tau = beta(p) m(p)/E[m] / (n(p) 0.3 pi r²) = beta(p) X / (N beta_c 0.3 pi r²),
- * i.e. tau = coef beta(p) with coef = X / (N beta_c 0.3 pi r²) fixed at birth and beta(p) the
+ * i.e. tau = coef beta(p) with coef = X / (N beta_c 0.3 pi r² (1 - FADE)) fixed at birth (the
+ * last factor compensates the mean of the life fade below) and beta(p) the
  * field interpolated at the particle's current position and time: a particle fades where its
  * cloud thins. The vertical exaggeration e stretches volumes by e and divides extinction by e,
  * so X, and the vertical optical depth of the clouds, are unchanged.
@@ -176,8 +177,11 @@ static void spawn(sq__particles *p, const sq__cloud_field *f, const sq__particle
     p->pos[3 * i + 2] = z * f->exaggeration;
     const float r = p->radius_auto;
     p->radius[i] = r;
-    p->coef[i] = (float)(p->cross_section / ((double)pp->count * (double)f->beta[c] *
-                                             (double)(SPLAT_AREA * 3.14159265f * r * r)));
+    /* the life fade removes FADE of the cross-section on average (smoothstep ramps over FADE at
+     * both ends, ages uniform): compensated so the mean keeps X */
+    p->coef[i] = (float)(p->cross_section /
+                         ((double)pp->count * (double)f->beta[c] *
+                          (double)(SPLAT_AREA * 3.14159265f * r * r) * (1.0 - (double)FADE)));
     p->life[i] = pp->lifetime_s * (0.75f + 0.5f * u[1]);
     p->age[i] = age0_fraction * p->life[i];
     p->cloud[i] = f->label[c];

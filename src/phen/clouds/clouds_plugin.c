@@ -9,16 +9,16 @@
 #define S sq_clouds_desc
 #include "phen/plugin_glue.h"
 
-#define STR(key, field, deftext, doc)                                                          \
-    {key, SQ_PARAM_STRING, "", offsetof(S, field), 0, 0, 0, deftext, NULL, 0, 0, 0, doc}
+#define PATH(key, field, deftext, doc)                                                         \
+    {key, SQ_PARAM_STRING, "", offsetof(S, field), 0, 0, 0, deftext, NULL, 0, 0, SQ_PARAM_PATH, doc}
 
 static const sq_param params[] = {
     E("source", source, "wrf|cumulus|stratocumulus",
       "Where the clouds come from: a WRF output file (wrf.file), or an analytic field of fair-"
       "weather cumuli or a broken stratocumulus deck over the world's terrain (tests, benchmarks)."),
-    STR("wrf.file", wrf_file, "",
-        "WRF output (wrfout, netCDF-3 or netCDF-4) read through the WRF reader; relative paths "
-        "are resolved against the scene file's folder, then the working folder."),
+    PATH("wrf.file", wrf_file, "",
+         "WRF output (wrfout, netCDF-3 or netCDF-4) read through the WRF reader; a relative path "
+         "is taken against the scene file's folder (a preset's: the source tree's scenes/)."),
     D("wrf.start_s", start_s, "s", 0, 0, 1e9, Z,
       "File time at simulation time 0, seconds after the first stored time; fields between "
       "stored times are interpolated, after the last one it is held."),
@@ -97,6 +97,9 @@ static const sq_param params[] = {
     D("lighting.tau_splat", tau_splat, "1", 80, 0.01, 1e3, 0,
       "S4's particle optical depth tau_k = 80 (Harris's SkyWorks extinction); only with "
       "splat_opacity."),
+    D("lighting.splat_noise", splat_noise, "1", 0.5, 0, 1, Z,
+      "Texture of the splat: eta(t) times a mean-one value noise of this amplitude fixed to each "
+      "particle (0: S4's smooth falloff); the mean opacity is unchanged."),
     D("lighting.albedo", albedo, "1", 0.999, 0, 1, 0,
       "Single-scattering albedo (cloud droplets ~0.9999 in the visible; Harris used 0.9)."),
     D("lighting.gamma_sr", gamma_sr, "sr", 0.09, 1e-4, 12.57, 0,

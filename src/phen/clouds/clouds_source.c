@@ -205,7 +205,7 @@ static sq_result wrf_open_source(sq__cloud_source *s, const char *path)
     g->y0 = (float)s->info.y0_m;
     g->duration_s = s->info.duration_s;
     g->analytic = false;
-    snprintf(g->description, sizeof g->description, "%s: %dx%dx%d, %d times from %s", path,
+    snprintf(g->description, sizeof g->description, "%.400s: %dx%dx%d, %d times from %.40s", path,
              g->nx, g->ny, g->nz, s->info.time_count, s->info.time_strings[0]);
     return SQ_OK;
 }

@@ -17,6 +17,7 @@ flat in vec4 v_params;
 flat in vec3 v_ambient;
 flat in float v_depth;
 flat in float v_radius;
+flat in float v_center_seed;
 
 layout(binding = 2) uniform sampler2D u_depth;
 
@@ -32,7 +33,29 @@ uniform int u_rayleigh;
 
 layout(location = 0) out vec4 o_color;
 
+uniform float u_noise;         // splat texture: t / (1 + u_noise (2 n - 1)), n noise in [0, 1]
+
 const float PI = 3.14159265358979;
+
+// Integer hash of a lattice point to [0, 1] and smooth value noise (mean 1/2).
+float hash(uvec2 q)
+{
+    uint h = q.x * 0x8da6b343u ^ q.y * 0xd8163841u;
+    h ^= h >> 13;
+    h *= 0x5bd1e995u;
+    h ^= h >> 15;
+    return float(h & 0xffffffu) * (1.0 / 16777215.0);
+}
+
+float value_noise(vec2 x)
+{
+    vec2 i = floor(x), f = x - i;
+    vec2 u = f * f * (3.0 - 2.0 * f);
+    uvec2 q = uvec2(ivec2(i) + 32768);
+    float a = mix(hash(q), hash(q + uvec2(1u, 0u)), u.x);
+    float b = mix(hash(q + uvec2(0u, 1u)), hash(q + uvec2(1u, 1u)), u.x);
+    return mix(a, b, u.y);
+}
 
 float phase(float c, float g)
 {
@@ -44,9 +67,17 @@ float phase(float c, float g)
 void main()
 {
     float t = length(v_local);
+    float tau = v_params.x, fade = v_params.y, g = v_params.z, I = v_params.w;
+    if (u_noise > 0.0) {
+        // texture: the splat's radius scaled by a mean-one noise fixed to the particle (its
+        // centre picks its place in the noise plane), so that overlapping opaque splats do not
+        // read as discs; two octaves of value noise over the sprite
+        vec2 q = v_local * 1.7 + fract(v_center_seed * vec2(0.7548777, 0.5698403)) * 512.0;
+        float n = 0.65 * value_noise(q) + 0.35 * value_noise(2.3 * q + 7.1);
+        t *= 1.0 / (1.0 + u_noise * (2.0 * n - 1.0));
+    }
     if (t >= 1.0) discard;
     float eta = (2.0 * t - 3.0) * t * t + 1.0;
-    float tau = v_params.x, fade = v_params.y, g = v_params.z, I = v_params.w;
     float alpha = u_splat_opacity != 0 ? u_splat_peak * eta : 1.0 - exp(-tau * eta);
     alpha *= fade;
     if (u_use_depth != 0) {

@@ -9,6 +9,7 @@ layout(location = 2) in vec4 a_ambient;    // diffuse sun + sky radiance (rgb), 
 
 uniform mat4 u_view_proj;
 uniform vec3 u_cam, u_right, u_up, u_forward;
+uniform float u_noise;      // the splat's texture may reach (1 + u_noise) r: the quad grows
 
 out vec2 v_local;
 out vec3 v_world;
@@ -16,12 +17,13 @@ flat out vec4 v_params;
 flat out vec3 v_ambient;
 flat out float v_depth;  // linear view depth of the particle's centre (m)
 flat out float v_radius;
+flat out float v_center_seed; // a number fixed to the particle (from its centre)
 
 void main()
 {
     const vec2 corner[4] = vec2[4](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0),
                                    vec2(1.0, 1.0));
-    vec2 q = corner[gl_VertexID & 3];
+    vec2 q = corner[gl_VertexID & 3] * (1.0 + u_noise);
     float r = a_pos_radius.w;
     vec3 c = a_pos_radius.xyz;
     vec3 p = c + r * (q.x * u_right + q.y * u_up);
@@ -31,5 +33,6 @@ void main()
     v_ambient = a_ambient.rgb;
     v_depth = dot(c - u_cam, u_forward);
     v_radius = r;
+    v_center_seed = dot(c, vec3(0.00731, 0.01113, 0.00517));
     gl_Position = u_view_proj * vec4(p, 1.0);
 }
