@@ -81,14 +81,15 @@ typedef struct sq_clouds_desc {
     double lifetime_s;                /* 0 -> 1800 s */
     bool plain;                       /* draw every particle, not the structured particles */
     double cluster_radius_m;          /* position thresholds sigma = 1 - r / range; 0 -> radius */
-    double sigma_density, sigma_stage, sigma_phase; /* thresholds; 0 is physical */
+    double sigma_density, sigma_stage, sigma_phase; /* thresholds; 0 -> 0.8, 0.6, 0.5 */
     int symbolic;                     /* sq_clouds_symbolic */
     /* lighting and drawing (the view's fields) */
     int mode;                         /* sq_clouds_mode */
     bool splat_opacity;               /* Harris/S4: T = 1 - (1 - e^-tau_splat) eta(t) */
     double eta1;                      /* splat peak eta_1; 0 -> 0.4 (S4) */
     double tau_splat;                 /* S4's tau_k; 0 -> 80 */
-    double splat_noise;               /* splat texture noise amplitude; 0 is physical (none) */
+    double splat_noise;               /* splat texture noise amplitude; 0 -> 0.5 */
+    bool smooth_splat;                /* no texture noise (S4's smooth splat) */
     double albedo;                    /* single-scattering albedo; 0 -> 0.999 */
     double gamma_sr;                  /* forward solid angle kept in the light; 0 -> 0.09 sr */
     int light_buffer;                 /* MFS light-buffer texels per side; 0 -> 512 */

@@ -18,10 +18,13 @@
  *      cloud has the (delta-scaled) optical depth S = (1 - g) tau_t in all (tau_t from the
  *      final Beer buffer at the particle) and s = (1 - g) tau_s between the particle and the
  *      sunlit edge. A conservative Eddington slab of that depth transmits T = 1 / (1 + 3/4 S)
- *      and reflects R = 1 - T; its diffuse radiance falls about linearly from the lit face
- *      (reflected light, ~E) to the shadowed face (transmitted light, E T):
- *          J_d = E (1 - e^-tau_t) (T + R (1 - s / S)),
- *      the first factor taking it to zero in thin cloud, where light is scattered once.
+ *      and reflects R = 1 - T. Its diffuse field leaves the lit face with radiance E R and the
+ *      shadowed face with E T, one hemisphere filled at each face, so the mean (angle-averaged)
+ *      diffuse radiance that a particle scatters falls about linearly from E R / 2 at the lit
+ *      face to E T / 2 at the shadowed one:
+ *          J_d = E (1 - e^-S) (T + R (1 - s / S)) / 2,
+ *      the first factor taking it to zero where the cloud is thin for the delta-scaled depth:
+ *      there the scattered light stays in the forward peak, which the MFS term carries.
  *   3. Zenith sweep for the sky's ambient light: Beer transmittance from above turned into the
  *      two-stream transmission of diffuse light, 1 / (1 + 3/4 (1 - g) tau_up).
  * Splat cross-sections: a particle's splat carries the attenuation cross-section of the
@@ -392,7 +395,7 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
         const float k = 1.0f - particle_g(v, i);
         const float S = k * tau_t, T = 1.0f / (1.0f + 0.75f * S), R = 1.0f - T;
         const float depth = S > 1e-6f ? k * tau_s / S : 0.0f;
-        L->diffuse[i] = -expm1f(-tau_t) * (T + R * (1.0f - depth));
+        L->diffuse[i] = 0.5f * -expm1f(-S) * (T + R * (1.0f - depth));
     }
     sweep z;
     sweep_frame(v, sq_v3(0.0f, 0.0f, -1.0f), size, &z);

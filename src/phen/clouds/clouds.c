@@ -360,7 +360,7 @@ static void fill_clouds_view(sq_clouds *c, sq_drawable *out)
     v->rayleigh = d->rayleigh;
     v->splat_opacity = d->splat_opacity;
     v->eta1 = (float)d->eta1;
-    v->splat_noise = (float)d->splat_noise;
+    v->splat_noise = d->smooth_splat ? 0.0f : (float)d->splat_noise;
     v->tau_splat = (float)d->tau_splat;
     v->gamma_sr = (float)d->gamma_sr;
     v->light_buffer = d->light_buffer;

@@ -37,6 +37,10 @@ sq_result sq_clouds_desc_resolve(const sq_clouds_desc *in, sq_clouds_desc *out)
     if (d.particles == 0) d.particles = 15000;
     if (d.lifetime_s == 0.0) d.lifetime_s = 1800.0;
     if (d.eta1 == 0.0) d.eta1 = 0.4;
+    if (d.splat_noise == 0.0) d.splat_noise = 0.5;
+    if (d.sigma_density == 0.0) d.sigma_density = 0.8;
+    if (d.sigma_stage == 0.0) d.sigma_stage = 0.6;
+    if (d.sigma_phase == 0.0) d.sigma_phase = 0.5;
     if (d.tau_splat == 0.0) d.tau_splat = 80.0;
     if (d.albedo == 0.0) d.albedo = 0.999;
     if (d.gamma_sr == 0.0) d.gamma_sr = 0.09;

@@ -79,11 +79,11 @@ static const sq_param params[] = {
       "leader clusters of similar particles (S4 §2.1-2.2)."),
     D("cluster.radius_m", cluster_radius_m, "m", 0, 0, 1e6, Z,
       "Position thresholds sigma = 1 - radius / (max - min) per axis; 0 = the particle radius."),
-    D("cluster.sigma_density", sigma_density, "1", 0.8, 0, 1, Z,
+    D("cluster.sigma_density", sigma_density, "1", 0.8, 1e-3, 1, 0,
       "Threshold of the density attribute (local extinction / maximum, measure (1))."),
-    D("cluster.sigma_stage", sigma_stage, "1", 0.6, 0, 1, Z,
+    D("cluster.sigma_stage", sigma_stage, "1", 0.6, 1e-3, 1, 0,
       "Threshold of the life-stage attribute (4 stages, measure (2)): 0.6 allows neighbours."),
-    D("cluster.sigma_phase", sigma_phase, "1", 0.5, 0, 1, Z,
+    D("cluster.sigma_phase", sigma_phase, "1", 0.5, 1e-3, 1, 0,
       "Threshold of the phase attribute (liquid/mixed/ice, measure (3) over the clouds)."),
     E("cluster.symbolic", symbolic, "s4|vdm",
       "Measure (3): as S4 prints it (clamped to [0, 1]) or the value-difference metric."),
@@ -97,9 +97,11 @@ static const sq_param params[] = {
     D("lighting.tau_splat", tau_splat, "1", 80, 0.01, 1e3, 0,
       "S4's particle optical depth tau_k = 80 (Harris's SkyWorks extinction); only with "
       "splat_opacity."),
-    D("lighting.splat_noise", splat_noise, "1", 0.5, 0, 1, Z,
-      "Texture of the splat: eta(t) times a mean-one value noise of this amplitude fixed to each "
-      "particle (0: S4's smooth falloff); the mean opacity is unchanged."),
+    D("lighting.splat_noise", splat_noise, "1", 0.5, 1e-3, 1, 0,
+      "Texture of the splat: its radius scaled by a mean-one value noise of this amplitude fixed "
+      "to each particle, so overlapping opaque splats do not read as discs."),
+    B("lighting.smooth_splat", smooth_splat,
+      "S4's smooth splat (no texture noise), for reproducing the seed."),
     D("lighting.albedo", albedo, "1", 0.999, 0, 1, 0,
       "Single-scattering albedo (cloud droplets ~0.9999 in the visible; Harris used 0.9)."),
     D("lighting.gamma_sr", gamma_sr, "sr", 0.09, 1e-4, 12.57, 0,
@@ -109,9 +111,9 @@ static const sq_param params[] = {
       "Harris's forward-scattered light only; false: the diffuse light of a two-stream slab is "
       "added (clouds stay bright away from the sun)."),
     B("lighting.no_shadows", no_shadows, "The clouds do not shadow the terrain."),
-    D("impostor.dist_3d_m", dist_3d_m, "m", 60000, 0, 1e8, Z,
+    D("impostor.dist_3d_m", dist_3d_m, "m", 60000, 1, 1e8, 0,
       "Clouds nearer than this are drawn as particles (S4's dist_3D)."),
-    D("impostor.dist_m", dist_impostor_m, "m", 90000, 0, 1e8, Z,
+    D("impostor.dist_m", dist_impostor_m, "m", 90000, 1, 1e8, 0,
       "Clouds farther than this are drawn as impostors (S4's dist_impostor); between the two "
       "both, cross-faded."),
     D("impostor.angle_deg", impostor_angle_deg, "deg", 2, 0.01, 90, 0,
