@@ -18,7 +18,7 @@ static const sq_param params[] = {
       "weather cumuli or a broken stratocumulus deck over the world's terrain (tests, benchmarks)."),
     PATH("wrf.file", wrf_file, "",
          "WRF output (wrfout, netCDF-3 or netCDF-4) read through the WRF reader; a relative path "
-         "is taken against the scene file's folder (a preset's: the source tree's scenes/)."),
+         "is taken against the scene file's folder (a preset's: the source tree)."),
     D("wrf.start_s", start_s, "s", 0, 0, 1e9, Z,
       "File time at simulation time 0, seconds after the first stored time; fields between "
       "stored times are interpolated, after the last one it is held."),
