@@ -77,6 +77,7 @@ typedef struct sq_clouds_desc {
     double cloud_fraction;            /* coverage when the file has no CLDFRA; 0 -> 1 */
     /* particles */
     int particles;                    /* total; 0 -> 15000 */
+    double particles_per_km3;         /* > 0: the count from the clouds' volume instead; 0 = off */
     double radius_m;                  /* billboard radius; 0 -> from the particle spacing */
     double lifetime_s;                /* 0 -> 1800 s */
     bool plain;                       /* draw every particle, not the structured particles */

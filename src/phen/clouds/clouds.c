@@ -106,6 +106,42 @@ void sq_clouds_destroy(sq_clouds *c)
 
 static sq_result update(sq_clouds *c, double dt_s, bool first);
 
+/* particles.per_km3: the count from the clouds' volume at time 0, refused before allocating
+ * when the particles would not fit the memory limit (the message names count and bytes). */
+static sq_result particles_for_density(sq_clouds *c)
+{
+    sq__cloud_frame fr;
+    sq_result r = sq__cloud_source_read(c->src, 0.0, &fr);
+    if (r != SQ_OK) return r;
+    sq__cloud_field_update(&c->field, &fr, 0.0, 0.0);
+    sq__segment_clouds(&c->seg, &c->field, (float)c->d.threshold_g_m3);
+    double v = 0.0; /* physical in-cloud volume, m³ */
+    const sq__cloud_field *f = &c->field;
+    const sq__cloud_grid *g = &f->grid;
+    const size_t cols = (size_t)g->nx * g->ny;
+    for (size_t q = 0; q < f->cells; q++) {
+        if (f->label[q] < 0) continue;
+        const float dz = f->zw[q + cols] - f->zw[q];
+        v += (double)g->dx * (double)g->dy * (double)dz * (double)(f->sub.on ? f->frac[q] : 1.0f);
+    }
+    const double want = ceil(c->d.particles_per_km3 * v * 1e-9);
+    const uint64_t bytes = (uint64_t)fmin(want, 1e18) * SQ__CLOUDS_BYTES_PER_PARTICLE;
+    char what[256];
+    snprintf(what, sizeof what,
+             "layer clouds: %.0f particles (particles.per_km3 = %g over %.4g km3 of cloud) x %u "
+             "bytes",
+             want, c->d.particles_per_km3, v * 1e-9, SQ__CLOUDS_BYTES_PER_PARTICLE);
+    r = sq_context_check_memory(c->ctx, bytes, what);
+    if (r != SQ_OK) return r;
+    if (want > 1e7)
+        return sq__fail(c->ctx, SQ_ERR_TOO_LARGE, "clouds",
+                        "layer clouds: %.0f particles (particles.per_km3 = %g over %.4g km3 of "
+                        "cloud); at most 10000000",
+                        want, c->d.particles_per_km3, v * 1e-9);
+    c->d.particles = want < 1.0 ? 1 : (int)want;
+    return SQ_OK;
+}
+
 sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq_world *world,
                            sq_clouds **out)
 {
@@ -127,10 +163,11 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
         r = sq__cloud_field_init(ctx, &c->field, &grid, &d, (float)d.vertical_exaggeration);
     }
     if (r == SQ_OK) r = sq__segment_init(ctx, &c->seg, &grid);
-    if (r == SQ_OK) r = sq__particles_init(ctx, &c->parts, d.particles, c->field.cells);
+    if (r == SQ_OK && d.particles_per_km3 > 0.0) r = particles_for_density(c);
+    if (r == SQ_OK) r = sq__particles_init(ctx, &c->parts, c->d.particles, c->field.cells);
     if (r == SQ_OK) r = alloc_draw(c);
     if (r == SQ_OK) {
-        c->pp.count = d.particles;
+        c->pp.count = c->d.particles;
         c->pp.radius_m = (float)d.radius_m;
         c->pp.lifetime_s = (float)d.lifetime_s;
         c->pp.seed = d.seed;

@@ -69,6 +69,9 @@ static const sq_param params[] = {
       "pass CLDFRA); < 1 breaks decks into cells."),
     I("particles.count", particles, "1", 15000, 1, 10000000,
       "Particles filling the clouds (S4: 2000-15000). Memory: 200 bytes each."),
+    D("particles.per_km3", particles_per_km3, "1/km3", 0, 0, 1e12, Z,
+      "If > 0: the particle count is this density times the clouds' volume (in-cloud, at time "
+      "0) instead of particles.count; refused before allocating beyond the memory limit."),
     D("particles.radius_m", radius_m, "m", 0, 0, 1e6, Z,
       "Billboard radius; 0 = 1.3 x the mean particle spacing of the cloud volume."),
     D("particles.lifetime_s", lifetime_s, "s", 1800, 1, 1e7, 0,
