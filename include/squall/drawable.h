@@ -124,7 +124,8 @@ typedef struct sq_clouds_view {
     float eta1, tau_splat;     /* splat peak eta_1 (S4 0.4) and S4's tau_k = 80 */
     float splat_noise;         /* 0..1: eta(t) times a mean-one noise of this amplitude (texture) */
     float gamma_sr;            /* forward solid angle kept in the light (Harris 0.09 sr) */
-    int light_buffer;          /* light-buffer texels per side (0 -> 512) */
+    int light_buffer;          /* light-buffer texels per side at most (0 -> 512) */
+    float light_texels_per_radius; /* and no finer than mean radius / this (0 -> 4) */
     bool multiple_scattering;  /* add the diffuse (two-stream) light to the forward MFS light */
     bool shadows;              /* the clouds shadow the terrain */
     bool impostors;            /* groups beyond dist_impostor_m drawn as impostors */

@@ -27,6 +27,10 @@
  *      there the scattered light stays in the forward peak, which the MFS term carries.
  *   3. Zenith sweep for the sky's ambient light: Beer transmittance from above turned into the
  *      two-stream transmission of diffuse light, 1 / (1 + 3/4 (1 - g) tau_up).
+ * Buffer resolution: light_buffer texels per side at most, and no finer than the particles'
+ * mean radius / light_texels_per_radius (4): a splat touches ~50 texels whatever the domain, so
+ * the sweeps cost O(particles). Each splat uses 33-point radial tables of eta and of its texel
+ * opacity (no exponential per texel). The sun and zenith sweeps run on two threads.
  * Splat cross-sections: a particle's splat carries the attenuation cross-section of the
  * continuous sprite, integral of tau eta(t) dA = 0.3 pi r² tau (integral of 2t³ - 3t² + 1 over
  * the unit disc is 0.3 pi): on the texel grid the per-texel optical depths are scaled by
@@ -120,6 +124,10 @@ void sq__cloud_light_free(sq_context *ctx, sq__cloud_light *L)
     sq_free(ctx, L->idx);
     sq_free(ctx, L->key2);
     sq_free(ctx, L->idx2);
+    sq_free(ctx, L->key_s);
+    sq_free(ctx, L->idx_s);
+    sq_free(ctx, L->key_s2);
+    sq_free(ctx, L->idx_s2);
     sq_free(ctx, L->shadow);
     sq_free(ctx, L->buf_d);
     sq_free(ctx, L->buf_sky);
@@ -137,6 +145,10 @@ static sq_result reserve(sq_context *ctx, sq__cloud_light *L, size_t n, size_t t
         sq_free(ctx, L->idx);
         sq_free(ctx, L->key2);
         sq_free(ctx, L->idx2);
+        sq_free(ctx, L->key_s);
+        sq_free(ctx, L->idx_s);
+        sq_free(ctx, L->key_s2);
+        sq_free(ctx, L->idx_s2);
         const size_t cap = n + n / 4 + 256;
         L->sun = sq_alloc(ctx, cap * sizeof(float));
         L->direct = sq_alloc(ctx, cap * sizeof(float));
@@ -146,9 +158,13 @@ static sq_result reserve(sq_context *ctx, sq__cloud_light *L, size_t n, size_t t
         L->idx = sq_alloc(ctx, cap * sizeof(uint32_t));
         L->key2 = sq_alloc(ctx, cap * sizeof(uint32_t));
         L->idx2 = sq_alloc(ctx, cap * sizeof(uint32_t));
+        L->key_s = sq_alloc(ctx, cap * sizeof(uint32_t));
+        L->idx_s = sq_alloc(ctx, cap * sizeof(uint32_t));
+        L->key_s2 = sq_alloc(ctx, cap * sizeof(uint32_t));
+        L->idx_s2 = sq_alloc(ctx, cap * sizeof(uint32_t));
         L->cap = cap;
         if (!L->sun || !L->direct || !L->diffuse || !L->sky || !L->key || !L->idx || !L->key2 ||
-            !L->idx2) {
+            !L->idx2 || !L->key_s || !L->idx_s || !L->key_s2 || !L->idx_s2) {
             L->cap = 0;
             return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "render",
                             "cloud light: no memory for %zu particles", n);
@@ -178,7 +194,7 @@ typedef struct sweep {
     int nx, ny;
 } sweep;
 
-static void sweep_frame(const sq_clouds_view *v, sq_vec3 l, int size, sweep *s)
+static void sweep_frame(const sq_clouds_view *v, sq_vec3 l, int size, float min_texel, sweep *s)
 {
     s->l = sq_v3_norm(l);
     const sq_vec3 ref = fabsf(s->l.z) < 0.99f ? sq_v3(0.0f, 0.0f, 1.0f) : sq_v3(1.0f, 0.0f, 0.0f);
@@ -196,7 +212,7 @@ static void sweep_frame(const sq_clouds_view *v, sq_vec3 l, int size, sweep *s)
         v1 = fmaxf(v1, w + r);
     }
     const float ext = fmaxf(u1 - u0, v1 - v0);
-    s->h = ext > 0.0f ? ext / (float)size : 1.0f;
+    s->h = ext > 0.0f ? fmaxf(ext / (float)size, min_texel) : 1.0f;
     /* one texel of margin on each side: bilinear reads at the edge see a clear border */
     s->u0 = u0 - s->h;
     s->v0 = v0 - s->h;
@@ -221,47 +237,26 @@ static float buf_read(const sweep *s, const float *b, float u, float v)
            (val[2] * (1.0f - ax) + val[3] * ax) * ay;
 }
 
-/* The texels under particle i's disc and the cross-section correction (see the banner). */
+/* Radial tables of one splat over q = t² in [0, 1] (LUT + 1 points, linear between): the
+ * falloff eta and the texel opacity; 33 exponentials per particle instead of one per texel. */
+#define LUT 32
+
 typedef struct footprint {
     int x0, x1, y0, y1; /* inclusive texel range */
-    float cu, cv, r;    /* centre and radius in plane units */
-    float scale;        /* optical-depth scale per texel */
+    float cu, cv, inv_r2;
+    float scale;        /* optical-depth (or alpha) scale per texel (cross-section kept) */
     int nearest_x, nearest_y; /* used when no texel centre lies inside the disc */
     bool nearest;
+    float eta[LUT + 1], alpha[LUT + 1];
 } footprint;
 
-static void footprint_of(const sweep *s, float u, float v, float r, footprint *f)
+static float lut_at(const float *t, float q)
 {
-    f->cu = u;
-    f->cv = v;
-    f->r = r;
-    f->x0 = (int)floorf((u - r - s->u0) / s->h);
-    f->x1 = (int)floorf((u + r - s->u0) / s->h);
-    f->y0 = (int)floorf((v - r - s->v0) / s->h);
-    f->y1 = (int)floorf((v + r - s->v0) / s->h);
-    if (f->x0 < 0) f->x0 = 0;
-    if (f->y0 < 0) f->y0 = 0;
-    if (f->x1 >= s->nx) f->x1 = s->nx - 1;
-    if (f->y1 >= s->ny) f->y1 = s->ny - 1;
-    double sum = 0.0;
-    const float inv_r = 1.0f / r;
-    for (int y = f->y0; y <= f->y1; y++) {
-        const float dv = s->v0 + ((float)y + 0.5f) * s->h - v;
-        for (int x = f->x0; x <= f->x1; x++) {
-            const float du = s->u0 + ((float)x + 0.5f) * s->h - u;
-            sum += (double)sq__cloud_splat(sqrtf(du * du + dv * dv) * inv_r);
-        }
-    }
-    const double want = (double)(SPLAT_AREA * PI_F * r * r) / ((double)s->h * (double)s->h);
-    f->nearest = !(sum > 0.0);
-    if (f->nearest) {
-        int x = (int)floorf((u - s->u0) / s->h), y = (int)floorf((v - s->v0) / s->h);
-        f->nearest_x = x < 0 ? 0 : (x >= s->nx ? s->nx - 1 : x);
-        f->nearest_y = y < 0 ? 0 : (y >= s->ny ? s->ny - 1 : y);
-        f->scale = (float)want; /* the whole cross-section on one texel */
-    } else {
-        f->scale = (float)(want / sum);
-    }
+    const float x = q * (float)LUT;
+    int i = (int)x;
+    if (i >= LUT) i = LUT - 1;
+    const float w = x - (float)i;
+    return t[i] + (t[i + 1] - t[i]) * w;
 }
 
 /* Per-texel opacity of the particle given eta at the texel. The physical opacity scales the
@@ -276,49 +271,126 @@ static float texel_alpha(const sq_clouds_view *v, float tau, float eta, float sc
     return -expm1f(-tau * eta * scale);
 }
 
+static void footprint_of(const sweep *s, const sq_clouds_view *v, float tau, float u, float w,
+                         float r, footprint *f)
+{
+    f->cu = u;
+    f->cv = w;
+    f->inv_r2 = 1.0f / (r * r);
+    f->x0 = (int)floorf((u - r - s->u0) / s->h);
+    f->x1 = (int)floorf((u + r - s->u0) / s->h);
+    f->y0 = (int)floorf((w - r - s->v0) / s->h);
+    f->y1 = (int)floorf((w + r - s->v0) / s->h);
+    if (f->x0 < 0) f->x0 = 0;
+    if (f->y0 < 0) f->y0 = 0;
+    if (f->x1 >= s->nx) f->x1 = s->nx - 1;
+    if (f->y1 >= s->ny) f->y1 = s->ny - 1;
+    for (int i = 0; i <= LUT; i++) f->eta[i] = sq__cloud_splat(sqrtf((float)i / (float)LUT));
+    double sum = 0.0;
+    for (int y = f->y0; y <= f->y1; y++) {
+        const float dv = s->v0 + ((float)y + 0.5f) * s->h - w;
+        for (int x = f->x0; x <= f->x1; x++) {
+            const float du = s->u0 + ((float)x + 0.5f) * s->h - u;
+            const float q = (du * du + dv * dv) * f->inv_r2;
+            if (q < 1.0f) sum += (double)lut_at(f->eta, q);
+        }
+    }
+    const double want = (double)(SPLAT_AREA * PI_F * r * r) / ((double)s->h * (double)s->h);
+    f->nearest = !(sum > 0.0);
+    if (f->nearest) {
+        int x = (int)floorf((u - s->u0) / s->h), y = (int)floorf((w - s->v0) / s->h);
+        f->nearest_x = x < 0 ? 0 : (x >= s->nx ? s->nx - 1 : x);
+        f->nearest_y = y < 0 ? 0 : (y >= s->ny ? s->ny - 1 : y);
+        f->scale = (float)want; /* the whole cross-section on one texel */
+        f->alpha[0] = texel_alpha(v, tau, 1.0f, f->scale);
+        return;
+    }
+    f->scale = (float)(want / sum);
+    for (int i = 0; i <= LUT; i++) f->alpha[i] = texel_alpha(v, tau, f->eta[i], f->scale);
+}
+
 static float particle_tau(const sq_clouds_view *v, int i) { return v->tau ? v->tau[i] : 0.0f; }
 static float particle_g(const sq_clouds_view *v, int i)
 {
     return v->g ? v->g[i] : v->g_default;
 }
 
-/* Sorts the particles by distance along s->l (input order for ties: stable). */
-static void sort_along(sq__cloud_light *L, const sq_clouds_view *v, sq_vec3 l)
-{
-    const size_t n = (size_t)v->count;
-    for (size_t i = 0; i < n; i++) {
-        const float *p = v->position + 3 * i;
-        L->key[i] = sq__float_sort_key(p[0] * l.x + p[1] * l.y + p[2] * l.z);
-        L->idx[i] = (uint32_t)i;
-    }
-    sq__radix_sort_u32(L->key, L->idx, L->key2, L->idx2, n);
-}
-
 /* The splat loop of one particle: mfs (may be NULL) gets g + T B with g = a alpha F I_k;
  * beer gets T B. */
-static void splat(const sweep *s, const footprint *f, const sq_clouds_view *v, float tau,
-                  float gain, float *mfs, float *beer)
+static void splat(const sweep *s, const footprint *f, float gain, float *mfs, float *beer)
 {
     if (f->nearest) {
         const size_t c = (size_t)f->nearest_y * (size_t)s->nx + (size_t)f->nearest_x;
-        const float a = texel_alpha(v, tau, 1.0f, f->scale);
+        const float a = f->alpha[0];
         if (mfs) mfs[c] = gain * a + (1.0f - a) * mfs[c];
         beer[c] *= 1.0f - a;
         return;
     }
-    const float inv_r = 1.0f / f->r;
     for (int y = f->y0; y <= f->y1; y++) {
         const float dv = s->v0 + ((float)y + 0.5f) * s->h - f->cv;
         float *rowm = mfs ? mfs + (size_t)y * (size_t)s->nx : NULL;
         float *rowb = beer + (size_t)y * (size_t)s->nx;
         for (int x = f->x0; x <= f->x1; x++) {
             const float du = s->u0 + ((float)x + 0.5f) * s->h - f->cu;
-            const float eta = sq__cloud_splat(sqrtf(du * du + dv * dv) * inv_r);
-            if (eta <= 0.0f) continue;
-            const float a = texel_alpha(v, tau, eta, f->scale);
+            const float q = (du * du + dv * dv) * f->inv_r2;
+            if (q >= 1.0f) continue;
+            const float a = lut_at(f->alpha, q);
             if (rowm) rowm[x] = gain * a + (1.0f - a) * rowm[x];
             rowb[x] *= 1.0f - a;
         }
+    }
+}
+
+/* Sorts the particles by distance along l into (key, idx) with scratch (k2, i2). */
+static void sort_into(const sq_clouds_view *v, sq_vec3 l, uint32_t *key, uint32_t *idx,
+                      uint32_t *k2, uint32_t *i2)
+{
+    const size_t n = (size_t)v->count;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = v->position + 3 * i;
+        key[i] = sq__float_sort_key(p[0] * l.x + p[1] * l.y + p[2] * l.z);
+        idx[i] = (uint32_t)i;
+    }
+    sq__radix_sort_u32(key, idx, k2, i2, n);
+}
+
+/* The sun sweep: I_k, Beer transmittance, the shadow buffer (section 1 of the banner). */
+static void sun_sweep(sq__cloud_light *L, const sq_clouds_view *v, const sweep *s)
+{
+    const size_t nt = (size_t)s->nx * (size_t)s->ny;
+    for (size_t c = 0; c < nt; c++) L->shadow[c] = L->buf_d[c] = 1.0f;
+    sort_into(v, s->l, L->key, L->idx, L->key2, L->idx2);
+    for (int q = 0; q < v->count; q++) {
+        const int i = (int)L->idx[q];
+        const float *p = v->position + 3 * i;
+        const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
+        const float u = sq_v3_dot(x, s->e1), w = sq_v3_dot(x, s->e2);
+        const float I = buf_read(s, L->shadow, u, w);
+        L->sun[i] = I;
+        L->direct[i] = buf_read(s, L->buf_d, u, w);
+        footprint f;
+        footprint_of(s, v, particle_tau(v, i), u, w, v->radius_m[i], &f);
+        const float gain = v->albedo * sq__cloud_forward_fraction(v, particle_g(v, i)) * I;
+        splat(s, &f, gain, L->shadow, L->buf_d);
+    }
+}
+
+/* The zenith sweep: optical depth above each particle -> two-stream sky transmission. */
+static void sky_sweep(sq__cloud_light *L, const sq_clouds_view *v, const sweep *z)
+{
+    const size_t nz = (size_t)z->nx * (size_t)z->ny;
+    for (size_t c = 0; c < nz; c++) L->buf_sky[c] = 1.0f;
+    sort_into(v, z->l, L->key_s, L->idx_s, L->key_s2, L->idx_s2);
+    for (int q = 0; q < v->count; q++) {
+        const int i = (int)L->idx_s[q];
+        const float *p = v->position + 3 * i;
+        const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
+        const float u = sq_v3_dot(x, z->e1), w = sq_v3_dot(x, z->e2);
+        const float tau_up = -logf(fmaxf(buf_read(z, L->buf_sky, u, w), 1e-30f));
+        L->sky[i] = 1.0f / (1.0f + 0.75f * (1.0f - particle_g(v, i)) * tau_up);
+        footprint f;
+        footprint_of(z, v, particle_tau(v, i), u, w, v->radius_m[i], &f);
+        splat(z, &f, 0.0f, NULL, L->buf_sky);
     }
 }
 
@@ -340,25 +412,22 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
         L->texel_m = 1.0f;
         return SQ_OK;
     }
-
-    /* 1. sun sweep */
-    sweep s;
-    sweep_frame(v, sq_v3_scale(sq_v3_norm(sun_dir), -1.0f), size, &s);
-    const size_t nt = (size_t)s.nx * (size_t)s.ny;
-    for (size_t c = 0; c < nt; c++) L->shadow[c] = L->buf_d[c] = 1.0f;
-    sort_along(L, v, s.l);
-    for (int q = 0; q < n; q++) {
-        const int i = (int)L->idx[q];
-        const float *p = v->position + 3 * i;
-        const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
-        const float u = sq_v3_dot(x, s.e1), w = sq_v3_dot(x, s.e2);
-        const float I = buf_read(&s, L->shadow, u, w);
-        L->sun[i] = I;
-        L->direct[i] = buf_read(&s, L->buf_d, u, w);
-        footprint f;
-        footprint_of(&s, u, w, v->radius_m[i], &f);
-        const float gain = v->albedo * sq__cloud_forward_fraction(v, particle_g(v, i)) * I;
-        splat(&s, &f, v, particle_tau(v, i), gain, L->shadow, L->buf_d);
+    /* texels no finer than a fraction of the mean radius: a splat covers at most ~(2k)² texels
+     * (k = light_texels_per_radius, 4 by default), whatever the domain */
+    double rsum = 0.0;
+    for (int i = 0; i < n; i++) rsum += (double)v->radius_m[i];
+    const float k = v->light_texels_per_radius > 0.0f ? v->light_texels_per_radius : 4.0f;
+    const float min_texel = (float)(rsum / n) / k;
+    sweep s, z;
+    sweep_frame(v, sq_v3_scale(sq_v3_norm(sun_dir), -1.0f), size, min_texel, &s);
+    sweep_frame(v, sq_v3(0.0f, 0.0f, -1.0f), size, min_texel, &z);
+    /* the two sweeps are independent: one thread each */
+    const bool sky = v->multiple_scattering;
+    const int nt = sq_context_threads(ctx) > 1 && sky ? 2 : 1;
+    SQ_OMP(omp parallel for schedule(static, 1) num_threads(nt))
+    for (int job = 0; job < 2; job++) {
+        if (job == 0) sun_sweep(L, v, &s);
+        else if (sky) sky_sweep(L, v, &z);
     }
     L->nx = s.nx;
     L->ny = s.ny;
@@ -377,8 +446,8 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
     m.m[2] = m.m[6] = m.m[10] = m.m[14] = 0.0f;
     L->shadow_matrix = m;
 
-    /* 2. diffuse share and 3. zenith sweep */
-    if (!v->multiple_scattering) {
+    /* 2. the diffuse share */
+    if (!sky) {
         for (int i = 0; i < n; i++) {
             L->diffuse[i] = 0.0f;
             L->sky[i] = 1.0f;
@@ -386,33 +455,16 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
         return SQ_OK;
     }
     for (int q = 0; q < n; q++) {
-        const int i = (int)L->idx[q]; /* still in sun order: the same reads as the sweep */
+        const int i = (int)L->idx[q]; /* in sun order: the same reads as the sweep */
         const float *p = v->position + 3 * i;
         const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
         const float tau_t = -logf(fmaxf(buf_read(&s, L->buf_d, sq_v3_dot(x, s.e1),
                                                  sq_v3_dot(x, s.e2)), 1e-30f));
         const float tau_s = fminf(-logf(fmaxf(L->direct[i], 1e-30f)), tau_t);
-        const float k = 1.0f - particle_g(v, i);
-        const float S = k * tau_t, T = 1.0f / (1.0f + 0.75f * S), R = 1.0f - T;
-        const float depth = S > 1e-6f ? k * tau_s / S : 0.0f;
+        const float kg = 1.0f - particle_g(v, i);
+        const float S = kg * tau_t, T = 1.0f / (1.0f + 0.75f * S), R = 1.0f - T;
+        const float depth = S > 1e-6f ? kg * tau_s / S : 0.0f;
         L->diffuse[i] = 0.5f * -expm1f(-S) * (T + R * (1.0f - depth));
-    }
-    sweep z;
-    sweep_frame(v, sq_v3(0.0f, 0.0f, -1.0f), size, &z);
-    const size_t nz = (size_t)z.nx * (size_t)z.ny;
-    for (size_t c = 0; c < nz; c++) L->buf_sky[c] = 1.0f;
-    sort_along(L, v, z.l);
-    for (int q = 0; q < n; q++) {
-        const int i = (int)L->idx[q];
-        const float *p = v->position + 3 * i;
-        const sq_vec3 x = sq_v3(p[0], p[1], p[2]);
-        const float u = sq_v3_dot(x, z.e1), w = sq_v3_dot(x, z.e2);
-        const float t = buf_read(&z, L->buf_sky, u, w);
-        const float tau_up = -logf(fmaxf(t, 1e-30f));
-        L->sky[i] = 1.0f / (1.0f + 0.75f * (1.0f - particle_g(v, i)) * tau_up);
-        footprint f;
-        footprint_of(&z, u, w, v->radius_m[i], &f);
-        splat(&z, &f, v, particle_tau(v, i), 0.0f, NULL, L->buf_sky);
     }
     return SQ_OK;
 }

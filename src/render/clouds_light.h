@@ -40,7 +40,8 @@ typedef struct sq__cloud_light {
     float texel_m;
     /* workspace */
     size_t cap, buf_cap;
-    uint32_t *key, *idx, *key2, *idx2;
+    uint32_t *key, *idx, *key2, *idx2;         /* sun order (idx) and scratch */
+    uint32_t *key_s, *idx_s, *key_s2, *idx_s2; /* zenith order and scratch */
     float *buf_d, *buf_sky;
     uint64_t comparisons;
 } sq__cloud_light;

@@ -110,6 +110,7 @@ SQ_TEST(mfs_recursion_causal_index)
     v.radius_m = rad;
     v.tau = tt;
     v.light_buffer = 200; /* 200 m extent: 1 m texels, radius = 100 texels */
+    v.light_texels_per_radius = 100.0f;
     sq__cloud_light L;
     memset(&L, 0, sizeof L);
     SQ_CHECK_OK(sq__cloud_light_compute(ctx, &L, &v, sun));
@@ -145,6 +146,7 @@ SQ_TEST(mfs_self_shadowing)
     v.radius_m = rad;
     v.tau = tt;
     v.multiple_scattering = true;
+    v.light_texels_per_radius = 40.0f; /* fine texels: centre values against the analytic ones */
     sq__cloud_light L;
     memset(&L, 0, sizeof L);
     SQ_CHECK_OK(sq__cloud_light_compute(ctx, &L, &v, sq_v3(0, 0, 1)));
@@ -263,6 +265,7 @@ SQ_TEST(splat_conserves_cross_section)
         v.tau = tt;
         v.albedo = 0.0f; /* no in-scatter: the buffer is the transmittance */
         v.light_buffer = sizes[s];
+        v.light_texels_per_radius = 1000.0f; /* the buffer's size alone sets the texel */
         sq__cloud_light L;
         memset(&L, 0, sizeof L);
         SQ_CHECK_OK(sq__cloud_light_compute(ctx, &L, &v, sq_v3(0, 0, 1)));

@@ -67,6 +67,7 @@ float phase(float c, float g)
 void main()
 {
     float t = length(v_local);
+    if (t >= 1.0 + 0.7 * u_noise) discard; // outside the largest textured disc: no noise
     float tau = v_params.x, fade = v_params.y, g = v_params.z, I = v_params.w;
     if (u_noise > 0.0) {
         // texture: the splat's radius scaled by a mean-one noise fixed to the particle (its

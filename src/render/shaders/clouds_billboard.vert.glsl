@@ -9,7 +9,8 @@ layout(location = 2) in vec4 a_ambient;    // diffuse sun + sky radiance (rgb), 
 
 uniform mat4 u_view_proj;
 uniform vec3 u_cam, u_right, u_up, u_forward;
-uniform float u_noise;      // the splat's texture may reach (1 + u_noise) r: the quad grows
+uniform float u_noise;      // the splat's texture reaches past r: the quad grows by 0.7 u_noise
+                            // (the two-octave noise seldom exceeds 0.85, see the fragment shader)
 
 out vec2 v_local;
 out vec3 v_world;
@@ -23,7 +24,7 @@ void main()
 {
     const vec2 corner[4] = vec2[4](vec2(-1.0, -1.0), vec2(1.0, -1.0), vec2(-1.0, 1.0),
                                    vec2(1.0, 1.0));
-    vec2 q = corner[gl_VertexID & 3] * (1.0 + u_noise);
+    vec2 q = corner[gl_VertexID & 3] * (1.0 + 0.7 * u_noise);
     float r = a_pos_radius.w;
     vec3 c = a_pos_radius.xyz;
     vec3 p = c + r * (q.x * u_right + q.y * u_up);
