@@ -37,10 +37,10 @@ for k in particles clusters ms_light ms_draw ms_per_frame; do
 done
 rm -rf f v m.csv b.json p.txt err.txt
 # too many particles for the clouds' volume: refused before allocating, count and bytes named
-expect 2 "layer clouds: [0-9]+ particles \(particles.per_km3 = 1e\+12 over [0-9.e+-]+ km3 of cloud\) x 200 bytes needs [0-9]+ bytes" -- \
+expect 2 "layers.clouds.particles.per_km3 = 1e\+12 over [0-9.e+-]+ km3 of cloud: [0-9]+ particles x 200 bytes needs [0-9]+ bytes" -- \
     simulate cu.yaml --metrics m.csv --set layers.clouds.particles.per_km3=1e12
 # source wrf without a file
-expect 2 "source = wrf needs wrf.file" -- \
+expect 2 "layers.clouds.wrf.file is empty; source = wrf needs" -- \
     simulate cu.yaml --metrics m.csv --set layers.clouds.source=wrf
 # a file that is not NetCDF, and one that does not exist
 printf 'not a netcdf file\n' > bad.nc
@@ -49,7 +49,7 @@ expect 2 "bad.nc" -- simulate cu.yaml --metrics m.csv --set layers.clouds.source
 expect 2 "missing.nc" -- simulate cu.yaml --metrics m.csv --set layers.clouds.source=wrf \
     --set layers.clouds.wrf.file=missing.nc
 # impostor band inverted
-expect 2 "impostor.dist_m = 1000 m is below impostor.dist_3d_m = 5000 m" -- \
+expect 2 "layers.clouds.impostor.dist_m = 1000 m is below impostor.dist_3d_m = 5000 m" -- \
     simulate cu.yaml --metrics m.csv --set layers.clouds.impostor.dist_3d_m=5000 \
     --set layers.clouds.impostor.dist_m=1000
 # out of range threshold

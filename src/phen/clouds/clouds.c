@@ -128,16 +128,16 @@ static sq_result particles_for_density(sq_clouds *c)
     const uint64_t bytes = (uint64_t)fmin(want, 1e18) * SQ__CLOUDS_BYTES_PER_PARTICLE;
     char what[256];
     snprintf(what, sizeof what,
-             "layer clouds: %.0f particles (particles.per_km3 = %g over %.4g km3 of cloud) x %u "
+             "sq_clouds_desc.particles.per_km3 = %g over %.4g km3 of cloud: %.0f particles x %u "
              "bytes",
-             want, c->d.particles_per_km3, v * 1e-9, SQ__CLOUDS_BYTES_PER_PARTICLE);
+             c->d.particles_per_km3, v * 1e-9, want, SQ__CLOUDS_BYTES_PER_PARTICLE);
     r = sq_context_check_memory(c->ctx, bytes, what);
     if (r != SQ_OK) return r;
     if (want > 1e7)
         return sq__fail(c->ctx, SQ_ERR_TOO_LARGE, "clouds",
-                        "layer clouds: %.0f particles (particles.per_km3 = %g over %.4g km3 of "
-                        "cloud); at most 10000000",
-                        want, c->d.particles_per_km3, v * 1e-9);
+                        "sq_clouds_desc.particles.per_km3 = %g over %.4g km3 of cloud: %.0f "
+                        "particles; at most 10000000",
+                        c->d.particles_per_km3, v * 1e-9, want);
     c->d.particles = want < 1.0 ? 1 : (int)want;
     return SQ_OK;
 }

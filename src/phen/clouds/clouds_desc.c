@@ -8,6 +8,7 @@
 #include "clouds_internal.h"
 
 #define MAX_PARTICLES 10000000
+#define P "sq_clouds_desc." /* the scene shows it as layers.<name>. */
 
 sq_result sq_clouds_desc_resolve(const sq_clouds_desc *in, sq_clouds_desc *out)
 {
@@ -57,31 +58,32 @@ sq_result sq_clouds_validate(sq_context *ctx, const sq_clouds_desc *d, const sq_
 {
     (void)world;
     if (d->source < SQ_CLOUDS_SOURCE_WRF || d->source > SQ_CLOUDS_SOURCE_STRATOCUMULUS)
-        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds", "layer clouds: source = %d; must be "
-                        "wrf, cumulus or stratocumulus", d->source);
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
+                        P "source = %d; must be wrf (0), cumulus (1) or stratocumulus (2)",
+                        d->source);
     if (d->source == SQ_CLOUDS_SOURCE_WRF && !d->wrf_file[0])
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
-                        "layer clouds: source = wrf needs wrf.file (a wrfout NetCDF file)");
+                        P "wrf.file is empty; source = wrf needs a WRF output (wrfout) file");
     if (!(d->start_s >= 0.0) || !isfinite(d->start_s))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
-                        "layer clouds: wrf.start_s = %g s; must be finite and >= 0", d->start_s);
+                        P "wrf.start_s = %g s; must be finite and >= 0", d->start_s);
     if (d->particles < 1 || d->particles > MAX_PARTICLES)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
-                        "layer clouds: particles.count = %d; must be in 1..%d", d->particles,
+                        P "particles.count = %d; must be in 1..%d", d->particles,
                         MAX_PARTICLES);
     if (!(d->dist_impostor_m >= d->dist_3d_m))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
-                        "layer clouds: impostor.dist_m = %g m is below impostor.dist_3d_m = %g m; "
-                        "the cross-fade band needs dist_3d <= dist_impostor",
+                        P "impostor.dist_m = %g m is below impostor.dist_3d_m = %g m; the "
+                        "cross-fade band needs dist_3d <= dist_impostor",
                         d->dist_impostor_m, d->dist_3d_m);
     if (d->mode == SQ_CLOUDS_MODE_PARTICLES && d->rayleigh && !d->splat_opacity)
         sq_log(ctx, SQ_LOG_WARN, "clouds",
-               "layer clouds: optics.rayleigh without lighting.splat_opacity mixes S4's phase "
-               "with physical opacities (a seed reproduction uses both)");
+               P "optics.rayleigh without lighting.splat_opacity mixes S4's phase with "
+               "physical opacities (a seed reproduction uses both)");
     const uint64_t bytes = sq_clouds_memory_bytes(d);
     char what[160];
-    snprintf(what, sizeof what, "layer clouds: %d particles x %u bytes", d->particles,
-             SQ__CLOUDS_BYTES_PER_PARTICLE);
+    snprintf(what, sizeof what, P "particles.count = %d: %d particles x %u bytes", d->particles,
+             d->particles, SQ__CLOUDS_BYTES_PER_PARTICLE);
     return sq_context_check_memory(ctx, bytes, what);
 }
 

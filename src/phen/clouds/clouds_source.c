@@ -248,8 +248,8 @@ sq_result sq__cloud_source_open(sq_context *ctx, const sq_clouds_desc *d, const 
         r = wrf_open_source(s, d->wrf_file);
 #else
         r = sq__fail(ctx, SQ_ERR_UNSUPPORTED, "clouds",
-                     "layer clouds: source = wrf needs the WRF reader (NetCDF + PROJ), which this "
-                     "build lacks; use source = cumulus or stratocumulus");
+                     "sq_clouds_desc.source = wrf needs the WRF reader (NetCDF + PROJ), which "
+                     "this build lacks; use source = cumulus or stratocumulus");
 #endif
     } else {
         r = syn_open(s, world);
@@ -260,7 +260,8 @@ sq_result sq__cloud_source_open(sq_context *ctx, const sq_clouds_desc *d, const 
     }
     if (d->source == SQ_CLOUDS_SOURCE_WRF && !(d->start_s <= s->grid.duration_s)) {
         r = sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
-                     "layer clouds: start_s = %g s is after the last stored time of %s (%g s)",
+                     "sq_clouds_desc.wrf.start_s = %g s is after the last stored time of %s "
+                     "(%g s)",
                      d->start_s, d->wrf_file, s->grid.duration_s);
         sq__cloud_source_close(s);
         return r;
