@@ -37,7 +37,7 @@ for k in particles clusters ms_light ms_draw ms_per_frame; do
 done
 rm -rf f v m.csv b.json p.txt err.txt
 # too many particles for the clouds' volume: refused before allocating, count and bytes named
-expect 2 "layers.clouds.particles.per_km3 = 1e\+12 over [0-9.e+-]+ km3 of cloud: [0-9]+ particles x 200 bytes needs [0-9]+ bytes" -- \
+expect 2 "(layers.clouds|sq_clouds_desc).particles.per_km3 = 1e\+12 over [0-9.e+-]+ km3 of cloud: [0-9]+ particles x 200 bytes needs [0-9]+ bytes" -- \
     simulate cu.yaml --metrics m.csv --set layers.clouds.particles.per_km3=1e12
 # source wrf without a file
 expect 2 "layers.clouds.wrf.file is empty; source = wrf needs" -- \
