@@ -133,6 +133,9 @@ static float syn_cumulus(const sq__cloud_source *s, float x, float y, float h, d
         const float top = cl->top * pulse;
         const float hz = h / top;
         if (hz > 1.1f) continue;
+        const float ddx = x - cx, ddy = y - cy, reach = 1.3f * cl->radius;
+        /* beyond the widest lump: rz <= radius (0.85 + 0.3 |noise|), |noise| <= sqrt(3/2) */
+        if (ddx * ddx + ddy * ddy >= reach * reach) continue;
         /* lumpy dome: radius shrinks toward the top, modulated by noise (cauliflower) */
         const float lump = sq_noise3(&s->noise, (x - cx) / (0.35f * cl->radius),
                                      (y - cy) / (0.35f * cl->radius), h / (0.3f * cl->top) + 3.7f * (float)c);
