@@ -34,9 +34,11 @@ typedef enum sq_param_type {
 enum {
     SQ_PARAM_ZERO_IS_PHYSICAL = 1u << 0, /* 0 is a real value and is never replaced */
     SQ_PARAM_ADVANCED = 1u << 1,         /* hidden from short listings */
+    SQ_PARAM_PATH = 1u << 2,             /* STRING: a file path; the scene resolves a relative
+                                            one against the scene file's folder */
     /* a change may apply to a running scene (rendering, forcing, emission): an interactive front
      * end applies it at once; entries without it need a rebuild (domain size, grids, seeds) */
-    SQ_PARAM_LIVE = 1u << 2
+    SQ_PARAM_LIVE = 1u << 3
 };
 
 typedef struct sq_param {
