@@ -13,6 +13,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "rasters.h"
 #include "squall/image.h"
 #include "squall/io.h"
 #include "squall/render.h"
@@ -22,12 +23,6 @@
 #define MAX_METRICS 128
 #define MAX_FIELDS 32
 
-static volatile sig_atomic_t interrupted;
-static void on_signal(int sig)
-{
-    (void)sig;
-    interrupted = 1;
-}
 
 static void render_usage(bool simulate)
 {
@@ -48,6 +43,9 @@ static void render_usage(bool simulate)
            "  --fps N              frames per second\n"
            "  --metrics PATH       per-frame metrics CSV\n"
            "  --fields PREFIX      field files PREFIX_NNNNN.nc (see output.fields_every)\n"
+           "  --rasters DIR        at the end: every 2D map (avalanche hazard maps) as a GeoTIFF\n"
+           "                       in the world's CRS, and DIR/summary.json (metrics)\n"
+           "  --raster-format F    tif (default) or asc (ESRI ASCII grid + .prj)\n"
            "  --set KEY=VALUE      override any scene key, e.g. --set output.fps=30\n"
            "                       --set layers.sandstorm.wind.speed_mps=20 (see squall params)\n"
            "  --overwrite          replace existing outputs (never done otherwise)\n"
@@ -62,7 +60,7 @@ static void render_usage(bool simulate)
 static bool takes_value(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
-                       "--metrics", "--fields", "--samples", NULL};
+                       "--metrics", "--fields", "--samples", "--rasters", "--raster-format", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0) return true;
     return false;
@@ -72,7 +70,7 @@ static bool known_option(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
                        "--metrics", "--fields", "--samples", "--overwrite", "--quiet", "--json",
-                       "--reference", "--verbose", NULL};
+                       "--reference", "--verbose", "--rasters", "--raster-format", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -251,7 +249,7 @@ static bool reference_progress(void *user, double fraction)
                 p->frames, 100.0 * fraction, eta);
         fflush(stderr);
     }
-    return !interrupted;
+    return !sq_cli_interrupted();
 }
 
 int sq_cmd_render(int argc, char **argv)
@@ -291,6 +289,15 @@ int sq_cmd_render(int argc, char **argv)
     const bool reference = !simulate && sq_cli_flag(argc, argv, "--reference");
     int samples = 0;
     if (!sq_cli_int(argc, argv, "--samples", 64, -1000000, 1000000, &samples)) return SQ_EXIT_USAGE;
+    const char *rasters = sq_cli_value(argc, argv, "--rasters");
+    const char *rfmt = sq_cli_value(argc, argv, "--raster-format");
+    if (rfmt && strcmp(rfmt, "tif") != 0 && strcmp(rfmt, "asc") != 0) {
+        sq_cli_error("--raster-format %s: must be tif (GeoTIFF) or asc (ESRI ASCII grid)", rfmt);
+        return SQ_EXIT_USAGE;
+    }
+    const int raster_format = rfmt && strcmp(rfmt, "asc") == 0 ? SQ_RASTER_ASCII : SQ_RASTER_GEOTIFF;
+    bool rasters_created = false;
+    double raster_s = 0.0;
     if (reference && samples <= 0) {
         sq_cli_error("--samples %d: the reference path tracer needs at least 1 sample per pixel",
                      samples);
@@ -299,6 +306,7 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
+    sq_cli_catch_interrupts(); /* scene set-up (a particle release, a DEM) polls it too */
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
@@ -392,6 +400,8 @@ int sq_cmd_render(int argc, char **argv)
     }
     if (r == SQ_OK && frames_dir) r = check_frames_dir(frames_dir, overwrite, &frames_dir_created);
     if (r == SQ_OK && metrics_path) r = sq_output_check(metrics_path, overwrite);
+    if (r == SQ_OK && rasters)
+        r = sq_cli_rasters_check(scene, rasters, raster_format, overwrite, &rasters_created);
     if (r == SQ_OK && fields) {
         char first[1100];
         snprintf(first, sizeof first, "%s_%05d.%s", fields, out->fields_every ? 0 : N - 1,
@@ -452,17 +462,15 @@ int sq_cmd_render(int argc, char **argv)
         }
     }
 
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
     const bool tty = isatty(2) && !quiet;
     const double frame_dt = sq_scene_frame_dt(scene);
     const int spf = out->steps_per_frame;
     double t0 = sq_time_now();
     /* warm-up before the first frame */
-    while (r == SQ_OK && sq_scene_time(scene) + 1e-9 < out->warmup_s && !interrupted)
+    while (r == SQ_OK && sq_scene_time(scene) + 1e-9 < out->warmup_s && !sq_cli_interrupted())
         r = sq_scene_step(scene, frame_dt / spf);
     for (frame = 0; r == SQ_OK && frame < N; frame++) {
-        if (interrupted) {
+        if (sq_cli_interrupted()) {
             r = sq__cli_set_error(SQ_ERR_CANCELLED, "interrupted at frame %d of %d", frame, N);
             break;
         }
@@ -563,6 +571,11 @@ int sq_cmd_render(int argc, char **argv)
         }
     }
     if (tty) fprintf(stderr, "\n");
+    if (r == SQ_OK && rasters) {
+        sq_metric mv[MAX_METRICS];
+        const int nm = sq_scene_metrics(scene, mv, MAX_METRICS);
+        r = sq_cli_rasters_write(ctx, scene, rasters, raster_format, overwrite, mv, nm, &raster_s);
+    }
     if (r != SQ_OK) {
         rc = fail(r, NULL);
         goto done;
@@ -596,6 +609,7 @@ int sq_cmd_render(int argc, char **argv)
             if (video) fprintf(stderr, " -> %s", video);
             if (frames_dir) fprintf(stderr, " -> %s/", frames_dir);
             if (metrics_path) fprintf(stderr, " (metrics %s)", metrics_path);
+            if (rasters) fprintf(stderr, " (rasters %s/, written in %.2f s)", rasters, raster_s);
             fprintf(stderr, "\n");
         }
         if (json) {
@@ -612,6 +626,8 @@ int sq_cmd_render(int argc, char **argv)
             sq_json_str(&j, "video", video ? video : "");
             sq_json_str(&j, "frames_dir", frames_dir ? frames_dir : "");
             sq_json_str(&j, "metrics_file", metrics_path ? metrics_path : "");
+            sq_json_str(&j, "rasters_dir", rasters ? rasters : "");
+            sq_json_num(&j, "rasters_seconds", raster_s);
             metrics_summary_json(&ml, &j);
             sq_json_end(&j, stdout);
         } else if (!quiet && video) {
@@ -634,6 +650,7 @@ done:
         }
         rmdir(frames_dir);
     }
+    if (rc != SQ_EXIT_OK && rasters_created) sq_cli_rasters_discard(rasters, scene, raster_format);
     sq_renderer_destroy(ren);
     free(rgba);
     free(lin);
