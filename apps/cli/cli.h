@@ -37,6 +37,7 @@ sq_result sq_cli_context(int argc, char **argv, sq_context **out);
  * context's interrupt callback) so that long stages stop cleanly; a second one ends at once. */
 void sq_cli_catch_interrupts(void);
 bool sq_cli_interrupted(void);
+extern volatile int sq_cli_interrupted_flag;
 
 /* ---- one JSON object per line ------------------------------------------------------------ */
 typedef struct sq_json {

@@ -99,13 +99,13 @@ static void stderr_logger(void *user, sq_log_level level, const char *module, co
 
 /* Ctrl-C / SIGTERM: a flag the commands and the library's long stages poll (through the
  * context's interrupt callback), so that set-up and frame loops stop cleanly. */
-static volatile sig_atomic_t g_interrupted;
+volatile int sq_cli_interrupted_flag;
 static void on_signal(int sig)
 {
-    g_interrupted = 1;
+    sq_cli_interrupted_flag = 1;
     signal(sig, SIG_DFL); /* a second Ctrl-C ends the process at once */
 }
-bool sq_cli_interrupted(void) { return g_interrupted != 0; }
+bool sq_cli_interrupted(void) { return sq_cli_interrupted_flag != 0; }
 void sq_cli_catch_interrupts(void)
 {
     signal(SIGINT, on_signal);
@@ -114,7 +114,7 @@ void sq_cli_catch_interrupts(void)
 static bool interrupt_cb(void *user)
 {
     (void)user;
-    return g_interrupted != 0;
+    return sq_cli_interrupted_flag != 0;
 }
 
 sq_result sq_cli_context(int argc, char **argv, sq_context **out)

@@ -1,7 +1,8 @@
 /* cmd_render.c — `squall render` and `squall simulate`: load a scene (file or preset), apply
- * overrides, check every output before any work, then step / draw / write frame by frame.
- * Outputs go to temporary names and are renamed only when complete; on any failure or an
- * interrupt the temporaries are removed and no final name is created or changed. */
+ * the command-line overrides, and hand the scene to the library's frame loop (squall/run.h),
+ * which checks every output before any work, steps, draws and writes frame by frame, writes to
+ * temporary names renamed only when complete, and on a failure or an interrupt removes the
+ * temporaries. Here: options, the progress line and the summary. */
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -17,12 +18,8 @@
 #include "squall/image.h"
 #include "squall/io.h"
 #include "squall/render.h"
+#include "squall/run.h"
 #include "squall/scene.h"
-
-#define MAX_DRAWABLES 32
-#define MAX_METRICS 128
-#define MAX_FIELDS 32
-
 
 static void render_usage(bool simulate)
 {
@@ -103,153 +100,37 @@ static void format_eta(double s, char *buf, size_t n)
         snprintf(buf, n, "%.0fs", s);
 }
 
-/* Checks a frames directory: parent must exist; the directory is created if missing; the first
- * frame must not exist unless overwrite. */
-static sq_result check_frames_dir(const char *dir, bool overwrite, bool *created)
+/* The live progress line on a terminal. */
+static void on_progress(void *user, const sq_run_progress *p)
 {
-    struct stat st;
-    *created = false;
-    if (stat(dir, &st) == 0) {
-        if (!S_ISDIR(st.st_mode))
-            return sq__cli_set_error(SQ_ERR_IO, "frames directory '%s' is not a directory", dir);
-    } else {
-        char parent[1024];
-        snprintf(parent, sizeof parent, "%s", dir);
-        char *slash = strrchr(parent, '/');
-        if (slash && slash != parent) {
-            *slash = 0;
-            if (stat(parent, &st) != 0 || !S_ISDIR(st.st_mode))
-                return sq__cli_set_error(SQ_ERR_IO,
-                                         "cannot write frames to '%s': directory '%s' does not exist",
-                                         dir, parent);
-        }
-        if (mkdir(dir, 0777) != 0)
-            return sq__cli_set_error(SQ_ERR_IO, "cannot create frames directory '%s': %s", dir,
-                                     strerror(errno));
-        *created = true;
-    }
-    char first[1100];
-    snprintf(first, sizeof first, "%s/frame_00000.png", dir);
-    return sq_output_check(first, overwrite);
+    if (!*(const bool *)user) return;
+    char eta[32];
+    format_eta(p->eta_s, eta, sizeof eta);
+    if (strcmp(p->stage, "reference") == 0)
+        fprintf(stderr, "\rsquall: reference frame %d/%d  %3.0f%%  ETA %s   ", p->frame + 1,
+                p->frames, 100.0 * (p->fraction * p->frames - p->frame), eta);
+    else
+        fprintf(stderr, "\rsquall: frame %d/%d  %.2f frames/s  ETA %s   ", p->frame, p->frames,
+                p->frames_per_s, eta);
+    fflush(stderr);
 }
 
-typedef struct metrics_log {
-    FILE *f;
-    char tmp[1100];
-    const char *path;
-    int count;
-    char names[MAX_METRICS][96];
-    char units[MAX_METRICS][24];
-    double *values; /* frames x count */
-    int frames, cap;
-} metrics_log;
-
-static void metrics_store(metrics_log *m, int frame, double t, const sq_metric *mv, int n)
-{
-    if (frame == 0) {
-        m->count = n;
-        for (int i = 0; i < n; i++) {
-            snprintf(m->names[i], sizeof m->names[i], "%s", mv[i].name);
-            snprintf(m->units[i], sizeof m->units[i], "%s", mv[i].unit ? mv[i].unit : "");
-        }
-        if (m->f) {
-            fprintf(m->f, "frame,time_s");
-            for (int i = 0; i < n; i++)
-                fprintf(m->f, ",%s%s%s%s", mv[i].name, m->units[i][0] ? " [" : "", m->units[i],
-                        m->units[i][0] ? "]" : "");
-            fprintf(m->f, "\n");
-        }
-    }
-    if (m->frames >= m->cap) {
-        int cap = m->cap ? m->cap * 2 : 256;
-        double *v = (double *)realloc(m->values, sizeof(double) * (size_t)cap * MAX_METRICS);
-        if (!v) return;
-        m->values = v;
-        m->cap = cap;
-    }
-    for (int i = 0; i < m->count; i++)
-        m->values[(size_t)m->frames * MAX_METRICS + (size_t)i] = i < n ? mv[i].value : (double)NAN;
-    m->frames++;
-    if (m->f) {
-        fprintf(m->f, "%d,%.6g", frame, t);
-        for (int i = 0; i < m->count; i++) fprintf(m->f, ",%.9g", i < n ? mv[i].value : (double)NAN);
-        fprintf(m->f, "\n");
-    }
-}
-
-static int cmp_d(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static void metrics_summary_json(const metrics_log *m, sq_json *j)
+/* Per-metric statistics over the run as one JSON object. */
+static void metrics_summary_json(const sq_run *run, sq_json *j)
 {
     char buf[6144];
-    size_t len = 0;
-    len += (size_t)snprintf(buf + len, sizeof buf - len, "{");
-    double *col = (double *)malloc(sizeof(double) * (size_t)(m->frames > 0 ? m->frames : 1));
-    for (int i = 0; col && i < m->count && len < sizeof buf - 200; i++) {
-        int n = 0;
-        double sum = 0;
-        for (int f = 0; f < m->frames; f++) {
-            double v = m->values[(size_t)f * MAX_METRICS + (size_t)i];
-            if (isfinite(v)) {
-                col[n++] = v;
-                sum += v;
-            }
-        }
-        if (!n) continue;
-        double last = m->values[(size_t)(m->frames - 1) * MAX_METRICS + (size_t)i];
-        qsort(col, (size_t)n, sizeof(double), cmp_d);
-        double med = n % 2 ? col[n / 2] : 0.5 * (col[n / 2 - 1] + col[n / 2]);
+    size_t len = (size_t)snprintf(buf, sizeof buf, "{");
+    for (int i = 0; i < sq_run_metric_count(run) && len < sizeof buf - 200; i++) {
+        sq_run_metric_stats st;
+        if (sq_run_metric_stats_get(run, i, &st) != SQ_OK || st.count == 0) continue;
         len += (size_t)snprintf(buf + len, sizeof buf - len,
                                 "%s\"%s\": {\"min\": %.6g, \"median\": %.6g, \"max\": %.6g, "
                                 "\"mean\": %.6g, \"last\": %.6g, \"unit\": \"%s\"}",
-                                len > 1 ? ", " : "", m->names[i], col[0], med, col[n - 1], sum / n,
-                                isfinite(last) ? last : 0.0, m->units[i]);
+                                len > 1 ? ", " : "", st.name, st.min, st.median, st.max, st.mean,
+                                isfinite(st.last) ? st.last : 0.0, st.unit);
     }
-    free(col);
     if (len < sizeof buf) snprintf(buf + len, sizeof buf - len, "}");
     sq_json_raw(j, "metrics", buf);
-}
-
-/* A 2D field in metres as a 16-bit grey PNG at 1 mm per unit (0..65.535 m), north up. */
-static sq_result write_depth_png(const char *path, const sq_named_field *f, bool overwrite)
-{
-    uint16_t *g = (uint16_t *)malloc(sizeof(uint16_t) * (size_t)f->nx * (size_t)f->ny);
-    if (!g) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory writing '%s'", path);
-    for (int j = 0; j < f->ny; j++)
-        for (int i = 0; i < f->nx; i++) {
-            double v = (double)f->data[(size_t)j * f->nx + i] * 1000.0;
-            v = !isfinite(v) || v < 0.0 ? 0.0 : v > 65535.0 ? 65535.0 : v;
-            g[(size_t)(f->ny - 1 - j) * f->nx + i] = (uint16_t)(v + 0.5);
-        }
-    sq_result r = sq_png_write_gray16(path, f->nx, f->ny, g, overwrite);
-    free(g);
-    return r;
-}
-
-typedef struct ref_progress {
-    double t0;
-    int frame, frames;
-    bool tty;
-} ref_progress;
-
-/* Progress of the reference path tracer within a frame, with ETA (terminal only). */
-static bool reference_progress(void *user, double fraction)
-{
-    const ref_progress *p = (const ref_progress *)user;
-    if (p->tty && fraction > 0.0) {
-        double el = sq_time_now() - p->t0;
-        double total = el / ((p->frame + fraction) / p->frames);
-        char eta[32];
-        format_eta(total - el, eta, sizeof eta);
-        fprintf(stderr, "\rsquall: reference frame %d/%d  %3.0f%%  ETA %s   ", p->frame + 1,
-                p->frames, 100.0 * fraction, eta);
-        fflush(stderr);
-    }
-    return !sq_cli_interrupted();
 }
 
 int sq_cmd_render(int argc, char **argv)
@@ -306,7 +187,7 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
-    sq_cli_catch_interrupts(); /* scene set-up (a particle release, a DEM) polls it too */
+    sq_cli_catch_interrupts(); /* the scene's set-up (a particle release, a DEM) polls it too */
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
@@ -376,236 +257,51 @@ int sq_cmd_render(int argc, char **argv)
         return fail(r, NULL);
     }
     const sq_scene_output *out = sq_scene_output_settings(scene);
+    const int W = out->width, H = out->height, N = sq_scene_frame_count(scene);
     const char *video = !simulate && out->video[0] ? out->video : NULL;
     const char *frames_dir = !simulate && out->frames_dir[0] ? out->frames_dir : NULL;
     const char *metrics_path = out->metrics[0] ? out->metrics : NULL;
-    const char *fields = out->fields[0] ? out->fields : NULL;
-    const int W = out->width, H = out->height, N = sq_scene_frame_count(scene);
-
-    /* every output is checked before any work */
-    bool frames_dir_created = false;
-    int frame = 0;
-    sq_video_writer *vw = NULL;
-    sq_renderer *ren = NULL;
-    metrics_log ml;
-    memset(&ml, 0, sizeof ml);
-    uint8_t *rgba = NULL;
-    float *lin = NULL;
-    if (video) {
-        if (W % 2 || H % 2)
-            r = sq__cli_set_error(SQ_ERR_INVALID_ARG,
-                                  "output size %dx%d: MP4 (yuv420p) needs even width and height",
-                                  W, H);
-        if (r == SQ_OK) r = sq_output_check(video, overwrite);
-    }
-    if (r == SQ_OK && frames_dir) r = check_frames_dir(frames_dir, overwrite, &frames_dir_created);
-    if (r == SQ_OK && metrics_path) r = sq_output_check(metrics_path, overwrite);
-    if (r == SQ_OK && rasters)
+    sq_run *run = NULL;
+    if (rasters) {
         r = sq_cli_rasters_check(scene, rasters, raster_format, overwrite, &rasters_created);
-    if (r == SQ_OK && fields) {
-        char first[1100];
-        snprintf(first, sizeof first, "%s_%05d.%s", fields, out->fields_every ? 0 : N - 1,
-                 out->fields_format == SQ_FIELDS_VTK ? "vti" : "nc");
-        r = sq_output_check(first, overwrite);
-    }
-    if (r == SQ_OK && !simulate && !video && !frames_dir)
-        r = sq__cli_set_error(SQ_ERR_INVALID_ARG,
-                              "nothing to write: output.video and output.frames_dir are both empty "
-                              "(use -o out.mp4 or -o DIR)");
-    if (r != SQ_OK) {
-        rc = fail(r, NULL);
-        goto done;
-    }
-    if (!simulate) {
-        rgba = (uint8_t *)malloc((size_t)W * (size_t)H * 4);
-        lin = (float *)malloc((size_t)W * (size_t)H * 3 * sizeof(float));
-        if (!rgba || !lin) {
-            rc = fail(SQ_ERR_OUT_OF_MEMORY, "frame buffers");
-            goto done;
-        }
-        if (!reference) {
-            sq_render_desc rd = {0};
-            rd.width = W;
-            rd.height = H;
-            rd.exposure = out->exposure;
-            rd.volume_slices = out->volume_slices;
-            rd.light_buffer_size = out->light_buffer;
-            rd.volume_noise = out->volume_noise;
-            rd.seed = sq_scene_seed(scene);
-            r = sq_renderer_create(ctx, &rd, &ren);
-            if (r != SQ_OK) {
-                rc = fail(r, NULL);
-                goto done;
-            }
-        }
-    }
-    if (video) {
-        sq_video_desc vd = {video, W, H, out->fps, 0, overwrite};
-        r = sq_video_open(ctx, &vd, &vw);
-        if (r != SQ_OK) {
-            rc = fail(r, NULL);
-            goto done;
-        }
-    }
-    if (metrics_path) {
-        ml.path = metrics_path;
-        r = sq_output_temp_name(metrics_path, ml.tmp, sizeof ml.tmp);
-        if (r == SQ_OK) {
-            ml.f = fopen(ml.tmp, "w");
-            if (!ml.f)
-                r = sq__cli_set_error(SQ_ERR_IO, "cannot write metrics '%s': %s", metrics_path,
-                                      strerror(errno));
-        }
         if (r != SQ_OK) {
             rc = fail(r, NULL);
             goto done;
         }
     }
 
-    const bool tty = isatty(2) && !quiet;
-    const double frame_dt = sq_scene_frame_dt(scene);
-    const int spf = out->steps_per_frame;
-    double t0 = sq_time_now();
-    /* warm-up before the first frame */
-    while (r == SQ_OK && sq_scene_time(scene) + 1e-9 < out->warmup_s && !sq_cli_interrupted())
-        r = sq_scene_step(scene, frame_dt / spf);
-    for (frame = 0; r == SQ_OK && frame < N; frame++) {
-        if (sq_cli_interrupted()) {
-            r = sq__cli_set_error(SQ_ERR_CANCELLED, "interrupted at frame %d of %d", frame, N);
-            break;
-        }
-        if (frame > 0)
-            for (int s = 0; s < spf && r == SQ_OK; s++) r = sq_scene_step(scene, frame_dt / spf);
-        if (r != SQ_OK) break;
-        sq_camera cam = sq_scene_camera(scene);
-        sq_drawable dr[MAX_DRAWABLES];
-        int nd = sq_scene_drawables(scene, dr, MAX_DRAWABLES);
-        if (!simulate) {
-            if (reference) {
-                sq_reference_desc rdsc = {0};
-                rdsc.width = W;
-                rdsc.height = H;
-                rdsc.samples = samples;
-                rdsc.exposure = out->exposure;
-                rdsc.seed = sq_scene_seed(scene) + (uint64_t)frame;
-                ref_progress rp = {t0, frame, N, tty};
-                rdsc.progress = reference_progress;
-                rdsc.progress_user = &rp;
-                r = sq_reference_render(ctx, &rdsc, sq_scene_world(scene), &cam, dr, nd, lin);
-                if (r == SQ_OK) sq_tonemap_rgba8(lin, W, H, out->exposure, rgba);
-            } else {
-                r = sq_renderer_draw(ren, sq_scene_world(scene), &cam, dr, nd, sq_scene_time(scene));
-                if (r == SQ_OK) r = sq_renderer_read_rgba8(ren, rgba);
-            }
-            if (r == SQ_OK && vw) r = sq_video_add_rgba8(vw, rgba);
-            if (r == SQ_OK && frames_dir) {
-                char path[1100];
-                snprintf(path, sizeof path, "%s/frame_%05d.png", frames_dir, frame);
-                r = sq_png_write_rgba8(path, W, H, rgba, overwrite);
-            }
-            if (r == SQ_OK && reference && frames_dir) {
-                char path[1100];
-                snprintf(path, sizeof path, "%s/frame_%05d.pfm", frames_dir, frame);
-                r = sq_pfm_write(path, W, H, lin, overwrite);
-            }
-            if (r != SQ_OK) break;
-        }
-        sq_metric mv[MAX_METRICS];
-        int nm = sq_scene_metrics(scene, mv, MAX_METRICS);
-        metrics_store(&ml, frame, sq_scene_time(scene), mv, nm);
-        bool want_fields = fields && ((out->fields_every > 0 && frame % out->fields_every == 0) ||
-                                      frame == N - 1);
-        if (want_fields) {
-            sq_named_field fv[MAX_FIELDS];
-            int nf = sq_scene_fields(scene, fv, MAX_FIELDS);
-            if (nf > 0) {
-                char path[1100];
-                sq_field_file_desc fd;
-                memset(&fd, 0, sizeof fd);
-                fd.path = path;
-                fd.title = sq_scene_name(scene);
-                fd.source = "squall " SQ_VERSION_STRING;
-                fd.time_s = sq_scene_time(scene);
-                fd.overwrite = overwrite;
-                /* 3D fields and 2D maps go to separate files (a file holds one grid) */
-                sq_named_field f3[MAX_FIELDS], f2[MAX_FIELDS];
-                int n3 = 0, n2 = 0;
-                for (int q = 0; q < nf; q++) {
-                    if (fv[q].nz == 1)
-                        f2[n2++] = fv[q];
-                    else
-                        f3[n3++] = fv[q];
-                }
-                for (int grp = 0; grp < 2 && r == SQ_OK; grp++) {
-                    const sq_named_field *fs = grp ? f2 : f3;
-                    int nfs = grp ? n2 : n3;
-                    if (!nfs) continue;
-                    const char *tag = grp ? "_maps" : "";
-                    if (out->fields_format != SQ_FIELDS_VTK) {
-                        snprintf(path, sizeof path, "%s%s_%05d.nc", fields, tag, frame);
-                        r = sq_netcdf_write_fields(ctx, &fd, fs, nfs);
-                    }
-                    if (r == SQ_OK && out->fields_format != SQ_FIELDS_NETCDF) {
-                        snprintf(path, sizeof path, "%s%s_%05d.vti", fields, tag, frame);
-                        r = sq_vtk_write_fields(ctx, &fd, fs, nfs);
-                    }
-                }
-                /* 2D maps in metres (snow depth, deposit depth) also as 16-bit PNG, 1 mm per
-                 * unit, row 0 = north edge */
-                for (int q = 0; r == SQ_OK && q < nf; q++)
-                    if (fv[q].nz == 1 && fv[q].units && strcmp(fv[q].units, "m") == 0 &&
-                        strstr(fv[q].name, "depth")) {
-                        snprintf(path, sizeof path, "%s_%s_%05d.png", fields, fv[q].name, frame);
-                        r = write_depth_png(path, &fv[q], overwrite);
-                    }
-                if (r != SQ_OK) break;
-            }
-        }
-        if (tty) {
-            double el = sq_time_now() - t0, rate = (frame + 1) / (el > 0 ? el : 1e-9);
-            char eta[32];
-            format_eta((N - frame - 1) / rate, eta, sizeof eta);
-            fprintf(stderr, "\rsquall: frame %d/%d  %.2f frames/s  ETA %s   ", frame + 1, N, rate,
-                    eta);
-            fflush(stderr);
-        }
-    }
-    if (tty) fprintf(stderr, "\n");
+    /* the frame loop, its outputs and their safety rules are the library's (squall/run.h) */
+    bool tty = isatty(2) && !quiet;
+    sq_run_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.scene = scene;
+    rd.render = simulate ? SQ_RUN_SIMULATE : reference ? SQ_RUN_REFERENCE : SQ_RUN_GL;
+    rd.reference_samples = samples;
+    rd.write_outputs = true;
+    rd.overwrite = overwrite;
+    rd.cancel_flag = &sq_cli_interrupted_flag;
+    rd.progress = on_progress;
+    rd.user = &tty;
+    r = sq_run_create(ctx, &rd, &run);
+    if (r == SQ_OK) r = sq_run_execute(run);
+    if (tty && r != SQ_OK) fprintf(stderr, "\n");
+    if (r == SQ_OK) r = sq_run_finish(run);
     if (r == SQ_OK && rasters) {
-        sq_metric mv[MAX_METRICS];
-        const int nm = sq_scene_metrics(scene, mv, MAX_METRICS);
+        sq_metric mv[128];
+        const int nm = sq_scene_metrics(scene, mv, 128);
         r = sq_cli_rasters_write(ctx, scene, rasters, raster_format, overwrite, mv, nm, &raster_s);
     }
     if (r != SQ_OK) {
         rc = fail(r, NULL);
         goto done;
     }
-    /* commit outputs */
-    if (vw) {
-        r = sq_video_close(vw);
-        vw = NULL;
-        if (r != SQ_OK) {
-            rc = fail(r, NULL);
-            goto done;
-        }
-    }
-    if (ml.f) {
-        int bad = fclose(ml.f) != 0;
-        ml.f = NULL;
-        r = bad ? sq__cli_set_error(SQ_ERR_IO, "cannot write metrics '%s'", ml.path)
-                : sq_output_commit(ml.tmp, ml.path, overwrite);
-        if (r != SQ_OK) {
-            rc = fail(r, NULL);
-            goto done;
-        }
-        ml.tmp[0] = 0;
-    }
+    if (tty) fprintf(stderr, "\n");
     {
-        double el = sq_time_now() - t0;
+        const double el = sq_run_elapsed_s(run);
         if (!quiet) {
-            fprintf(stderr, "squall: %s %d frame%s of '%s'%s in %.1f s (%.2f frames/s)", 
+            fprintf(stderr, "squall: %s %d frame%s of '%s' in %.1f s (%.2f frames/s)",
                     simulate ? "simulated" : "rendered", N, N == 1 ? "" : "s", sq_scene_name(scene),
-                    simulate ? "" : "", el, N / (el > 0 ? el : 1e-9));
+                    el, N / (el > 0 ? el : 1e-9));
             if (video) fprintf(stderr, " -> %s", video);
             if (frames_dir) fprintf(stderr, " -> %s/", frames_dir);
             if (metrics_path) fprintf(stderr, " (metrics %s)", metrics_path);
@@ -628,32 +324,15 @@ int sq_cmd_render(int argc, char **argv)
             sq_json_str(&j, "metrics_file", metrics_path ? metrics_path : "");
             sq_json_str(&j, "rasters_dir", rasters ? rasters : "");
             sq_json_num(&j, "rasters_seconds", raster_s);
-            metrics_summary_json(&ml, &j);
+            metrics_summary_json(run, &j);
             sq_json_end(&j, stdout);
         } else if (!quiet && video) {
             printf("%s\n", video);
         }
     }
 done:
-    if (vw) sq_video_abort(vw);
-    if (ml.f) fclose(ml.f);
-    if (ml.tmp[0]) remove(ml.tmp);
-    free(ml.values);
-    if (rc != SQ_EXIT_OK && frames_dir_created) {
-        /* remove frames written by this failed run only if we created the directory */
-        for (int f = 0; f <= frame && f < N; f++) {
-            char path[1100];
-            snprintf(path, sizeof path, "%s/frame_%05d.png", frames_dir, f);
-            remove(path);
-            snprintf(path, sizeof path, "%s/frame_%05d.pfm", frames_dir, f);
-            remove(path);
-        }
-        rmdir(frames_dir);
-    }
     if (rc != SQ_EXIT_OK && rasters_created) sq_cli_rasters_discard(rasters, scene, raster_format);
-    sq_renderer_destroy(ren);
-    free(rgba);
-    free(lin);
+    sq_run_destroy(run);
     sq_scene_destroy(scene);
     sq_context_destroy(ctx);
     return rc;

@@ -11,6 +11,7 @@
 #include "squall/core.h"
 #include "squall/drawable.h"
 #include "squall/geo.h"
+#include "squall/phenomenon.h"
 #include "squall/plugin.h"
 #include "squall/world.h"
 
@@ -131,6 +132,10 @@ SQ_API int sq_scene_fields(sq_scene *s, sq_named_field *out, int max);
 SQ_API int sq_scene_layer_count(const sq_scene *s);
 SQ_API const char *sq_scene_layer_name(const sq_scene *s, int i);
 SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
+/* Layer i as a generic phenomenon handle (squall/phenomenon.h), owned by the scene: valid until
+ * sq_scene_destroy; never destroy it yourself. NULL outside [0, layer count). Stepping it alone
+ * puts it ahead of the scene's clock; read it, or step the scene. */
+SQ_API sq_phenomenon *sq_scene_layer(sq_scene *s, int i);
 /* Total bytes the layers declared (memory_bytes) at creation. */
 SQ_API uint64_t sq_scene_memory_bytes(const sq_scene *s);
 

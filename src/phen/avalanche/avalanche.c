@@ -122,7 +122,7 @@ sq_result sq_avalanche_create(sq_context *ctx, const sq_avalanche_desc *desc, co
     if (r == SQ_OK) r = sq__aval_release_place(ctx, &a->plan, world, NULL, 0, &n, NULL, NULL);
     if (r == SQ_OK && n == 0)
         r = sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
-                     "layers.avalanche.release: the release produces no particles at spacing %g "
+                     "sq_avalanche_desc.release: the release produces no particles at spacing %g "
                      "m; thicken it or lower particles.spacing_m", a->plan.spacing);
     if (r == SQ_OK) {
         a->plan.count = n;

@@ -17,7 +17,7 @@
 #include "avalanche_internal.h"
 
 #define MOD "avalanche"
-#define P "layers.avalanche."
+#define P "sq_avalanche_desc." /* the scene shows it as layers.<name>. */
 #define ESTIMATE_CELLS 512     /* per axis, at most */
 #define POLL_COLUMNS (1 << 18) /* columns between interrupt polls */
 
