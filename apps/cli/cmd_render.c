@@ -20,6 +20,7 @@
 #include "squall/render.h"
 #include "squall/run.h"
 #include "squall/scene.h"
+#include "squall/wrf.h"
 
 static void render_usage(bool simulate)
 {
@@ -248,7 +249,8 @@ int sq_cmd_render(int argc, char **argv)
     }
 
     sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
-                        .load_dem = sq_dem_load, .load_area = sq_area_load};
+                        .load_dem = sq_dem_load, .load_area = sq_area_load,
+                        .load_wrf_world = sq_scene_wrf_world_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     sq_cfg_destroy(cfg);
