@@ -66,11 +66,13 @@ static sq_sph *make_plane(sq_context *ctx, double th_deg, double dx, const doubl
 
 /* Coulomb: a 1.5 m layer (periodic 6 x 3 m, so that it slides as a whole; a finite block
  * spreads and its stopped tail holds less than the kinetic friction) launched at 10 m/s down a
- * 10° plane with μ_k = 0.4 must stop after v0² / (2 g (μ_k cos θ − sin θ)) = 23.1 m. */
+ * 10° plane with μ_k = 0.4 must stop after v0² / (2 g (μ_k cos θ − sin θ)) = 23.1 m.
+ * dx = 0.5 m (3 particles deep): the column friction acts on the depth-averaged column, and
+ * the sanitizer build runs this in seconds, not minutes. */
 SQ_TEST(coulomb_layer_runout_on_an_inclined_plane)
 {
     sq_context *ctx = make_ctx();
-    const double dx = 0.25, mu = 0.4, th = 10.0 * M_PI / 180.0, v0 = 10.0;
+    const double dx = 0.5, mu = 0.4, th = 10.0 * M_PI / 180.0, v0 = 10.0;
     const double lo[3] = {0.0, 0.0, -1.0}, hi[3] = {6.0, 3.0, 4.0};
     sq_sph *s = make_plane(ctx, 10.0, dx, lo, hi, 1, mu, 0.0, 2000);
     const double blo[3] = {0.0, 0.0, 0.01}, bhi[3] = {6.0, 3.0, 1.51}, vel[3] = {v0, 0.0, 0.0};
@@ -104,15 +106,15 @@ SQ_TEST(coulomb_layer_runout_on_an_inclined_plane)
     sq_context_destroy(ctx);
 }
 
-/* Voellmy: a 2 m layer (periodic 6 x 2 m) on a 30° plane with μ_k = 0.2 and ξ = 500 m/s²
+/* Voellmy: a 2 m layer (periodic 6 x 3 m, dx = 0.5 m: 4 particles deep) on a 30° plane with μ_k = 0.2 and ξ = 500 m/s²
  * approaches sqrt(ξ h (sin θ − μ_k cos θ)) = 18.1 m/s. */
 SQ_TEST(voellmy_layer_reaches_the_voellmy_speed)
 {
     sq_context *ctx = make_ctx();
-    const double dx = 0.25, mu = 0.2, xi = 500.0, h = 2.0, th = 30.0 * M_PI / 180.0;
-    const double lo[3] = {0.0, 0.0, -1.0}, hi[3] = {6.0, 2.0, 6.0};
+    const double dx = 0.5, mu = 0.2, xi = 500.0, h = 2.0, th = 30.0 * M_PI / 180.0;
+    const double lo[3] = {0.0, 0.0, -1.0}, hi[3] = {6.0, 3.0, 6.0};
     sq_sph *s = make_plane(ctx, 30.0, dx, lo, hi, 1, mu, xi, 2000);
-    const double blo[3] = {0.0, 0.0, 0.01}, bhi[3] = {6.0, 2.0, h + 0.01};
+    const double blo[3] = {0.0, 0.0, 0.01}, bhi[3] = {6.0, 3.0, h + 0.01};
     size_t n = 0;
     SQ_CHECK_OK(sq_sph_add_block(s, blo, bhi, NULL, &n));
     const double vT = sqrt(xi * h * (sin(th) - mu * cos(th)));
