@@ -250,7 +250,8 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
                         .load_dem = sq_dem_load, .load_area = sq_area_load,
-                        .load_wrf_world = sq_scene_wrf_world_loader};
+                        .load_wrf_world = sq_scene_wrf_world_loader,
+                        .load_mesh = sq_scene_mesh_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     sq_cfg_destroy(cfg);
