@@ -3,6 +3,7 @@
 #include "sq_test.h"
 #include "squall/io.h"
 #include "squall/scene.h"
+#include "squall/wrf.h"
 
 SQ_LABEL(unit)
 
@@ -189,6 +190,7 @@ SQ_TEST(presets_validate)
         sq_cfg *cfg = NULL;
         SQ_CHECK_OK(sq_cfg_load_preset(ctx, sq_preset_name(i), &cfg));
         sq_scene_desc d = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader, .validate_only = true};
+        d.load_wrf_world = sq_scene_wrf_world_loader; /* wrf-clouds: terrain kind wrf */
         sq_scene *s = NULL;
         sq_result r = sq_scene_create(ctx, &d, &s);
         SQ_CHECK_MSG(r == SQ_OK, "preset %s: %s", sq_preset_name(i), sq_last_error());
