@@ -44,11 +44,17 @@ SQ_API void sq_cfg_node_free(sq_cfg_node *n);
 SQ_API void sq_cfg_node_append(sq_cfg_node *parent, sq_cfg_node *child);
 /* Map lookup (NULL if absent or parent is not a map). */
 SQ_API sq_cfg_node *sq_cfg_get(const sq_cfg_node *map, const char *key);
-/* Applies "path.to.key=value". Path parts address map keys; for sequences a part is an index
- * or, in `layers`, a layer's name or type. Missing map keys are created. */
+/* Applies "path.to.key=value". Path parts (separated by single dots) address map keys; for
+ * sequences a part is an index or, in `layers`, a layer's name or type. Missing map keys are
+ * created. A value starting with '[' is a list "[a, b, c]" of plain values and must end with
+ * ']'. The whole text must be UTF-8 without control characters (what a scene file can hold).
+ * On failure the tree is unchanged. */
 SQ_API sq_result sq_cfg_set(sq_cfg *cfg, const char *assignment);
-/* Writes the tree as YAML into a malloc'd string (free with free()). */
+/* Writes the tree as YAML into a malloc'd string (free with free()); sq_cfg_parse reads it
+ * back as the same tree. NULL (error text set) when the tree holds invalid UTF-8. */
 SQ_API char *sq_cfg_to_yaml(const sq_cfg *cfg);
+/* True when text is valid UTF-8 without control characters (U+0000..U+001F, U+007F). */
+SQ_API bool sq_cfg_text_ok(const char *text);
 
 /* Built-in presets (the YAML files of scenes/ compiled into the library). */
 SQ_API int sq_preset_count(void);

@@ -5,6 +5,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdio.h>
 
 #include "core/core_internal.h"
 #include "squall/drawable.h"
@@ -26,6 +27,15 @@ void sq__output_discard(const char *tmp);
 /* Logs the current error text (set by a context-free function) on ctx under "io" and returns r
  * unchanged; SQ_OK passes through silently. */
 sq_result sq__io_relog(sq_context *ctx, sq_result r);
+
+/* Opens path for reading as *out ("rb") without ever blocking: anything but a regular file
+ * (directory, FIFO, socket, device) is refused with SQ_ERR_IO naming what (e.g. "scene file"),
+ * the path and its kind; a missing file names the system's reason. */
+sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, const char *path,
+                         FILE **out);
+/* The same check for a path another library will open (follows symlinks). */
+sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
+                          const char *path);
 
 /* Validates a set of fields for one field file: count >= 1, names [A-Za-z_][A-Za-z0-9_.-]*
  * unique and none of x, y, z, time; data non-NULL; sizes >= 1 and equal; origin and spacing

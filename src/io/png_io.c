@@ -134,6 +134,23 @@ sq_result sq_png_write_gray16(const char *path, int width, int height, const uin
 
 typedef enum png_read_mode { READ_RGBA8, READ_HEIGHTMAP16 } png_read_mode;
 
+/* What a file may make libpng allocate besides the image: the ancillary chunks whose length
+ * libpng would allocate whole (text, ICC profile, palettes, EXIF, calibration) are skipped
+ * unread; they carry nothing the readers use, and a 41-byte file whose tEXt chunk declares
+ * 1.3 GB made libpng allocate 1.3 GB (tests/fuzz/regress/heightmap). Other chunks are limited
+ * to SQ__PNG_CHUNK_MAX bytes, at most SQ__PNG_CHUNK_CACHE ancillary chunks are kept, and the
+ * image sides to SQ__PNG_MAX_SIDE. */
+#define SQ__PNG_CHUNK_MAX (1u << 20)
+#define SQ__PNG_CHUNK_CACHE 64
+static void limit_reader(png_structp png)
+{
+    static const png_byte skipped[] = "tEXt\0zTXt\0iTXt\0iCCP\0sPLT\0eXIf\0pCAL\0sCAL\0hIST\0";
+    png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, skipped, 9);
+    png_set_user_limits(png, SQ__PNG_MAX_SIDE, SQ__PNG_MAX_SIDE);
+    png_set_chunk_cache_max(png, SQ__PNG_CHUNK_CACHE);
+    png_set_chunk_malloc_max(png, SQ__PNG_CHUNK_MAX);
+}
+
 static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode, int64_t max_pixels,
                           void **out, int *width_out, int *height_out)
 {
@@ -145,13 +162,9 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     if (!out || !width_out || !height_out)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "reading '%s' needs output pointers", path);
 
-    FILE *fp = fopen(path, "rb");
-    if (!fp) return sq__fail(ctx, SQ_ERR_IO, "io", "cannot open '%s': %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fileno(fp), &st) == 0 && S_ISDIR(st.st_mode)) {
-        fclose(fp);
-        return sq__fail(ctx, SQ_ERR_IO, "io", "cannot open '%s': it is a directory", path);
-    }
+    FILE *fp = NULL;
+    sq_result r0 = sq__input_open(ctx, "io", what, path, &fp);
+    if (r0 != SQ_OK) return r0;
     unsigned char sig[8];
     size_t got = fread(sig, 1, sizeof sig, fp);
     if (got < sizeof sig || png_sig_cmp(sig, 0, sizeof sig) != 0) {
@@ -184,6 +197,7 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     }
     png_init_io(png, fp);
     png_set_sig_bytes(png, (int)sizeof sig);
+    limit_reader(png);
     png_read_info(png, info);
     png_uint_32 w = 0, h = 0;
     int bit_depth = 0, color_type = 0, interlace = 0;

@@ -457,14 +457,15 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     snprintf(s->name, sizeof s->name, "%s", nm && nm->value ? nm->value : cfg->source);
     const sq_cfg_node *seed = sq_cfg_get(cfg->root, "seed");
     if (seed && seed->value) {
-        char *end = NULL;
-        unsigned long long v = strtoull(seed->value, &end, 10);
-        if (!*seed->value || *end) {
+        uint64_t v = 0;
+        if (!sq__parse_u64(seed->value, &v)) {
             char w[320];
             where_of(&a, seed, w, sizeof w);
             sq_scene_destroy(s);
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
-                            "%s: seed = '%s': expected a whole number >= 0", w, seed->value);
+                            "%s: seed = '%s': expected a whole number in 0..18446744073709551615 "
+                            "(digits only)",
+                            w, seed->value);
         }
         s->seed = v;
     }

@@ -60,6 +60,11 @@ extern const size_t sq__camera_key_param_count;
 extern const sq_param sq__output_params[];
 extern const size_t sq__output_param_count;
 
+/* Parses a 64-bit unsigned whole number written as decimal digits (surrounding spaces allowed):
+ * no sign, exponent, fraction or hex; false above 2^64 - 1. The one rule for seeds and every
+ * SQ_PARAM_U64 key. */
+bool sq__parse_u64(const char *text, uint64_t *out);
+
 /* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
  * "did you mean" suggestions of the parameter tables and of the scene sections. */
 size_t sq__edit_distance(const char *a, const char *b);
