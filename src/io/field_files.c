@@ -72,7 +72,7 @@ sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
         if (!(f->spacing_m.x > 0.0f) || !(f->spacing_m.y > 0.0f) || !(f->spacing_m.z > 0.0f) ||
             !isfinite(f->spacing_m.x) || !isfinite(f->spacing_m.y) || !isfinite(f->spacing_m.z))
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io",
-                            "%s '%s': field '%s' spacing = (%g, %g, %g) m; each must be > 0 and "
+                            "%s '%s': field '%s' spacing_m = (%g, %g, %g); each must be > 0 and "
                             "finite",
                             what, desc->path, f->name, (double)f->spacing_m.x,
                             (double)f->spacing_m.y, (double)f->spacing_m.z);

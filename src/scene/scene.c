@@ -1,7 +1,9 @@
 /* scene.c — builds a scene from a configuration tree through the parameter tables (world,
  * camera, output and each layer's plug-in), creates the world and the phenomena, and steps
  * everything on one clock, sub-cycling each layer to its stable time step. */
+#include <ctype.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -42,6 +44,59 @@ static sq_result relog(sq_context *ctx, sq_result r)
 {
     sq_log(ctx, SQ_LOG_ERROR, "scene", "%s", sq_last_error());
     return r;
+}
+
+/* ---- messages for scene users ------------------------------------------------------------- */
+/* A phenomenon's solver names its own C fields ("raise speed_of_sound_mps", "lower dt_s"); a
+ * scene user sets keys. Each identifier with an underscore that is not already a key of the
+ * layer but is the trailing part of exactly one of its keys ("dt_max_s" ->
+ * "numerics.dt_max_s") becomes the full key "layers.NAME.KEY", and the message is prefixed with
+ * "layers.NAME: " unless it names the layer already. Returns r, with the new text set. */
+static const char *unique_key_ending(const sq_param *t, size_t n, const char *word, size_t len)
+{
+    const char *found = NULL;
+    for (size_t i = 0; i < n; i++) {
+        const size_t kl = strlen(t[i].key);
+        if (kl == len && strncmp(t[i].key, word, len) == 0) return NULL; /* a key already */
+        if (kl > len && t[i].key[kl - len - 1] == '.' && strncmp(t[i].key + kl - len, word, len) == 0) {
+            if (found) return NULL; /* ambiguous */
+            found = t[i].key;
+        }
+    }
+    return found;
+}
+
+sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
+                                    sq_result r)
+{
+    char in[1024], out[1536];
+    snprintf(in, sizeof in, "%s", sq_last_error());
+    char prefix[96];
+    snprintf(prefix, sizeof prefix, "layers.%s", layer_name);
+    size_t o = 0;
+    if (!strstr(in, "layers.")) o = (size_t)snprintf(out, sizeof out, "%s: ", prefix);
+    for (const char *p = in; *p && o + 1 < sizeof out;) {
+        const bool start = p == in || !(isalnum((unsigned char)p[-1]) || p[-1] == '_' ||
+                                        p[-1] == '.');
+        if (start && (isalpha((unsigned char)*p) || *p == '_')) {
+            const char *e = p;
+            while (isalnum((unsigned char)*e) || *e == '_') e++;
+            const size_t len = (size_t)(e - p);
+            const char *key = *e != '.' && memchr(p, '_', len) ? unique_key_ending(table, n, p, len)
+                                                                : NULL;
+            if (key)
+                o += (size_t)snprintf(out + o, sizeof out - o, "%s.%s", prefix, key);
+            else
+                o += (size_t)snprintf(out + o, sizeof out - o, "%.*s", (int)len, p);
+            p = e;
+            continue;
+        }
+        out[o++] = *p++;
+        out[o] = 0;
+    }
+    if (o >= sizeof out) o = sizeof out - 1;
+    out[o] = 0;
+    return sq__set_error(r, "%s", out);
 }
 
 /* ---- applying a cfg subtree through a table ------------------------------------------------ */
@@ -415,6 +470,64 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
     return SQ_OK;
 }
 
+/* The renderer refuses a camera within 0.1 m of the terrain; the scene finds it first, where the
+ * keys and their file:line are known: the camera's position, every path key, and the path
+ * between keys (sampled 64 times per segment). */
+#define CAMERA_CLEARANCE_M 0.1f
+static sq_result check_camera_height(sq_scene *s, const sq_cfg *cfg)
+{
+    const sq_cfg_node *cam = sq_cfg_get(cfg->root, "camera");
+    const sq_cfg_node *path = cam ? sq_cfg_get(cam, "path") : NULL;
+    apply_ctx a = {cfg, "camera"};
+    char w[320];
+    if (s->key_count == 0) {
+        const sq_vec3 p = s->camera.position_m;
+        const float h = sq_world_height_at(s->world, p.x, p.y);
+        if (!(p.z >= h + CAMERA_CLEARANCE_M)) {
+            const sq_cfg_node *n = cam ? sq_cfg_get(cam, "position") : NULL;
+            where_of(&a, n ? n : cam, w, sizeof w);
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: camera.position = [%g, %g, %g] m: the terrain surface there is at "
+                            "%.2f m; raise z above %.2f m",
+                            w, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            (double)(h + CAMERA_CLEARANCE_M));
+        }
+        return SQ_OK;
+    }
+    const sq_cfg_node *kn = path ? path->child : NULL;
+    for (int i = 0; i < s->key_count; i++, kn = kn ? kn->next : NULL) {
+        const sq_vec3 p = s->keys[i].position_m;
+        const float h = sq_world_height_at(s->world, p.x, p.y);
+        where_of(&a, kn, w, sizeof w);
+        if (!(p.z >= h + CAMERA_CLEARANCE_M))
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: camera.path[%d].position = [%g, %g, %g] m: the terrain surface "
+                            "there is at %.2f m; raise z above %.2f m",
+                            w, i, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            (double)(h + CAMERA_CLEARANCE_M));
+    }
+    kn = path ? path->child : NULL;
+    for (int i = 0; i + 1 < s->key_count; i++, kn = kn ? kn->next : NULL) {
+        const double t0 = s->keys[i].time_s, t1 = s->keys[i + 1].time_s;
+        for (int k = 1; k < 64; k++) {
+            const double t = t0 + (t1 - t0) * k / 64.0;
+            const sq_camera c = sq_camera_at(&s->camera, s->keys, s->key_count, t);
+            const float hc = sq_world_height_at(s->world, c.position_m.x, c.position_m.y);
+            if (!(c.position_m.z >= hc + CAMERA_CLEARANCE_M)) {
+                where_of(&a, kn, w, sizeof w);
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: camera.path[%d]..[%d]: the path between these keys passes "
+                                "%.2f m above the terrain at t = %.3g s (x %.1f, y %.1f m); it "
+                                "needs %.2f m: raise the keys or add one between them",
+                                w, i, i + 1, (double)(c.position_m.z - hc), t,
+                                (double)c.position_m.x, (double)c.position_m.y,
+                                (double)CAMERA_CLEARANCE_M);
+            }
+        }
+    }
+    return SQ_OK;
+}
+
 static const char *const top_keys[] = {"name", "description", "seed", "world",
                                        "camera", "layers", "output", NULL};
 
@@ -472,11 +585,15 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     sq_result r = build_output(s, cfg, sq_cfg_get(cfg->root, "output"));
     if (r == SQ_OK) r = build_camera(s, cfg, sq_cfg_get(cfg->root, "camera"));
     if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &s->world);
+    if (r == SQ_OK) r = check_camera_height(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
     if (r == SQ_OK && !desc->validate_only) {
         for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
             layer *L = &s->layers[i];
             r = L->plugin->create(ctx, L->desc, s->world, &L->self);
+            if (r != SQ_OK)
+                r = sq__scene_translate_error(L->plugin->params, L->plugin->param_count, L->name,
+                                              r);
         }
     }
     if (r != SQ_OK) {
@@ -537,7 +654,9 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
         }
         for (int k = 0; k < n; k++) {
             sq_result r = L->plugin->step(L->self, dt_s / n);
-            if (r != SQ_OK) return r;
+            if (r != SQ_OK)
+                return sq__scene_translate_error(L->plugin->params, L->plugin->param_count,
+                                                 L->name, r);
         }
     }
     s->time_s += dt_s;

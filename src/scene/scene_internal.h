@@ -65,6 +65,12 @@ extern const size_t sq__output_param_count;
  * SQ_PARAM_U64 key. */
 bool sq__parse_u64(const char *text, uint64_t *out);
 
+/* Rewrites the current error text of a layer for scene users: solver field names that are the
+ * trailing part of exactly one key of the layer's table become "layers.LAYER.KEY"; the text is
+ * prefixed "layers.LAYER: " unless it names the layer. Returns r. */
+sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
+                                    sq_result r);
+
 /* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
  * "did you mean" suggestions of the parameter tables and of the scene sections. */
 size_t sq__edit_distance(const char *a, const char *b);

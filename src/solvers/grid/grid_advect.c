@@ -586,7 +586,7 @@ sq_result sq_grid_advect_scalar_drift(sq_grid *g, int idx, double dt_s, double d
     if (r != SQ_OK) return r;
     if (idx < 0 || idx >= g->d.scalar_count)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, "grid",
-                        "scalar index = %d; must be in 0..%d (scalar_count = %d)", idx,
+                        "scalar idx = %d; must be in 0..%d (scalar_count = %d)", idx,
                         g->d.scalar_count - 1, g->d.scalar_count);
     if (!isfinite(drift_w_mps))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, "grid", "drift_w_mps = %g; must be finite",
