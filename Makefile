@@ -36,9 +36,10 @@ test-asan: deps
 	@cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	    ctest --output-on-failure -j$(JOBS) -LE perf
 
-# The fuzz harnesses (tests/fuzz) with libFuzzer: clang, the whole library instrumented.
+# The fuzz harnesses (tests/fuzz) with libFuzzer: clang, the whole library instrumented (no
+# -Werror here: warnings are enforced by the gcc builds; clang-only ones must not stop fuzzing).
 fuzz-build: deps
-	@CC=clang cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSQ_FUZZ=ON -DSQ_WERROR=ON >/dev/null
+	@CC=clang cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSQ_FUZZ=ON -DSQ_WERROR=OFF >/dev/null
 	@cmake --build $(FUZZ_BUILD) -j$(JOBS) --target fuzz_all
 
 # Each harness for a short budget (new inputs stay in $(FUZZ_BUILD)/fuzz-work, never the repo).

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include "commands.h"
 #include "squall/image.h"
 #include "squall/io.h"
+#include "squall/plugin.h"
 #include "squall/render.h"
 #include "squall/scene.h"
 
@@ -58,6 +60,40 @@ static void render_usage(bool simulate)
            "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n");
 }
 
+/* An option's value is checked against the output table here, so a bad value is blamed on the
+ * option (--size 10x10), not on the scene's --set overrides. Returns false after printing. */
+static bool option_value_ok(const char *opt, const char *optval, const char *key, const char *value)
+{
+    size_t n = 0;
+    const sq_param *t = sq_scene_section_params("output", &n);
+    sq_scene_output scratch;
+    sq_params_defaults(t, n, &scratch);
+    if (sq_params_set(t, n, &scratch, "output", key, value, NULL) == SQ_OK) return true;
+    sq_cli_error("%s %s: %s", opt, optval, sq_last_error());
+    return false;
+}
+
+/* -o PATH: a .mp4 file (any case) is video; a name without an extension, or ending in '/', is a
+ * directory of PNG frames; anything else (out.avi, frame.png) is refused rather than silently
+ * becoming a directory. */
+static bool output_is_video(const char *v, bool *ok)
+{
+    const size_t n = strlen(v);
+    const char *base = strrchr(v, '/');
+    base = base ? base + 1 : v;
+    const char *dot = strrchr(base, '.');
+    *ok = true;
+    if (n >= 4 && strcasecmp(v + n - 4, ".mp4") == 0) return true;
+    if (*base && dot && dot != base && dot[1]) {
+        sq_cli_error("-o %s: squall writes video as .mp4 (H.264) and frames as PNG into a "
+                     "directory; '%s' is neither (end the name with .mp4, or give a directory "
+                     "name without an extension, or end it with '/')",
+                     v, dot);
+        *ok = false;
+    }
+    return false;
+}
+
 /* Options that take a value (so their value is not mistaken for the scene name). */
 static bool takes_value(const char *a)
 {
@@ -87,12 +123,6 @@ static int fail(sq_result r, const char *what)
     else
         sq_cli_error("%s", e && *e ? e : sq_result_name(r));
     return sq_cli_exit_code(r);
-}
-
-static bool ends_with(const char *s, const char *suf)
-{
-    size_t a = strlen(s), b = strlen(suf);
-    return a >= b && strcmp(s + a - b, suf) == 0;
 }
 
 static void format_eta(double s, char *buf, size_t n)
@@ -314,7 +344,13 @@ int sq_cmd_render(int argc, char **argv)
         if (strcmp(a, "--set") == 0) {
             r = sq_cfg_set(cfg, v);
         } else if (strcmp(a, "-o") == 0 && !simulate) {
-            if (ends_with(v, ".mp4")) {
+            bool ok = true;
+            const bool is_video = output_is_video(v, &ok);
+            if (!ok) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
+            if (is_video) {
                 snprintf(set, sizeof set, "output.video=%s", v);
                 r = sq_cfg_set(cfg, set);
             } else {
@@ -330,18 +366,37 @@ int sq_cmd_render(int argc, char **argv)
                 rc = SQ_EXIT_USAGE;
                 break;
             }
+            char ws[32], hs[32];
+            snprintf(ws, sizeof ws, "%d", w);
+            snprintf(hs, sizeof hs, "%d", h);
+            if (!option_value_ok(a, v, "width", ws) || !option_value_ok(a, v, "height", hs)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.width=%d", w);
             r = sq_cfg_set(cfg, set);
             snprintf(set, sizeof set, "output.height=%d", h);
             if (r == SQ_OK) r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--frames") == 0) {
+            if (!option_value_ok(a, v, "frames", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.frames=%s", v);
             r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--duration") == 0) {
+            if (!option_value_ok(a, v, "duration_s", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.duration_s=%s", v);
             r = sq_cfg_set(cfg, set);
             if (r == SQ_OK) r = sq_cfg_set(cfg, "output.frames=0");
         } else if (strcmp(a, "--fps") == 0) {
+            if (!option_value_ok(a, v, "fps", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.fps=%s", v);
             r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--metrics") == 0) {

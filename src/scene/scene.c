@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "core/core_internal.h"
 #include "scene_internal.h"
@@ -391,6 +392,16 @@ static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
         r = expect_kind(&a, node, SQ_CFG_MAP, "output");
         if (r == SQ_OK) r = apply_map(&a, node, "", sq__output_params, sq__output_param_count, &s->out, NULL);
     }
+    const sq_cfg_node *vn = node ? sq_cfg_get(node, "video") : NULL;
+    const size_t vl = strlen(s->out.video);
+    if (r == SQ_OK && vl && (vl < 4 || strcasecmp(s->out.video + vl - 4, ".mp4") != 0)) {
+        char w[320];
+        where_of(&a, vn ? vn : node, w, sizeof w);
+        r = sq__set_error(SQ_ERR_INVALID_ARG,
+                          "%s: output.video = '%s': squall writes H.264 video as .mp4 only; end "
+                          "the name with .mp4, or use output.frames_dir for PNG frames",
+                          w, s->out.video);
+    }
     if (r != SQ_OK) return relog(s->ctx, r);
     if (s->out.frames == 0) {
         double f = floor(s->out.duration_s * s->out.fps + 0.5);
@@ -439,7 +450,29 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
                             MAX_LAYERS);
         layer *L = &s->layers[s->layer_count];
         const sq_cfg_node *nm = sq_cfg_get(l, "name");
+        if (nm) {
+            /* a name addresses the layer in --set layers.NAME.key and prefixes its metrics */
+            where_of(&la, nm, w, sizeof w);
+            const char *v = nm->kind == SQ_CFG_SCALAR && nm->value ? nm->value : "";
+            bool digits = *v != 0;
+            for (const char *c = v; *c; c++) digits = digits && isdigit((unsigned char)*c);
+            if (!*v || strchr(v, '.') || digits || strlen(v) >= sizeof L->name)
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: %s.name = '%s': a layer name is 1..%zu characters, not a "
+                                "number and without '.' (it addresses the layer in --set "
+                                "layers.NAME.key)",
+                                w, sec, v, sizeof L->name - 1);
+        }
         snprintf(L->name, sizeof L->name, "%s", nm && nm->value ? nm->value : pl->name);
+        for (int k = 0; k < s->layer_count; k++)
+            if (strcmp(s->layers[k].name, L->name) == 0) {
+                where_of(&la, nm ? nm : l, w, sizeof w);
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: %s is named '%s' like an earlier layer; give each layer a "
+                                "unique name (layers share names through their type when "
+                                "'name:' is missing)",
+                                w, sec, L->name);
+            }
         snprintf(sec, sizeof sec, "layers[%d] (%s)", i, pl->name);
         la.section = sec;
         L->plugin = pl;

@@ -89,9 +89,6 @@ static inline float trilerp(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t
     return c0 + fz * (c1 - c0);
 }
 
-static inline float mn2(float a, float b) { return a < b ? a : b; }
-static inline float mx2(float a, float b) { return a > b ? a : b; }
-
 float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
                       float X, float Y, float Z)
 {
@@ -214,6 +211,9 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
     *mx = _mm_cvtss_f32(c);
 }
 #else
+static inline float mn2(float a, float b) { return a < b ? a : b; }
+static inline float mx2(float a, float b) { return a > b ? a : b; }
+
 static inline float tri8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
                          float fy, float fz)
 {
