@@ -203,7 +203,7 @@ static void metrics_store(metrics_log *m, int frame, double t, const sq_metric *
         m->values[(size_t)m->frames * MAX_METRICS + (size_t)i] = i < n ? mv[i].value : (double)NAN;
     m->frames++;
     if (m->f) {
-        fprintf(m->f, "%d,%.6g", frame, t);
+        fprintf(m->f, "%d,%.17g", frame, t); /* full precision: times must difference exactly */
         for (int i = 0; i < m->count; i++) fprintf(m->f, ",%.9g", i < n ? mv[i].value : (double)NAN);
         fprintf(m->f, "\n");
     }
@@ -260,6 +260,44 @@ static sq_result write_depth_png(const char *path, const sq_named_field *f, bool
     sq_result r = sq_png_write_gray16(path, f->nx, f->ny, g, overwrite);
     free(g);
     return r;
+}
+
+/* The ParaView time-series index PREFIX[_maps].pvd, rewritten after every .vti so that an
+ * interrupted run still leaves a complete index of the files it wrote. */
+typedef struct vtk_series {
+    char **files;
+    double *times;
+    int count, cap;
+} vtk_series;
+
+static sq_result vtk_series_add(sq_context *ctx, vtk_series *s, const char *prefix,
+                                const char *tag, const char *vti_path, double t, bool overwrite)
+{
+    if (s->count == s->cap) {
+        int cap = s->cap ? 2 * s->cap : 64;
+        char **f = (char **)realloc(s->files, sizeof *f * (size_t)cap);
+        if (f) s->files = f;
+        double *tt = f ? (double *)realloc(s->times, sizeof *tt * (size_t)cap) : NULL;
+        if (!f || !tt) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory (series index)");
+        s->times = tt;
+        s->cap = cap;
+    }
+    const char *base = strrchr(vti_path, '/');
+    s->files[s->count] = strdup(base ? base + 1 : vti_path);
+    if (!s->files[s->count]) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory");
+    s->times[s->count++] = t;
+    char pvd[1100];
+    snprintf(pvd, sizeof pvd, "%s%s.pvd", prefix, tag);
+    /* the first write follows --overwrite; later ones replace this run's own index */
+    return sq_vtk_write_series(ctx, pvd, (const char *const *)s->files, s->times, s->count,
+                               overwrite || s->count > 1);
+}
+
+static void vtk_series_free(vtk_series *s)
+{
+    for (int i = 0; i < s->count; i++) free(s->files[i]);
+    free(s->files);
+    free(s->times);
 }
 
 typedef struct ref_progress {
@@ -435,6 +473,8 @@ int sq_cmd_render(int argc, char **argv)
     sq_renderer *ren = NULL;
     metrics_log ml;
     memset(&ml, 0, sizeof ml);
+    vtk_series series[2];
+    memset(series, 0, sizeof series);
     uint8_t *rgba = NULL;
     float *lin = NULL;
     if (video) {
@@ -573,6 +613,9 @@ int sq_cmd_render(int argc, char **argv)
                 fd.source = "squall " SQ_VERSION_STRING;
                 fd.time_s = sq_scene_time(scene);
                 fd.overwrite = overwrite;
+                fd.crs_wkt = sq_scene_world(scene)->crs_wkt;
+                fd.crs_offset_m[0] = sq_scene_world(scene)->crs_offset_m[0];
+                fd.crs_offset_m[1] = sq_scene_world(scene)->crs_offset_m[1];
                 /* 3D fields and 2D maps go to separate files (a file holds one grid) */
                 sq_named_field f3[MAX_FIELDS], f2[MAX_FIELDS];
                 int n3 = 0, n2 = 0;
@@ -594,6 +637,8 @@ int sq_cmd_render(int argc, char **argv)
                     if (r == SQ_OK && out->fields_format != SQ_FIELDS_NETCDF) {
                         snprintf(path, sizeof path, "%s%s_%05d.vti", fields, tag, frame);
                         r = sq_vtk_write_fields(ctx, &fd, fs, nfs);
+                        if (r == SQ_OK) r = vtk_series_add(ctx, &series[grp], fields, tag, path,
+                                                           fd.time_s, overwrite);
                     }
                 }
                 /* 2D maps in metres (snow depth, deposit depth) also as 16-bit PNG, 1 mm per
@@ -677,6 +722,8 @@ done:
     if (ml.f) fclose(ml.f);
     if (ml.tmp[0]) remove(ml.tmp);
     free(ml.values);
+    vtk_series_free(&series[0]);
+    vtk_series_free(&series[1]);
     if (rc != SQ_EXIT_OK && frames_dir_created) {
         /* remove frames written by this failed run only if we created the directory */
         for (int f = 0; f <= frame && f < N; f++) {

@@ -88,21 +88,35 @@ typedef struct sq_field_file_desc {
      * as "YYYY-MM-DD" or "YYYY-MM-DD hh:mm:ss" (UTC). NULL -> "2000-01-01 00:00:00", an
      * arbitrary origin (then only differences of time are meaningful). NetCDF only. */
     const char *reference_time;
+    /* The world's georeference (sq_world: crs_wkt, crs_offset_m): when crs_wkt is set, x and y
+     * are written as world + offset (easting, northing in that CRS) and NetCDF fields carry
+     * grid_mapping = "crs", a variable holding the WKT (crs_wkt, and GDAL's spatial_ref). */
+    const char *crs_wkt;
+    double crs_offset_m[2];
 } sq_field_file_desc;
 
-/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing) as netCDF-4 with CF-1.8
- * metadata: dimensions time (1), z, y, x; coordinate variables x, y, z (cell centres, metres,
- * axis X/Y/Z) and time; each field a float variable (time, z, y, x), or (time, y, x) with a
- * scalar z coordinate when nz == 1, carrying units, long_name, standard_name (where given) and
- * _FillValue. Written through a temporary name; the conventions are detailed in
+/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing; 2D maps share x and y and
+ * may lie at different levels) as netCDF-4 with CF-1.8 metadata: dimensions time (UNLIMITED,
+ * one record: files of successive frames join with ncrcat), z, y, x; coordinate variables x, y,
+ * z (cell centres, metres, axis and standard_name) and time; each field a float variable (time,
+ * z, y, x), or (time, y, x) for a 2D map with its level as a scalar coordinate (z for a slice,
+ * height above the surface for a terrain-following map, none for a surface property), carrying
+ * units, long_name, standard_name (where given) and _FillValue, which marks invalid cells and
+ * NaN. Written through a temporary name; the conventions are detailed in
  * src/io/netcdf_fields.c. Names must match [A-Za-z_][A-Za-z0-9_.-]* and be unique. */
 SQ_API sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                         const sq_named_field *fields, int count);
 /* The same grid as VTK XML ImageData (.vti, raw appended binary): each field a Float32 point
- * array on points at the cell centres (Origin = centre of cell 0, Spacing in metres), the time
- * as field data "TimeValue". Written through a temporary name. */
+ * array on points at the cell centres (Origin = centre of cell 0, Spacing in metres), invalid
+ * cells NaN; three consecutive fields u, v, w (or P_u, P_v, P_w) become one 3-component vector
+ * array "wind" (or P); the time as field data "TimeValue". Written through a temporary name. */
 SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                      const sq_named_field *fields, int count);
+/* A ParaView time-series index (.pvd, VTK Collection): one DataSet per file with its time.
+ * files are written as given (relative to the .pvd's directory). Written through a temporary
+ * name; rewrite it after each new file so an interrupted run still has a complete index. */
+SQ_API sq_result sq_vtk_write_series(sq_context *ctx, const char *path, const char *const *files,
+                                     const double *times_s, int count, bool overwrite);
 
 /* ---- scene files (YAML through libyaml) ----------------------------------------------------- */
 struct sq_cfg;

@@ -495,5 +495,6 @@ int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max)
                         (float)(pl->dep_origin[1] + 0.5 * pl->dep_cell),
                         0.0f);
     f->spacing_m = sq_v3((float)pl->dep_cell, (float)pl->dep_cell, 1.0f);
+    f->level = SQ_FIELD_LEVEL_SURFACE; /* a depth of the snow on the ground */
     return 1;
 }

@@ -202,7 +202,8 @@ struct sq_snowdrift {
     bool have_camera;
     sq_vec3 cam_pos;
     float cam_tan_half_fov;
-    float *air_kgm3;               /* nx*ny*nz, built only for fields() */
+    float *air_kgm3;               /* nx*ny*nz, kg m-3 at the real snowfall rate (speedup
+                                      divided out), built only for fields() */
     double *tally_part;            /* ny*5 per-row partial sums of the budget tally */
     bool derived_dirty, air_dirty;
     uint64_t version;
