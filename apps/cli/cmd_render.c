@@ -25,10 +25,12 @@
 #define MAX_FIELDS 32
 
 static volatile sig_atomic_t interrupted;
+static sq_context *signal_ctx; /* cancelled by the handler: long library stages stop too */
 static void on_signal(int sig)
 {
     (void)sig;
     interrupted = 1;
+    if (signal_ctx) sq_context_cancel(signal_ctx);
 }
 
 static void render_usage(bool simulate)
@@ -367,9 +369,15 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
+    /* Ctrl-C is answered from here on: scene building, terrain generation and stepping check
+     * the context's cancel flag */
+    signal_ctx = ctx;
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
+        signal_ctx = NULL;
         sq_context_destroy(ctx);
         return fail(r, NULL);
     }
@@ -447,6 +455,7 @@ int sq_cmd_render(int argc, char **argv)
     }
     if (rc != SQ_EXIT_OK || r != SQ_OK) {
         sq_cfg_destroy(cfg);
+        signal_ctx = NULL;
         sq_context_destroy(ctx);
         return rc != SQ_EXIT_OK ? rc : fail(r, NULL);
     }
@@ -456,6 +465,7 @@ int sq_cmd_render(int argc, char **argv)
     r = sq_scene_create(ctx, &sd, &scene);
     sq_cfg_destroy(cfg);
     if (r != SQ_OK) {
+        signal_ctx = NULL;
         sq_context_destroy(ctx);
         return fail(r, NULL);
     }
@@ -477,7 +487,25 @@ int sq_cmd_render(int argc, char **argv)
     memset(series, 0, sizeof series);
     uint8_t *rgba = NULL;
     float *lin = NULL;
-    if (video) {
+    /* inputs are never written, not even with --overwrite; temporaries that a killed run left
+     * next to these outputs are removed (io: sq_output_check_inputs, sq_output_remove_stale) */
+    {
+        char pfx[1100];
+        const struct {
+            const char *path;
+            const char *suffix;
+            bool prefix;
+        } outs[] = {{video, "", false},          {metrics_path, "", false},
+                    {frames_dir, "/frame_", true}, {fields, "_", true},
+                    {fields, ".pvd", false},       {fields, "_maps.pvd", false}};
+        for (size_t k = 0; r == SQ_OK && k < sizeof outs / sizeof outs[0]; k++) {
+            if (!outs[k].path) continue;
+            snprintf(pfx, sizeof pfx, "%s%s", outs[k].path, outs[k].suffix);
+            r = sq_output_check_inputs(ctx, pfx, outs[k].prefix);
+            if (r == SQ_OK) sq_output_remove_stale(ctx, pfx, outs[k].prefix);
+        }
+    }
+    if (r == SQ_OK && video) {
         if (W % 2 || H % 2)
             r = sq__cli_set_error(SQ_ERR_INVALID_ARG,
                                   "output size %dx%d: MP4 (yuv420p) needs even width and height",
@@ -546,8 +574,6 @@ int sq_cmd_render(int argc, char **argv)
         }
     }
 
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
     const bool tty = isatty(2) && !quiet;
     const double frame_dt = sq_scene_frame_dt(scene);
     const int spf = out->steps_per_frame;
@@ -739,6 +765,7 @@ done:
     free(rgba);
     free(lin);
     sq_scene_destroy(scene);
+    signal_ctx = NULL;
     sq_context_destroy(ctx);
     return rc;
 }

@@ -25,6 +25,17 @@ SQ_API sq_result sq_output_temp_name(const char *path, char *buf, size_t size);
 /* Flushes tmp to disk and renames it to path (atomic on one filesystem); refuses to replace an
  * existing path unless overwrite (SQ_ERR_EXISTS). On failure tmp is left for the caller. */
 SQ_API sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite);
+/* Inputs are never written: refuses (SQ_ERR_INVALID_ARG, naming the output and the input) an
+ * output path that resolves, symlinks followed, to a file ctx has read (the scene file,
+ * heightmap, DEM, mesh, WRF file: sq_context_input_count). With prefix, the numbered outputs
+ * of a series are checked: every existing entry whose name starts with the path's last part and
+ * ends in five or more digits and an extension ("out/frames/frame_" covers frame_00012.png).
+ * Call it for every output before any work; --overwrite does not change the answer. */
+SQ_API sq_result sq_output_check_inputs(sq_context *ctx, const char *path, bool prefix);
+/* Removes the temporaries ".NAME.tmp-PID-N" that a run killed by SIGKILL (or a crash) left next
+ * to path (with prefix: next to every name starting with the path's last part), if process
+ * PID is gone; each removal is logged as a warning. Returns how many were removed. */
+SQ_API int sq_output_remove_stale(sq_context *ctx, const char *path, bool prefix);
 /* Writes bytes to path through a temporary file (removed on any failure). */
 SQ_API sq_result sq_output_write_file(const char *path, const void *data, size_t size,
                                       bool overwrite);

@@ -3,11 +3,20 @@
 #ifndef SQ_CORE_INTERNAL_H
 #define SQ_CORE_INTERNAL_H
 
+#include <signal.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "sq_config.h"
 #include "squall/core.h"
+
+/* An input file by identity (see sq_context_input_count). */
+typedef struct sq__input {
+    uint64_t dev, ino;
+    char *path;
+    char what[48];
+} sq__input;
 
 struct sq_context {
     int threads;
@@ -18,7 +27,20 @@ struct sq_context {
     uint64_t seed;
     uint64_t bytes_in_use; /* updated atomically */
     uint64_t bytes_peak;
+    volatile sig_atomic_t cancel; /* set by sq_context_cancel (signal handlers) */
+    sq__input *inputs;
+    int input_count, input_cap;
 };
+
+/* True once sq_context_cancel was called: long loops check it and return SQ_ERR_CANCELLED. */
+static inline bool sq__cancelled(const sq_context *ctx) { return ctx && ctx->cancel; }
+/* Fails with SQ_ERR_CANCELLED naming what was interrupted. */
+sq_result sq__fail_cancelled(sq_context *ctx, const char *module, const char *what);
+/* Records an input file (device, inode of the file path names, symlinks followed); a file
+ * recorded before is not added twice. what: e.g. "scene file". Out of memory is ignored (the
+ * record is a protection, never a reason to fail a read). */
+void sq__context_note_input(sq_context *ctx, const char *path, uint64_t dev, uint64_t ino,
+                            const char *what);
 
 /* Sets the thread-local error text (printf-style), logs it at ERROR level under module
  * (ctx may be NULL: then only the text is set) and returns r. The text should name the field,

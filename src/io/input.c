@@ -2,7 +2,9 @@
  * open or the read forever, a device such as /dev/zero or /dev/urandom never ends, a directory
  * is not data), and the open itself never blocks (O_NONBLOCK until the type is known). Every
  * reader in src/io opens its file through here, or checks a path it hands to another library
- * (libnetcdf, GDAL, assimp) with sq__input_check first. */
+ * (libnetcdf, GDAL, assimp) with sq__input_check first. Both record the file in the context
+ * (device, inode) so that no output of the run can replace it (output.c,
+ * sq_output_check_inputs). */
 #include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
@@ -38,6 +40,7 @@ sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
         return sq__fail(ctx, SQ_ERR_IO, module, "cannot open %s '%s': %s", what, path,
                         strerror(errno));
     if (!S_ISREG(st.st_mode)) return not_regular(ctx, module, what, path, st.st_mode);
+    sq__context_note_input(ctx, path, (uint64_t)st.st_dev, (uint64_t)st.st_ino, what);
     return SQ_OK;
 }
 
@@ -61,6 +64,7 @@ sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, 
         close(fd);
         return not_regular(ctx, module, what, path, st.st_mode);
     }
+    sq__context_note_input(ctx, path, (uint64_t)st.st_dev, (uint64_t)st.st_ino, what);
     int fl = fcntl(fd, F_GETFL);
     if (fl >= 0) (void)fcntl(fd, F_SETFL, fl & ~O_NONBLOCK);
     FILE *f = fdopen(fd, "rb");

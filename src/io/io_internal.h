@@ -37,6 +37,14 @@ sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, 
 sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
                           const char *path);
 
+/* True when a write of path failed because the disk or quota is full: err is ENOSPC or
+ * EDQUOT, or (for libraries that lose errno) the filesystem of path has no free blocks left. */
+bool sq__io_no_space(const char *path, int err);
+/* Fails for a write of path that failed with errno err: SQ_ERR_NO_SPACE "cannot write 'path':
+ * no space left on device ..." when the disk is full (a runtime error, exit 1), else SQ_ERR_IO
+ * with detail (or strerror(err)). ctx may be NULL (then nothing is logged). */
+sq_result sq__write_error(sq_context *ctx, const char *path, int err, const char *detail);
+
 /* Validates a set of fields for one field file: count >= 1, names [A-Za-z_][A-Za-z0-9_.-]*
  * unique and none of x, y, z, time; data non-NULL; sizes >= 1 and equal; origin and spacing
  * equal, spacing > 0 and finite. Also checks desc and desc->path. Messages name the field. */

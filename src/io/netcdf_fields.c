@@ -89,6 +89,9 @@ typedef struct nc_writer {
 
 static sq_result nc_fail(const nc_writer *w, int status, const char *doing)
 {
+    /* HDF5 reports a full disk as a generic "HDF error": errno or the filesystem tells */
+    if (status != NC_ENOMEM && sq__io_no_space(w->path, errno))
+        return sq__write_error(w->ctx, w->path, ENOSPC, NULL);
     return sq__fail(w->ctx, status == NC_ENOMEM ? SQ_ERR_OUT_OF_MEMORY : SQ_ERR_IO, "io",
                     "cannot write '%s' (%s): %s", w->path, doing, nc_strerror(status));
 }
@@ -340,6 +343,8 @@ sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc
                         desc->path, reference);
     char tmp[SQ__TEMP_NAME_MAX];
     int fd = -1;
+    r = sq_output_check_inputs(ctx, desc->path, false);
+    if (r != SQ_OK) return r;
     r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) return sq__io_relog(ctx, r);
     close(fd); /* reserved exclusively; libnetcdf recreates it */

@@ -95,10 +95,13 @@ static sq_result png_write(const char *path, int width, int height, const void *
                              path);
     }
     if (setjmp(png_jmpbuf(png))) {
+        const int e = errno; /* a failed fwrite (a full disk) left its reason here */
         png_destroy_write_struct(&png, &info);
         fclose(fp);
         sq__output_discard(tmp);
-        return sq__set_error(SQ_ERR_IO, "cannot write '%s': libpng: %s", path, err.msg);
+        char detail[300];
+        snprintf(detail, sizeof detail, "libpng: %s", err.msg);
+        return sq__write_error(NULL, path, e, detail);
     }
     png_init_io(png, fp);
     png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, bit_depth, color_type,
@@ -113,7 +116,7 @@ static sq_result png_write(const char *path, int width, int height, const void *
     if (ferror(fp) || fclose(fp) != 0) {
         int e = errno;
         sq__output_discard(tmp);
-        return sq__set_error(SQ_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+        return sq__write_error(NULL, path, e, NULL);
     }
     return sq__output_finish(tmp, path, overwrite);
 }

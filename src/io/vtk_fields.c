@@ -213,7 +213,8 @@ sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
     const int narrays = group_arrays(fields, count, arrays);
     char tmp[SQ__TEMP_NAME_MAX];
     int fd = -1;
-    r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
+    r = sq_output_check_inputs(ctx, desc->path, false);
+    if (r == SQ_OK) r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) {
         sq_free(ctx, arrays);
         sq_free(ctx, buf);
@@ -241,7 +242,7 @@ sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
     sq_free(ctx, buf);
     if (e) {
         sq__output_discard(tmp);
-        return sq__fail(ctx, SQ_ERR_IO, "io", "cannot write '%s': %s", desc->path, strerror(e));
+        return sq__write_error(ctx, desc->path, e, NULL);
     }
     r = sq__io_relog(ctx, sq__output_finish(tmp, desc->path, desc->overwrite));
     if (r == SQ_OK) sq_log(ctx, SQ_LOG_INFO, "io", "wrote '%s' (%d fields)", desc->path, count);
@@ -280,7 +281,7 @@ sq_result sq_vtk_write_series(sq_context *ctx, const char *path, const char *con
     if (fclose(fp) != 0 && !e) e = errno ? errno : EIO;
     if (e) {
         sq__output_discard(tmp);
-        return sq__fail(ctx, SQ_ERR_IO, "io", "cannot write '%s': %s", path, strerror(e));
+        return sq__write_error(ctx, path, e, NULL);
     }
     return sq__io_relog(ctx, sq__output_finish(tmp, path, overwrite));
 }

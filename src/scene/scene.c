@@ -307,7 +307,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
             return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene", "heightmap terrains need a loader");
         }
         char path[1024];
-        if (ws.heightmap[0] == '/' || !cfg->base_dir[0])
+        if (ws.heightmap[0] == '/' || !cfg->base_dir[0] || strcmp(cfg->base_dir, ".") == 0)
             snprintf(path, sizeof path, "%s", ws.heightmap);
         else
             snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws.heightmap);
@@ -623,6 +623,10 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     if (r == SQ_OK && !desc->validate_only) {
         for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
             layer *L = &s->layers[i];
+            if (sq__cancelled(ctx)) {
+                r = sq__fail_cancelled(ctx, "scene", "while creating the layers");
+                break;
+            }
             r = L->plugin->create(ctx, L->desc, s->world, &L->self);
             if (r != SQ_OK)
                 r = sq__scene_translate_error(L->plugin->params, L->plugin->param_count, L->name,
@@ -686,6 +690,8 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
             n = (int)nn;
         }
         for (int k = 0; k < n; k++) {
+            if (sq__cancelled(s->ctx))
+                return sq__fail_cancelled(s->ctx, "scene", "while stepping (sq_context_cancel)");
             sq_result r = L->plugin->step(L->self, dt_s / n);
             if (r != SQ_OK)
                 return sq__scene_translate_error(L->plugin->params, L->plugin->param_count,

@@ -1,5 +1,5 @@
 /* fuzz_set.c — the `--set path=value` parser (sq_cfg_set) on the built-in presets. The input is
- * lines: the first byte picks a preset, each line is one assignment. Invariants: an assignment
+ * lines: the first byte picks a preset, each line (up to 16) is one assignment. Invariants: an assignment
  * is applied or refused with a message, and a refused one leaves the tree unchanged; text that
  * is not UTF-8, or holds control characters, is refused; after every assignment the tree
  * survives the YAML writer (written and parsed back it is the same tree); the scene built from
@@ -30,7 +30,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memcpy(text, data + 1, size - 1);
     text[size - 1] = 0;
     char *save = NULL;
-    for (char *line = strtok_r(text, "\n", &save); line; line = strtok_r(NULL, "\n", &save)) {
+    int lines = 0; /* at most 16 assignments: each costs two YAML round trips of the preset */
+    for (char *line = strtok_r(text, "\n", &save); line && lines < 16;
+         line = strtok_r(NULL, "\n", &save), lines++) {
         sq_cfg *before = copy_of(ctx, cfg);
         sq_result r = sq_cfg_set(cfg, line);
         if (r != SQ_OK) {
@@ -44,6 +46,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         sq_fuzz_check_round_trip(ctx, cfg);
     }
     free(text);
+    sq_fuzz_small_terrain(cfg);
     sq_scene_desc sd = {cfg, NULL, true};
     sq_scene *scene = NULL;
     sq_result r = sq_scene_create(ctx, &sd, &scene);

@@ -115,4 +115,13 @@ static inline void sq_fuzz_check_round_trip(sq_context *ctx, const sq_cfg *cfg)
     free(yaml);
 }
 
+/* Terrain generation dominates scene validation (fBm noise on 257 x 257 samples: a second per
+ * input); the harnesses are about reading, so the terrain is made small before validating. A
+ * tree whose world cannot take the key keeps its own value. */
+static inline void sq_fuzz_small_terrain(sq_cfg *cfg)
+{
+    (void)sq_cfg_set(cfg, "world.terrain.resolution=[9, 9]");
+    (void)sq_cfg_set(cfg, "world.terrain.octaves=1");
+}
+
 #endif

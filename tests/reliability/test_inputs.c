@@ -233,3 +233,34 @@ SQ_TEST(non_regular_inputs_refused)
     rmdir(dir);
     sq_context_destroy(ctx);
 }
+
+/* Ctrl-C reaches the library through sq_context_cancel: building a scene with a large terrain
+ * and stepping stop with SQ_ERR_CANCELLED instead of running on. */
+SQ_TEST(cancel_stops_building_and_stepping)
+{
+    sq_context *ctx = mkctx();
+    const char *big = "world: {terrain: {kind: hills, resolution: [4097, 4097], octaves: 12}}\n";
+    sq_cfg *cfg = NULL;
+    SQ_CHECK_OK(sq_cfg_parse(ctx, big, strlen(big), "t.yaml", &cfg));
+    sq_context_cancel(ctx);
+    SQ_CHECK(sq_context_cancelled(ctx));
+    sq_scene_desc d = {cfg, NULL, false};
+    sq_scene *s = NULL;
+    SQ_CHECK_ERR(sq_scene_create(ctx, &d, &s), SQ_ERR_CANCELLED, "interrupted while generating");
+    SQ_CHECK(s == NULL);
+    sq_cfg_destroy(cfg);
+    sq_context_cancel_clear(ctx);
+    const char *small = "world: {terrain: {kind: flat, resolution: [5, 5]}}\n"
+                        "layers:\n  - {type: snowdrift, domain: {nx: 8, ny: 8, nz: 8}}\n";
+    SQ_CHECK_OK(sq_cfg_parse(ctx, small, strlen(small), "t.yaml", &cfg));
+    d.cfg = cfg;
+    SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
+    if (s) {
+        SQ_CHECK_OK(sq_scene_step(s, 0.05));
+        sq_context_cancel(ctx);
+        SQ_CHECK_ERR(sq_scene_step(s, 0.05), SQ_ERR_CANCELLED, "interrupted while stepping");
+    }
+    sq_scene_destroy(s);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
