@@ -198,7 +198,7 @@ int sq_cmd_params(int argc, char **argv)
     g_markdown = sq_cli_flag(argc, argv, "--markdown");
     const char *what = argc > 1 && argv[1][0] != '-' ? argv[1] : NULL;
     if (!what) {
-        printf("sections: world obstacle camera camera-key output\nlayers:  ");
+        printf("sections: world obstacle area camera camera-key output\nlayers:  ");
         for (int i = 0; i < sq_plugin_count(); i++) printf("%s ", sq_plugin_at(i)->name);
         printf("\n\nusage: squall params NAME\n");
         return SQ_EXIT_OK;

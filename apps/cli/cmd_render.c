@@ -460,7 +460,8 @@ int sq_cmd_render(int argc, char **argv)
         return rc != SQ_EXIT_OK ? rc : fail(r, NULL);
     }
 
-    sq_scene_desc sd = {cfg, sq_scene_heightmap_loader, false};
+    sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
+                        .load_dem = sq_dem_load, .load_area = sq_area_load};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     sq_cfg_destroy(cfg);

@@ -10,5 +10,6 @@ int sq_cmd_params(int argc, char **argv);
 int sq_cmd_bench(int argc, char **argv);
 int sq_cmd_validate(int argc, char **argv);
 int sq_cmd_visibility(int argc, char **argv);
+int sq_cmd_wrf(int argc, char **argv);
 
 #endif

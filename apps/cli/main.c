@@ -18,6 +18,7 @@ static const command commands[] = {
     {"render", sq_cmd_render, "simulate a scene and render it to MP4 / PNG frames"},
     {"simulate", sq_cmd_render, "the same loop without rendering: metrics and fields only"},
     {"visibility", sq_cmd_visibility, "visibility from dust concentration and size (Mie, Koschmieder)"},
+    {"wrf", sq_cmd_wrf, "WRF output: wrf info FILE... | wrf export FILE... --time N -o OUT.nc"},
     {"scenes", sq_cmd_scenes, "list the built-in scene presets"},
     {"scene", sq_cmd_scene, "scene show NAME: print a preset as YAML to start from"},
     {"params", sq_cmd_params, "list every parameter of a layer or section with unit, default, range"},

@@ -36,6 +36,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
     {"snowdrift", "village-snowdrift frame (1/24 s): D3Q15 wind, u*, snow transport/deposition/"
      "erosion, flakes, drawables; per-stage ms",
      "--preset village-snowdrift --spinup 48", sq_bench_snowdrift, NULL, NULL},
+    {"wrf", "WRF reader: open + read and derive every stored time; one time; an interpolated time",
+     "--file wrfout.nc (repeatable; default data/wrf sample)", sq_bench_wrf, NULL, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},
 };

@@ -249,6 +249,29 @@ SQ_API sq_result sq_visibility_from_concentration(double conc_kg_m3, double mass
 SQ_API sq_result sq_concentration_for_visibility(double visibility_m, double mass_ext_m2_per_kg,
                                                  double contrast, double *out_kg_m3);
 
+/* ---- cloud condensate (SPEC §8, issue 10; src/solvers/optics/cloud.c) ---------------------- */
+/* The one home of the cloud extinction formula: the WRF export, the clouds phenomenon and the
+ * renderer all call this. Droplets and ice crystals are much larger than visible wavelengths, so
+ * the extinction efficiency is Q_ext ~ 2 (the extinction paradox) and a population with mass
+ * concentration C, particle density rho_p and effective radius r_eff = <r^3>/<r^2> has
+ *     beta = Q_ext pi <r^2> N = 3 C / (2 rho_p r_eff)        [m^-1]
+ * (Stephens 1978, J. Atmos. Sci. 35, 2123; Hansen & Travis 1974). For ice, r_eff is the radius of
+ * the ice-volume-equivalent population in this formula; Fu (1996, J. Climate 9, 2058) gives
+ * beta ~ 2.52 IWC / D_ge (g m-3, um, m^-1), i.e. r_eff ~ 0.65 D_ge. */
+#define SQ_WATER_DENSITY_KG_M3 1000.0
+#define SQ_ICE_DENSITY_KG_M3 917.0
+/* Default effective radii: 10 um for liquid cloud droplets (Stephens 1978; Miles et al. 2000,
+ * J. Atmos. Sci. 57, 295: continental ~ 8-10 um, marine ~ 12 um), 25 um for cloud ice
+ * (Fu 1996: D_ge ~ 40 um of mid-latitude cirrus). */
+#define SQ_CLOUD_DROPLET_R_EFF_M 10.0e-6
+#define SQ_CLOUD_ICE_R_EFF_M 25.0e-6
+
+/* beta = 3 C / (2 rho_p r_eff) in m^-1 for a mass concentration C in kg m^-3 (values <= 0 and
+ * NaN give 0), a particle density in kg m^-3 and an effective radius in m (both > 0: the
+ * caller validates its parameters). */
+SQ_API double sq_cloud_extinction(double mass_kg_m3, double particle_density_kg_m3,
+                                  double r_eff_m);
+
 #ifdef __cplusplus
 }
 #endif

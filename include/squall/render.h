@@ -1,7 +1,11 @@
-/* squall/render.h — the OpenGL 4.5 core renderer (headless through EGL; Mesa llvmpipe on
- * machines without a GPU) and the reference CPU path tracer. Draws the world (terrain,
- * obstacles, sky) and drawables by kind, for a camera, into an off-screen frame that is read
- * back as 8-bit sRGB RGBA (rows top to bottom) or as linear float RGB. */
+/* squall/render.h — the OpenGL 4.5 core renderer and the reference CPU path tracer. Draws the
+ * world (terrain, obstacles, sky) and drawables by kind, for a camera, either
+ *   - in its own headless context (EGL; Mesa llvmpipe on machines without a GPU) into an
+ *     off-screen frame that is read back as 8-bit sRGB RGBA (rows top to bottom) or as linear
+ *     float RGB, or
+ *   - in the caller's current OpenGL 4.5 core context (sq_render_desc.use_current_context),
+ *     into the caller's framebuffer: the whole frame, or only the drawables composited over the
+ *     caller's colour and tested against the caller's depth (sq_renderer_draw_to). */
 #ifndef SQ_RENDER_H
 #define SQ_RENDER_H
 
@@ -27,6 +31,13 @@ typedef struct sq_render_desc {
     bool isotropic_phase;  /* ablation: g = 0 */
     uint64_t seed;         /* slice jitter */
     const char *egl_device; /* NULL: surfaceless platform, else "device" platform hint */
+    /* false: the renderer opens its own headless EGL context (as `squall render` does).
+     * true: it uses the OpenGL 4.5 core context current on the calling thread, which the
+     * caller created and keeps current for every later call on this renderer (create, draw,
+     * read, destroy); egl_device is ignored. The renderer then restores the caller's GL state
+     * after each call (see "GL state" below). width/height 0 are allowed: the internal frame
+     * takes the size of each sq_renderer_draw_to target. */
+    bool use_current_context;
 } sq_render_desc;
 
 typedef struct sq_render_info {
@@ -54,6 +65,68 @@ SQ_API sq_result sq_gl_probe(sq_context *ctx, sq_render_info *out);
  * NaN density (reported, not rendered). */
 SQ_API sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camera *camera,
                                   const sq_drawable *drawables, int count, double time_s);
+/* ---- drawing into the caller's framebuffer --------------------------------------------------
+ * With a renderer created with use_current_context, sq_renderer_draw_to draws into a framebuffer
+ * object of the caller's context (or its default framebuffer, 0).
+ *
+ * Target framebuffer: single-sampled (resolve multisampled buffers first), complete, with a colour
+ * buffer (input: its read buffer; output: its draw buffer 0; COLOR_ATTACHMENT0 unless the caller
+ * changed them) in a float or normalised format (not integer), and a depth buffer (any depth or
+ * depth-stencil format; required for SQ_TARGET_DRAWABLES_OVER). The frame covers pixels (0, 0) to
+ * (width, height) of it. The caller's depth must come from the same camera: draw your geometry
+ * with sq_camera_view() and sq_camera_proj(camera, width/height) of the sq_camera you pass here
+ * (standard depth: glDepthRange(0, 1), glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE)).
+ *
+ * Colour: SQ_TARGET_LINEAR treats the colour buffer as linear scene radiance in the units of the
+ * world's sun and sky (an HDR buffer the caller tone-maps; exposure is not applied);
+ * SQ_TARGET_DISPLAY treats it as display colour, tone-mapped with Squall's curve (exposure, ACES
+ * fit, sRGB encoding as stored values; an 8-bit buffer is fine): drawables are composited in
+ * linear radiance after inverting that curve, and the result is tone-mapped again, so that pixels
+ * without any drawable keep their value. The alpha channel of the target is never written.
+ *
+ * Depth: SQ_TARGET_DRAWABLES_OVER tests every drawable against the target's depth (volumes end at
+ * the caller's geometry, particles fade near it); surface drawables (deposited snow) are opaque
+ * and write their depth into the target's depth buffer. SQ_TARGET_FRAME replaces colour and depth
+ * with the whole frame (sky, terrain, obstacles, drawables).
+ *
+ * GL state: after every call on a use_current_context renderer the caller's state is as before:
+ * framebuffer (draw, read) and renderbuffer bindings, viewport, scissor box, program and program
+ * pipeline, vertex array, array / pixel pack / pixel unpack / uniform / shader-storage buffer
+ * bindings (indexed 0..7 with their ranges), active texture and the 2D, 3D, 2D-array and cube-map
+ * textures and the samplers of units 0..15, image units 0..7, the enables (blend, depth test,
+ * cull face, scissor and stencil tests, polygon offset fill, framebuffer sRGB, rasterizer discard,
+ * logic op, alpha to coverage, primitive restart, depth clamp, program point size, clip
+ * distances 0..7), blend functions, equations and colour, depth function, mask and range, clip
+ * control, colour and stencil write masks, polygon mode and offset, cull face mode, front face
+ * and the pixel pack/unpack parameters. Not preserved: the contents of the target (written as
+ * described above) and pending glGetError flags (the renderer reads and clears them). */
+typedef enum sq_target_content {
+    SQ_TARGET_FRAME = 0,          /* the whole frame: sky, terrain, obstacles and drawables */
+    SQ_TARGET_DRAWABLES_OVER = 1  /* only the drawables, over the target's colour and depth */
+} sq_target_content;
+
+typedef enum sq_target_colour {
+    SQ_TARGET_LINEAR = 0,  /* linear radiance (HDR): the caller tone-maps */
+    SQ_TARGET_DISPLAY = 1  /* tone-mapped display colour (Squall's curve and exposure) */
+} sq_target_colour;
+
+typedef struct sq_render_target {
+    unsigned framebuffer;      /* GL framebuffer object name; 0 = the default framebuffer */
+    int width, height;         /* pixels drawn, from (0, 0); both >= 1 */
+    sq_target_content content;
+    sq_target_colour colour;
+} sq_render_target;
+
+/* Draws drawables (and with SQ_TARGET_FRAME the world) for camera into target, in the caller's
+ * context: see above. The renderer must have been created with use_current_context and the same
+ * context must be current. Errors: SQ_ERR_INVALID_ARG for a bad target (the message names the
+ * field and the rule: size, incomplete or multisampled framebuffer, integer colour, missing
+ * depth), for a camera or drawable the renderer refuses (as sq_renderer_draw); SQ_ERR_GL for a
+ * GL failure (the text names the pass). Nothing of the target is written on an argument error. */
+SQ_API sq_result sq_renderer_draw_to(sq_renderer *r, const sq_render_target *target,
+                                     const sq_world *world, const sq_camera *camera,
+                                     const sq_drawable *drawables, int count, double time_s);
+
 /* Reads the last frame: 8-bit sRGB RGBA, width*height*4 bytes, top row first. */
 SQ_API sq_result sq_renderer_read_rgba8(sq_renderer *r, uint8_t *rgba);
 /* Reads the last frame as linear RGB floats before tone mapping (width*height*3). */

@@ -10,6 +10,7 @@
 
 #include "squall/core.h"
 #include "squall/drawable.h"
+#include "squall/geo.h"
 #include "squall/plugin.h"
 #include "squall/world.h"
 
@@ -100,10 +101,17 @@ typedef struct sq_scene sq_scene;
 typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint16_t **out,
                                          int *width, int *height);
 
+/* Loads a DEM / polygon areas for the scene (supplied by the io layer: sq_dem_load and
+ * sq_area_load of squall/geo.h). What they return is allocated through ctx (sq_alloc). */
+typedef sq_result (*sq_dem_loader)(sq_context *ctx, const sq_dem_desc *desc, sq_dem *out);
+typedef sq_result (*sq_area_loader)(sq_context *ctx, const sq_area_desc *desc, sq_area *out);
+
 typedef struct sq_scene_desc {
     const sq_cfg *cfg;
     sq_heightmap_loader load_heightmap; /* NULL: heightmap terrains are refused */
     bool validate_only;                 /* resolve and check everything, create no phenomena */
+    sq_dem_loader load_dem;             /* NULL: DEM terrains are refused */
+    sq_area_loader load_area;           /* NULL: world.areas are refused */
 } sq_scene_desc;
 
 SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);

@@ -215,6 +215,13 @@ typedef struct sq_sph_desc {
     double gravity_mps2[3];    /* body acceleration (m/s²); 0 is physical. Earth: {0,0,-9.81} */
     double domain_min_m[3];    /* the domain box (required, max > min on every axis) */
     double domain_max_m[3];
+    /* 0 (default): the neighbour grid is a dense box of cells over the whole domain. > 0: a
+     * terrain-following grid for flows that stay near a terrain with a large drop (a real
+     * avalanche path): each column of cells starts just below the lowest terrain under it (the
+     * heightfield of sq_sph_set_terrain, set before particles are added) and holds this much
+     * height (m) above it; a particle higher than that leaves the domain through its open top.
+     * Needs every face OPEN. Memory: cells_x × cells_y × (layer / H + 3) instead of the box. */
+    double terrain_layer_m;
     sq_sph_boundary boundary[6]; /* per face, indexed by sq_sph_face */
     double collision_radius_m; /* clearance kept from colliders; 0 -> dx/2 */
     size_t max_particles;      /* capacity allocated at create (≥ 1, required) */

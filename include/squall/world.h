@@ -61,6 +61,9 @@ typedef struct sq_terrain_desc {
     const float *grid_heights_m;
     int grid_w, grid_h;
     float grid_dx_m, grid_dy_m;
+    /* grid: optional, 1 where the source had no data and the height was filled (same layout;
+     * borrowed for the create call; NULL = every sample measured) */
+    const uint8_t *grid_void;
 } sq_terrain_desc;
 
 typedef enum sq_obstacle_kind {
@@ -79,6 +82,26 @@ typedef struct sq_obstacle {
 } sq_obstacle;
 
 #define SQ_MAX_OBSTACLES 256
+
+/* A named polygon area in world coordinates (e.g. avalanche release zones), read by the io layer
+ * from a vector file or a raster mask (include/squall/geo.h). A point is inside feature f when
+ * it lies inside an odd number of f's rings (outer rings and holes alike); the rings of a
+ * feature are consecutive and features come in increasing order. */
+typedef struct sq_world_area {
+    const char *name;             /* the key phenomena use to find it */
+    const char *source;           /* the file it came from (messages) */
+    int feature_count;
+    const double *feature_value;  /* per feature: its numeric attribute (NaN = not given) */
+    const double *feature_area_m2;
+    int ring_count;
+    const int *ring_start;        /* ring_count + 1 offsets (points) into xy_m */
+    const int *ring_feature;      /* feature of each ring */
+    const double *xy_m;           /* x, y pairs */
+    double bounds[4];             /* xmin, ymin, xmax, ymax */
+    double area_m2;
+} sq_world_area;
+
+#define SQ_MAX_WORLD_AREAS 16
 
 typedef struct sq_sky_desc {
     float turbidity;        /* Preetham-style haze 2..10; 0 -> 3 */
@@ -106,6 +129,9 @@ typedef struct sq_world_desc {
      * coordinates stay small (float precision) while outputs are georeferenced. */
     const char *crs_wkt;
     double crs_offset_m[2];
+    /* named polygon areas (borrowed for the create call, copied) */
+    const sq_world_area *areas;
+    int area_count;
 } sq_world_desc;
 
 /* The world after creation: read-only for phenomena and the renderer. */
@@ -132,6 +158,11 @@ typedef struct sq_world {
     /* georeference: NULL when the world has no CRS (owned by the world) */
     char *crs_wkt;
     double crs_offset_m[2];
+    /* 1 where the terrain source had no data (the height is filled); NULL = all measured */
+    uint8_t *terrain_void;
+    /* named polygon areas (owned copies) */
+    sq_world_area areas[SQ_MAX_WORLD_AREAS];
+    int area_count;
     uint64_t generation;   /* changes when terrain or obstacles change (e.g. heightmap edit) */
 } sq_world;
 
@@ -148,8 +179,39 @@ SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
 SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
 /* World bounds of the terrain: min/max x, y and heights. */
 SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);
-/* Sun direction (toward the sun) from day of year, local solar time and latitude. */
+/* The area of that name (NULL if none). */
+SQ_API const sq_world_area *sq_world_area_find(const sq_world *w, const char *name);
+/* The feature of the area containing (x, y) (the first, if several overlap); -1 if none. */
+SQ_API int sq_world_area_feature_at(const sq_world_area *a, double x, double y);
+/* True if the terrain sample nearest (x, y) was filled because the source had no data. */
+SQ_API bool sq_world_void_at(const sq_world *w, float x, float y);
+/* Sun direction (toward the sun) from day of year, local solar time and latitude (Cooper's
+ * declination; about 1 degree accurate: for scenes without a date). */
 SQ_API sq_vec3 sq_sun_direction(int day_of_year, float hour_solar, float latitude_deg);
+
+/* ---- the sun at a date and place (src/world/sun.c) --------------------------------------- */
+/* Position of the sun for an instant (UTC) and a place: the NOAA solar calculator's algorithm
+ * (Meeus, "Astronomical Algorithms", ch. 25, low-precision solar coordinates; about 0.01 degree
+ * for years 1900-2100). True solar time = UTC + longitude/15 h + equation of time. */
+typedef struct sq_sun_position {
+    double declination_deg;      /* apparent declination */
+    double equation_of_time_min; /* apparent minus mean solar time, minutes (about -14..+16) */
+    double true_solar_time_h;    /* local apparent solar time at the longitude, 0..24 h */
+    double hour_angle_deg;       /* 0 at solar noon, positive in the afternoon, -180..180 */
+    double zenith_deg;           /* geometric zenith angle (no refraction), 0..180 */
+    double elevation_deg;        /* apparent elevation: 90 - zenith + refraction (Saemundsson,
+                                    1010 hPa, 10 C; none below -1 degree) */
+    double azimuth_deg;          /* from true north, clockwise (east 90, south 180), 0..360 */
+} sq_sun_position;
+
+/* unix_time_s: seconds since 1970-01-01 00:00:00 UTC; latitude north, longitude east. */
+SQ_API sq_sun_position sq_sun_position_at(double unix_time_s, double latitude_deg,
+                                          double longitude_deg);
+/* Unit vector toward the sun (apparent elevation) in east-north-up axes. */
+SQ_API sq_vec3 sq_sun_position_direction(const sq_sun_position *p);
+/* Seconds since 1970-01-01 00:00:00 UTC of a proleptic Gregorian UTC date and time (no leap
+ * seconds). Fields are not range-checked: month 13 is January of the next year. */
+SQ_API double sq_unix_time(int year, int month, int day, int hour, int minute, double second);
 
 /* ---- camera ------------------------------------------------------------------------------ */
 typedef struct sq_camera {

@@ -1,6 +1,7 @@
 /* scene_yaml.c — scene files: YAML (libyaml event parser) into the configuration tree, with
  * every node's line and column kept for error messages; presets; heightmap loading for scenes.
  * Anchors/aliases and tags are refused (scene files are plain data). */
+#include "sq_config.h"
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -254,7 +255,10 @@ sq_result sq_cfg_load_preset(sq_context *ctx, const char *name, sq_cfg **out)
     }
     char src[128];
     snprintf(src, sizeof src, "preset %s", name);
-    return sq_cfg_parse(ctx, text, strlen(text), src, out);
+    sq_result r = sq_cfg_parse(ctx, text, strlen(text), src, out);
+    /* data files a preset names (a DEM, release polygons) are relative to the source tree */
+    if (r == SQ_OK) snprintf((*out)->base_dir, sizeof (*out)->base_dir, "%s", SQ_SOURCE_DIR);
+    return r;
 }
 
 sq_result sq_cfg_load(sq_context *ctx, const char *file_or_preset, sq_cfg **out)

@@ -19,12 +19,14 @@ struct sq_renderer {
     sq_context *ctx;
     sq_render_desc desc;  /* resolved */
     int width, height;
-    sq__gl_context *gl;
+    sq__gl_context *gl;   /* NULL when drawing in the caller's context */
+    bool external;        /* desc.use_current_context: the caller's context, state restored */
     sq_render_info info;
 
     /* HDR scene target: linear RGB (RGBA16F) + depth texture (DEPTH_COMPONENT32F). Opaque
      * passes write both; volumes and particles read depth_tex and blend into hdr_color. */
     GLuint hdr_fbo, hdr_color, depth_tex;
+    GLenum depth_format;  /* of depth_tex: DEPTH_COMPONENT32F, or the draw_to target's format */
     /* tone-mapped 8-bit target for read-back */
     GLuint ldr_fbo, ldr_color;
     GLuint empty_vao; /* for full-screen triangles */
@@ -45,6 +47,7 @@ struct sq_renderer {
 
     /* programs owned by the base renderer */
     GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_tonemap;
+    GLuint prog_target; /* sq_renderer_draw_to: target colour <-> linear frame (target.frag) */
 
     /* Sun shadowing by volumes: the volume pass leaves its final light buffer here (a 2D
      * texture of transmitted sun radiance over the volume box, seen from the sun) with the
@@ -78,6 +81,53 @@ void sq__gl_context_destroy(sq__gl_context *gl);
 void sq__gl_query_info(sq_render_info *info);
 /* Makes the context current on this thread if it is not (renderers sharing a thread). */
 sq_result sq__gl_context_make_current(sq__gl_context *gl);
+
+/* ---- gl_state.c -------------------------------------------------------------------------- */
+/* The caller's GL state around a renderer drawing in the caller's context (see render.h). */
+#define SQ_GL_STATE_UNITS 16       /* texture units 0..15 (binding and sampler) */
+#define SQ_GL_STATE_TEX_TARGETS 4  /* 2D, 3D, 2D array, cube map */
+#define SQ_GL_STATE_BUFFERS 8      /* indexed uniform and shader-storage bindings 0..7 */
+#define SQ_GL_STATE_IMAGES 8       /* image units 0..7 */
+#define SQ_GL_STATE_CAPS 24
+#define SQ_GL_STATE_PIXEL 16
+
+typedef struct sq__gl_buffer_binding {
+    GLint name;
+    GLint64 start, size;
+} sq__gl_buffer_binding;
+
+typedef struct sq__gl_image_binding {
+    GLint name, level, layered, layer, access, format;
+} sq__gl_image_binding;
+
+typedef struct sq__gl_state {
+    GLint draw_fbo, read_fbo, renderbuffer, viewport[4], scissor_box[4];
+    GLint program, pipeline, vao, array_buffer, pack_buffer, unpack_buffer;
+    GLint uniform_buffer, storage_buffer;
+    sq__gl_buffer_binding ubo[SQ_GL_STATE_BUFFERS], ssbo[SQ_GL_STATE_BUFFERS];
+    GLint active_texture;
+    GLint textures[SQ_GL_STATE_UNITS][SQ_GL_STATE_TEX_TARGETS];
+    GLint samplers[SQ_GL_STATE_UNITS];
+    sq__gl_image_binding images[SQ_GL_STATE_IMAGES];
+    GLboolean caps[SQ_GL_STATE_CAPS];
+    GLint blend[6];
+    GLfloat blend_color[4];
+    GLint depth_func;
+    GLboolean depth_mask;
+    GLdouble depth_range[2];
+    GLint clip_origin, clip_depth;
+    GLboolean color_mask[4];
+    GLint stencil_mask, stencil_back_mask;
+    GLint polygon_mode[2];
+    GLfloat offset_factor, offset_units;
+    GLint cull_mode, front_face;
+    GLint pixel[SQ_GL_STATE_PIXEL];
+} sq__gl_state;
+
+/* Saves everything the renderer may change; sets the state the renderer's passes assume. */
+void sq__gl_state_save(sq__gl_state *s);
+void sq__gl_state_neutral(void);
+void sq__gl_state_restore(const sq__gl_state *s);
 
 /* ---- gl_util.c --------------------------------------------------------------------------- */
 /* Compiles and links a program from embedded shader files (names without .glsl, e.g.

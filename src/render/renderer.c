@@ -51,6 +51,9 @@ typedef struct mesh_vertex {
     float p[3], n[3], albedo[3], aux[3];
 } mesh_vertex;
 
+static sq_result check_size(sq_renderer *r, int width, int height, const char *what);
+static sq_result resize_targets(sq_renderer *r, int w, int h, GLenum depth_format);
+
 /* ---- materials -------------------------------------------------------------------------- */
 void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep)
 {
@@ -687,24 +690,18 @@ static void pass_tonemap(sq_renderer *r)
     glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
-sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camera *camera,
-                           const sq_drawable *drawables, int count, double time_s)
+/* The frame into hdr_fbo. world_geometry: clear, then sky, terrain and obstacles; otherwise
+ * hdr_fbo already holds the caller's colour and depth and only drawables are added. */
+static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_camera *camera,
+                            const sq_drawable *drawables, int count, double time_s,
+                            bool world_geometry)
 {
-    if (!r) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: renderer is NULL");
     sq_context *ctx = r->ctx;
-    if (!world || !camera)
-        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: %s is NULL",
-                        world ? "camera" : "world");
-    if (count < 0 || (count > 0 && !drawables))
-        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
-                        "sq_renderer_draw: count = %d with drawables %s", count,
-                        drawables ? "set" : "NULL");
-    sq_result res = sq__gl_context_make_current(r->gl);
+    sq_result res = setup_camera(r, camera);
     if (res != SQ_OK) return res;
-    if ((res = setup_camera(r, camera)) != SQ_OK) return res;
-    if ((res = check_camera_above_terrain(r, world)) != SQ_OK) return res;
+    if (world_geometry && (res = check_camera_above_terrain(r, world)) != SQ_OK) return res;
     if ((res = check_drawables(r, drawables, count)) != SQ_OK) return res;
-    if ((res = update_world_cache(r, world)) != SQ_OK) return res;
+    if (world_geometry && (res = update_world_cache(r, world)) != SQ_OK) return res;
     r->world = world;
     r->time_s = time_s;
 
@@ -722,12 +719,14 @@ sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camer
 
     bind_scene_state(r);
     glDepthMask(GL_TRUE);
-    const float clear_color[4] = {0.0f, 0.0f, 0.0f, 1.0f};
-    const float clear_depth = 1.0f;
-    glClearNamedFramebufferfv(r->hdr_fbo, GL_COLOR, 0, clear_color);
-    glClearNamedFramebufferfv(r->hdr_fbo, GL_DEPTH, 0, &clear_depth);
-    pass_sky(r);
-    pass_opaque(r, world);
+    if (world_geometry) {
+        const float clear_color[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+        const float clear_depth = 1.0f;
+        glClearNamedFramebufferfv(r->hdr_fbo, GL_COLOR, 0, clear_color);
+        glClearNamedFramebufferfv(r->hdr_fbo, GL_DEPTH, 0, &clear_depth);
+        pass_sky(r);
+        pass_opaque(r, world);
+    }
     pass_surfaces(r, drawables, count);
     if ((res = sq__gl_check(ctx, "the opaque passes (sky, terrain, obstacles, surfaces)")) != SQ_OK)
         return res;
@@ -742,12 +741,261 @@ sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camer
         bind_scene_state(r);
         if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
     }
-    pass_tonemap(r);
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    if ((res = sq__gl_check(ctx, "the frame (volumes, particles, tone mapping)")) != SQ_OK)
-        return res;
-    r->base->frames++;
     return SQ_OK;
+}
+
+/* GL calls of a renderer start here: its own context made current, or (use_current_context)
+ * the caller's context checked and its state saved and neutralised (gl_state.c). */
+static sq_result gl_enter(sq_renderer *r, sq__gl_state *saved)
+{
+    if (r->gl) return sq__gl_context_make_current(r->gl);
+    if (!glGetString(GL_VERSION))
+        return sq__fail(r->ctx, SQ_ERR_GL, "render",
+                        "no OpenGL context is current on this thread; a renderer created with "
+                        "use_current_context needs its creator's context current on every call");
+    for (int i = 0; i < 64 && glGetError() != GL_NO_ERROR; i++) {} /* the caller's, not ours */
+    sq__gl_state_save(saved);
+    sq__gl_state_neutral();
+    return SQ_OK;
+}
+
+static void gl_leave(sq_renderer *r, const sq__gl_state *saved)
+{
+    if (!r->gl) sq__gl_state_restore(saved);
+}
+
+sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camera *camera,
+                           const sq_drawable *drawables, int count, double time_s)
+{
+    if (!r) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: renderer is NULL");
+    sq_context *ctx = r->ctx;
+    if (!world || !camera)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw: %s is NULL",
+                        world ? "camera" : "world");
+    if (count < 0 || (count > 0 && !drawables))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_renderer_draw: count = %d with drawables %s", count,
+                        drawables ? "set" : "NULL");
+    sq__gl_state saved;
+    sq_result res = gl_enter(r, &saved);
+    if (res != SQ_OK) return res;
+    if (r->width != r->desc.width || r->height != r->desc.height || r->depth_format != GL_DEPTH_COMPONENT32F)
+        res = resize_targets(r, r->desc.width, r->desc.height, GL_DEPTH_COMPONENT32F);
+    if (res == SQ_OK) res = draw_frame(r, world, camera, drawables, count, time_s, true);
+    if (res == SQ_OK) {
+        pass_tonemap(r);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        res = sq__gl_check(ctx, "the frame (volumes, particles, tone mapping)");
+    }
+    if (res == SQ_OK) r->base->frames++;
+    gl_leave(r, &saved);
+    return res;
+}
+
+/* ---- drawing into the caller's framebuffer ------------------------------------------------- */
+/* Depth (and stencil) format of the target's depth buffer, as a sized internal format a texture
+ * can have, so that blits between the two match; 0 with *none set when it has no depth. */
+static sq_result target_depth_format(sq_renderer *r, GLuint fbo, GLenum *format)
+{
+    const GLenum da = fbo ? GL_DEPTH_ATTACHMENT : GL_DEPTH;
+    const GLenum sa = fbo ? GL_STENCIL_ATTACHMENT : GL_STENCIL;
+    GLint type = GL_NONE, bits = 0, comp = 0, stencil = 0;
+    *format = 0;
+    glGetNamedFramebufferAttachmentParameteriv(fbo, da, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE,
+                                               &type);
+    if (type == GL_NONE) return SQ_OK;
+    glGetNamedFramebufferAttachmentParameteriv(fbo, da, GL_FRAMEBUFFER_ATTACHMENT_DEPTH_SIZE,
+                                               &bits);
+    glGetNamedFramebufferAttachmentParameteriv(fbo, da,
+                                               GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &comp);
+    GLint stype = GL_NONE;
+    glGetNamedFramebufferAttachmentParameteriv(fbo, sa, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE,
+                                               &stype);
+    if (stype != GL_NONE)
+        glGetNamedFramebufferAttachmentParameteriv(
+            fbo, sa, GL_FRAMEBUFFER_ATTACHMENT_STENCIL_SIZE, &stencil);
+    if (comp == GL_FLOAT && bits == 32) *format = stencil ? GL_DEPTH32F_STENCIL8 : GL_DEPTH_COMPONENT32F;
+    else if (bits == 24) *format = stencil ? GL_DEPTH24_STENCIL8 : GL_DEPTH_COMPONENT24;
+    else if (bits == 16 && !stencil) *format = GL_DEPTH_COMPONENT16;
+    else if (bits == 32 && !stencil) *format = GL_DEPTH_COMPONENT32;
+    if (!*format)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u: depth buffer of %d bits (%s) with %d "
+                        "stencil bits; supported: 16, 24, 32 or 32-bit float depth, 24 or 32F "
+                        "with 8 stencil bits",
+                        fbo, (int)bits, comp == GL_FLOAT ? "float" : "normalised", (int)stencil);
+    return SQ_OK;
+}
+
+static sq_result check_target(sq_renderer *r, const sq_render_target *t, GLenum *depth_format)
+{
+    sq_context *ctx = r->ctx;
+    if (t->width < 1 || t->height < 1)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.width x height = %d x %d; both must be >= 1",
+                        t->width, t->height);
+    if ((int)t->content < 0 || (int)t->content > SQ_TARGET_DRAWABLES_OVER)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.content = %d; must be SQ_TARGET_FRAME (0) or "
+                        "SQ_TARGET_DRAWABLES_OVER (1)", (int)t->content);
+    if ((int)t->colour < 0 || (int)t->colour > SQ_TARGET_DISPLAY)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.colour = %d; must be SQ_TARGET_LINEAR (0) or "
+                        "SQ_TARGET_DISPLAY (1)", (int)t->colour);
+    sq_result res = check_size(r, t->width, t->height, "sq_render_target");
+    if (res != SQ_OK) return res;
+    const GLuint fbo = t->framebuffer;
+    if (fbo && !glIsFramebuffer(fbo))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer = %u is not a framebuffer object of the "
+                        "current context", fbo);
+    const GLenum status = glCheckNamedFramebufferStatus(fbo, GL_DRAW_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u is incomplete (status 0x%04x)", fbo,
+                        (unsigned)status);
+    /* bound for the queries of bound-framebuffer state (the caller's bindings are restored) */
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+    GLint samples = 0;
+    glGetIntegerv(GL_SAMPLE_BUFFERS, &samples);
+    if (samples != 0)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u is multisampled; draw into a "
+                        "single-sample framebuffer (resolve yours first)", fbo);
+    GLint read_buf = GL_NONE;
+    glGetIntegerv(GL_READ_BUFFER, &read_buf);
+    GLint ctype = GL_NONE, cenc = GL_LINEAR, ccomp = GL_NONE;
+    if (read_buf != GL_NONE) {
+        GLenum ca = (GLenum)read_buf; /* the default framebuffer names its buffers by side */
+        if (ca == GL_BACK) ca = GL_BACK_LEFT;
+        else if (ca == GL_FRONT) ca = GL_FRONT_LEFT;
+        glGetNamedFramebufferAttachmentParameteriv(fbo, ca, GL_FRAMEBUFFER_ATTACHMENT_OBJECT_TYPE,
+                                                   &ctype);
+        if (ctype != GL_NONE) {
+            glGetNamedFramebufferAttachmentParameteriv(
+                fbo, ca, GL_FRAMEBUFFER_ATTACHMENT_COMPONENT_TYPE, &ccomp);
+            glGetNamedFramebufferAttachmentParameteriv(
+                fbo, ca, GL_FRAMEBUFFER_ATTACHMENT_COLOR_ENCODING, &cenc);
+        }
+    }
+    if (ctype == GL_NONE)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u has no colour buffer to read (read "
+                        "buffer 0x%04x)", fbo, (unsigned)read_buf);
+    if (ccomp == GL_INT || ccomp == GL_UNSIGNED_INT)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u has an integer colour buffer; need a "
+                        "float or normalised format", fbo);
+    if (cenc == GL_SRGB && t->colour == SQ_TARGET_LINEAR)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u has an sRGB-encoded colour buffer with "
+                        "colour = SQ_TARGET_LINEAR; use SQ_TARGET_DISPLAY or a linear format", fbo);
+    if ((res = target_depth_format(r, fbo, depth_format)) != SQ_OK) return res;
+    if (!*depth_format && t->content == SQ_TARGET_DRAWABLES_OVER)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_target.framebuffer %u has no depth buffer; "
+                        "SQ_TARGET_DRAWABLES_OVER tests drawables against the target's depth",
+                        fbo);
+    return SQ_OK;
+}
+
+/* Fullscreen pass reading unit 0 into the bound draw framebuffer's colour (rgb only). */
+static void fullscreen(GLuint prog, GLuint tex, int w, int h)
+{
+    glViewport(0, 0, w, h);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    glDepthMask(GL_FALSE);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_FALSE);
+    glUseProgram(prog);
+    glBindTextureUnit(0, tex);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+}
+
+static sq_result draw_to(sq_renderer *r, const sq_render_target *t, GLenum depth_format,
+                         const sq_world *world, const sq_camera *camera,
+                         const sq_drawable *drawables, int count, double time_s)
+{
+    sq_context *ctx = r->ctx;
+    const int w = t->width, h = t->height;
+    const GLuint fbo = t->framebuffer;
+    const bool over = t->content == SQ_TARGET_DRAWABLES_OVER;
+    const bool display = t->colour == SQ_TARGET_DISPLAY;
+    sq_result res = SQ_OK;
+    const GLenum fmt = depth_format ? depth_format : GL_DEPTH_COMPONENT32F;
+    if (r->width != w || r->height != h || r->depth_format != fmt)
+        res = resize_targets(r, w, h, fmt);
+    if (res == SQ_OK && !r->prog_target)
+        res = sq__gl_program(ctx, "fullscreen.vert", NULL, "target.frag", &r->prog_target);
+    if (res != SQ_OK) return res;
+    r->base->frames = 0; /* the read-back functions serve sq_renderer_draw frames only */
+    glBindVertexArray(r->empty_vao);
+    if (over) { /* the caller's colour (as linear radiance) and depth into hdr_fbo */
+        if (display) {
+            glBlitNamedFramebuffer(fbo, r->ldr_fbo, 0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT,
+                                   GL_NEAREST);
+            glBindFramebuffer(GL_DRAW_FRAMEBUFFER, r->hdr_fbo);
+            glProgramUniform1i(r->prog_target, 0, 1);
+            glProgramUniform1f(r->prog_target, 1, r->desc.exposure);
+            fullscreen(r->prog_target, r->ldr_color, w, h);
+        } else {
+            glBlitNamedFramebuffer(fbo, r->hdr_fbo, 0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT,
+                                   GL_NEAREST);
+        }
+        glBlitNamedFramebuffer(fbo, r->hdr_fbo, 0, 0, w, h, 0, 0, w, h, GL_DEPTH_BUFFER_BIT,
+                               GL_NEAREST);
+        if ((res = sq__gl_check(ctx, "reading the target's colour and depth")) != SQ_OK)
+            return res;
+    }
+    res = draw_frame(r, world, camera, drawables, count, time_s, !over);
+    if (res != SQ_OK) return res;
+    /* the result back into the caller's colour (and depth where it changed) */
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+    glBindVertexArray(r->empty_vao);
+    if (display) {
+        glProgramUniform1f(r->prog_tonemap, 0, r->desc.exposure);
+        fullscreen(r->prog_tonemap, r->hdr_color, w, h);
+    } else {
+        glProgramUniform1i(r->prog_target, 0, 0);
+        fullscreen(r->prog_target, r->hdr_color, w, h);
+    }
+    bool surfaces = false;
+    for (int i = 0; i < count; i++) surfaces |= drawables[i].kind == SQ_DRAWABLE_SURFACE;
+    if (depth_format && (!over || surfaces))
+        glBlitNamedFramebuffer(r->hdr_fbo, fbo, 0, 0, w, h, 0, 0, w, h, GL_DEPTH_BUFFER_BIT,
+                               GL_NEAREST);
+    return sq__gl_check(ctx, "writing the frame into the target");
+}
+
+sq_result sq_renderer_draw_to(sq_renderer *r, const sq_render_target *target,
+                              const sq_world *world, const sq_camera *camera,
+                              const sq_drawable *drawables, int count, double time_s)
+{
+    if (!r)
+        return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw_to: renderer is NULL");
+    sq_context *ctx = r->ctx;
+    if (r->gl)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_renderer_draw_to: the renderer has its own EGL context; create it "
+                        "with sq_render_desc.use_current_context to draw into your framebuffer");
+    if (!target || !world || !camera)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_draw_to: %s is NULL",
+                        !target ? "target" : !world ? "world" : "camera");
+    if (count < 0 || (count > 0 && !drawables))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_renderer_draw_to: count = %d with drawables %s", count,
+                        drawables ? "set" : "NULL");
+    sq__gl_state saved;
+    sq_result res = gl_enter(r, &saved);
+    if (res != SQ_OK) return res;
+    GLenum depth_format = 0;
+    res = check_target(r, target, &depth_format);
+    if (res == SQ_OK)
+        res = draw_to(r, target, depth_format, world, camera, drawables, count, time_s);
+    gl_leave(r, &saved);
+    return res;
 }
 
 /* ---- read-back ------------------------------------------------------------------------- */
@@ -775,33 +1023,38 @@ static sq_result read_prepare(sq_renderer *r, const void *out, const char *what)
     if (r->base->frames == 0)
         return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
                         "%s: no frame drawn yet (call sq_renderer_draw first)", what);
-    return sq__gl_context_make_current(r->gl);
+    return SQ_OK;
+}
+
+/* Reads the colour of fbo (pixels of the frame size) into out, rows top first. */
+static sq_result read_frame(sq_renderer *r, GLuint fbo, GLenum format, GLenum type, int channels,
+                            size_t channel_bytes, void *out, const char *what)
+{
+    sq_result res = read_prepare(r, out, what);
+    if (res != SQ_OK) return res;
+    sq__gl_state saved;
+    if ((res = gl_enter(r, &saved)) != SQ_OK) return res;
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, r->width, r->height, format, type, out);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    res = sq__gl_check(r->ctx, what);
+    gl_leave(r, &saved);
+    if (res != SQ_OK) return res;
+    return flip_rows(r->ctx, out, (size_t)r->width * (size_t)channels * channel_bytes, r->height);
 }
 
 sq_result sq_renderer_read_rgba8(sq_renderer *r, uint8_t *rgba)
 {
-    sq_result res = read_prepare(r, rgba, "sq_renderer_read_rgba8");
-    if (res != SQ_OK) return res;
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->ldr_fbo);
-    glReadBuffer(GL_COLOR_ATTACHMENT0);
-    glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, r->width, r->height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    if ((res = sq__gl_check(r->ctx, "sq_renderer_read_rgba8")) != SQ_OK) return res;
-    return flip_rows(r->ctx, rgba, (size_t)r->width * 4, r->height);
+    return read_frame(r, r ? r->ldr_fbo : 0, GL_RGBA, GL_UNSIGNED_BYTE, 4, 1, rgba,
+                      "sq_renderer_read_rgba8");
 }
 
 sq_result sq_renderer_read_linear(sq_renderer *r, float *rgb)
 {
-    sq_result res = read_prepare(r, rgb, "sq_renderer_read_linear");
-    if (res != SQ_OK) return res;
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, r->hdr_fbo);
-    glReadBuffer(GL_COLOR_ATTACHMENT0);
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glReadPixels(0, 0, r->width, r->height, GL_RGB, GL_FLOAT, rgb);
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-    if ((res = sq__gl_check(r->ctx, "sq_renderer_read_linear")) != SQ_OK) return res;
-    return flip_rows(r->ctx, rgb, (size_t)r->width * 3 * sizeof(float), r->height);
+    return read_frame(r, r ? r->hdr_fbo : 0, GL_RGB, GL_FLOAT, 3, sizeof(float), rgb,
+                      "sq_renderer_read_linear");
 }
 
 /* ---- lifecycle -------------------------------------------------------------------------- */
@@ -851,11 +1104,11 @@ static void side_limit(const sq_render_info *in, int axis, int *value, const cha
     }
 }
 
-/* Refuses a frame or light buffer larger than the GL implementation allows. */
-static sq_result check_limits(sq_renderer *r)
+/* Refuses a frame larger than the GL implementation allows; what names it in messages. */
+static sq_result check_size(sq_renderer *r, int width, int height, const char *what)
 {
     const sq_render_info *in = &r->info;
-    const int size[2] = {r->desc.width, r->desc.height};
+    const int size[2] = {width, height};
     const char *side[2] = {"width", "height"};
     for (int axis = 0; axis < 2; axis++) {
         int limit;
@@ -863,10 +1116,19 @@ static sq_result check_limits(sq_renderer *r)
         side_limit(in, axis, &limit, &name);
         if (limit > 0 && size[axis] > limit)
             return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
-                            "frame %s = %d exceeds %s = %d of %s; render at most %d pixels "
+                            "%s %s = %d exceeds %s = %d of %s; render at most %d pixels "
                             "per side",
-                            side[axis], size[axis], name, limit, in->gl_renderer, limit);
+                            what, side[axis], size[axis], name, limit, in->gl_renderer, limit);
     }
+    return SQ_OK;
+}
+
+/* Refuses a frame or light buffer larger than the GL implementation allows. */
+static sq_result check_limits(sq_renderer *r)
+{
+    const sq_render_info *in = &r->info;
+    sq_result res = check_size(r, r->desc.width, r->desc.height, "frame");
+    if (res != SQ_OK) return res;
     if (in->max_texture_size > 0 && r->desc.light_buffer_size > in->max_texture_size)
         return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
                         "light_buffer_size = %d exceeds GL_MAX_TEXTURE_SIZE = %d of %s",
@@ -874,32 +1136,50 @@ static sq_result check_limits(sq_renderer *r)
     return SQ_OK;
 }
 
-static sq_result create_targets(sq_renderer *r)
+static GLuint make_target_texture(GLenum format, int w, int h)
 {
-    const int w = r->width, h = r->height;
-    glCreateTextures(GL_TEXTURE_2D, 1, &r->hdr_color);
-    glTextureStorage2D(r->hdr_color, 1, GL_RGBA16F, w, h);
-    glCreateTextures(GL_TEXTURE_2D, 1, &r->depth_tex);
-    glTextureStorage2D(r->depth_tex, 1, GL_DEPTH_COMPONENT32F, w, h);
-    glCreateTextures(GL_TEXTURE_2D, 1, &r->ldr_color);
-    glTextureStorage2D(r->ldr_color, 1, GL_RGBA8, w, h);
-    const GLuint texs[3] = {r->hdr_color, r->depth_tex, r->ldr_color};
-    for (int i = 0; i < 3; i++) {
-        glTextureParameteri(texs[i], GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTextureParameteri(texs[i], GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        glTextureParameteri(texs[i], GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(texs[i], GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    }
-    glCreateFramebuffers(1, &r->hdr_fbo);
+    GLuint t = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, format, w, h);
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+/* (Re)creates the frame buffers at w x h with depth_format (DEPTH_COMPONENT32F for the
+ * renderer's own frames; the target's format for sq_renderer_draw_to, so blits match). The new
+ * textures are made before the old ones are deleted, so their names differ from the old ones
+ * (the passes keep framebuffers of their own around hdr_color and recognise it by name). */
+static sq_result resize_targets(sq_renderer *r, int w, int h, GLenum depth_format)
+{
+    const GLuint old[3] = {r->hdr_color, r->depth_tex, r->ldr_color};
+    r->hdr_color = make_target_texture(GL_RGBA16F, w, h);
+    r->depth_tex = make_target_texture(depth_format, w, h);
+    r->ldr_color = make_target_texture(GL_RGBA8, w, h);
+    glDeleteTextures(3, old);
+    const bool stencil = depth_format == GL_DEPTH24_STENCIL8 || depth_format == GL_DEPTH32F_STENCIL8;
+    if (!r->hdr_fbo) glCreateFramebuffers(1, &r->hdr_fbo);
+    if (!r->ldr_fbo) glCreateFramebuffers(1, &r->ldr_fbo);
     glNamedFramebufferTexture(r->hdr_fbo, GL_COLOR_ATTACHMENT0, r->hdr_color, 0);
-    glNamedFramebufferTexture(r->hdr_fbo, GL_DEPTH_ATTACHMENT, r->depth_tex, 0);
-    glCreateFramebuffers(1, &r->ldr_fbo);
+    glNamedFramebufferTexture(r->hdr_fbo, GL_DEPTH_STENCIL_ATTACHMENT, 0, 0);
+    glNamedFramebufferTexture(r->hdr_fbo, stencil ? GL_DEPTH_STENCIL_ATTACHMENT : GL_DEPTH_ATTACHMENT,
+                              r->depth_tex, 0);
     glNamedFramebufferTexture(r->ldr_fbo, GL_COLOR_ATTACHMENT0, r->ldr_color, 0);
+    r->width = w;
+    r->height = h;
+    r->depth_format = depth_format;
     sq_result res = sq__gl_check(r->ctx, "frame buffer creation");
     if (res == SQ_OK) res = sq__gl_check_framebuffer(r->ctx, r->hdr_fbo, "HDR (RGBA16F + depth)");
     if (res == SQ_OK) res = sq__gl_check_framebuffer(r->ctx, r->ldr_fbo, "LDR (RGBA8)");
-    if (res != SQ_OK) return res;
+    return res;
+}
 
+static sq_result create_targets(sq_renderer *r)
+{
+    sq_result res = resize_targets(r, r->width, r->height, GL_DEPTH_COMPONENT32F);
+    if (res != SQ_OK) return res;
     glCreateVertexArrays(1, &r->empty_vao);
     glCreateBuffers(1, &r->frame_ubo);
     glNamedBufferStorage(r->frame_ubo, sizeof(frame_block), NULL, GL_DYNAMIC_STORAGE_BIT);
@@ -924,6 +1204,27 @@ static sq_result create_programs(sq_renderer *r)
     return res;
 }
 
+/* use_current_context: a desktop OpenGL 4.5 context must be current on this thread. */
+static sq_result check_current_context(sq_context *ctx)
+{
+    if (!glGetString(GL_VERSION))
+        return sq__fail(ctx, SQ_ERR_GL, "render",
+                        "sq_render_desc.use_current_context is set but no OpenGL context is "
+                        "current on this thread; make your context current first");
+    GLint major = 0, minor = 0, profile = 0;
+    glGetIntegerv(GL_MAJOR_VERSION, &major);
+    glGetIntegerv(GL_MINOR_VERSION, &minor);
+    glGetIntegerv(GL_CONTEXT_PROFILE_MASK, &profile);
+    if (!epoxy_is_desktop_gl() || major * 10 + minor < 45)
+        return sq__fail(ctx, SQ_ERR_GL, "render",
+                        "the current context is %s %d.%d (%s); the renderer needs desktop "
+                        "OpenGL 4.5 (core or compatibility profile)",
+                        epoxy_is_desktop_gl() ? "OpenGL" : "OpenGL ES", (int)major, (int)minor,
+                        (const char *)glGetString(GL_VERSION));
+    (void)profile;
+    return SQ_OK;
+}
+
 sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_renderer **out)
 {
     if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_create: out is NULL");
@@ -938,22 +1239,27 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
     r->desc.egl_device = NULL; /* borrowed for this call only */
     r->width = d.width;
     r->height = d.height;
+    r->external = d.use_current_context;
     r->sun_shadow_matrix = sq_m4_identity();
     r->base = sq_alloc_zero(ctx, sizeof *r->base);
     if (!r->base) {
         sq_renderer_destroy(r);
         return SQ_ERR_OUT_OF_MEMORY;
     }
-    res = sq__gl_context_create(ctx, d.egl_device, &r->gl);
+    sq__gl_state saved;
+    if (d.use_current_context) res = check_current_context(ctx);
+    else res = sq__gl_context_create(ctx, d.egl_device, &r->gl);
+    if (res == SQ_OK) res = gl_enter(r, &saved);
     if (res == SQ_OK) {
         sq__gl_query_info(&r->info);
         res = check_limits(r);
+        if (res == SQ_OK) res = create_targets(r);
+        if (res == SQ_OK) res = create_programs(r);
+        if (res == SQ_OK) res = sq__volume_pass_create(r);
+        if (res == SQ_OK) res = sq__particle_pass_create(r);
+        if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
+        gl_leave(r, &saved);
     }
-    if (res == SQ_OK) res = create_targets(r);
-    if (res == SQ_OK) res = create_programs(r);
-    if (res == SQ_OK) res = sq__volume_pass_create(r);
-    if (res == SQ_OK) res = sq__particle_pass_create(r);
-    if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
     if (res != SQ_OK) {
         sq_renderer_destroy(r);
         return res;
@@ -968,14 +1274,15 @@ void sq_renderer_destroy(sq_renderer *r)
 {
     if (!r) return;
     sq_context *ctx = r->ctx;
-    if (r->gl && sq__gl_context_make_current(r->gl) == SQ_OK) {
+    sq__gl_state saved;
+    if ((r->gl || r->external) && gl_enter(r, &saved) == SQ_OK) {
         sq__particle_pass_destroy(r);
         sq__volume_pass_destroy(r);
         if (r->base)
             for (int i = 0; i < SQ_MAX_SURFACES; i++) surface_slot_free(&r->base->surfaces[i]);
-        const GLuint progs[5] = {r->prog_sky, r->prog_terrain, r->prog_mesh, r->prog_surface,
-                                 r->prog_tonemap};
-        for (int i = 0; i < 5; i++) glDeleteProgram(progs[i]);
+        const GLuint progs[6] = {r->prog_sky,     r->prog_terrain, r->prog_mesh,
+                                 r->prog_surface, r->prog_tonemap, r->prog_target};
+        for (int i = 0; i < 6; i++) glDeleteProgram(progs[i]);
         const GLuint bufs[4] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo};
         glDeleteBuffers(4, bufs);
         const GLuint vaos[3] = {r->terrain_vao, r->obstacle_vao, r->empty_vao};
@@ -984,6 +1291,7 @@ void sq_renderer_destroy(sq_renderer *r)
         glDeleteFramebuffers(2, fbos);
         const GLuint texs[4] = {r->hdr_color, r->depth_tex, r->ldr_color, r->white_tex};
         glDeleteTextures(4, texs);
+        gl_leave(r, &saved);
     }
     sq__gl_context_destroy(r->gl);
     sq_free(ctx, r->base);

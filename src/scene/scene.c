@@ -197,10 +197,17 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     sq__world_section ws;
     sq_params_defaults(sq__world_params, sq__world_param_count, &ws);
     apply_ctx a = {cfg, "world"};
-    static const char *const skip[] = {"obstacles", NULL};
+    static const char *const skip[] = {"obstacles", "areas", NULL};
     sq_obstacle *obs = (sq_obstacle *)calloc(SQ_MAX_OBSTACLES, sizeof *obs);
-    if (!obs) return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
-    int nobs = 0;
+    sq__area_item *areas = (sq__area_item *)calloc(SQ_MAX_WORLD_AREAS, sizeof *areas);
+    sq__scene_geo *geo = (sq__scene_geo *)calloc(1, sizeof *geo);
+    if (!obs || !areas || !geo) {
+        free(obs);
+        free(areas);
+        free(geo);
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    }
+    int nobs = 0, nareas = 0;
     sq_result r = SQ_OK;
     if (node) {
         r = expect_kind(&a, node, SQ_CFG_MAP, "world");
@@ -239,6 +246,26 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
                 ob->albedo = sq_v3(it.albedo[0], it.albedo[1], it.albedo[2]);
             }
         }
+        const sq_cfg_node *al = sq_cfg_get(node, "areas");
+        if (r == SQ_OK && al) {
+            r = expect_kind(&a, al, SQ_CFG_SEQ, "world.areas");
+            for (const sq_cfg_node *o = r == SQ_OK ? al->child : NULL; r == SQ_OK && o; o = o->next) {
+                char sec[64];
+                snprintf(sec, sizeof sec, "world.areas[%d]", nareas);
+                apply_ctx oa = {cfg, sec};
+                if (nareas >= SQ_MAX_WORLD_AREAS) {
+                    r = sq__set_error(SQ_ERR_INVALID_ARG, "%s: world.areas: more than %d",
+                                      cfg->source, SQ_MAX_WORLD_AREAS);
+                    break;
+                }
+                r = expect_kind(&oa, o, SQ_CFG_MAP, sec);
+                if (r != SQ_OK) break;
+                sq_params_defaults(sq__area_params, sq__area_param_count, &areas[nareas]);
+                r = apply_map(&oa, o, "", sq__area_params, sq__area_param_count, &areas[nareas],
+                              NULL);
+                nareas++;
+            }
+        }
     }
     /* procedural city: rows x cols blocks separated by streets */
     for (int rr = 0; r == SQ_OK && rr < ws.city_rows; rr++)
@@ -259,6 +286,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         }
     if (r != SQ_OK) {
         free(obs);
+        free(areas);
+        free(geo);
         return relog(ctx, r);
     }
     sq_world_desc wd = {0};
@@ -297,6 +326,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     if (wd.terrain.kind == SQ_TERRAIN_HEIGHTMAP) {
         if (!ws.heightmap[0]) {
             free(obs);
+            free(areas);
+            free(geo);
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
                             "%s: world.terrain.kind = heightmap needs world.terrain.heightmap "
                             "(a 16-bit PNG path)",
@@ -304,6 +335,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         }
         if (!sd->load_heightmap) {
             free(obs);
+            free(areas);
+            free(geo);
             return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene", "heightmap terrains need a loader");
         }
         char path[1024];
@@ -314,6 +347,8 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         r = sd->load_heightmap(ctx, path, &hm, &wd.terrain.heightmap_w, &wd.terrain.heightmap_h);
         if (r != SQ_OK) {
             free(obs);
+            free(areas);
+            free(geo);
             return r;
         }
         wd.terrain.heightmap = hm;
@@ -321,9 +356,13 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         wd.terrain.height_min_m = ws.height_min_m;
         wd.terrain.height_max_m = ws.height_max_m;
     }
-    r = sq_world_create(ctx, &wd, out);
+    r = sq__scene_geo_world(ctx, sd, &ws, areas, nareas, &wd, geo);
+    if (r == SQ_OK) r = sq_world_create(ctx, &wd, out);
+    sq__scene_geo_release(ctx, geo);
     sq_free(ctx, hm);
     free(obs);
+    free(areas);
+    free(geo);
     return r;
 }
 

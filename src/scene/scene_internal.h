@@ -19,6 +19,14 @@ typedef struct sq__world_section {
     uint64_t terrain_seed;
     char heightmap[SQ_PARAM_STRING_MAX];
     float metres_per_px, height_min_m, height_max_m;
+    /* terrain from a DEM (GDAL) */
+    char dem[SQ_PARAM_STRING_MAX], dem_crs[SQ_PARAM_STRING_MAX], crs[SQ_PARAM_STRING_MAX];
+    float roi[4];
+    int roi_count;
+    float cell_m;
+    int nodata, resampling;
+    float crs_origin[2];
+    int crs_origin_count;
     float sun_direction[3];
     int day_of_year;
     float hour, latitude_deg, irradiance;
@@ -38,6 +46,15 @@ typedef struct sq__obstacle_item {
     float albedo[3];
 } sq__obstacle_item;
 
+/* world.areas[]: a named polygon area from a vector file or raster mask */
+typedef struct sq__area_item {
+    char name[SQ_PARAM_STRING_MAX];
+    char file[SQ_PARAM_STRING_MAX];
+    char attribute[SQ_PARAM_STRING_MAX];
+    char layer[SQ_PARAM_STRING_MAX];
+    char crs[SQ_PARAM_STRING_MAX];
+} sq__area_item;
+
 typedef struct sq__camera_section {
     float position[3], target[3], up[3];
     float fov_deg, near_m, far_m;
@@ -53,6 +70,8 @@ extern const sq_param sq__world_params[];
 extern const size_t sq__world_param_count;
 extern const sq_param sq__obstacle_params[];
 extern const size_t sq__obstacle_param_count;
+extern const sq_param sq__area_params[];
+extern const size_t sq__area_param_count;
 extern const sq_param sq__camera_params[];
 extern const size_t sq__camera_param_count;
 extern const sq_param sq__camera_key_params[];
@@ -70,6 +89,21 @@ bool sq__parse_u64(const char *text, uint64_t *out);
  * prefixed "layers.LAYER: " unless it names the layer. Returns r. */
 sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
                                     sq_result r);
+
+/* scene_geo.c: a DEM terrain and polygon areas through the scene's io loaders. Fills the grid
+ * terrain, CRS, offset and areas of wd from ws and items; what it allocates stays in keep until
+ * sq__scene_geo_release (after sq_world_create has copied it). */
+typedef struct sq__scene_geo {
+    sq_dem dem;
+    sq_area areas[SQ_MAX_WORLD_AREAS];
+    sq_world_area views[SQ_MAX_WORLD_AREAS];
+    char paths[SQ_MAX_WORLD_AREAS][1024];
+    int area_count;
+} sq__scene_geo;
+sq_result sq__scene_geo_world(sq_context *ctx, const sq_scene_desc *sd,
+                              const sq__world_section *ws, const sq__area_item *items,
+                              int item_count, sq_world_desc *wd, sq__scene_geo *keep);
+void sq__scene_geo_release(sq_context *ctx, sq__scene_geo *keep);
 
 /* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
  * "did you mean" suggestions of the parameter tables and of the scene sections. */

@@ -30,9 +30,10 @@
 
 #define S sq__world_section
 const sq_param sq__world_params[] = {
-    E("terrain.kind", terrain_kind, 2, "default|flat|hills|dunes|mountain|heightmap",
+    E("terrain.kind", terrain_kind, 2, "default|flat|hills|dunes|mountain|heightmap|dem",
       "Terrain generator: flat, hills (fBm noise), dunes (transverse dunes with slip faces), "
-      "mountain (a release slope into a run-out plain), or heightmap (16-bit PNG)."),
+      "mountain (a release slope into a run-out plain), heightmap (16-bit PNG), or dem (any "
+      "raster GDAL reads, reprojected to a metric CRS; see terrain.dem)."),
     E("terrain.material", terrain_material, 0, "default|sand|snow|rock|grass|asphalt",
       "Ground cover: default follows the kind (sand on dunes, meadow elsewhere); snow for winter "
       "scenes, asphalt for cities."),
@@ -60,6 +61,30 @@ const sq_param sq__world_params[] = {
     FZ("terrain.height_min_m", height_min_m, "m", 0, -1e4, 1e4, "Height of heightmap value 0."),
     F("terrain.height_max_m", height_max_m, "m", 500, -1e4, 1e5,
       "Height of heightmap value 65535."),
+    STR("terrain.dem", dem, "",
+        "DEM file (GeoTIFF, ESRI ASCII grid, any raster GDAL reads; path relative to the scene "
+        "file), band 1 in metres. Reprojected to terrain.crs, cropped to terrain.roi."),
+    FL("terrain.roi", roi, roi_count, "1", "", 4, -1e8, 1e8,
+       "DEM region of interest [xmin, ymin, xmax, ymax] in the DEM's own CRS (degrees for a "
+       "geographic DEM); empty = the whole DEM. Must lie inside the DEM."),
+    STR("terrain.crs", crs, "",
+        "Metric CRS of the world for a DEM (e.g. EPSG:32632); empty = the DEM's own if it is "
+        "projected in metres, else the UTM zone (WGS 84) of the region's centre; 'utm' forces "
+        "that."),
+    STR("terrain.dem_crs", dem_crs, "",
+        "CRS of a DEM file that carries none (e.g. EPSG:4326); a DEM without a CRS is refused "
+        "otherwise."),
+    FZ("terrain.cell_m", cell_m, "m", 0, 0, 1e5,
+       "DEM sample spacing after reprojection; 0 = the DEM's finer pixel side in metres."),
+    E("terrain.nodata", nodata, 0, "fill|fail",
+      "DEM samples without data: fill (inverse-distance interpolation from the valid samples; "
+      "they stay marked, and avalanche releases on them are refused) or fail."),
+    E("terrain.resampling", resampling, 0, "cubic|bilinear|cubicspline|nearest",
+      "Resampling of the DEM onto the metric grid (cubic keeps slopes smooth)."),
+    FL("terrain.crs_origin_m", crs_origin, crs_origin_count, "m", "", 2, -1e8, 1e8,
+       "DEM: the CRS coordinates (easting, northing) that become world (0, 0); empty = the "
+       "terrain's centre rounded to 100 m. Every world x, y (camera, release) is relative to "
+       "it; outputs are georeferenced back."),
     V3("sun.direction", sun_direction, "1", "0 0 0", -1, 1,
        "Direction toward the sun (normalised); [0, 0, 0] = from day, hour and latitude."),
     I("sun.day_of_year", day_of_year, "1", 172, 1, 366, "Day of the year for the sun position."),
@@ -93,6 +118,21 @@ const sq_param sq__obstacle_params[] = {
     V3("albedo", albedo, "1", "0 0 0", 0, 1, "Surface albedo; [0, 0, 0] = default per kind."),
 };
 const size_t sq__obstacle_param_count = sizeof sq__obstacle_params / sizeof sq__obstacle_params[0];
+#undef S
+
+#define S sq__area_item
+const sq_param sq__area_params[] = {
+    STR("name", name, "", "Name the phenomena use (e.g. an avalanche's release.area)."),
+    STR("file", file, "",
+        "Vector file OGR reads (GeoJSON, Shapefile, GeoPackage; its polygons) or a raster mask "
+        "GDAL reads (pixels neither 0 nor no-data); path relative to the scene file."),
+    STR("attribute", attribute, "thickness",
+        "Numeric attribute read per polygon (e.g. an avalanche release thickness in m); a "
+        "polygon without it uses the phenomenon's default."),
+    STR("layer", layer, "", "Vector layer; empty = the first."),
+    STR("crs", crs, "", "CRS of a file that carries none (e.g. EPSG:4326)."),
+};
+const size_t sq__area_param_count = sizeof sq__area_params / sizeof sq__area_params[0];
 #undef S
 
 #define S sq__camera_section
@@ -158,6 +198,7 @@ const sq_param *sq_scene_section_params(const char *section, size_t *count)
     } t[] = {{"world", sq__world_params, sizeof sq__world_params / sizeof sq__world_params[0]},
              {"obstacle", sq__obstacle_params,
               sizeof sq__obstacle_params / sizeof sq__obstacle_params[0]},
+             {"area", sq__area_params, sizeof sq__area_params / sizeof sq__area_params[0]},
              {"camera", sq__camera_params, sizeof sq__camera_params / sizeof sq__camera_params[0]},
              {"camera-key", sq__camera_key_params,
               sizeof sq__camera_key_params / sizeof sq__camera_key_params[0]},

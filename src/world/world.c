@@ -107,6 +107,32 @@ static sq_result validate(sq_context *ctx, const sq_world_desc *d)
                             "world.obstacles[%d].roof_m = %g; must be >= 0 m", i,
                             (double)o->roof_m);
     }
+    if (d->area_count < 0 || d->area_count > SQ_MAX_WORLD_AREAS || (d->area_count && !d->areas))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world", "world.areas: %d areas; at most %d",
+                        d->area_count, SQ_MAX_WORLD_AREAS);
+    for (int a = 0; a < d->area_count; a++) {
+        const sq_world_area *ar = &d->areas[a];
+        if (!ar->name || !ar->name[0])
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world", "world.areas[%d]: no name", a);
+        for (int b = 0; b < a; b++)
+            if (strcmp(d->areas[b].name, ar->name) == 0)
+                return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                                "world.areas[%d].name = '%s': used twice", a, ar->name);
+        if (ar->ring_count < 1 || ar->feature_count < 1 || !ar->ring_start || !ar->ring_feature ||
+            !ar->xy_m || !ar->feature_value || !ar->feature_area_m2)
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                            "world.areas[%d] ('%s'): no polygons", a, ar->name);
+        for (int r = 0; r < ar->ring_count; r++)
+            if (ar->ring_start[r + 1] - ar->ring_start[r] < 3 || ar->ring_start[r] < 0 ||
+                ar->ring_feature[r] < 0 || ar->ring_feature[r] >= ar->feature_count)
+                return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                                "world.areas[%d] ('%s'): ring %d is malformed", a, ar->name, r);
+        for (int r = 1; r < ar->ring_count; r++)
+            if (ar->ring_feature[r] < ar->ring_feature[r - 1])
+                return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                                "world.areas[%d] ('%s'): the rings of a feature must be "
+                                "consecutive (ring %d)", a, ar->name, r);
+    }
     return SQ_OK;
 }
 
@@ -270,6 +296,88 @@ static void sky_model(sq_world *w, float turbidity, float irradiance)
                            bright * (0.90f + 0.05f * haze));
 }
 
+static void *dup_bytes(sq_context *ctx, const void *src, size_t n, int *fail)
+{
+    void *p = sq_alloc(ctx, n ? n : 1);
+    if (!p) *fail = 1;
+    else if (n) memcpy(p, src, n);
+    return p;
+}
+
+/* An owned copy of an area (strings and arrays). */
+static sq_result copy_area(sq_context *ctx, const sq_world_area *a, sq_world_area *o)
+{
+    int fail = 0;
+    const size_t nf = (size_t)a->feature_count, nr = (size_t)a->ring_count;
+    const size_t np = (size_t)a->ring_start[nr];
+    *o = *a;
+    o->name = dup_bytes(ctx, a->name, strlen(a->name) + 1, &fail);
+    o->source = dup_bytes(ctx, a->source ? a->source : "", strlen(a->source ? a->source : "") + 1,
+                          &fail);
+    o->feature_value = dup_bytes(ctx, a->feature_value, nf * sizeof(double), &fail);
+    o->feature_area_m2 = dup_bytes(ctx, a->feature_area_m2, nf * sizeof(double), &fail);
+    o->ring_start = dup_bytes(ctx, a->ring_start, (nr + 1) * sizeof(int), &fail);
+    o->ring_feature = dup_bytes(ctx, a->ring_feature, nr * sizeof(int), &fail);
+    o->xy_m = dup_bytes(ctx, a->xy_m, 2 * np * sizeof(double), &fail);
+    return fail ? sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "world", "out of memory for area '%s'",
+                           a->name)
+                : SQ_OK;
+}
+
+static void free_area(sq_context *ctx, sq_world_area *a)
+{
+    sq_free(ctx, (void *)a->name);
+    sq_free(ctx, (void *)a->source);
+    sq_free(ctx, (void *)a->feature_value);
+    sq_free(ctx, (void *)a->feature_area_m2);
+    sq_free(ctx, (void *)a->ring_start);
+    sq_free(ctx, (void *)a->ring_feature);
+    sq_free(ctx, (void *)a->xy_m);
+    memset(a, 0, sizeof *a);
+}
+
+const sq_world_area *sq_world_area_find(const sq_world *w, const char *name)
+{
+    if (!w || !name) return NULL;
+    for (int a = 0; a < w->area_count; a++)
+        if (w->areas[a].name && strcmp(w->areas[a].name, name) == 0) return &w->areas[a];
+    return NULL;
+}
+
+int sq_world_area_feature_at(const sq_world_area *a, double x, double y)
+{
+    if (!a || x < a->bounds[0] || x > a->bounds[2] || y < a->bounds[1] || y > a->bounds[3])
+        return -1;
+    /* even-odd crossings of a ray toward +x, per feature (its rings are consecutive) */
+    const double *p = a->xy_m;
+    int inside = 0;
+    for (int r = 0; r < a->ring_count; r++) {
+        const int b = a->ring_start[r], e = a->ring_start[r + 1];
+        for (int k = b, l = e - 1; k < e; l = k++) {
+            const double yk = p[2 * k + 1], yl = p[2 * l + 1];
+            if ((yk > y) != (yl > y)) {
+                const double xc = p[2 * k] + (y - yk) * (p[2 * l] - p[2 * k]) / (yl - yk);
+                if (x < xc) inside ^= 1;
+            }
+        }
+        if (r + 1 == a->ring_count || a->ring_feature[r + 1] != a->ring_feature[r]) {
+            if (inside) return a->ring_feature[r];
+            inside = 0;
+        }
+    }
+    return -1;
+}
+
+bool sq_world_void_at(const sq_world *w, float x, float y)
+{
+    if (!w || !w->terrain_void) return false;
+    int i = (int)floorf((x - w->origin.x) / w->dx + 0.5f);
+    int j = (int)floorf((y - w->origin.y) / w->dy + 0.5f);
+    i = i < 0 ? 0 : (i > w->nx - 1 ? w->nx - 1 : i);
+    j = j < 0 ? 0 : (j > w->ny - 1 ? w->ny - 1 : j);
+    return w->terrain_void[(size_t)j * (size_t)w->nx + (size_t)i] != 0;
+}
+
 sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out)
 {
     if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world", "sq_world_create: out is NULL");
@@ -334,6 +442,22 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         return sq__fail_cancelled(ctx, "world", "while generating the terrain");
     }
     compute_normals(w);
+    if (t->kind == SQ_TERRAIN_GRID && t->grid_void) {
+        w->terrain_void = (uint8_t *)sq_alloc(ctx, (size_t)nx * (size_t)ny);
+        if (!w->terrain_void) {
+            sq_world_destroy(ctx, w);
+            return SQ_ERR_OUT_OF_MEMORY;
+        }
+        memcpy(w->terrain_void, t->grid_void, (size_t)nx * (size_t)ny);
+    }
+    for (int a = 0; a < d.area_count; a++) {
+        r = copy_area(ctx, &d.areas[a], &w->areas[a]);
+        w->area_count = a + 1;
+        if (r != SQ_OK) {
+            sq_world_destroy(ctx, w);
+            return r;
+        }
+    }
     w->obstacle_count = d.obstacle_count;
     for (int i = 0; i < d.obstacle_count; i++) {
         sq_obstacle o = d.obstacles[i];
@@ -364,6 +488,8 @@ void sq_world_destroy(sq_context *ctx, sq_world *w)
     sq_free(ctx, w->heights);
     sq_free(ctx, w->normals);
     sq_free(ctx, w->crs_wkt);
+    sq_free(ctx, w->terrain_void);
+    for (int a = 0; a < w->area_count; a++) free_area(ctx, &w->areas[a]);
     sq_free(ctx, w);
 }
 

@@ -19,7 +19,7 @@ static sq_result try_scene(sq_context *ctx, const char *text)
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_parse(ctx, text, strlen(text), "t.yaml", &cfg);
     if (r != SQ_OK) return r;
-    sq_scene_desc d = {cfg, NULL, true};
+    sq_scene_desc d = {.cfg = cfg, .validate_only = true};
     sq_scene *s = NULL;
     r = sq_scene_create(ctx, &d, &s);
     sq_scene_destroy(s);
@@ -33,7 +33,7 @@ SQ_TEST(minimal_scene_defaults)
     sq_cfg *cfg = NULL;
     const char *t = "name: t\nworld:\n  terrain: {kind: flat, size_m: [100, 100], resolution: [5, 5]}\n";
     SQ_CHECK_OK(sq_cfg_parse(ctx, t, strlen(t), "t.yaml", &cfg));
-    sq_scene_desc d = {cfg, NULL, false};
+    sq_scene_desc d = {.cfg = cfg};
     sq_scene *s = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
     const sq_scene_output *o = sq_scene_output_settings(s);
@@ -129,7 +129,7 @@ SQ_TEST(set_overrides)
     SQ_CHECK_OK(sq_cfg_set(cfg, "output.duration_s=2"));
     SQ_CHECK_OK(sq_cfg_set(cfg, "camera.fov_deg=35"));
     SQ_CHECK_OK(sq_cfg_set(cfg, "world.terrain.size_m=[300, 200]"));
-    sq_scene_desc d = {cfg, NULL, true};
+    sq_scene_desc d = {.cfg = cfg, .validate_only = true};
     sq_scene *s = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
     SQ_CHECK(sq_scene_output_settings(s)->fps == 30);
@@ -188,7 +188,7 @@ SQ_TEST(presets_validate)
     for (int i = 0; i < sq_preset_count(); i++) {
         sq_cfg *cfg = NULL;
         SQ_CHECK_OK(sq_cfg_load_preset(ctx, sq_preset_name(i), &cfg));
-        sq_scene_desc d = {cfg, sq_scene_heightmap_loader, true};
+        sq_scene_desc d = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader, .validate_only = true};
         sq_scene *s = NULL;
         sq_result r = sq_scene_create(ctx, &d, &s);
         SQ_CHECK_MSG(r == SQ_OK, "preset %s: %s", sq_preset_name(i), sq_last_error());

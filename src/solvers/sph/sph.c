@@ -30,6 +30,7 @@ static void free_arrays(sq_sph *s)
     sq_free(ctx, s->nb_count);
     sq_free(ctx, s->nb_plain);
     sq_free(ctx, s->cell_start);
+    sq_free(ctx, s->kbase);
     sq_free(ctx, s->hist);
     sq_free(ctx, s->red);
     sq_free(ctx, s->terrain.h);
@@ -159,6 +160,15 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
         s->inv_cell[a] = 1.0f / s->cell[a];
         ncell *= (uint64_t)s->n[a];
     }
+    if (d.terrain_layer_m > 0.0) {
+        /* terrain-following: n[2] cells per column above kbase (0 until a terrain is set) */
+        const int nc = sq__sph_column_cells(d.terrain_layer_m, (double)s->cell[2]);
+        if (nc < s->n[2]) {
+            ncell = ncell / (uint64_t)s->n[2] * (uint64_t)nc;
+            s->n[2] = nc;
+        }
+        s->column = 1;
+    }
     s->ncell = (uint32_t)ncell;
     s->cap = d.max_particles;
 
@@ -192,6 +202,10 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->cell_start = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->hist = (uint32_t *)sq_alloc_zero(ctx, ((size_t)ncell + 2) * sizeof(uint32_t));
     s->red = (double *)sq_alloc_zero(ctx, 8 * (size_t)s->nt * sizeof(double));
+    if (s->column) {
+        s->kbase = (int32_t *)sq_alloc_zero(ctx, (size_t)s->n[0] * (size_t)s->n[1] * sizeof(int32_t));
+        ok &= s->kbase != NULL;
+    }
     ok &= s->L && (!tensor || (s->G && s->tau)) && s->rec && s->id && s->cellid && s->perm && s->nb_count &&
           s->nb_plain && s->cell_start && s->hist && s->red;
     if (!ok) {
@@ -233,6 +247,12 @@ sq_result sq_sph_add_particles(sq_sph *s, size_t count, const float *pos, const 
                 return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
                                 "positions_m[%zu].%c = %g is outside the domain [%g, %g]", k,
                                 "xyz"[a], (double)v, (double)s->lo[a], (double)s->hi[a]);
+            if (s->column && a == 2 && sq__sph_above_layer(s, pos[3 * k], pos[3 * k + 1], v))
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
+                                "positions_m[%zu] = (%g, %g, %g) lies above the terrain-following "
+                                "layer (terrain_layer_m = %g m over the lowest terrain of its "
+                                "column)", k, (double)pos[3 * k], (double)pos[3 * k + 1],
+                                (double)v, s->d.terrain_layer_m);
             if (vel && !isfinite(vel[3 * k + (size_t)a]))
                 return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
                                 "velocities_mps[%zu].%c is not finite", k, "xyz"[a]);
@@ -324,6 +344,46 @@ static sq_result contact_init(sq_sph *s, const sq_sph_collider_desc *c, const ch
     return SQ_OK;
 }
 
+/* Terrain-following grid: each column's lowest cell, one cell below the lowest terrain under
+ * its footprint. The bilinear terrain's minimum over a rectangle lies at the rectangle's corners
+ * or at a terrain sample inside it, so both are taken. */
+static void column_bases(sq_sph *s)
+{
+    const int nx = s->n[0], ny = s->n[1];
+    const sq__sph_terrain *t = &s->terrain;
+    float *hmin = (float *)sq_alloc(s->ctx, (size_t)nx * (size_t)ny * sizeof(float));
+    if (!hmin) { /* keep the previous bases (correct, only less tight) */
+        sq_log(s->ctx, SQ_LOG_WARN, MOD, "no memory for the column bases; kept");
+        return;
+    }
+    for (int cy = 0; cy < ny; cy++)
+        for (int cx = 0; cx < nx; cx++) {
+            float m = INFINITY;
+            for (int q = 0; q < 4; q++) {
+                float h, nrm[3];
+                const float x = s->lo[0] + (float)(cx + (q & 1)) * s->cell[0];
+                const float y = s->lo[1] + (float)(cy + (q >> 1)) * s->cell[1];
+                sq__sph_terrain_eval(t, x, y, &h, nrm);
+                m = h < m ? h : m;
+            }
+            hmin[(size_t)cy * (size_t)nx + (size_t)cx] = m;
+        }
+    for (int j = 0; j < t->ny; j++)
+        for (int i = 0; i < t->nx; i++) {
+            const float x = t->ox + (float)i * t->dx, y = t->oy + (float)j * t->dy;
+            const float fx = (x - s->lo[0]) * s->inv_cell[0], fy = (y - s->lo[1]) * s->inv_cell[1];
+            if (!(fx >= 0.0f && fy >= 0.0f && fx < (float)nx && fy < (float)ny)) continue;
+            float *m = &hmin[(size_t)fy * (size_t)nx + (size_t)fx];
+            const float h = t->h[(size_t)j * (size_t)t->nx + (size_t)i];
+            *m = h < *m ? h : *m;
+        }
+    for (size_t c = 0; c < (size_t)nx * (size_t)ny; c++) {
+        const float k = floorf((hmin[c] - s->lo[2]) * s->inv_cell[2]) - 1.0f;
+        s->kbase[c] = k > 0.0f ? (k < 1e9f ? (int32_t)k : 1000000000) : 0;
+    }
+    sq_free(s->ctx, hmin);
+}
+
 sq_result sq_sph_set_terrain(sq_sph *s, const sq_sph_terrain_desc *t)
 {
     if (!s || !t) return sq__fail(s ? s->ctx : NULL, SQ_ERR_INVALID_ARG, MOD, "sph and terrain must not be NULL");
@@ -367,6 +427,7 @@ sq_result sq_sph_set_terrain(sq_sph *s, const sq_sph_terrain_desc *t)
     tr->inv_dy = 1.0f / tr->dy;
     tr->c = c;
     s->has_terrain = 1;
+    if (s->column) column_bases(s);
     return SQ_OK;
 }
 

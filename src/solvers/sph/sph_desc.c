@@ -250,7 +250,8 @@ static sq_result validate_rheology(sq_context *ctx, const sq_sph_rheology *r)
     return SQ_OK;
 }
 
-/* Cells per axis for the neighbour grid (cell size >= H). */
+/* Cells per axis for the neighbour grid (cell size >= H); with a terrain-following grid n[2] is
+ * the cells of one column (sq__sph_column_cells). */
 static void grid_dims(const sq_sph_desc *d, uint64_t n[3])
 {
     for (int a = 0; a < 3; a++) {
@@ -260,6 +261,19 @@ static void grid_dims(const sq_sph_desc *d, uint64_t n[3])
         if (c > 4e9) c = 4e9;
         n[a] = (uint64_t)c;
     }
+    if (d->terrain_layer_m > 0.0) {
+        const double cz = (d->domain_max_m[2] - d->domain_min_m[2]) / (double)n[2];
+        const uint64_t nc = (uint64_t)sq__sph_column_cells(d->terrain_layer_m, cz);
+        if (nc < n[2]) n[2] = nc;
+    }
+}
+
+int sq__sph_column_cells(double layer_m, double cell_z)
+{
+    /* the layer, the terrain's relief under one column and its neighbours (one cell below the
+     * lowest terrain), and a cell of margin */
+    double c = ceil(layer_m / cell_z) + 3.0;
+    return c > 1e6 ? 1000000 : (int)c;
 }
 
 sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in)
@@ -372,6 +386,16 @@ sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in)
                         d.max_substeps);
     if (!(d.dt_max_s >= 0.0) || !isfinite(d.dt_max_s))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "dt_max_s = %g; must be >= 0 (s)", d.dt_max_s);
+    if (!(d.terrain_layer_m >= 0.0) || !isfinite(d.terrain_layer_m))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "terrain_layer_m = %g; must be >= 0 (m; 0 = a dense box grid)",
+                        d.terrain_layer_m);
+    if (d.terrain_layer_m > 0.0)
+        for (int f = 0; f < 6; f++)
+            if (d.boundary[f] != SQ_SPH_BOUNDARY_OPEN)
+                return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                                "terrain_layer_m = %g m needs every face OPEN; boundary[%s] is "
+                                "not", d.terrain_layer_m, face_name(f));
     uint64_t n[3];
     grid_dims(&d, n);
     double cells = (double)n[0] * (double)n[1] * (double)n[2];

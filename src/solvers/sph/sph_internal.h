@@ -199,7 +199,9 @@ struct sq_sph {
     int any_periodic;
     int face[6];              /* resolved sq_sph_boundary per face */
     int any_wall;
-    int n[3];                 /* cells per axis */
+    int n[3];                 /* cells per axis (terrain-following grid: n[2] per column) */
+    int column;               /* 1: terrain-following grid; cell = (cy nx + cx) n[2] + k − kbase */
+    int32_t *kbase;           /* per column: the absolute z cell (from lo[2]) of its lowest cell */
     float cell[3], inv_cell[3];
     uint32_t ncell;
     uint32_t *cell_start;     /* ncell + 2 */
@@ -253,12 +255,17 @@ struct sq_sph {
     uint64_t bytes;
 };
 
+/* Cells of one column of the terrain-following grid for a layer of layer_m (sph_desc.c). */
+int sq__sph_column_cells(double layer_m, double cell_z);
+
 /* Validates a desc (sph_desc.c); ctx may be NULL. */
 sq_result sq__sph_validate(sq_context *ctx, const sq_sph_desc *in);
 
 /* ---- passes (sph_passes.c): pure loops over the arrays of s ------------------------------ */
 /* Cell of a position (clamped to the grid; non-finite -> cell 0). */
 uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z);
+/* Terrain-following grid: true if (x, y, z) lies above the top cell of its column. */
+int sq__sph_above_layer(const sq_sph *s, float x, float y, float z);
 /* Counting sort by cell, reorder of the persistent arrays, removal of particles outside open
  * faces. Returns the number removed. */
 size_t sq__sph_sort(sq_sph *s);

@@ -250,12 +250,33 @@ static inline int clamp_cell(float f, int n)
     return i < 0 ? 0 : (i > n - 1 ? n - 1 : i); /* also for whatever a NaN converted to */
 }
 
+/* Absolute z cell of height z (from the domain bottom; may exceed the grid). */
+static inline int abs_cell_z(const sq_sph *s, float z)
+{
+    const float f = (z - s->lo[2]) * s->inv_cell[2];
+    return f >= 0.0f ? (f < 2e9f ? (int)f : 2000000000) : 0; /* NaN -> 0 */
+}
+
 uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z)
 {
     const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], s->n[0]);
     const int cy = clamp_cell((y - s->lo[1]) * s->inv_cell[1], s->n[1]);
+    if (s->column) {
+        const uint32_t col = (uint32_t)cy * (uint32_t)s->n[0] + (uint32_t)cx;
+        int k = abs_cell_z(s, z) - s->kbase[col];
+        k = k < 0 ? 0 : (k > s->n[2] - 1 ? s->n[2] - 1 : k);
+        return col * (uint32_t)s->n[2] + (uint32_t)k;
+    }
     const int cz = clamp_cell((z - s->lo[2]) * s->inv_cell[2], s->n[2]);
     return ((uint32_t)cz * (uint32_t)s->n[1] + (uint32_t)cy) * (uint32_t)s->n[0] + (uint32_t)cx;
+}
+
+int sq__sph_above_layer(const sq_sph *s, float x, float y, float z)
+{
+    if (!s->column) return 0;
+    const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], s->n[0]);
+    const int cy = clamp_cell((y - s->lo[1]) * s->inv_cell[1], s->n[1]);
+    return abs_cell_z(s, z) - s->kbase[(size_t)cy * (size_t)s->n[0] + (size_t)cx] >= s->n[2];
 }
 
 /* Reorder the persistent arrays by perm in ONE parallel loop (each parallel region costs a
@@ -308,6 +329,7 @@ size_t sq__sph_sort(sq_sph *s)
             if (p[a] < s->lo[a] && s->face[2 * a] == SQ_SPH_BOUNDARY_OPEN) out = 1;
             if (p[a] >= s->hi[a] && s->face[2 * a + 1] == SQ_SPH_BOUNDARY_OPEN) out = 1;
         }
+        if (!out && s->column) out = sq__sph_above_layer(s, p[0], p[1], p[2]);
         const uint32_t c = out ? dead : sq__sph_cell_of(s, p[0], p[1], p[2]);
         cid[i] = c;
         if (!out) {
@@ -318,7 +340,8 @@ size_t sq__sph_sort(sq_sph *s)
     /* Counting sort (serial and stable: the order within a cell is the previous order) over
      * the cells that can be read this step: the occupied range widened by one plane, row and
      * cell, so that sparse fluid in a large domain does not pay for every empty cell. */
-    const uint32_t margin = (uint32_t)s->n[0] * (uint32_t)s->n[1] + (uint32_t)s->n[0] + 1u;
+    const uint32_t margin = s->column ? ((uint32_t)s->n[0] + 2u) * (uint32_t)s->n[2]
+                                      : (uint32_t)s->n[0] * (uint32_t)s->n[1] + (uint32_t)s->n[0] + 1u;
     uint32_t lo = 0, hi = 0;
     if (cmin <= cmax) {
         lo = cmin > margin ? cmin - margin : 0u;
@@ -589,8 +612,41 @@ typedef struct cell_ranges {
     float sx[27], sy[27], sz[27];
 } cell_ranges;
 
+/* The same for the terrain-following grid (no periodic axes): in each of the 9 columns around
+ * c's, the cells of the absolute heights k − 1 … k + 1, clipped to the column. */
+SQ__INLINE void column_ranges(const sq_sph *restrict s, uint32_t c, cell_ranges *restrict r)
+{
+    const int nx = s->n[0], ny = s->n[1], nc = s->n[2];
+    const uint32_t col = c / (uint32_t)nc;
+    const int cx = (int)(col % (uint32_t)nx), cy = (int)(col / (uint32_t)nx);
+    const int k = s->kbase[col] + (int)(c % (uint32_t)nc);
+    const uint32_t *restrict st = s->cell_start;
+    r->n = 0;
+    for (int dy = -1; dy <= 1; dy++) {
+        const int ky = cy + dy;
+        if (ky < 0 || ky >= ny) continue;
+        for (int dx = -1; dx <= 1; dx++) {
+            const int kx = cx + dx;
+            if (kx < 0 || kx >= nx) continue;
+            const uint32_t c2 = (uint32_t)ky * (uint32_t)nx + (uint32_t)kx;
+            int k0 = k - 1 - s->kbase[c2], k1 = k + 1 - s->kbase[c2];
+            k0 = k0 < 0 ? 0 : k0;
+            k1 = k1 > nc - 1 ? nc - 1 : k1;
+            if (k0 > k1) continue;
+            r->b[r->n] = st[c2 * (uint32_t)nc + (uint32_t)k0];
+            r->e[r->n] = st[c2 * (uint32_t)nc + (uint32_t)k1 + 1u];
+            r->sx[r->n] = r->sy[r->n] = r->sz[r->n] = 0.0f;
+            r->n++;
+        }
+    }
+}
+
 SQ__INLINE void neighbour_ranges(const sq_sph *restrict s, uint32_t c, cell_ranges *restrict r)
 {
+    if (s->column) {
+        column_ranges(s, c, r);
+        return;
+    }
     const int nx = s->n[0], ny = s->n[1];
     const int cx = (int)(c % (uint32_t)nx), cy = (int)(c / (uint32_t)nx % (uint32_t)ny);
     const int cz = (int)(c / ((uint32_t)nx * (uint32_t)ny));
