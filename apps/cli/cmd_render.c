@@ -703,10 +703,16 @@ int sq_cmd_render(int argc, char **argv)
         }
     }
     if (ml.f) {
-        int bad = fclose(ml.f) != 0;
+        errno = 0;
+        int bad = ferror(ml.f) | (fclose(ml.f) != 0);
+        const int e = errno;
         ml.f = NULL;
-        r = bad ? sq__cli_set_error(SQ_ERR_IO, "cannot write metrics '%s'", ml.path)
-                : sq_output_commit(ml.tmp, ml.path, overwrite);
+        r = !bad ? sq_output_commit(ml.tmp, ml.path, overwrite)
+            : e == ENOSPC || e == EDQUOT
+                ? sq__cli_set_error(SQ_ERR_NO_SPACE,
+                                    "cannot write metrics '%s': no space left on device", ml.path)
+                : sq__cli_set_error(SQ_ERR_IO, "cannot write metrics '%s': %s", ml.path,
+                                    strerror(e ? e : EIO));
         if (r != SQ_OK) {
             rc = fail(r, NULL);
             goto done;

@@ -44,6 +44,15 @@ sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
     return SQ_OK;
 }
 
+sq_result sq__input_guard(sq_context *ctx, const char *module, const char *what, const char *path)
+{
+    struct stat st;
+    if (!path || !*path || stat(path, &st) != 0) return SQ_OK;
+    if (!S_ISREG(st.st_mode)) return not_regular(ctx, module, what, path, st.st_mode);
+    sq__context_note_input(ctx, path, (uint64_t)st.st_dev, (uint64_t)st.st_ino, what);
+    return SQ_OK;
+}
+
 sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, const char *path,
                          FILE **out)
 {

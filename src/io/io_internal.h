@@ -33,6 +33,10 @@ sq_result sq__io_relog(sq_context *ctx, sq_result r);
  * the path and its kind; a missing file names the system's reason. */
 sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, const char *path,
                          FILE **out);
+/* For paths another library opens and reports on itself (GDAL, libnetcdf): a path that does
+ * not exist (or names a library-virtual file) passes, to be reported by the library; one that
+ * exists must be a regular file and is recorded as an input. */
+sq_result sq__input_guard(sq_context *ctx, const char *module, const char *what, const char *path);
 /* The same check for a path another library will open (follows symlinks). */
 sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
                           const char *path);

@@ -21,7 +21,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     sq_fuzz_check_round_trip(ctx, cfg);
     sq_fuzz_small_terrain(cfg);
-    sq_scene_desc sd = {cfg, NULL, true};
+    sq_scene_desc sd = {.cfg = cfg, .validate_only = true};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     if (r == SQ_OK)

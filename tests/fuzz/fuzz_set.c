@@ -47,7 +47,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     free(text);
     sq_fuzz_small_terrain(cfg);
-    sq_scene_desc sd = {cfg, NULL, true};
+    sq_scene_desc sd = {.cfg = cfg, .validate_only = true};
     sq_scene *scene = NULL;
     sq_result r = sq_scene_create(ctx, &sd, &scene);
     if (r != SQ_OK) FUZZ_CHECK(scene == NULL && sq_last_error()[0], "failure without a message");

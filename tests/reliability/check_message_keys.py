@@ -31,13 +31,14 @@ layers = re.search(r"layers:\s*(.*)", text).group(1).split()
 scene_keys = {"name", "description", "seed", "world", "camera", "layers", "output",
               "layers.type", "layers.name", "layers.enabled", "type", "enabled",
               "world.obstacles", "camera.path"}
-prefix_of = {"world": "world.", "obstacle": "world.obstacles.", "camera": "camera.",
-             "camera-key": "camera.path.", "output": "output."}
+# list-item sections and where their items live; any other section is a top-level key
+prefix_of = {"obstacle": "world.obstacles.", "area": "world.areas.", "camera-key": "camera.path."}
 for s in sections:
     for k in params(s):
-        scene_keys.add(prefix_of[s] + k)
-        if s in ("obstacle", "camera-key"):
+        scene_keys.add(prefix_of.get(s, s + ".") + k)
+        if s in prefix_of:
             scene_keys.add(k)  # messages name list items as world.obstacles[i].KEY
+            scene_keys.add(prefix_of[s].rstrip("."))
 for l in layers:
     for k in params(l):
         scene_keys.add(k)
@@ -76,7 +77,10 @@ ASSIGN = re.compile(r"(?<![%\w.\-/])([a-z][a-z0-9_.]{2,})\s=\s")
 # Symbols of the physics written in messages as formulas ("c_s = 0.577", "sigma_g > 1"), not
 # settings: allowed everywhere.
 SYMBOLS = {"c_s", "l.u", "mu_inf", "sigma_g", "ln_sigma", "u_star", "tau_y", "mu0", "c_sat", "tau",
-           "path.to.key"}
+           "path.to.key",
+           # names of the WRF file format (dimensions), which its reader's messages quote
+           "bottom_top", "south_north", "west_east", "bottom_top_stag", "south_north_stag",
+           "west_east_stag", "lon", "lat"}
 
 def split_args(call):
     """Top-level arguments of a call text 'name(a, b, ...)'."""
@@ -152,7 +156,7 @@ for f in scene_files:
 # that layer's public headers (a scene user meets these messages only through a caller that
 # translates them).
 api_headers = {"src/render": ["render.h", "drawable.h", "world.h", "image.h", "core.h", "sqmath.h"],
-               "src/io": ["io.h", "drawable.h", "world.h", "core.h"],
+               "src/io": ["io.h", "drawable.h", "world.h", "core.h", "wrf.h", "geo.h"],
                "src/world": ["world.h", "core.h"],
                "src/core": ["core.h", "field.h"]}
 solver_root = os.path.join(SRC, "src/solvers")

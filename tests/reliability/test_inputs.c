@@ -30,7 +30,7 @@ static sq_result try_scene(sq_context *ctx, const char *text)
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_parse(ctx, text, strlen(text), "t.yaml", &cfg);
     if (r != SQ_OK) return r;
-    sq_scene_desc d = {cfg, NULL, true};
+    sq_scene_desc d = {.cfg = cfg, .validate_only = true};
     sq_scene *s = NULL;
     r = sq_scene_create(ctx, &d, &s);
     sq_scene_destroy(s);
@@ -244,7 +244,7 @@ SQ_TEST(cancel_stops_building_and_stepping)
     SQ_CHECK_OK(sq_cfg_parse(ctx, big, strlen(big), "t.yaml", &cfg));
     sq_context_cancel(ctx);
     SQ_CHECK(sq_context_cancelled(ctx));
-    sq_scene_desc d = {cfg, NULL, false};
+    sq_scene_desc d = {.cfg = cfg};
     sq_scene *s = NULL;
     SQ_CHECK_ERR(sq_scene_create(ctx, &d, &s), SQ_ERR_CANCELLED, "interrupted while generating");
     SQ_CHECK(s == NULL);

@@ -53,7 +53,7 @@ static sq_result try_scene(sq_context *ctx, const char *text)
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_parse(ctx, text, strlen(text), "t.yaml", &cfg);
     if (r != SQ_OK) return r;
-    sq_scene_desc d = {cfg, NULL, true};
+    sq_scene_desc d = {.cfg = cfg, .validate_only = true};
     sq_scene *s = NULL;
     r = sq_scene_create(ctx, &d, &s);
     sq_scene_destroy(s);
