@@ -506,6 +506,8 @@ int sq_cmd_render(int argc, char **argv)
             if (r == SQ_OK) sq_output_remove_stale(ctx, pfx, outs[k].prefix);
         }
     }
+    /* the camera stays above the terrain (named by key and file:line before any GL work) */
+    if (r == SQ_OK && !simulate) r = sq_scene_check_camera(scene);
     if (r == SQ_OK && video) {
         if (W % 2 || H % 2)
             r = sq__cli_set_error(SQ_ERR_INVALID_ARG,

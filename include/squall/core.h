@@ -109,6 +109,18 @@ SQ_API int sq_context_input_count(const sq_context *ctx);
 SQ_API const char *sq_context_input_path(const sq_context *ctx, int i);
 SQ_API const char *sq_context_input_what(const sq_context *ctx, int i);
 
+/* ---- checkpoint records ---------------------------------------------------------------------
+ * A scene's phenomena and their solvers save their complete state (what a step depends on) as a
+ * sequence of tagged records and restore it by reading the same records in the same order; the
+ * checkpoint file (squall/io.h, sq_checkpoint_*) wraps the stream with a header and checksum.
+ * sq_state_get refuses a record whose tag or size differs from the one asked for, naming both. */
+typedef struct sq_state_writer sq_state_writer;
+typedef struct sq_state_reader sq_state_reader;
+SQ_API sq_result sq_state_put(sq_state_writer *w, const char *tag, const void *data, size_t bytes);
+SQ_API sq_result sq_state_get(sq_state_reader *r, const char *tag, void *data, size_t bytes);
+/* The next record's tag and size without consuming it (for variable-size records). */
+SQ_API sq_result sq_state_peek(sq_state_reader *r, const char **tag, uint64_t *bytes);
+
 /* Refuses, before anything is allocated, a request whose total size exceeds the memory limit.
  * what: e.g. "lattice 512x512x512"; the message names it and the bytes needed. */
 SQ_API sq_result sq_context_check_memory(sq_context *ctx, uint64_t bytes, const char *what);

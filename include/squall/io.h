@@ -129,6 +129,37 @@ SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *
 SQ_API sq_result sq_vtk_write_series(sq_context *ctx, const char *path, const char *const *files,
                                      const double *times_s, int count, bool overwrite);
 
+/* ---- checkpoints ----------------------------------------------------------------------------- */
+struct sq_scene;
+struct sq_cfg;
+/* What a checkpoint says about itself. */
+typedef struct sq_checkpoint_info {
+    int format;          /* file format version */
+    char squall[32];     /* version that wrote it */
+    char build[40];      /* build id (compiler, flags, features) */
+    char scene[256];     /* scene name */
+    char source[256];    /* the scene file or preset it came from */
+    char base_dir[512];  /* directory the scene's relative paths resolve against */
+    int frame;           /* the next frame to make: frames 0..frame-1 were done */
+    double time_s;       /* simulated time of the checkpoint */
+} sq_checkpoint_info;
+/* Writes the complete state of scene (sq_scene_save_state), the configuration it was built
+ * from (cfg, overrides included) and frame (the next frame to make) to path, atomically
+ * (temporary + rename: a checkpoint is whole or absent), with a checksum. Refuses a scene with
+ * a layer that cannot be checkpointed (SQ_ERR_UNSUPPORTED), an input as path. */
+SQ_API sq_result sq_checkpoint_write(sq_context *ctx, const char *path, bool overwrite,
+                                     const struct sq_scene *scene, const struct sq_cfg *cfg,
+                                     int frame);
+/* Verifies path (checksum over the whole file, format, byte order, build) and reads its
+ * header and configuration (*cfg_out may be NULL): create the scene from it, then restore.
+ * Damaged or truncated files: SQ_ERR_PARSE; another build or format: SQ_ERR_INVALID_ARG. */
+SQ_API sq_result sq_checkpoint_read_header(sq_context *ctx, const char *path,
+                                           sq_checkpoint_info *info, struct sq_cfg **cfg_out);
+/* Restores the state of path into scene (created from the checkpoint's configuration); refuses
+ * another scene's layers or records and input files that changed since (size, mtime). */
+SQ_API sq_result sq_checkpoint_restore(sq_context *ctx, const char *path, struct sq_scene *scene,
+                                       sq_checkpoint_info *info);
+
 /* ---- scene files (YAML through libyaml) ----------------------------------------------------- */
 struct sq_cfg;
 /* Parses YAML text into a configuration tree; errors name source:line:column. */

@@ -126,6 +126,10 @@ SQ_API int sq_scene_frame_count(const sq_scene *s);
 /* Simulated seconds between frames. */
 SQ_API double sq_scene_frame_dt(const sq_scene *s);
 
+/* For rendering: the camera's position, every camera.path key and the path between keys must
+ * be at least 0.1 m above the terrain (the renderer's rule); the message names the key and its
+ * file:line. Simulation alone needs no camera and does not call it. */
+SQ_API sq_result sq_scene_check_camera(const sq_scene *s);
 /* Advances every layer by dt (each sub-cycled to its max stable step). */
 SQ_API sq_result sq_scene_step(sq_scene *s, double dt_s);
 /* The camera at the current time (calls each layer's observe hook). */
@@ -137,6 +141,13 @@ SQ_API int sq_scene_fields(sq_scene *s, sq_named_field *out, int max);
 SQ_API int sq_scene_layer_count(const sq_scene *s);
 SQ_API const char *sq_scene_layer_name(const sq_scene *s, int i);
 SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
+/* Checkpoints: the scene's clock (time, step count) and every layer's complete state as
+ * records (squall/core.h, sq_state_*); load restores them into a scene created from the same
+ * configuration, which then continues bit-identically. A layer whose phenomenon has no state
+ * hooks is refused (SQ_ERR_UNSUPPORTED, naming it); load refuses records of other layers or
+ * sizes (SQ_ERR_INVALID_ARG). The file around them: squall/io.h, sq_checkpoint_*. */
+SQ_API sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w);
+SQ_API sq_result sq_scene_load_state(sq_scene *s, sq_state_reader *r);
 /* Total bytes the layers declared (memory_bytes) at creation. */
 SQ_API uint64_t sq_scene_memory_bytes(const sq_scene *s);
 

@@ -32,6 +32,34 @@ struct sq_context {
     int input_count, input_cap;
 };
 
+/* Checkpoint record streams (state.c) over a write / read callback. */
+struct sq_state_writer {
+    sq_context *ctx;
+    sq_result (*write)(void *user, const void *data, size_t n);
+    void *user;
+    uint64_t hash, bytes; /* FNV-1a 64 of everything written, and its length */
+    sq_result status;     /* the first failure; later calls do nothing */
+};
+struct sq_state_reader {
+    sq_context *ctx;
+    sq_result (*read)(void *user, void *data, size_t n); /* all n bytes, or fails (named) */
+    void *user;
+    uint64_t hash, bytes;
+    sq_result status;
+    char source[256];     /* the file, for messages */
+    char tag[256];        /* the record header read ahead (have_header) */
+    uint64_t len;
+    bool have_header;
+};
+uint64_t sq__fnv1a(uint64_t h, const void *data, size_t n);
+void sq__state_writer_init(sq_state_writer *w, sq_context *ctx,
+                           sq_result (*write)(void *user, const void *data, size_t n), void *user);
+void sq__state_reader_init(sq_state_reader *r, sq_context *ctx, const char *source,
+                           sq_result (*read)(void *user, void *data, size_t n), void *user);
+/* Bytes outside records (file headers), hashed like the records. */
+sq_result sq__state_write_raw(sq_state_writer *w, const void *data, size_t n);
+sq_result sq__state_read_raw(sq_state_reader *r, void *data, size_t n);
+
 /* True once sq_context_cancel was called: long loops check it and return SQ_ERR_CANCELLED. */
 static inline bool sq__cancelled(const sq_context *ctx) { return ctx && ctx->cancel; }
 /* Fails with SQ_ERR_CANCELLED naming what was interrupted. */

@@ -38,6 +38,8 @@ struct sq_scene {
     uint64_t step_count;
     uint64_t memory_bytes;
     char metric_names[MAX_METRICS][96];
+    char camera_where[320];                      /* file:line of camera.position */
+    char key_where[SQ_MAX_CAMERA_KEYS][320];     /* file:line of each camera.path key */
 };
 
 /* Logs the error already set (by the parameter tables) and returns r. */
@@ -542,59 +544,61 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
     return SQ_OK;
 }
 
-/* The renderer refuses a camera within 0.1 m of the terrain; the scene finds it first, where the
- * keys and their file:line are known: the camera's position, every path key, and the path
- * between keys (sampled 64 times per segment). */
+/* The renderer refuses a camera within 0.1 m of the terrain; the scene says it first, naming
+ * the key and its file:line, which it keeps from building the camera: the camera's position,
+ * every path key, and the path between keys (sampled 64 times per segment). Only rendering
+ * needs a camera, so render commands call this; simulate does not. */
 #define CAMERA_CLEARANCE_M 0.1f
-static sq_result check_camera_height(sq_scene *s, const sq_cfg *cfg)
+static void note_camera_places(sq_scene *s, const sq_cfg *cfg)
 {
     const sq_cfg_node *cam = sq_cfg_get(cfg->root, "camera");
     const sq_cfg_node *path = cam ? sq_cfg_get(cam, "path") : NULL;
+    const sq_cfg_node *pos = cam ? sq_cfg_get(cam, "position") : NULL;
     apply_ctx a = {cfg, "camera"};
-    char w[320];
+    where_of(&a, pos ? pos : cam, s->camera_where, sizeof s->camera_where);
+    const sq_cfg_node *kn = path ? path->child : NULL;
+    for (int i = 0; i < s->key_count; i++, kn = kn ? kn->next : NULL)
+        where_of(&a, kn, s->key_where[i], sizeof s->key_where[i]);
+}
+
+sq_result sq_scene_check_camera(const sq_scene *s)
+{
+    if (!s) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_scene_check_camera: scene is NULL");
     if (s->key_count == 0) {
         const sq_vec3 p = s->camera.position_m;
         const float h = sq_world_height_at(s->world, p.x, p.y);
-        if (!(p.z >= h + CAMERA_CLEARANCE_M)) {
-            const sq_cfg_node *n = cam ? sq_cfg_get(cam, "position") : NULL;
-            where_of(&a, n ? n : cam, w, sizeof w);
+        if (!(p.z >= h + CAMERA_CLEARANCE_M))
             return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
                             "%s: camera.position = [%g, %g, %g] m: the terrain surface there is at "
                             "%.2f m; raise z above %.2f m",
-                            w, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            s->camera_where, (double)p.x, (double)p.y, (double)p.z, (double)h,
                             (double)(h + CAMERA_CLEARANCE_M));
-        }
         return SQ_OK;
     }
-    const sq_cfg_node *kn = path ? path->child : NULL;
-    for (int i = 0; i < s->key_count; i++, kn = kn ? kn->next : NULL) {
+    for (int i = 0; i < s->key_count; i++) {
         const sq_vec3 p = s->keys[i].position_m;
         const float h = sq_world_height_at(s->world, p.x, p.y);
-        where_of(&a, kn, w, sizeof w);
         if (!(p.z >= h + CAMERA_CLEARANCE_M))
             return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
                             "%s: camera.path[%d].position = [%g, %g, %g] m: the terrain surface "
                             "there is at %.2f m; raise z above %.2f m",
-                            w, i, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            s->key_where[i], i, (double)p.x, (double)p.y, (double)p.z, (double)h,
                             (double)(h + CAMERA_CLEARANCE_M));
     }
-    kn = path ? path->child : NULL;
-    for (int i = 0; i + 1 < s->key_count; i++, kn = kn ? kn->next : NULL) {
+    for (int i = 0; i + 1 < s->key_count; i++) {
         const double t0 = s->keys[i].time_s, t1 = s->keys[i + 1].time_s;
         for (int k = 1; k < 64; k++) {
             const double t = t0 + (t1 - t0) * k / 64.0;
             const sq_camera c = sq_camera_at(&s->camera, s->keys, s->key_count, t);
             const float hc = sq_world_height_at(s->world, c.position_m.x, c.position_m.y);
-            if (!(c.position_m.z >= hc + CAMERA_CLEARANCE_M)) {
-                where_of(&a, kn, w, sizeof w);
+            if (!(c.position_m.z >= hc + CAMERA_CLEARANCE_M))
                 return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
                                 "%s: camera.path[%d]..[%d]: the path between these keys passes "
                                 "%.2f m above the terrain at t = %.3g s (x %.1f, y %.1f m); it "
                                 "needs %.2f m: raise the keys or add one between them",
-                                w, i, i + 1, (double)(c.position_m.z - hc), t,
+                                s->key_where[i], i, i + 1, (double)(c.position_m.z - hc), t,
                                 (double)c.position_m.x, (double)c.position_m.y,
                                 (double)CAMERA_CLEARANCE_M);
-            }
         }
     }
     return SQ_OK;
@@ -657,7 +661,7 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     sq_result r = build_output(s, cfg, sq_cfg_get(cfg->root, "output"));
     if (r == SQ_OK) r = build_camera(s, cfg, sq_cfg_get(cfg->root, "camera"));
     if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &s->world);
-    if (r == SQ_OK) r = check_camera_height(s, cfg);
+    if (r == SQ_OK) note_camera_places(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
     if (r == SQ_OK && !desc->validate_only) {
         for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
@@ -691,6 +695,23 @@ void sq_scene_destroy(sq_scene *s)
     sq_world_destroy(s->ctx, s->world);
     free(s);
 }
+
+/* For checkpoints (scene_state.c). */
+void *sq__scene_layer_self(const sq_scene *s, int i)
+{
+    return i >= 0 && i < s->layer_count ? s->layers[i].self : NULL;
+}
+const sq_phen_plugin *sq__scene_layer_plugin(const sq_scene *s, int i)
+{
+    return i >= 0 && i < s->layer_count ? s->layers[i].plugin : NULL;
+}
+uint64_t sq__scene_steps(const sq_scene *s) { return s->step_count; }
+void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps)
+{
+    s->time_s = time_s;
+    s->step_count = steps;
+}
+sq_context *sq__scene_context(const sq_scene *s) { return s->ctx; }
 
 const sq_scene_output *sq_scene_output_settings(const sq_scene *s) { return &s->out; }
 const sq_world *sq_scene_world(const sq_scene *s) { return s->world; }

@@ -105,6 +105,13 @@ sq_result sq__scene_geo_world(sq_context *ctx, const sq_scene_desc *sd,
                               int item_count, sq_world_desc *wd, sq__scene_geo *keep);
 void sq__scene_geo_release(sq_context *ctx, sq__scene_geo *keep);
 
+/* Checkpoint access to the scene (scene.c). */
+void *sq__scene_layer_self(const sq_scene *s, int i);
+const sq_phen_plugin *sq__scene_layer_plugin(const sq_scene *s, int i);
+uint64_t sq__scene_steps(const sq_scene *s);
+void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps);
+sq_context *sq__scene_context(const sq_scene *s);
+
 /* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
  * "did you mean" suggestions of the parameter tables and of the scene sections. */
 size_t sq__edit_distance(const char *a, const char *b);

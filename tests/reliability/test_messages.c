@@ -48,6 +48,7 @@ SQ_TEST(solver_fields_become_layer_keys)
     }
 }
 
+/* Builds the scene (validate_only) and checks its camera as rendering does. */
 static sq_result try_scene(sq_context *ctx, const char *text)
 {
     sq_cfg *cfg = NULL;
@@ -56,6 +57,7 @@ static sq_result try_scene(sq_context *ctx, const char *text)
     sq_scene_desc d = {.cfg = cfg, .validate_only = true};
     sq_scene *s = NULL;
     r = sq_scene_create(ctx, &d, &s);
+    if (r == SQ_OK) r = sq_scene_check_camera(s);
     sq_scene_destroy(s);
     sq_cfg_destroy(cfg);
     return r;
