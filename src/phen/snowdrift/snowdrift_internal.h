@@ -220,4 +220,8 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max);
 int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max);
 int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);
 
+/* checkpoint hooks (snowdrift_state.c) */
+sq_result sq__snowdrift_save_state(const void *self, sq_state_writer *w);
+sq_result sq__snowdrift_load_state(void *self, sq_state_reader *r);
+
 #endif
