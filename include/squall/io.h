@@ -40,6 +40,12 @@ SQ_API int sq_output_remove_stale(sq_context *ctx, const char *path, bool prefix
 SQ_API sq_result sq_output_write_file(const char *path, const void *data, size_t size,
                                       bool overwrite);
 
+/* Checks a directory for a series of outputs (PNG frames): it is created when missing (its parent
+ * must exist; *created then tells the caller it may remove it on failure), and first_file (a name
+ * inside it, may be NULL) must not exist unless overwrite. SQ_ERR_IO names the directory. */
+SQ_API sq_result sq_output_check_dir(const char *dir, const char *first_file, bool overwrite,
+                                     bool *created);
+
 /* ---- PNG ----------------------------------------------------------------------------------- */
 SQ_API sq_result sq_png_write_rgba8(const char *path, int width, int height,
                                     const uint8_t *rgba, bool overwrite);

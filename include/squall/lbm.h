@@ -156,6 +156,12 @@ SQ_API double sq_lbm_max_wind_mps(const sq_lbm_desc *desc);
 SQ_API double sq_lbm_time_step_s(const sq_lbm_desc *desc);
 /* Mach number above which sq_lbm_create refuses a wind (0.3). */
 SQ_API double sq_lbm_mach_limit(void);
+/* The checks sq_lbm_create makes, without allocating: the fields' rules, the relaxation time
+ * (τ > ½) and the Mach number of the fastest wind. The one home of these rules: a phenomenon
+ * built on the lattice calls this and translates the message (which starts with the lbm field,
+ * e.g. "tau = 0.5; must be > 0.5 ..." or "dt_s = 0.05 s: the wind ... Mach ...") into its own
+ * keys. ctx may be NULL (no log lines). */
+SQ_API sq_result sq_lbm_desc_validate(sq_context *ctx, const sq_lbm_desc *desc);
 /* Bytes sq_lbm_create will allocate for desc (0 if cells is invalid). */
 SQ_API uint64_t sq_lbm_memory_bytes(const sq_lbm_desc *desc);
 

@@ -11,6 +11,7 @@
 #include "squall/core.h"
 #include "squall/drawable.h"
 #include "squall/geo.h"
+#include "squall/phenomenon.h"
 #include "squall/plugin.h"
 #include "squall/world.h"
 
@@ -148,6 +149,10 @@ SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
  * sizes (SQ_ERR_INVALID_ARG). The file around them: squall/io.h, sq_checkpoint_*. */
 SQ_API sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w);
 SQ_API sq_result sq_scene_load_state(sq_scene *s, sq_state_reader *r);
+/* Layer i as a generic phenomenon handle (squall/phenomenon.h), owned by the scene: valid until
+ * sq_scene_destroy; never destroy it yourself. NULL outside [0, layer count). Stepping it alone
+ * puts it ahead of the scene's clock; read it, or step the scene. */
+SQ_API sq_phenomenon *sq_scene_layer(sq_scene *s, int i);
 /* Total bytes the layers declared (memory_bytes) at creation. */
 SQ_API uint64_t sq_scene_memory_bytes(const sq_scene *s);
 

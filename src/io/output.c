@@ -395,3 +395,34 @@ sq_result sq__write_error(sq_context *ctx, const char *path, int err, const char
     return sq__fail(ctx, SQ_ERR_IO, "io", "cannot write '%s': %s", path,
                     strerror(err ? err : EIO));
 }
+
+sq_result sq_output_check_dir(const char *dir, const char *first_file, bool overwrite,
+                              bool *created)
+{
+    *created = false;
+    if (!dir || !*dir) return sq__set_error(SQ_ERR_INVALID_ARG, "output directory name is empty");
+    struct stat st;
+    if (stat(dir, &st) == 0) {
+        if (!S_ISDIR(st.st_mode))
+            return sq__set_error(SQ_ERR_IO, "frames directory '%s' is not a directory", dir);
+    } else {
+        char parent[SQ__TEMP_NAME_MAX];
+        snprintf(parent, sizeof parent, "%s", dir);
+        char *slash = strrchr(parent, '/');
+        if (slash && slash != parent) {
+            *slash = 0;
+            if (stat(parent, &st) != 0 || !S_ISDIR(st.st_mode))
+                return sq__set_error(SQ_ERR_IO,
+                                     "cannot write frames to '%s': directory '%s' does not exist",
+                                     dir, parent);
+        }
+        if (mkdir(dir, 0777) != 0)
+            return sq__set_error(SQ_ERR_IO, "cannot create frames directory '%s': %s", dir,
+                                 strerror(errno));
+        *created = true;
+    }
+    if (!first_file) return SQ_OK;
+    char first[SQ__TEMP_NAME_MAX];
+    snprintf(first, sizeof first, "%s/%s", dir, first_file);
+    return sq_output_check(first, overwrite);
+}

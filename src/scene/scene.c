@@ -10,6 +10,7 @@
 #include <strings.h>
 
 #include "core/core_internal.h"
+#include "phen/phenomenon_internal.h"
 #include "scene_internal.h"
 #include "squall/rng.h"
 
@@ -19,8 +20,7 @@
 typedef struct layer {
     const sq_phen_plugin *plugin;
     char name[64];
-    void *desc;
-    void *self;
+    sq_phenomenon *ph; /* the generic handle; its phenomenon is created after every check */
 } layer;
 
 struct sq_scene {
@@ -451,6 +451,64 @@ static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
     return SQ_OK;
 }
 
+/* The node of a dotted table key under a layer's map: nested maps ("wind: {speed_mps: 3}") or
+ * dotted keys ("wind.speed_mps: 3"); NULL when the key is not in the file (a default). */
+static const sq_cfg_node *find_key(const sq_cfg_node *map, const char *key)
+{
+    if (!map || map->kind != SQ_CFG_MAP) return NULL;
+    const sq_cfg_node *n = sq_cfg_get(map, key);
+    if (n) return n;
+    const char *dot = strchr(key, '.');
+    if (!dot) return NULL;
+    char head[128];
+    const size_t len = (size_t)(dot - key);
+    if (len >= sizeof head) return NULL;
+    memcpy(head, key, len);
+    head[len] = '\0';
+    return find_key(sq_cfg_get(map, head), dot + 1);
+}
+
+/* A layer's refusal, phrased by the phenomenon about its C desc ("sq_<type>_desc.<key> = ...:
+ * rule"), for the scene: the place of <key> in the file (else of the layer) in front and
+ * "layers.<name>." for the desc's name. The rule itself is not re-derived here. */
+static sq_result translate_layer_error(sq_scene *s, const apply_ctx *la, const sq_cfg_node *l,
+                                       const layer *L, sq_result r)
+{
+    char msg[1536], out[2048], prefix[80], repl[96];
+    snprintf(msg, sizeof msg, "%s", sq_last_error());
+    snprintf(prefix, sizeof prefix, "sq_%s_desc.", L->plugin->name);
+    snprintf(repl, sizeof repl, "layers.%s.", L->name);
+    const sq_cfg_node *node = l;
+    const char *at = strstr(msg, prefix);
+    if (at) { /* the longest table key the message names */
+        const char *k = at + strlen(prefix);
+        size_t best = 0;
+        const sq_param *t = L->plugin->params;
+        for (size_t i = 0; i < L->plugin->param_count; i++) {
+            const size_t n = strlen(t[i].key);
+            if (n > best && strncmp(k, t[i].key, n) == 0 &&
+                !(k[n] == '_' || (k[n] >= 'a' && k[n] <= 'z') || (k[n] >= '0' && k[n] <= '9'))) {
+                const sq_cfg_node *kn = find_key(l, t[i].key);
+                best = n;
+                node = kn ? kn : l;
+            }
+        }
+    }
+    size_t len = 0;
+    for (const char *p = msg; *p && len + 1 < sizeof out;) {
+        if (strncmp(p, prefix, strlen(prefix)) == 0) {
+            len += (size_t)snprintf(out + len, sizeof out - len, "%s", repl);
+            p += strlen(prefix);
+        } else {
+            out[len++] = *p++;
+        }
+    }
+    out[len < sizeof out ? len : sizeof out - 1] = '\0';
+    char w[320];
+    where_of(la, node, w, sizeof w);
+    return sq__fail(s->ctx, r, "scene", "%s: %s", w, out);
+}
+
 static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg_node *node)
 {
     const sq_cfg *cfg = sd->cfg;
@@ -514,32 +572,28 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
                                 "'name:' is missing)",
                                 w, sec, L->name);
             }
-        snprintf(sec, sizeof sec, "layers[%d] (%s)", i, pl->name);
+        snprintf(sec, sizeof sec, "layers.%s", L->name); /* as --set addresses it */
         la.section = sec;
         L->plugin = pl;
-        L->desc = calloc(1, pl->desc_size);
-        if (!L->desc) return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+        void *desc = calloc(1, pl->desc_size);
+        if (!desc) return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
         s->layer_count++;
-        sq_params_defaults(pl->params, pl->param_count, L->desc);
+        sq_params_defaults(pl->params, pl->param_count, desc);
         static const char *const skip[] = {"type", "name", "enabled", NULL};
-        r = apply_map(&la, l, "", pl->params, pl->param_count, L->desc, skip);
-        if (r == SQ_OK && pl->desc_resolve) r = pl->desc_resolve(L->desc);
-        if (r == SQ_OK) r = sq_params_validate(pl->params, pl->param_count, L->desc, sec);
-        if (r != SQ_OK) return relog(s->ctx, r);
-        if (pl->validate) {
-            r = pl->validate(s->ctx, L->desc, s->world);
-            if (r != SQ_OK) return r;
+        r = apply_map(&la, l, "", pl->params, pl->param_count, desc, skip);
+        if (r != SQ_OK) {
+            free(desc);
+            return relog(s->ctx, r);
         }
-        uint64_t bytes = 0;
-        if (pl->memory_bytes) {
-            r = pl->memory_bytes(L->desc, s->world, &bytes);
-            if (r != SQ_OK) return r;
-            char what[128];
-            snprintf(what, sizeof what, "layer '%s' (%s)", L->name, pl->name);
-            r = sq_context_check_memory(s->ctx, s->memory_bytes + bytes, what);
-            if (r != SQ_OK) return r;
-            s->memory_bytes += bytes;
-        }
+        /* resolve, ranges, the phenomenon's own rules and the memory check live in the handle;
+         * the phenomenon itself is created once every layer has passed (sq_scene_create) */
+        const sq__phen_make m = {pl, L->name, desc, s->world, true, s->memory_bytes};
+        sq__phen_stage stage;
+        r = sq__phenomenon_make(s->ctx, &m, &L->ph, &stage);
+        free(desc);
+        if (r != SQ_OK)
+            return stage == SQ__PHEN_RULES ? translate_layer_error(s, &la, l, L, r) : r;
+        s->memory_bytes += sq_phenomenon_memory_bytes(L->ph);
     }
     return SQ_OK;
 }
@@ -663,19 +717,18 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &s->world);
     if (r == SQ_OK) note_camera_places(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
-    if (r == SQ_OK && !desc->validate_only) {
+    if (r == SQ_OK && !desc->validate_only)
         for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
-            layer *L = &s->layers[i];
             if (sq__cancelled(ctx)) {
                 r = sq__fail_cancelled(ctx, "scene", "while creating the layers");
                 break;
             }
-            r = L->plugin->create(ctx, L->desc, s->world, &L->self);
+            r = sq__phenomenon_instantiate(s->layers[i].ph);
             if (r != SQ_OK)
-                r = sq__scene_translate_error(L->plugin->params, L->plugin->param_count, L->name,
-                                              r);
+                r = sq__scene_translate_error(s->layers[i].plugin->params,
+                                              s->layers[i].plugin->param_count,
+                                              s->layers[i].name, r);
         }
-    }
     if (r != SQ_OK) {
         sq_scene_destroy(s);
         return r;
@@ -687,23 +740,15 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
 void sq_scene_destroy(sq_scene *s)
 {
     if (!s) return;
-    for (int i = s->layer_count - 1; i >= 0; i--) {
-        layer *L = &s->layers[i];
-        if (L->self && L->plugin->destroy) L->plugin->destroy(L->self);
-        free(L->desc);
-    }
+    for (int i = s->layer_count - 1; i >= 0; i--) sq_phenomenon_destroy(s->layers[i].ph);
     sq_world_destroy(s->ctx, s->world);
     free(s);
 }
 
 /* For checkpoints (scene_state.c). */
-void *sq__scene_layer_self(const sq_scene *s, int i)
+sq_phenomenon *sq__scene_layer_handle(const sq_scene *s, int i)
 {
-    return i >= 0 && i < s->layer_count ? s->layers[i].self : NULL;
-}
-const sq_phen_plugin *sq__scene_layer_plugin(const sq_scene *s, int i)
-{
-    return i >= 0 && i < s->layer_count ? s->layers[i].plugin : NULL;
+    return i >= 0 && i < s->layer_count ? s->layers[i].ph : NULL;
 }
 uint64_t sq__scene_steps(const sq_scene *s) { return s->step_count; }
 void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps)
@@ -730,33 +775,22 @@ const char *sq_scene_layer_type(const sq_scene *s, int i)
 {
     return i >= 0 && i < s->layer_count ? s->layers[i].plugin->name : NULL;
 }
+sq_phenomenon *sq_scene_layer(sq_scene *s, int i)
+{
+    return s && i >= 0 && i < s->layer_count ? s->layers[i].ph : NULL;
+}
 
 sq_result sq_scene_step(sq_scene *s, double dt_s)
 {
     if (!(dt_s > 0.0) || !isfinite(dt_s))
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "step dt = %g s; must be > 0", dt_s);
     for (int i = 0; i < s->layer_count; i++) {
-        layer *L = &s->layers[i];
-        if (!L->self) continue;
-        double lim = L->plugin->max_stable_dt ? L->plugin->max_stable_dt(L->self) : 0.0;
-        int n = 1;
-        if (lim > 0.0 && dt_s > lim) {
-            double nn = ceil(dt_s / lim - 1e-9);
-            if (nn > 100000.0)
-                return sq__fail(s->ctx, SQ_ERR_UNSTABLE, "scene",
-                                "layer '%s': stable step %g s would need %.0f sub-steps for a "
-                                "frame step of %g s",
-                                L->name, lim, nn, dt_s);
-            n = (int)nn;
-        }
-        for (int k = 0; k < n; k++) {
-            if (sq__cancelled(s->ctx))
-                return sq__fail_cancelled(s->ctx, "scene", "while stepping (sq_context_cancel)");
-            sq_result r = L->plugin->step(L->self, dt_s / n);
-            if (r != SQ_OK)
-                return sq__scene_translate_error(L->plugin->params, L->plugin->param_count,
-                                                 L->name, r);
-        }
+        const sq_result r = sq_phenomenon_step(s->layers[i].ph, dt_s);
+        if (r != SQ_OK)
+            return r == SQ_ERR_CANCELLED ? r
+                                         : sq__scene_translate_error(s->layers[i].plugin->params,
+                                                                     s->layers[i].plugin->param_count,
+                                                                     s->layers[i].name, r);
     }
     s->time_s += dt_s;
     s->step_count++;
@@ -768,9 +802,7 @@ sq_camera sq_scene_camera(sq_scene *s)
     double video_t = s->out.time_scale > 0.0 ? (s->time_s - s->out.warmup_s) / s->out.time_scale
                                              : s->time_s;
     sq_camera c = sq_camera_at(&s->camera, s->keys, s->key_count, video_t);
-    for (int i = 0; i < s->layer_count; i++)
-        if (s->layers[i].self && s->layers[i].plugin->observe)
-            s->layers[i].plugin->observe(s->layers[i].self, &c);
+    for (int i = 0; i < s->layer_count; i++) sq_phenomenon_observe(s->layers[i].ph, &c);
     return c;
 }
 
@@ -778,8 +810,7 @@ int sq_scene_drawables(sq_scene *s, sq_drawable *out, int max)
 {
     int n = 0;
     for (int i = 0; i < s->layer_count && n < max; i++)
-        if (s->layers[i].self && s->layers[i].plugin->drawables)
-            n += s->layers[i].plugin->drawables(s->layers[i].self, out + n, max - n);
+        n += sq_phenomenon_drawables(s->layers[i].ph, out + n, max - n);
     return n;
 }
 
@@ -789,8 +820,9 @@ int sq_scene_metrics(sq_scene *s, sq_metric *out, int max)
     if (max > MAX_METRICS) max = MAX_METRICS;
     for (int i = 0; i < s->layer_count && n < max; i++) {
         layer *L = &s->layers[i];
-        if (!L->self || !L->plugin->metrics) continue;
-        int k = L->plugin->metrics(L->self, out + n, max - n);
+        int k = sq_phenomenon_metric_count(L->ph);
+        if (k > max - n) k = max - n;
+        for (int j = 0; j < k; j++) sq_phenomenon_metric(L->ph, j, &out[n + j]);
         for (int j = 0; j < k; j++) {
             char full[sizeof s->metric_names[0]];
             snprintf(full, sizeof full, "%s.%s", L->name, out[n + j].name);
@@ -805,8 +837,10 @@ int sq_scene_metrics(sq_scene *s, sq_metric *out, int max)
 int sq_scene_fields(sq_scene *s, sq_named_field *out, int max)
 {
     int n = 0;
-    for (int i = 0; i < s->layer_count && n < max; i++)
-        if (s->layers[i].self && s->layers[i].plugin->fields)
-            n += s->layers[i].plugin->fields(s->layers[i].self, out + n, max - n);
+    for (int i = 0; i < s->layer_count && n < max; i++) {
+        sq_phenomenon *p = s->layers[i].ph;
+        const int k = sq_phenomenon_field_count(p);
+        for (int j = 0; j < k && n < max; j++) sq_phenomenon_field(p, j, &out[n++]);
+    }
     return n;
 }

@@ -106,8 +106,7 @@ sq_result sq__scene_geo_world(sq_context *ctx, const sq_scene_desc *sd,
 void sq__scene_geo_release(sq_context *ctx, sq__scene_geo *keep);
 
 /* Checkpoint access to the scene (scene.c). */
-void *sq__scene_layer_self(const sq_scene *s, int i);
-const sq_phen_plugin *sq__scene_layer_plugin(const sq_scene *s, int i);
+struct sq_phenomenon *sq__scene_layer_handle(const sq_scene *s, int i);
 uint64_t sq__scene_steps(const sq_scene *s);
 void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps);
 sq_context *sq__scene_context(const sq_scene *s);

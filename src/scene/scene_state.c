@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "core/core_internal.h"
+#include "phen/phenomenon_internal.h"
 #include "scene_internal.h"
 
 static sq_result put_text(sq_state_writer *w, const char *tag, const char *text)
@@ -30,12 +31,14 @@ sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w)
     if (!s || !w) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_scene_save_state: NULL argument");
     sq_context *ctx = sq__scene_context(s);
     const int n = sq_scene_layer_count(s);
-    for (int i = 0; i < n; i++)
-        if (!sq__scene_layer_plugin(s, i)->save_state)
+    for (int i = 0; i < n; i++) {
+        const sq_phen_plugin *pl = sq_plugin_find(sq_scene_layer_type(s, i));
+        if (!pl || !pl->save_state || !pl->load_state)
             return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene",
                             "layers.%s (%s) cannot be checkpointed: the phenomenon has no state "
                             "hooks",
                             sq_scene_layer_name(s, i), sq_scene_layer_type(s, i));
+    }
     const double t = sq_scene_time(s);
     const uint64_t steps = sq__scene_steps(s);
     const int32_t count = n;
@@ -45,8 +48,7 @@ sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w)
     for (int i = 0; i < n && w->status == SQ_OK; i++) {
         put_text(w, "layer/name", sq_scene_layer_name(s, i));
         put_text(w, "layer/type", sq_scene_layer_type(s, i));
-        const void *self = sq__scene_layer_self(s, i);
-        if (w->status == SQ_OK && self) sq__scene_layer_plugin(s, i)->save_state(self, w);
+        if (w->status == SQ_OK) sq__phenomenon_save_state(sq__scene_layer_handle(s, i), w);
     }
     return w->status;
 }
@@ -77,14 +79,7 @@ sq_result sq_scene_load_state(sq_scene *s, sq_state_reader *r)
                                         "'%s' (%s)",
                                         r->source, i, name, type, sq_scene_layer_name(s, i),
                                         sq_scene_layer_type(s, i));
-        const sq_phen_plugin *pl = sq__scene_layer_plugin(s, i);
-        void *self = sq__scene_layer_self(s, i);
-        if (!pl->load_state)
-            return r->status = sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene",
-                                        "layers.%s (%s) cannot be restored: the phenomenon has "
-                                        "no state hooks",
-                                        name, type);
-        if (self) pl->load_state(self, r);
+        sq__phenomenon_load_state(sq__scene_layer_handle(s, i), r);
     }
     if (r->status == SQ_OK) sq__scene_set_clock(s, t, steps);
     return r->status;

@@ -145,7 +145,7 @@ SQ_TEST(bad_input_is_refused_with_messages)
     sq_avalanche_desc d = slab_desc();
     d.spacing_m = -1.0;
     SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
-                 "layers.avalanche.particles.spacing_m = -1; the particle spacing must be > 0");
+                 "sq_avalanche_desc.particles.spacing_m = -1; the particle spacing must be > 0");
     d = slab_desc();
     d.support_radius_m = -0.5;
     SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,

@@ -5,40 +5,40 @@
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 L=layers.slide
 # particle spacing and support radius <= 0 (the parameter table's range; 0 support = auto)
-expect 2 "\(avalanche\).particles.spacing_m = 0 m: outside the range \[0.001, 100\] m" -- \
+expect 2 "preset alpine-avalanche \(--set\): layers.slide.particles.spacing_m = 0 m: outside the range \[0.001, 100\] m" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.spacing_m=0
 expect 2 "particles.spacing_m = -0.5 m: outside the range \[0.001, 100\] m" -- \
     render alpine-avalanche -o v.mp4 --set $L.particles.spacing_m=-0.5
 expect 2 "particles.support_radius_m = -1 m: outside the range \[0, 400\] m" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.support_radius_m=-1
 # a support the spacing cannot use (the rule behind "0 = 2 x spacing")
-expect 2 "layers.avalanche.particles.support_radius_m = 0.5 m is 0.667 x the spacing 0.75 m; must be 1.5 to 4 x the spacing" -- \
+expect 2 "layers.slide.particles.support_radius_m = 0.5 m is 0.667 x the spacing 0.75 m; must be 1.5 to 4 x the spacing" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.support_radius_m=0.5
 # release zone outside the terrain (500 x 400 m, centred on the origin)
-expect 2 "layers.avalanche.release: x \[882, 918\] m, y \[-15, 15\] m \(release.x_m = 900, .*\) lies outside the terrain x \[-250, 250\] m" -- \
+expect 2 "layers.slide.release: x \[882, 918\] m, y \[-15, 15\] m \(release.x_m = 900, .*\) lies outside the terrain x \[-250, 250\] m" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.release.x_m=900
-expect 2 "layers.avalanche.release: .*\(release.x_m = -40, release.y_m = 190, .*\) lies outside the terrain .*y \[-200, 200\] m" -- \
+expect 2 "layers.slide.release: .*\(release.x_m = -40, release.y_m = 190, .*\) lies outside the terrain .*y \[-200, 200\] m" -- \
     render alpine-avalanche -o v.mp4 --set $L.release.y_m=190
 # too many particles for memory: a 120 x 170 m slab 10 m deep at 8 cm is ~4.6e8 particles,
 # ~220 GiB; refused before allocating, naming the count and the bytes
-expect 2 "layers.avalanche.particles.spacing_m = 0.08 m: a release of 2.335e\+05 m3 makes [0-9]{9} particles, which needs [0-9]{12} bytes \([0-9.]+ GiB\); the memory limit is" -- \
+expect 2 "layers.slide.particles.spacing_m = 0.08 m: a release of 2.335e\+05 m3 makes [0-9]{9} particles, which needs [0-9]{12} bytes \([0-9.]+ GiB\); the memory limit is" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.spacing_m=0.08 \
     --set $L.release.length_m=120 --set $L.release.width_m=170 --set $L.release.x_m=-10 \
     --set $L.release.depth_m=10
 # beyond the solver's index range (more than 2^29 particles): also refused with the count
-expect 2 "layers.avalanche.particles.spacing_m = 0.01 m \(support 0.02 m\): the release makes [0-9]+ particles and the SPH solver refuses the set-up" -- \
+expect 2 "layers.slide.particles.spacing_m = 0.01 m \(support 0.02 m\): the release makes [0-9]+ particles and the SPH solver refuses the set-up" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.particles.spacing_m=0.01
 # rheology outside its physical range: mu0 < mu_inf (Cross), n <= 0
-expect 2 "layers.avalanche.rheology.mu0_pa_s = 0.5 is below layers.avalanche.rheology.mu_inf_pa_s = 1; the Cross model needs mu0 >= mu_inf" -- \
+expect 2 "layers.slide.rheology.mu0_pa_s = 0.5 is below layers.slide.rheology.mu_inf_pa_s = 1; the Cross model needs mu0 >= mu_inf" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.rheology.mu0_pa_s=0.5
-expect 2 "layers.avalanche.rheology.mu0_pa_s = 2 is below layers.avalanche.rheology.mu_inf_pa_s = 5" -- \
+expect 2 "layers.slide.rheology.mu0_pa_s = 2 is below layers.slide.rheology.mu_inf_pa_s = 5" -- \
     render alpine-avalanche -o v.mp4 --set $L.rheology.mu0_pa_s=2 --set $L.rheology.mu_inf_pa_s=5
 expect 2 "rheology.cross_n = 0: outside the range \[1e-06, 20\]" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.rheology.cross_n=0
 expect 2 "rheology.power_n = -1: outside the range \[1e-06, 20\]" -- \
     simulate alpine-avalanche --metrics m.csv --set $L.rheology.model=power-law \
     --set $L.rheology.power_n=-1
-# the same rules from a scene file (key path with file:line)
+# the same rules from a scene file (key path with file:line of the key the rule names)
 cat > s.yaml <<YAML
 name: bad-avalanche
 world: {terrain: {kind: mountain, size_m: [200, 100], resolution: [41, 21]}}
@@ -50,6 +50,6 @@ layers:
     release: {x_m: -40, length_m: 10, width_m: 10, depth_m: 2}
     rheology: {model: cross, mu0_pa_s: 1, mu_inf_pa_s: 10}
 YAML
-expect 2 "layers.avalanche.rheology.mu0_pa_s = 1 is below layers.avalanche.rheology.mu_inf_pa_s = 10" -- simulate s.yaml --metrics m.csv
+expect 2 "s.yaml:9:[0-9]+: layers.avalanche.rheology.mu0_pa_s = 1 is below layers.avalanche.rheology.mu_inf_pa_s = 10" -- simulate s.yaml --metrics m.csv
 expect 2 "cross_n = -2: outside the range" -- render s.yaml --set layers.avalanche.rheology.cross_n=-2
 finish

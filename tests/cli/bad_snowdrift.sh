@@ -6,7 +6,7 @@
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 P=village-snowdrift
 # relaxation time at or below 1/2 (zero or negative lattice viscosity)
-expect 2 "wind.tau = 0.5; must be > 0.5" -- \
+expect 2 "village-snowdrift \(--set\): layers.snow.wind.tau = 0.5; must be > 0.5" -- \
     simulate $P --frames 1 --metrics m.csv --set layers.snow.wind.tau=0.5
 # a lattice step too long for the wind: Mach number too high, names the knobs
 expect 2 "domain.dt_s = 0.05 s: .*Mach [0-9.]+ > 0.3.*lower domain.dt_s to at most [0-9.e-]+ s" -- \
@@ -34,6 +34,10 @@ expect 2 "snow.snowfall_mmh = -2 mm/h: outside the range \[0, 1000\] mm/h" -- \
     simulate $P --frames 1 --metrics m.csv --set layers.snow.snow.snowfall_mmh=-2
 # a lattice too large for memory: refused before allocating, with the bytes needed
 expect 2 "layer 'snow' \(snowdrift\) needs [0-9]+ bytes \([0-9.]+ GiB\); the memory limit is" -- \
+    simulate $P --frames 1 --metrics m.csv --set layers.snow.domain.nx=1200 \
+    --set layers.snow.domain.ny=1200 --set layers.snow.domain.nz=1200
+# a lattice beyond the solver's 31-bit cell index: the lattice's rule, in the layer's keys
+expect 2 "layers.snow.domain.cells = 2048x2048x2048; the padded lattice may hold at most 2\^31-1 cells" -- \
     simulate $P --frames 1 --metrics m.csv --set layers.snow.domain.nx=2048 \
     --set layers.snow.domain.ny=2048 --set layers.snow.domain.nz=2048
 finish

@@ -12,7 +12,7 @@
 #include "avalanche_internal.h"
 
 #define MOD "avalanche"
-#define P "layers.avalanche."
+#define P "sq_avalanche_desc." /* the scene shows it as layers.<name>. */
 
 sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_desc *out)
 {
@@ -422,7 +422,7 @@ static sq_result validate_plan(sq_context *ctx, const sq_avalanche_desc *desc, c
     const uint64_t bytes = plan_bytes(pl);
     char what[256];
     snprintf(what, sizeof what,
-             "layers.avalanche.particles.spacing_m = %g m: a release of %.4g m3 makes %zu "
+             P "particles.spacing_m = %g m: a release of %.4g m3 makes %zu "
              "particles, which",
              pl->spacing, pl->volume_m3, pl->count);
     return sq_context_check_memory(ctx, bytes, what);

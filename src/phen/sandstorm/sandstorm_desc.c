@@ -67,7 +67,7 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
 {
     sq_sandstorm_desc d;
     sq_sandstorm_desc_resolve(in, &d);
-    const char *P = "layers.sandstorm.";
+    const char *P = "sq_sandstorm_desc."; /* the scene shows it as layers.<name>. */
     if (d.mode != SQ_SANDSTORM_DESERT && d.mode != SQ_SANDSTORM_URBAN)
         BAD("%smode = %d; must be desert (0) or urban (1)", P, d.mode);
     for (int a = 0; a < 3; a++)

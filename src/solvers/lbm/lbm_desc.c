@@ -110,6 +110,17 @@ double sq_lbm_time_step_s(const sq_lbm_desc *desc)
 
 double sq_lbm_mach_limit(void) { return LBM_MACH_REFUSE; }
 
+sq_result sq_lbm_desc_validate(sq_context *ctx, const sq_lbm_desc *desc)
+{
+    if (!desc) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "lbm", "sq_lbm_desc_validate: desc is NULL");
+    const sq_lbm_desc d = sq_lbm_desc_resolve(desc);
+    sq_result r = sq__lbm_validate(ctx, &d);
+    if (r != SQ_OK) return r;
+    sq__lbm_units u;
+    double tau;
+    return sq__lbm_units_make(ctx, &d, &u, &tau);
+}
+
 static bool finite_nonneg(double v) { return isfinite(v) && v >= 0; }
 
 sq_result sq__lbm_validate(sq_context *ctx, const sq_lbm_desc *d)
@@ -271,7 +282,15 @@ sq_result sq__lbm_units_make(sq_context *ctx, const sq_lbm_desc *d, sq__lbm_unit
                "collision = smagorinsky for high-Reynolds wind",
                t, sq_lbm_collision_name(d->collision));
     *tau = t;
-    if (umax > 0) return sq__lbm_check_mach(ctx, u, umax, "wind");
+    if (umax > 0) {
+        const sq_result r = sq__lbm_check_mach(ctx, u, umax, "the wind");
+        if (r != SQ_OK && d->dt_s > 0) { /* a step the caller chose: name it first */
+            char why[768];
+            snprintf(why, sizeof why, "%s", sq_last_error());
+            return sq__fail(ctx, r, "lbm", "dt_s = %g s: %s", d->dt_s, why);
+        }
+        return r;
+    }
     return SQ_OK;
 }
 
