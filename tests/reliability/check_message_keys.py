@@ -145,9 +145,12 @@ problems = []
 # Scene scope: messages of the scene loader, the phenomena and the render/simulate command reach
 # scene users, so every name in them is a scene key.
 scene_files = []
+# the generic phenomenon handle validates its own C API (phenomenon.h): API scope below
+api_files = {os.path.join(SRC, "src/phen/phenomenon.c"): ["phenomenon.h", "plugin.h", "core.h"]}
 for d in ["src/scene", "src/phen"]:
     for root, _, files in os.walk(os.path.join(SRC, d)):
-        scene_files += [os.path.join(root, f) for f in sorted(files) if f.endswith(".c")]
+        scene_files += [os.path.join(root, f) for f in sorted(files)
+                        if f.endswith(".c") and os.path.join(root, f) not in api_files]
 scene_files += [os.path.join(SRC, "apps/cli", f) for f in ("cmd_render.c", "run.c", "cli_run.c")]
 for f in scene_files:
     if os.path.exists(f):
@@ -162,6 +165,12 @@ api_headers = {"src/render": ["render.h", "drawable.h", "world.h", "image.h", "c
 solver_root = os.path.join(SRC, "src/solvers")
 for solver in sorted(os.listdir(solver_root)):
     api_headers["src/solvers/" + solver] = [solver + ".h", "core.h", "field.h"]
+for f, headers in sorted(api_files.items()):
+    names = set()
+    for h in headers:
+        names |= api_names(os.path.join(SRC, "include/squall", h))
+    problems += check(f, names | scene_names, "a name of %s (%s) or a scene key" %
+                      (os.path.relpath(f, SRC), ", ".join(headers)))
 for d, headers in sorted(api_headers.items()):
     names = set()
     for h in headers:
