@@ -42,6 +42,8 @@ static void render_usage(bool simulate)
            sq_preset_default());
     if (!simulate)
         printf("  -o PATH              output: a .mp4 file, or a directory for PNG frames\n"
+               "                       (default: output.video, out/squall.mp4; out/ is made if\n"
+               "                       missing)\n"
                "  --size WxH           frame size in pixels (even for MP4), e.g. 1280x720\n"
                "  --reference          render with the CPU reference path tracer (PNG frames)\n"
                "  --samples N          reference path tracer samples per pixel (> 0)\n");
@@ -52,11 +54,17 @@ static void render_usage(bool simulate)
            "  --fields PREFIX      field files PREFIX_NNNNN.nc (see output.fields_every)\n"
            "  --set KEY=VALUE      override any scene key, e.g. --set output.fps=30\n"
            "                       --set layers.sandstorm.wind.speed_mps=20 (see squall params)\n"
-           "  --overwrite          replace existing outputs (never done otherwise)\n"
+           "  --overwrite          replace existing outputs (never done otherwise; inputs never)\n"
+           "  --checkpoint-every T write the complete state every T simulated seconds\n"
+           "  --checkpoint PATH    where (default squall.ckpt); replaced by each new one\n"
+           "  --resume CHECKPOINT  continue a run from its checkpoint, bit-identically (the scene\n"
+           "                       comes from the checkpoint; only output settings may change)\n"
            "  --threads N          worker threads (default: all cores)\n"
            "  --quiet              no progress, only errors\n"
            "  --json               print a machine-readable summary on stdout\n\n"
            "Progress goes to stderr (a live line on a terminal, one summary line otherwise).\n"
+           "Ctrl-C stops within a second and leaves nothing but the metrics rows so far\n"
+           "(NAME.partial.csv); see docs/reliability.md.\n"
            "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n");
 }
 
@@ -64,7 +72,8 @@ static void render_usage(bool simulate)
 static bool takes_value(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
-                       "--metrics", "--fields", "--samples", NULL};
+                       "--metrics", "--fields", "--samples", "--checkpoint-every",
+                       "--checkpoint", "--resume", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0) return true;
     return false;
@@ -74,7 +83,8 @@ static bool known_option(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
                        "--metrics", "--fields", "--samples", "--overwrite", "--quiet", "--json",
-                       "--reference", "--verbose", NULL};
+                       "--reference", "--verbose", "--checkpoint-every", "--checkpoint",
+                       "--resume", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -198,7 +208,23 @@ int sq_cmd_render(int argc, char **argv)
         }
         scene_arg = argv[i];
     }
+    const char *resume = sq_cli_value(argc, argv, "--resume");
+    if (resume && scene_arg) {
+        sq_cli_error("--resume %s: the scene comes from the checkpoint; do not name one ('%s')",
+                     resume, scene_arg);
+        return SQ_EXIT_USAGE;
+    }
     if (!scene_arg) scene_arg = sq_preset_default();
+    double ck_every = 0.0;
+    if (!sq_cli_double(argc, argv, "--checkpoint-every", 0.0, 0.0, 1e12, &ck_every))
+        return SQ_EXIT_USAGE;
+    if (sq_cli_value(argc, argv, "--checkpoint-every") && !(ck_every > 0.0)) {
+        sq_cli_error("--checkpoint-every %s: must be > 0 simulated seconds",
+                     sq_cli_value(argc, argv, "--checkpoint-every"));
+        return SQ_EXIT_USAGE;
+    }
+    const char *ck_path = sq_cli_value(argc, argv, "--checkpoint");
+    if (!ck_path) ck_path = "squall.ckpt";
     const bool overwrite = sq_cli_flag(argc, argv, "--overwrite");
     const bool quiet = sq_cli_flag(argc, argv, "--quiet");
     const bool json = sq_cli_flag(argc, argv, "--json");
@@ -219,7 +245,10 @@ int sq_cmd_render(int argc, char **argv)
     signal(SIGINT, on_signal);
     signal(SIGTERM, on_signal);
     sq_cfg *cfg = NULL;
-    sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
+    sq_checkpoint_info ck_info;
+    memset(&ck_info, 0, sizeof ck_info);
+    sq_result r = resume ? sq_checkpoint_read_header(ctx, resume, &ck_info, &cfg)
+                         : sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
         signal_ctx = NULL;
         sq_context_destroy(ctx);
@@ -231,6 +260,20 @@ int sq_cmd_render(int argc, char **argv)
     for (int i = 1; i < argc && r == SQ_OK; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
         set[0] = 0;
+        /* a resumed run continues the same simulation: only outputs may change, not the
+         * physics, nor the frame clock (fps, steps per frame, time scale, warm-up) */
+        if (resume && (strcmp(a, "--fps") == 0 ||
+                       (strcmp(a, "--set") == 0 &&
+                        (strncmp(v, "output.", 7) != 0 || strncmp(v, "output.fps", 10) == 0 ||
+                         strncmp(v, "output.steps_per_frame", 22) == 0 ||
+                         strncmp(v, "output.time_scale", 17) == 0 ||
+                         strncmp(v, "output.warmup_s", 15) == 0)))) {
+            sq_cli_error("%s %s: cannot change this when resuming from '%s': the run would not "
+                         "continue the same simulation (only output settings may change)",
+                         a, v, resume);
+            rc = SQ_EXIT_USAGE;
+            break;
+        }
         if (strcmp(a, "--set") == 0) {
             r = sq_cfg_set(cfg, v);
         } else if (strcmp(a, "-o") == 0 && !simulate) {
@@ -308,8 +351,17 @@ int sq_cmd_render(int argc, char **argv)
                         .load_dem = sq_dem_load, .load_area = sq_area_load};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
-    sq_cfg_destroy(cfg);
+    if (r == SQ_OK && resume) r = sq_checkpoint_restore(ctx, resume, scene, &ck_info);
+    /* a checkpoint being written when its run was killed left a temporary next to it */
+    if (r == SQ_OK && resume) sq_output_remove_stale(ctx, resume, false);
+    if (r == SQ_OK && resume && ck_info.frame >= sq_scene_frame_count(scene))
+        r = sq_set_error(SQ_ERR_INVALID_ARG,
+                         "--resume %s: the checkpoint is at frame %d; the scene has %d frames "
+                         "(more with --frames)",
+                         resume, ck_info.frame, sq_scene_frame_count(scene));
     if (r != SQ_OK) {
+        sq_scene_destroy(scene);
+        sq_cfg_destroy(cfg);
         signal_ctx = NULL;
         sq_context_destroy(ctx);
         return fail(r, NULL);
@@ -330,6 +382,27 @@ int sq_cmd_render(int argc, char **argv)
     rd.write_outputs = true;
     rd.overwrite = overwrite;
     rd.cancel_flag = &interrupted;
+    rd.checkpoint_every_s = ck_every;
+    rd.checkpoint_path = ck_path;
+    rd.checkpoint_cfg = cfg;
+    rd.resume_frame = resume ? ck_info.frame : 0;
+    {
+        struct stat a, b;
+        rd.checkpoint_replaces = resume && stat(resume, &a) == 0 && stat(ck_path, &b) == 0 &&
+                                 a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+    }
+    /* a first run in a fresh directory: the default video's directory (out/) is made */
+    if (video && !simulate) {
+        size_t nt = 0;
+        const sq_param *vp = sq_params_find(sq_scene_section_params("output", &nt), nt, "video");
+        const char *slash = strrchr(video, '/');
+        if (vp && vp->def_text && strcmp(video, vp->def_text) == 0 && slash) {
+            char dir[256];
+            snprintf(dir, sizeof dir, "%.*s", (int)(slash - video), video);
+            if (mkdir(dir, 0777) == 0 && !quiet)
+                fprintf(stderr, "squall: made '%s/' for the default output\n", dir);
+        }
+    }
     rd.progress = on_progress;
     rd.user = &tty;
     sq_run *run = NULL;
@@ -376,6 +449,7 @@ int sq_cmd_render(int argc, char **argv)
 done:
     sq_run_destroy(run);
     sq_scene_destroy(scene);
+    sq_cfg_destroy(cfg);
     signal_ctx = NULL;
     sq_context_destroy(ctx);
     return rc;

@@ -222,7 +222,7 @@ static sq_result open_verified(sq_context *ctx, const char *path, FILE **fp_out,
                         FORMAT);
     }
     *fp_out = fp;
-    *body = size - 8 - 8 - 8 - 4 - 4; /* after magic, format, marker; before trailer + sum */
+    *body = size - 8 - 4 - 4 - 8; /* after magic, format, marker; before the checksum */
     return SQ_OK;
 }
 
@@ -343,8 +343,13 @@ sq_result sq_checkpoint_read_header(sq_context *ctx, const char *path, sq_checkp
         char source[300];
         snprintf(source, sizeof source, "checkpoint %s", path);
         r = sq_cfg_parse(ctx, y, strlen(y), source, cfg_out);
-        if (r == SQ_OK) snprintf((*cfg_out)->base_dir, sizeof (*cfg_out)->base_dir, "%s",
-                                 info->base_dir);
+        if (r == SQ_OK) {
+            snprintf((*cfg_out)->base_dir, sizeof (*cfg_out)->base_dir, "%s", info->base_dir);
+            /* a scene without a name is named after its file: keep the original's */
+            if (!sq_cfg_get((*cfg_out)->root, "name") && info->scene[0])
+                sq_cfg_node_append((*cfg_out)->root,
+                                   sq_cfg_node_new(SQ_CFG_SCALAR, "name", info->scene, 0, 0));
+        }
     }
     free(h);
     free(y);

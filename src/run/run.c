@@ -94,6 +94,21 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     run->frames = sq_scene_frame_count(desc->scene);
     run->t0 = sq_time_now();
     run->front = run->drawing = -1;
+    if (desc->resume_frame < 0 || desc->resume_frame > run->frames ||
+        desc->checkpoint_every_s < 0.0 || !isfinite(desc->checkpoint_every_s) ||
+        (desc->checkpoint_every_s > 0.0 && (!desc->checkpoint_path || !*desc->checkpoint_path ||
+                                            !desc->checkpoint_cfg))) {
+        sq_free(ctx, run);
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "run",
+                        "sq_run_desc: resume_frame = %d (0..%d), checkpoint_every_s = %g (>= 0, "
+                        "with a path and the configuration)",
+                        desc->resume_frame, run->frames, desc->checkpoint_every_s);
+    }
+    run->next = desc->resume_frame;
+    if (desc->checkpoint_every_s > 0.0)
+        run->next_checkpoint_s =
+            (floor(sq_scene_time(desc->scene) / desc->checkpoint_every_s + 1e-9) + 1.0) *
+            desc->checkpoint_every_s;
     run->slots[0].index = run->slots[1].index = -1;
     if (mtx_init(&run->lock, mtx_plain) != thrd_success) {
         sq_free(ctx, run);
@@ -128,6 +143,13 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     /* a camera under the terrain is named by its key and file:line before any work */
     sq_result r = images ? sq_scene_check_camera(desc->scene) : SQ_OK;
     if (r == SQ_OK) r = sq__run_outputs_check(o, images);
+    if (r == SQ_OK && desc->checkpoint_every_s > 0.0) {
+        r = sq_output_check(desc->checkpoint_path,
+                            desc->overwrite || desc->checkpoint_replaces);
+        if (r == SQ_OK && !desc->checkpoint_replaces)
+            r = sq_output_check_inputs(ctx, desc->checkpoint_path, false);
+        if (r == SQ_OK) sq_output_remove_stale(ctx, desc->checkpoint_path, false);
+    }
     if (r == SQ_OK && images && desc->write_outputs && !o->video && !o->frames_dir &&
         !desc->sinks.frame)
         r = sq__fail(ctx, SQ_ERR_INVALID_ARG, "run",
@@ -209,7 +231,7 @@ static sq_result step_to_frame(sq_run *run)
     const double frame_dt = sq_scene_frame_dt(run->scene);
     const int spf = run->out->steps_per_frame > 0 ? run->out->steps_per_frame : 1;
     sq_result r = SQ_OK;
-    if (run->next == 0) {
+    if (run->next == 0) { /* a resumed run (resume_frame > 0) has had its warm-up */
         while (r == SQ_OK && sq_scene_time(run->scene) + 1e-9 < run->out->warmup_s) {
             if (cancelled(run)) return interrupted(run);
             r = sq_scene_step(run->scene, frame_dt / spf);
@@ -273,6 +295,16 @@ sq_result sq_run_advance(sq_run *run)
     run->next = frame + 1;
     if (!renders(run)) run->slots[0].camera = cam;
     mtx_unlock(&run->lock);
+    /* a checkpoint: the state after this frame, to make frame + 1 next */
+    if (run->desc.checkpoint_every_s > 0.0 && t + 1e-9 >= run->next_checkpoint_s) {
+        r = sq_checkpoint_write(run->ctx, run->desc.checkpoint_path,
+                                run->checkpoint_written || run->desc.overwrite ||
+                                    run->desc.checkpoint_replaces,
+                                run->scene, run->desc.checkpoint_cfg, run->next);
+        if (r != SQ_OK) return r;
+        run->checkpoint_written = true;
+        while (run->next_checkpoint_s <= t + 1e-9) run->next_checkpoint_s += run->desc.checkpoint_every_s;
+    }
     if (!renders(run)) report(run, run->next, 0.0, run->next == run->frames ? "done" : "frame");
     return SQ_OK;
 }

@@ -103,6 +103,8 @@ struct sq_run {
     int next;            /* frames advanced so far */
     double t0;           /* wall clock at create */
     bool finished;
+    double next_checkpoint_s; /* simulated time of the next checkpoint */
+    bool checkpoint_written;  /* later checkpoints replace the run's own file */
     sq__run_outputs outs;
     /* frames for the drawing side: with snapshots two slots (front = latest complete frame),
      * else slot 0 holds views into the live phenomena */
