@@ -106,6 +106,12 @@ typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint
  * sq_area_load of squall/geo.h). What they return is allocated through ctx (sq_alloc). */
 typedef sq_result (*sq_dem_loader)(sq_context *ctx, const sq_dem_desc *desc, sq_dem *out);
 typedef sq_result (*sq_area_loader)(sq_context *ctx, const sq_area_desc *desc, sq_area *out);
+/* Fills a world description from a WRF file (supplied by the io layer:
+ * sq_scene_wrf_world_loader in squall/wrf.h): the terrain (HGT) as a float grid, the
+ * georeference and the sun's date and place. *owned receives one allocation (sq_alloc) holding
+ * what desc points to; the scene frees it with sq_free after creating the world. */
+typedef sq_result (*sq_wrf_world_loader)(sq_context *ctx, const char *path, sq_world_desc *desc,
+                                         void **owned);
 
 typedef struct sq_scene_desc {
     const sq_cfg *cfg;
@@ -113,6 +119,7 @@ typedef struct sq_scene_desc {
     bool validate_only;                 /* resolve and check everything, create no phenomena */
     sq_dem_loader load_dem;             /* NULL: DEM terrains are refused */
     sq_area_loader load_area;           /* NULL: world.areas are refused */
+    sq_wrf_world_loader load_wrf_world; /* NULL: terrain kind wrf is refused */
 } sq_scene_desc;
 
 SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);

@@ -15,6 +15,30 @@
 extern "C" {
 #endif
 
+/* ---- the sun at a date and place (src/world/sun.c) --------------------------------------- */
+/* Position of the sun for an instant (UTC) and a place: the NOAA solar calculator's algorithm
+ * (Meeus, "Astronomical Algorithms", ch. 25, low-precision solar coordinates; about 0.01 degree
+ * for years 1900-2100). True solar time = UTC + longitude/15 h + equation of time. */
+typedef struct sq_sun_position {
+    double declination_deg;      /* apparent declination */
+    double equation_of_time_min; /* apparent minus mean solar time, minutes (about -14..+16) */
+    double true_solar_time_h;    /* local apparent solar time at the longitude, 0..24 h */
+    double hour_angle_deg;       /* 0 at solar noon, positive in the afternoon, -180..180 */
+    double zenith_deg;           /* geometric zenith angle (no refraction), 0..180 */
+    double elevation_deg;        /* apparent elevation: 90 - zenith + refraction (Saemundsson,
+                                    1010 hPa, 10 C; none below -1 degree) */
+    double azimuth_deg;          /* from true north, clockwise (east 90, south 180), 0..360 */
+} sq_sun_position;
+
+/* unix_time_s: seconds since 1970-01-01 00:00:00 UTC; latitude north, longitude east. */
+SQ_API sq_sun_position sq_sun_position_at(double unix_time_s, double latitude_deg,
+                                          double longitude_deg);
+/* Unit vector toward the sun (apparent elevation) in east-north-up axes. */
+SQ_API sq_vec3 sq_sun_position_direction(const sq_sun_position *p);
+/* Seconds since 1970-01-01 00:00:00 UTC of a proleptic Gregorian UTC date and time (no leap
+ * seconds). Fields are not range-checked: month 13 is January of the next year. */
+SQ_API double sq_unix_time(int year, int month, int day, int hour, int minute, double second);
+
 typedef enum sq_terrain_kind {
     SQ_TERRAIN_DEFAULT = 0,   /* = SQ_TERRAIN_HILLS */
     SQ_TERRAIN_FLAT = 1,      /* z = base_m everywhere */
@@ -64,6 +88,9 @@ typedef struct sq_terrain_desc {
     /* grid: optional, 1 where the source had no data and the height was filled (same layout;
      * borrowed for the create call; NULL = every sample measured) */
     const uint8_t *grid_void;
+    /* heights (base included) are multiplied by this, for every kind: a vertical exaggeration of
+     * real terrain (WRF domains are hundreds of km wide and a few km high); 0 -> 1 */
+    float vertical_exaggeration;
 } sq_terrain_desc;
 
 typedef enum sq_obstacle_kind {
@@ -115,6 +142,16 @@ typedef struct sq_sun_desc {
     bool hour_set;          /* true if hour_solar was given (0 = midnight is physical) */
     float latitude_deg;     /* 0 is physical (equator) */
     float irradiance_w_m2;  /* direct normal irradiance at the ground; 0 -> 1000 */
+    /* The sun at a date (optional; used when direction is zero): at scene time t the sun stands
+     * where it does at the UTC instant utc_start_unix_s + clock_scale * t over latitude_deg,
+     * longitude_deg (sq_sun_position_at), its azimuth turned into the world by
+     * north_rotation_deg (true north, degrees clockwise from the world's +y: WRF grids). The
+     * world follows the scene clock through sq_world_set_time. */
+    bool utc_set;
+    double utc_start_unix_s;   /* seconds since 1970-01-01 00:00:00 UTC at scene time 0 */
+    float longitude_deg;       /* east; 0 is physical */
+    float north_rotation_deg;  /* 0 is physical */
+    float clock_scale;         /* simulated seconds per scene second; 0 -> 1 */
 } sq_sun_desc;
 
 typedef struct sq_world_desc {
@@ -163,12 +200,24 @@ typedef struct sq_world {
     /* named polygon areas (owned copies) */
     sq_world_area areas[SQ_MAX_WORLD_AREAS];
     int area_count;
+    /* the sun's clock (sq_sun_desc.utc_set): sun_dir, sun_radiance and the sky follow
+     * sq_world_set_time; sun_position is the sun's place at time_s */
+    bool sun_follows_clock;
+    double sun_utc_start_unix_s, sun_clock_scale;
+    float sun_latitude_deg, sun_longitude_deg, sun_north_rotation_deg, sun_irradiance_w_m2;
+    double time_s;
+    sq_sun_position sun_position;
+    float vertical_exaggeration;
     uint64_t generation;   /* changes when terrain or obstacles change (e.g. heightmap edit) */
 } sq_world;
 
 SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);
 SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
 SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
+
+/* Sets the world's time (scene seconds): with a sun clock (sq_sun_desc.utc_set) the sun's
+ * direction, radiance and the sky colours move to that time; otherwise only time_s changes. */
+SQ_API void sq_world_set_time(sq_world *w, double t_s);
 
 /* Terrain height and normal at (x, y), bilinear; outside the heightfield the edge is extended. */
 SQ_API float sq_world_height_at(const sq_world *w, float x, float y);
@@ -189,29 +238,6 @@ SQ_API bool sq_world_void_at(const sq_world *w, float x, float y);
  * declination; about 1 degree accurate: for scenes without a date). */
 SQ_API sq_vec3 sq_sun_direction(int day_of_year, float hour_solar, float latitude_deg);
 
-/* ---- the sun at a date and place (src/world/sun.c) --------------------------------------- */
-/* Position of the sun for an instant (UTC) and a place: the NOAA solar calculator's algorithm
- * (Meeus, "Astronomical Algorithms", ch. 25, low-precision solar coordinates; about 0.01 degree
- * for years 1900-2100). True solar time = UTC + longitude/15 h + equation of time. */
-typedef struct sq_sun_position {
-    double declination_deg;      /* apparent declination */
-    double equation_of_time_min; /* apparent minus mean solar time, minutes (about -14..+16) */
-    double true_solar_time_h;    /* local apparent solar time at the longitude, 0..24 h */
-    double hour_angle_deg;       /* 0 at solar noon, positive in the afternoon, -180..180 */
-    double zenith_deg;           /* geometric zenith angle (no refraction), 0..180 */
-    double elevation_deg;        /* apparent elevation: 90 - zenith + refraction (Saemundsson,
-                                    1010 hPa, 10 C; none below -1 degree) */
-    double azimuth_deg;          /* from true north, clockwise (east 90, south 180), 0..360 */
-} sq_sun_position;
-
-/* unix_time_s: seconds since 1970-01-01 00:00:00 UTC; latitude north, longitude east. */
-SQ_API sq_sun_position sq_sun_position_at(double unix_time_s, double latitude_deg,
-                                          double longitude_deg);
-/* Unit vector toward the sun (apparent elevation) in east-north-up axes. */
-SQ_API sq_vec3 sq_sun_position_direction(const sq_sun_position *p);
-/* Seconds since 1970-01-01 00:00:00 UTC of a proleptic Gregorian UTC date and time (no leap
- * seconds). Fields are not range-checked: month 13 is January of the next year. */
-SQ_API double sq_unix_time(int year, int month, int day, int hour, int minute, double second);
 
 /* ---- camera ------------------------------------------------------------------------------ */
 typedef struct sq_camera {

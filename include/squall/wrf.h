@@ -193,8 +193,16 @@ SQ_API sq_result sq_wrf_sun(const sq_wrf *w, double time_s, sq_sun_position *pos
 
 /* Fills a world description from the series: terrain = HGT of the first stored time as an
  * SQ_TERRAIN_GRID (heights and crs_wkt borrowed from w: keep w open until sq_world_create
- * returns), the georeference and the sun at time_s. Other fields of *desc are left as they are. */
+ * returns), the georeference, and the sun's clock (sq_sun_desc.utc_set: date = the series' time
+ * time_s, place = the domain centre, north rotation; direction set to zero so the clock is used).
+ * Other fields of *desc (vertical exaggeration, sky, obstacles ...) are left as they are. */
 SQ_API sq_result sq_wrf_world_desc(sq_wrf *w, double time_s, sq_world_desc *desc);
+
+/* The scene's loader for terrain kind wrf (sq_scene_desc.load_wrf_world, squall/scene.h):
+ * sq_wrf_world_desc of the file at its first time, with the heights and WKT copied into *owned
+ * (one sq_alloc block, freed by the caller with sq_free after sq_world_create). */
+SQ_API sq_result sq_scene_wrf_world_loader(sq_context *ctx, const char *path, sq_world_desc *desc,
+                                           void **owned);
 
 /* Column optical depth of the cloud condensate (cloud water + cloud ice) on the mass grid
  * (nx*ny), for a state read from w: tau = sum_k beta_k (zstag[k+1] - zstag[k]) with

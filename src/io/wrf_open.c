@@ -165,7 +165,7 @@ static sq_result find_dims(sq_wrf *w, const char *path, int ncid, int varid_time
     if (st != NC_NOERR) return nc_error(w, path, st, "Times");
     size_t slen = 0;
     if (type != NC_CHAR || nd != 2 || nc_inq_dimlen(ncid, dims[1], &slen) != NC_NOERR ||
-        slen < 19) {
+        slen < 19 || slen > 256) {
         char have[256];
         shape_text(ncid, varid_times, have, sizeof have);
         return sq__fail(w->ctx, SQ_ERR_PARSE, "wrf",
@@ -200,6 +200,10 @@ static sq_result find_dims(sq_wrf *w, const char *path, int ncid, int varid_time
                             dim_name[stag[s].d - 3], stag[s].want - 1);
     if (fd->time_len < 1)
         return sq__fail(w->ctx, SQ_ERR_PARSE, "wrf", "%s: the Time dimension is empty", path);
+    if (fd->time_len > 1000000)
+        return sq__fail(w->ctx, SQ_ERR_PARSE, "wrf",
+                        "%s: the Time dimension has %zu entries; at most 1000000", path,
+                        fd->time_len);
     return SQ_OK;
 }
 
@@ -447,9 +451,15 @@ static sq_result open_file(sq_wrf *w, int index, const char *path, wrf_entry **e
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) in.has_species[s] = f->varid[WV_QCLOUD + s] >= 0;
     in.has_ice_number = f->varid[WV_QNICE] >= 0;
     in.has_rain_number = f->varid[WV_QNRAIN] >= 0;
-    double mp = -1;
-    att_double(w, path, ncid, "MP_PHYSICS", false, "", &mp, NULL);
-    in.mp_physics = (int)mp;
+    /* MP_PHYSICS is informative only: absent or malformed gives -1 */
+    int mp = -1;
+    nc_type mp_type;
+    size_t mp_len = 0;
+    if (nc_inq_att(ncid, NC_GLOBAL, "MP_PHYSICS", &mp_type, &mp_len) != NC_NOERR ||
+        mp_len != 1 || mp_type == NC_CHAR || mp_type == NC_STRING ||
+        nc_get_att_int(ncid, NC_GLOBAL, "MP_PHYSICS", &mp) != NC_NOERR)
+        mp = -1;
+    in.mp_physics = mp;
     if (index == 0) {
         w->info = in;
         text_att(ncid, "TITLE", w->title, sizeof w->title);
@@ -508,6 +518,10 @@ static sq_result read_latlon(sq_wrf *w)
 {
     const wrf_file *f = &w->files[0];
     const size_t nx = (size_t)w->info.nx, ny = (size_t)w->info.ny;
+    char what[96];
+    snprintf(what, sizeof what, "%s: XLAT, XLONG and HGT of %zu x %zu points", f->path, nx, ny);
+    sq_result r = sq_context_check_memory(w->ctx, 3 * sizeof(float) * nx * ny, what);
+    if (r != SQ_OK) return r;
     w->lat = (float *)sq_alloc(w->ctx, sizeof(float) * nx * ny);
     w->lon = (float *)sq_alloc(w->ctx, sizeof(float) * nx * ny);
     if (!w->lat || !w->lon) return SQ_ERR_OUT_OF_MEMORY;
@@ -515,7 +529,7 @@ static sq_result read_latlon(sq_wrf *w)
     const size_t count3[3] = {1, ny, nx}, count2[2] = {ny, nx};
     const int nd = f->latlon_has_time ? 3 : 2;
     const size_t *count = f->latlon_has_time ? count3 : count2;
-    sq_result r = sq__wrf_get_floats(w, f, f->varid_xlat, "XLAT", start, count, nd, w->lat);
+    r = sq__wrf_get_floats(w, f, f->varid_xlat, "XLAT", start, count, nd, w->lat);
     if (r == SQ_OK) r = sq__wrf_get_floats(w, f, f->varid_xlong, "XLONG", start, count, nd, w->lon);
     if (r != SQ_OK) return r;
     for (size_t c = 0; c < nx * ny; c++)

@@ -257,11 +257,9 @@ sq_result sq__wrf_alloc_buffers(sq_wrf *w)
     raw->u = carve(&cur, nz * ny * (nx + 1));
     raw->v = carve(&cur, nz * (ny + 1) * nx);
     raw->hgt = carve(&cur, nx * ny);
-    for (int s = 0; s < 2; s++) {
-        r = alloc_fields(w, &w->slot[s]);
-        if (r != SQ_OK) return r;
-    }
-    return alloc_fields(w, &w->out);
+    for (int s = 0; s < 3 && r == SQ_OK; s++) r = alloc_fields(w, s < 2 ? &w->slot[s] : &w->out);
+    if (r != SQ_OK) sq__wrf_free_buffers(w); /* all or nothing: the next read tries again */
+    return r;
 }
 
 void sq__wrf_free_buffers(sq_wrf *w)
@@ -495,9 +493,48 @@ sq_result sq_wrf_world_desc(sq_wrf *w, double time_s, sq_world_desc *desc)
     desc->crs_wkt = w->crs_wkt;
     desc->crs_offset_m[0] = in->crs_offset_m[0];
     desc->crs_offset_m[1] = in->crs_offset_m[1];
-    sq_vec3 dir;
-    sq_wrf_sun(w, time_s, NULL, &dir);
-    desc->sun.direction = dir;
+    /* the sun's clock: the world computes the sun as sq_wrf_sun does and moves it with time */
+    desc->sun.direction = sq_v3(0.0f, 0.0f, 0.0f);
+    desc->sun.utc_set = true;
+    desc->sun.utc_start_unix_s = in->start_unix_s + time_s;
+    desc->sun.latitude_deg = (float)in->center_lat_deg;
+    desc->sun.longitude_deg = (float)in->center_lon_deg;
+    desc->sun.north_rotation_deg = (float)in->north_rotation_deg;
+    return SQ_OK;
+}
+
+sq_result sq_scene_wrf_world_loader(sq_context *ctx, const char *path, sq_world_desc *desc,
+                                    void **owned)
+{
+    if (owned) *owned = NULL;
+    if (!desc || !owned)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "wrf", "WRF world loader: NULL argument");
+    sq_wrf *w = NULL;
+    const char *paths[1] = {path};
+    sq_result r = sq_wrf_open(ctx, paths, 1, &w);
+    if (r != SQ_OK) return r;
+    const sq_wrf_info *in = &w->info;
+    const size_t plane = (size_t)in->nx * (size_t)in->ny;
+    const size_t wkt_len = strlen(w->crs_wkt) + 1;
+    char *block = (char *)sq_alloc(ctx, plane * sizeof(float) + wkt_len);
+    if (!block) {
+        sq_wrf_close(w);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
+    /* the desc must outlive w: heights and WKT go into the caller's allocation */
+    float *heights = (float *)block;
+    char *wkt = block + plane * sizeof(float);
+    memcpy(heights, w->hgt0, plane * sizeof(float));
+    memcpy(wkt, w->crs_wkt, wkt_len);
+    r = sq_wrf_world_desc(w, 0.0, desc);
+    desc->terrain.grid_heights_m = heights;
+    desc->crs_wkt = wkt;
+    sq_wrf_close(w);
+    if (r != SQ_OK) {
+        sq_free(ctx, block);
+        return r;
+    }
+    *owned = block;
     return SQ_OK;
 }
 
@@ -549,6 +586,13 @@ sq_result sq_wrf_sun(const sq_wrf *w, double time_s, sq_sun_position *pos, sq_ve
 sq_result sq_wrf_world_desc(sq_wrf *w, double time_s, sq_world_desc *desc)
 {
     (void)w, (void)time_s, (void)desc;
+    return unsupported();
+}
+sq_result sq_scene_wrf_world_loader(sq_context *ctx, const char *path, sq_world_desc *desc,
+                                    void **owned)
+{
+    (void)ctx, (void)path, (void)desc;
+    if (owned) *owned = NULL;
     return unsupported();
 }
 

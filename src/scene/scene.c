@@ -192,6 +192,56 @@ static sq_result expect_kind(const apply_ctx *a, const sq_cfg_node *n, sq_cfg_ki
 }
 
 /* ---- sections ------------------------------------------------------------------------------ */
+/* terrain.kind = wrf through the io layer's loader (terrain grid, georeference, the file's sun
+ * clock), and sun.date: a sun that follows the scene clock. On failure *owned is NULL. */
+static sq_result world_from_wrf_and_date(sq_context *ctx, const sq_scene_desc *sd,
+                                         const sq__world_section *ws, bool wrf_terrain,
+                                         sq_world_desc *wd, void **owned)
+{
+    const sq_cfg *cfg = sd->cfg;
+    *owned = NULL;
+    if (wrf_terrain) {
+        if (!ws->wrf[0] || !sd->load_wrf_world)
+            return sq__fail(ctx, !ws->wrf[0] ? SQ_ERR_INVALID_ARG : SQ_ERR_UNSUPPORTED, "scene",
+                            "%s: world.terrain.kind = wrf %s", cfg->source,
+                            !ws->wrf[0] ? "needs world.terrain.wrf (a WRF output file)"
+                                        : "needs a WRF loader (this program does not supply one)");
+        char path[1024];
+        if (ws->wrf[0] == '/' || !cfg->base_dir[0])
+            snprintf(path, sizeof path, "%s", ws->wrf);
+        else
+            snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws->wrf);
+        const sq_vec3 dir = wd->sun.direction;
+        sq_result r = sd->load_wrf_world(ctx, path, wd, owned);
+        if (r != SQ_OK) return r;
+        /* an explicit direction or date overrides the file's sun */
+        wd->sun.direction = dir;
+        if (sq_v3_len(dir) > 0.0f || ws->sun_date[0]) wd->sun.utc_set = false;
+        wd->sun.clock_scale = ws->clock_scale;
+    }
+    if (ws->sun_date[0]) {
+        int y = 0, mo = 0, d = 0, h = 0, mi = 0, sec = 0;
+        char sep = ' ';
+        const int got = sscanf(ws->sun_date, "%4d-%2d-%2d%c%2d:%2d:%2d", &y, &mo, &d, &sep, &h,
+                               &mi, &sec);
+        if (!(got == 3 || got == 7) || (got == 7 && sep != ' ' && sep != 'T' && sep != '_') ||
+            mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || sec > 60 || h < 0 ||
+            mi < 0 || sec < 0) {
+            sq_free(ctx, *owned);
+            *owned = NULL;
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: world.sun.date = '%s'; expected 'YYYY-MM-DD hh:mm:ss' (UTC)",
+                            cfg->source, ws->sun_date);
+        }
+        wd->sun.utc_set = true;
+        wd->sun.utc_start_unix_s = sq_unix_time(y, mo, d, h, mi, (double)sec);
+        wd->sun.latitude_deg = ws->latitude_deg;
+        wd->sun.longitude_deg = ws->longitude_deg;
+        wd->sun.clock_scale = ws->clock_scale;
+    }
+    return SQ_OK;
+}
+
 static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_cfg_node *node,
                              sq_world **out)
 {
@@ -293,7 +343,10 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
         return relog(ctx, r);
     }
     sq_world_desc wd = {0};
-    wd.terrain.kind = (sq_terrain_kind)ws.terrain_kind;
+    /* "wrf" is the last choice of terrain.kind: a float grid from the file */
+    const bool wrf_terrain = ws.terrain_kind == SQ__TERRAIN_CHOICE_WRF;
+    wd.terrain.kind = wrf_terrain ? SQ_TERRAIN_GRID : (sq_terrain_kind)ws.terrain_kind;
+    wd.terrain.vertical_exaggeration = ws.vertical_exaggeration;
     wd.terrain.material = (sq_terrain_material)ws.terrain_material;
     if (ws.size_count == 2) {
         wd.terrain.size_m[0] = ws.size_m[0];
@@ -325,6 +378,14 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     wd.obstacles = obs;
     wd.obstacle_count = nobs;
     uint16_t *hm = NULL;
+    void *wrf_owned = NULL;
+    r = world_from_wrf_and_date(ctx, sd, &ws, wrf_terrain, &wd, &wrf_owned);
+    if (r != SQ_OK) {
+        free(obs);
+        free(areas);
+        free(geo);
+        return r;
+    }
     if (wd.terrain.kind == SQ_TERRAIN_HEIGHTMAP) {
         if (!ws.heightmap[0]) {
             free(obs);
@@ -362,6 +423,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     if (r == SQ_OK) r = sq_world_create(ctx, &wd, out);
     sq__scene_geo_release(ctx, geo);
     sq_free(ctx, hm);
+    sq_free(ctx, wrf_owned);
     free(obs);
     free(areas);
     free(geo);
@@ -794,6 +856,7 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
     }
     s->time_s += dt_s;
     s->step_count++;
+    sq_world_set_time(s->world, s->time_s); /* a sun with a date moves with the clock */
     return SQ_OK;
 }
 

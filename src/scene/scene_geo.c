@@ -31,7 +31,7 @@ sq_result sq__scene_geo_world(sq_context *ctx, const sq_scene_desc *sd,
 {
     const sq_cfg *cfg = sd->cfg;
     memset(keep, 0, sizeof *keep);
-    if (wd->terrain.kind == SQ_TERRAIN_GRID) {
+    if (ws->terrain_kind == SQ__TERRAIN_CHOICE_DEM) {
         if (!ws->dem[0])
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
                             "%s: world.terrain.kind = dem needs world.terrain.dem (a raster file "

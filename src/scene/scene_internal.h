@@ -4,6 +4,10 @@
 
 #include "squall/scene.h"
 
+/* Indices of the non-procedural choices of world.terrain.kind (scene_tables.c); both become an
+ * SQ_TERRAIN_GRID terrain through an io loader. */
+enum { SQ__TERRAIN_CHOICE_DEM = 6, SQ__TERRAIN_CHOICE_WRF = 7 };
+
 typedef struct sq__world_section {
     int terrain_kind;
     int terrain_material;
@@ -27,9 +31,13 @@ typedef struct sq__world_section {
     int nodata, resampling;
     float crs_origin[2];
     int crs_origin_count;
+    char wrf[SQ_PARAM_STRING_MAX];
+    float vertical_exaggeration;
     float sun_direction[3];
     int day_of_year;
     float hour, latitude_deg, irradiance;
+    char sun_date[SQ_PARAM_STRING_MAX];
+    float longitude_deg, clock_scale;
     float turbidity;
     int city_rows, city_cols;
     float city_block_m, city_street_m, city_height_min_m, city_height_max_m;

@@ -30,10 +30,11 @@
 
 #define S sq__world_section
 const sq_param sq__world_params[] = {
-    E("terrain.kind", terrain_kind, 2, "default|flat|hills|dunes|mountain|heightmap|dem",
+    E("terrain.kind", terrain_kind, 2, "default|flat|hills|dunes|mountain|heightmap|dem|wrf",
       "Terrain generator: flat, hills (fBm noise), dunes (transverse dunes with slip faces), "
-      "mountain (a release slope into a run-out plain), heightmap (16-bit PNG), or dem (any "
-      "raster GDAL reads, reprojected to a metric CRS; see terrain.dem)."),
+      "mountain (a release slope into a run-out plain), heightmap (16-bit PNG), dem (any "
+      "raster GDAL reads, reprojected to a metric CRS; see terrain.dem) or wrf (the terrain "
+      "height HGT of a WRF file, georeferenced, with the sun of its times; see terrain.wrf)."),
     E("terrain.material", terrain_material, 0, "default|sand|snow|rock|grass|asphalt",
       "Ground cover: default follows the kind (sand on dunes, meadow elsewhere); snow for winter "
       "scenes, asphalt for cities."),
@@ -58,6 +59,14 @@ const sq_param sq__world_params[] = {
     STR("terrain.heightmap", heightmap, "",
         "16-bit greyscale PNG heightmap (path relative to the scene file); row 0 is north."),
     F("terrain.metres_per_px", metres_per_px, "m", 10, 1e-3, 1e5, "Heightmap pixel size."),
+    STR("terrain.wrf", wrf, "",
+        "WRF output file (wrfout, path relative to the scene file) for terrain.kind = wrf: HGT "
+        "of its first time on the model grid (x east, y north along the map projection, origin "
+        "at the domain centre); the sun follows the file's times over the domain centre unless "
+        "sun.direction or sun.date is given. docs/wrf.md."),
+    F("terrain.vertical_exaggeration", vertical_exaggeration, "1", 1, 0.1, 100,
+      "Multiplies every terrain height (for real terrain: a WRF domain is hundreds of km wide "
+      "and a few km high); phenomena placed by height above sea level use the same factor."),
     FZ("terrain.height_min_m", height_min_m, "m", 0, -1e4, 1e4, "Height of heightmap value 0."),
     F("terrain.height_max_m", height_max_m, "m", 500, -1e4, 1e5,
       "Height of heightmap value 65535."),
@@ -90,6 +99,15 @@ const sq_param sq__world_params[] = {
     I("sun.day_of_year", day_of_year, "1", 172, 1, 366, "Day of the year for the sun position."),
     FZ("sun.hour", hour, "h", 15, 0, 24, "Local solar time for the sun position."),
     FZ("sun.latitude_deg", latitude_deg, "deg", 40, -90, 90, "Latitude for the sun position."),
+    STR("sun.date", sun_date, "",
+        "UTC date and time 'YYYY-MM-DD hh:mm:ss' at scene time 0: the sun then moves with the "
+        "scene clock (precise position with the equation of time at latitude_deg, "
+        "longitude_deg; day_of_year and hour are ignored). Empty = a fixed sun."),
+    FZ("sun.longitude_deg", longitude_deg, "deg", 0, -180, 180,
+       "Longitude (east) for the sun position with sun.date."),
+    F("sun.clock_scale", clock_scale, "1", 1, 1e-3, 1e6,
+      "Seconds of sun time per second of scene time with sun.date (e.g. 1800: half an hour "
+      "per second)."),
     F("sun.irradiance_w_m2", irradiance, "W/m2", 1000, 1, 1500,
       "Direct normal solar irradiance at the ground (scales the light)."),
     F("sky.turbidity", turbidity, "1", 3, 1.5, 12, "Haze of the analytic sky (2 clear, 10 hazy)."),

@@ -33,6 +33,8 @@ sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out)
     if (d.sun.day_of_year == 0) d.sun.day_of_year = 172;
     if (!d.sun.hour_set && d.sun.hour_solar == 0.0f) d.sun.hour_solar = 15.0f;
     if (d.sun.irradiance_w_m2 == 0.0f) d.sun.irradiance_w_m2 = 1000.0f;
+    if (d.sun.clock_scale == 0.0f) d.sun.clock_scale = 1.0f;
+    if (t->vertical_exaggeration == 0.0f) t->vertical_exaggeration = 1.0f;
     if (d.sky.turbidity == 0.0f) d.sky.turbidity = 3.0f;
     if (out) *out = d;
     return SQ_OK;
@@ -41,6 +43,20 @@ sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out)
 static sq_result validate(sq_context *ctx, const sq_world_desc *d)
 {
     const sq_terrain_desc *t = &d->terrain;
+    if (!(t->vertical_exaggeration > 0.0f) || !isfinite(t->vertical_exaggeration))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                        "world.terrain.vertical_exaggeration = %g; must be > 0",
+                        (double)t->vertical_exaggeration);
+    if (d->sun.utc_set &&
+        (!isfinite(d->sun.utc_start_unix_s) || !isfinite(d->sun.clock_scale) ||
+         !(fabsf(d->sun.latitude_deg) <= 90.0f) || !isfinite(d->sun.longitude_deg) ||
+         !isfinite(d->sun.north_rotation_deg)))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
+                        "world.sun: date %g s, clock scale %g, latitude %g, longitude %g, north "
+                        "rotation %g: a sun clock needs finite values and |latitude| <= 90",
+                        d->sun.utc_start_unix_s, (double)d->sun.clock_scale,
+                        (double)d->sun.latitude_deg, (double)d->sun.longitude_deg,
+                        (double)d->sun.north_rotation_deg);
     if (t->kind == SQ_TERRAIN_HEIGHTMAP) {
         if (!t->heightmap || t->heightmap_w < 2 || t->heightmap_h < 2)
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "world",
@@ -441,6 +457,11 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         sq_world_destroy(ctx, w);
         return sq__fail_cancelled(ctx, "world", "while generating the terrain");
     }
+    if (t->vertical_exaggeration != 1.0f) {
+        for (size_t c = 0; c < (size_t)w->nx * (size_t)w->ny; c++)
+            w->heights[c] *= t->vertical_exaggeration;
+    }
+    w->vertical_exaggeration = t->vertical_exaggeration;
     compute_normals(w);
     if (t->kind == SQ_TERRAIN_GRID && t->grid_void) {
         w->terrain_void = (uint8_t *)sq_alloc(ctx, (size_t)nx * (size_t)ny);
@@ -468,6 +489,13 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->obstacles[i] = o;
     }
     sq_vec3 sd = d.sun.direction;
+    w->sun_follows_clock = sq_v3_len(sd) == 0.0f && d.sun.utc_set;
+    w->sun_utc_start_unix_s = d.sun.utc_start_unix_s;
+    w->sun_clock_scale = d.sun.clock_scale;
+    w->sun_latitude_deg = d.sun.latitude_deg;
+    w->sun_longitude_deg = d.sun.longitude_deg;
+    w->sun_north_rotation_deg = d.sun.north_rotation_deg;
+    w->sun_irradiance_w_m2 = d.sun.irradiance_w_m2;
     if (sq_v3_len(sd) > 0.0f)
         w->sun_dir = sq_v3_norm(sd);
     else
@@ -477,9 +505,24 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
                        : t->material == SQ_GROUND_SNOW ? sq_v3(0.85f, 0.87f, 0.9f)
                                                        : sq_v3(0.35f, 0.3f, 0.25f);
     sky_model(w, d.sky.turbidity, d.sun.irradiance_w_m2);
+    sq_world_set_time(w, 0.0);
     w->generation = 1;
     *out = w;
     return SQ_OK;
+}
+
+void sq_world_set_time(sq_world *w, double t_s)
+{
+    if (!w) return;
+    w->time_s = t_s;
+    if (!w->sun_follows_clock) return;
+    const double utc = w->sun_utc_start_unix_s + w->sun_clock_scale * t_s;
+    w->sun_position = sq_sun_position_at(utc, w->sun_latitude_deg, w->sun_longitude_deg);
+    /* an azimuth from true north is the azimuth plus the rotation from the world's +y */
+    sq_sun_position grid = w->sun_position;
+    grid.azimuth_deg += (double)w->sun_north_rotation_deg;
+    w->sun_dir = sq_sun_position_direction(&grid);
+    sky_model(w, w->turbidity, w->sun_irradiance_w_m2);
 }
 
 void sq_world_destroy(sq_context *ctx, sq_world *w)

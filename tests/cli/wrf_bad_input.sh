@@ -19,6 +19,8 @@ src = sys.argv[1]
 with netCDF4.Dataset("plain.nc", "w") as d:          # NetCDF, but not WRF output
     d.createDimension("a", 2)
     d.createVariable("b", "f4", ("a",))[:] = [1, 2]
+KEEP = ("Times", "XLAT", "XLONG", "HGT", "PH", "PHB", "P", "PB", "T", "QVAPOR", "U", "V", "W",
+        "QCLOUD", "QRAIN")
 def copy(name, skip=(), attrs=None):
     with netCDF4.Dataset(src) as s, netCDF4.Dataset(name, "w") as d:
         for k, n in s.dimensions.items():
@@ -28,7 +30,7 @@ def copy(name, skip=(), attrs=None):
         for k, a in (attrs or {}).items():
             d.setncattr(k, a)
         for k, v in s.variables.items():
-            if k in skip:
+            if k in skip or k not in KEEP:   # the WRF variables the reader uses: cheap copies
                 continue
             o = d.createVariable(k, v.dtype, v.dimensions)
             o.setncatts({a: v.getncattr(a) for a in v.ncattrs()})

@@ -11,7 +11,9 @@
 
 #include "sq_config.h"
 #include "sq_test.h"
+#include "squall/io.h"
 #include "squall/optics.h"
+#include "squall/scene.h"
 #include "squall/wrf.h"
 
 #if SQ_HAVE_NETCDF && SQ_HAVE_PROJ
@@ -254,6 +256,69 @@ SQ_TEST(sample_sun_through_the_morning)
     SQ_CHECK_NEAR(p0.equation_of_time_min, 6.9, 0.3);
     SQ_CHECK(fabs(p0.elevation_deg) < 3.0);
     sq_wrf_close(w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(scene_terrain_from_wrf_with_moving_sun)
+{
+    /* world.terrain.kind = wrf through the io layer's loader: HGT x exaggeration on the model grid,
+     * the sun from the file's first time over the domain centre, moving with the scene clock */
+    sq_context *ctx = mkctx();
+    char text[1024];
+    snprintf(text, sizeof text,
+             "world:\n  terrain: {kind: wrf, wrf: %s, vertical_exaggeration: 3}\n"
+             "  sun: {clock_scale: 1800}\n"
+             "output: {width: 64, height: 48, frames: 2}\n",
+             SAMPLE);
+    sq_cfg *cfg = NULL;
+    SQ_CHECK_OK(sq_cfg_parse(ctx, text, strlen(text), "wrf.yaml", &cfg));
+    sq_scene_desc d = {.cfg = cfg, .load_wrf_world = sq_scene_wrf_world_loader};
+    sq_scene *s = NULL;
+    SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
+    sq_wrf *w = open1(ctx, SAMPLE);
+    sq_wrf_state st;
+    if (s && w && sq_wrf_read_index(w, 0, &st) == SQ_OK) {
+        const sq_world *world = sq_scene_world(s);
+        sq_wrf_info in;
+        sq_wrf_get_info(w, &in);
+        SQ_CHECK(world->nx == in.nx && world->ny == in.ny && world->dx == 30000.0f);
+        for (int j = 0; j < in.ny; j++)
+            for (int i = 0; i < in.nx; i++)
+                SQ_CHECK_NEAR(sq_world_height_at(world, st.x_m[i], st.y_m[j]),
+                              3.0 * st.terrain_m[j * in.nx + i], 3e-3);
+        SQ_CHECK(world->crs_wkt && strstr(world->crs_wkt, "Lambert"));
+        /* sunrise at scene time 0; after 6 scene seconds = 3 h of sun time, the 03 UTC sun */
+        sq_sun_position p;
+        sq_vec3 dir;
+        SQ_CHECK_OK(sq_wrf_sun(w, 0.0, &p, &dir));
+        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        for (int k = 0; k < 6; k++) SQ_CHECK_OK(sq_scene_step(s, 1.0));
+        SQ_CHECK_OK(sq_wrf_sun(w, 3 * 3600.0, &p, &dir));
+        SQ_CHECK_NEAR(world->sun_dir.x, dir.x, 1e-5);
+        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        SQ_CHECK(p.elevation_deg > 30.0);
+    }
+    sq_wrf_close(w);
+    sq_scene_destroy(s);
+    sq_cfg_destroy(cfg);
+    /* without a path, and without a loader: refused with the key */
+    const char *t2 = "world:\n  terrain: {kind: wrf}\n";
+    SQ_CHECK_OK(sq_cfg_parse(ctx, t2, strlen(t2), "nopath.yaml", &cfg));
+    d.cfg = cfg;
+    SQ_CHECK_ERR(sq_scene_create(ctx, &d, &s), SQ_ERR_INVALID_ARG, "needs world.terrain.wrf");
+    sq_cfg_destroy(cfg);
+    SQ_CHECK_OK(sq_cfg_parse(ctx, text, strlen(text), "wrf.yaml", &cfg));
+    d.cfg = cfg;
+    d.load_wrf_world = NULL;
+    SQ_CHECK_ERR(sq_scene_create(ctx, &d, &s), SQ_ERR_UNSUPPORTED, "needs a WRF loader");
+    sq_cfg_destroy(cfg);
+    /* a bad date */
+    const char *t3 = "world:\n  sun: {date: '2005-13-01 00:00:00'}\n";
+    SQ_CHECK_OK(sq_cfg_parse(ctx, t3, strlen(t3), "date.yaml", &cfg));
+    d.cfg = cfg;
+    SQ_CHECK_ERR(sq_scene_create(ctx, &d, &s), SQ_ERR_INVALID_ARG, "world.sun.date = '2005-13-01");
+    sq_cfg_destroy(cfg);
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
 }
 
@@ -646,6 +711,25 @@ SQ_TEST(refusals_name_file_and_variable)
     SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
     cleanup();
+}
+
+SQ_TEST(memory_limit_refuses_before_allocating)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd = {0};
+    cd.memory_limit_bytes = 300000; /* the sample's caches need ~605 kB */
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    sq_wrf *w = open1(ctx, SAMPLE);
+    if (w) {
+        SQ_CHECK(sq_wrf_memory_bytes(w) > 600000 && sq_wrf_memory_bytes(w) < 700000);
+        sq_wrf_state s;
+        SQ_CHECK_ERR(sq_wrf_read_index(w, 0, &s), SQ_ERR_TOO_LARGE,
+                     "WRF fields of 10 x 8 x 27 points (raw + 3 derived sets) needs");
+        SQ_CHECK_ERR(sq_wrf_read_index(w, 1, &s), SQ_ERR_TOO_LARGE, "memory limit");
+        sq_wrf_close(w);
+    }
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
+    sq_context_destroy(ctx);
 }
 
 SQ_TEST(cloud_optical_depth_is_the_column_sum)

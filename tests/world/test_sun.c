@@ -97,3 +97,75 @@ SQ_TEST(coarse_sun_direction_agrees_roughly)
     const double c = (double)(a.x * b.x + a.y * b.y + a.z * b.z);
     SQ_CHECK(acos(fmin(1.0, c)) * 180.0 / M_PI < 1.0);
 }
+
+SQ_TEST(world_sun_follows_the_clock)
+{
+    sq_context *ctx = NULL;
+    sq_context_create(NULL, &ctx);
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.sun.utc_set = true;
+    d.sun.utc_start_unix_s = sq_unix_time(2005, 9, 21, 0, 0, 0.0);
+    d.sun.latitude_deg = 30.0f;
+    d.sun.longitude_deg = 87.0f;
+    d.sun.north_rotation_deg = 10.0f;
+    d.sun.clock_scale = 3600.0f; /* one scene second = one hour */
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    if (!w) return;
+    /* at 00 UTC the sun rises at 87 E: elevation ~0, in the east (turned by 10 deg) */
+    sq_sun_position p0 = sq_sun_position_at(d.sun.utc_start_unix_s, 30.0, 87.0);
+    SQ_CHECK_NEAR(w->sun_position.elevation_deg, p0.elevation_deg, 1e-9);
+    SQ_CHECK_NEAR(asin((double)w->sun_dir.z) * 180.0 / M_PI, p0.elevation_deg, 1e-3);
+    const double az0 = atan2((double)w->sun_dir.x, (double)w->sun_dir.y) * 180.0 / M_PI;
+    SQ_CHECK_NEAR(az0, p0.azimuth_deg + 10.0, 1e-3);
+    const float dawn = w->sun_radiance.y;
+    /* 6 scene seconds later = 06 UTC = 11:55 solar: high in the south, brighter light and sky */
+    sq_world_set_time(w, 6.0);
+    sq_sun_position p6 = sq_sun_position_at(d.sun.utc_start_unix_s + 6 * 3600.0, 30.0, 87.0);
+    SQ_CHECK_NEAR(asin((double)w->sun_dir.z) * 180.0 / M_PI, p6.elevation_deg, 1e-3);
+    SQ_CHECK(p6.elevation_deg > 55.0);
+    SQ_CHECK(w->sun_radiance.y > dawn + 0.3f);
+    SQ_CHECK_NEAR(w->time_s, 6.0, 0.0);
+    sq_world_destroy(ctx, w);
+    /* a given direction wins over the clock and does not move */
+    d.sun.direction = sq_v3(0.0f, 0.0f, 1.0f);
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    if (w) {
+        sq_world_set_time(w, 6.0);
+        SQ_CHECK_NEAR(w->sun_dir.z, 1.0, 1e-6);
+        SQ_CHECK(!w->sun_follows_clock);
+        sq_world_destroy(ctx, w);
+    }
+    d.sun.latitude_deg = 95.0f;
+    d.sun.direction = sq_v3(0.0f, 0.0f, 0.0f);
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "|latitude| <= 90");
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(vertical_exaggeration_scales_heights_and_slopes)
+{
+    sq_context *ctx = NULL;
+    sq_context_create(NULL, &ctx);
+    float h[3 * 3] = {100, 110, 120, 100, 110, 120, 100, 110, 120}; /* 10 m per 10 m toward +x */
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_GRID;
+    d.terrain.grid_heights_m = h;
+    d.terrain.grid_w = d.terrain.grid_h = 3;
+    d.terrain.grid_dx_m = d.terrain.grid_dy_m = 10.0f;
+    d.terrain.vertical_exaggeration = 4.0f;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    if (w) {
+        SQ_CHECK_NEAR(w->height_min, 400.0, 1e-3);
+        SQ_CHECK_NEAR(w->height_max, 480.0, 1e-3);
+        SQ_CHECK_NEAR(w->vertical_exaggeration, 4.0, 0.0);
+        /* slope 4: normal (-4, 0, 1)/sqrt(17) */
+        sq_vec3 n = sq_world_normal_at(w, 0.0f, 0.0f);
+        SQ_CHECK_NEAR(n.x, -4.0 / sqrt(17.0), 1e-5);
+        sq_world_destroy(ctx, w);
+    }
+    d.terrain.vertical_exaggeration = -1.0f;
+    SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "vertical_exaggeration = -1");
+    sq_context_destroy(ctx);
+}
