@@ -120,7 +120,8 @@ int sq_bench_snowdrift(const sq_bench_args *a)
     }
     /* the scene's world and output settings (no layers created) */
     sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
-                        .validate_only = true, .load_dem = sq_dem_load, .load_area = sq_area_load};
+                        .validate_only = true, .load_dem = sq_dem_load, .load_area = sq_area_load,
+                        .load_mesh = sq_scene_mesh_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(a->ctx, &sd, &scene);
     if (r != SQ_OK) {

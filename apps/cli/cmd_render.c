@@ -350,7 +350,8 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
                         .load_dem = sq_dem_load, .load_area = sq_area_load,
-                        .load_wrf_world = sq_scene_wrf_world_loader};
+                        .load_wrf_world = sq_scene_wrf_world_loader,
+                        .load_mesh = sq_scene_mesh_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
     if (r == SQ_OK && resume) r = sq_checkpoint_restore(ctx, resume, scene, &ck_info);

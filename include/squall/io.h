@@ -10,6 +10,7 @@
 
 #include "squall/core.h"
 #include "squall/drawable.h"
+#include "squall/mesh.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -177,6 +178,20 @@ SQ_API sq_result sq_cfg_load_file(sq_context *ctx, const char *path, struct sq_c
 SQ_API sq_result sq_cfg_load_preset(sq_context *ctx, const char *name, struct sq_cfg **out);
 /* A file path if it exists (or has a .yaml/.yml ending), else a preset name. */
 SQ_API sq_result sq_cfg_load(sq_context *ctx, const char *file_or_preset, struct sq_cfg **out);
+/* ---- meshes (assimp) ------------------------------------------------------------------------ */
+/* Reads a mesh file: glTF 2.0, OBJ, FBX or PLY (other endings are refused, SQ_ERR_INVALID_ARG).
+ * Node transforms are applied, polygons triangulated, points and lines skipped; normals are
+ * computed where the file has none; zero-area triangles are dropped (counted); base colours
+ * (glTF baseColorFactor, else the diffuse colour) and base-colour PNG textures (files beside the
+ * mesh or embedded) are kept. Refused before loading when the file (from its size, or a PLY
+ * header's element counts) would exceed the context's memory limit (SQ_ERR_TOO_LARGE, with the
+ * bytes). Missing/unreadable files: SQ_ERR_IO; corrupt ones: SQ_ERR_PARSE; messages name the
+ * file. Without assimp in the build: SQ_ERR_UNSUPPORTED. */
+SQ_API sq_result sq_mesh_import(sq_context *ctx, const sq_mesh_import_desc *desc, sq_mesh **out);
+/* The mesh loader scenes use (sq_mesh_import). */
+SQ_API sq_result sq_scene_mesh_loader(sq_context *ctx, const sq_mesh_import_desc *desc,
+                                      sq_mesh **out);
+
 /* The heightmap loader scenes use (16-bit PNG, at most 8192x8192). */
 SQ_API sq_result sq_scene_heightmap_loader(sq_context *ctx, const char *path, uint16_t **out,
                                            int *width, int *height);

@@ -30,6 +30,12 @@ typedef struct sq_render_desc {
     bool single_scatter_only; /* ablation: no multiple forward scattering in the light buffer */
     bool isotropic_phase;  /* ablation: g = 0 */
     uint64_t seed;         /* slice jitter */
+    /* sun shadows of opaque geometry (cascaded shadow maps fitted to the view) */
+    bool shadows_off;      /* no opaque shadows */
+    int shadow_map_size;   /* texels per side of each cascade; 0 -> 2048 */
+    int shadow_cascades;   /* 1..4; 0 -> 3 */
+    float shadow_distance_m; /* shadows up to this view depth (m), fading out over the last
+                                15 %; 0 -> 1500 */
     const char *egl_device; /* NULL: surfaceless platform, else "device" platform hint */
     /* false: the renderer opens its own headless EGL context (as `squall render` does).
      * true: it uses the OpenGL 4.5 core context current on the calling thread, which the
@@ -92,8 +98,8 @@ SQ_API sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const s
  * GL state: after every call on a use_current_context renderer the caller's state is as before:
  * framebuffer (draw, read) and renderbuffer bindings, viewport, scissor box, program and program
  * pipeline, vertex array, array / pixel pack / pixel unpack / uniform / shader-storage buffer
- * bindings (indexed 0..7 with their ranges), active texture and the 2D, 3D, 2D-array and cube-map
- * textures and the samplers of units 0..15, image units 0..7, the enables (blend, depth test,
+ * bindings (indexed 0..7 with their ranges), active texture and the 2D, 3D, 2D-array, cube-map and
+ * buffer textures and the samplers of units 0..15, image units 0..7, the enables (blend, depth test,
  * cull face, scissor and stencil tests, polygon offset fill, framebuffer sRGB, rasterizer discard,
  * logic op, alpha to coverage, primitive restart, depth clamp, program point size, clip
  * distances 0..7), blend functions, equations and colour, depth function, mask and range, clip

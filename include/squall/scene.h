@@ -102,6 +102,9 @@ typedef struct sq_scene sq_scene;
 typedef sq_result (*sq_heightmap_loader)(sq_context *ctx, const char *path, uint16_t **out,
                                          int *width, int *height);
 
+/* Loads a mesh file for the scene (supplied by the io layer: sq_scene_mesh_loader). */
+typedef sq_result (*sq_mesh_loader)(sq_context *ctx, const sq_mesh_import_desc *desc,
+                                    sq_mesh **out);
 /* Loads a DEM / polygon areas for the scene (supplied by the io layer: sq_dem_load and
  * sq_area_load of squall/geo.h). What they return is allocated through ctx (sq_alloc). */
 typedef sq_result (*sq_dem_loader)(sq_context *ctx, const sq_dem_desc *desc, sq_dem *out);
@@ -117,6 +120,7 @@ typedef struct sq_scene_desc {
     const sq_cfg *cfg;
     sq_heightmap_loader load_heightmap; /* NULL: heightmap terrains are refused */
     bool validate_only;                 /* resolve and check everything, create no phenomena */
+    sq_mesh_loader load_mesh;           /* NULL: world.meshes are refused */
     sq_dem_loader load_dem;             /* NULL: DEM terrains are refused */
     sq_area_loader load_area;           /* NULL: world.areas are refused */
     sq_wrf_world_loader load_wrf_world; /* NULL: terrain kind wrf is refused */

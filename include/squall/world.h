@@ -1,5 +1,6 @@
 /* squall/world.h — the world every phenomenon lives in: terrain heightfield, obstacles
- * (buildings, fences as boxes with optional gable roofs), sun and sky, and the camera type.
+ * (buildings, fences as boxes with optional gable roofs), meshes placed as instances
+ * (squall/mesh.h), sun and sky, and the camera type.
  * World axes: x east, y north, z up, metres. */
 #ifndef SQ_WORLD_H
 #define SQ_WORLD_H
@@ -9,6 +10,7 @@
 #include <stdint.h>
 
 #include "squall/core.h"
+#include "squall/mesh.h"
 #include "squall/sqmath.h"
 
 #ifdef __cplusplus
@@ -200,6 +202,15 @@ typedef struct sq_world {
     /* named polygon areas (owned copies) */
     sq_world_area areas[SQ_MAX_WORLD_AREAS];
     int area_count;
+    /* meshes (sq_world_set_meshes): the mesh pointers are borrowed — the meshes must outlive
+     * the world or the next sq_world_set_meshes; the instances are the world's copy, with z
+     * resolved on the terrain and scale (0,0,0) replaced by (1,1,1) */
+    const sq_mesh *const *meshes;
+    int mesh_count;
+    sq_mesh_instance *mesh_instances;
+    int mesh_instance_count;
+    int64_t mesh_faces;    /* LOD-0 triangles over all instances */
+    struct sq__mesh_accel *mesh_accel; /* BVHs behind the solid queries (private) */
     /* the sun's clock (sq_sun_desc.utc_set): sun_dir, sun_radiance and the sky follow
      * sq_world_set_time; sun_position is the sun's place at time_s */
     bool sun_follows_clock;
@@ -208,12 +219,25 @@ typedef struct sq_world {
     double time_s;
     sq_sun_position sun_position;
     float vertical_exaggeration;
-    uint64_t generation;   /* changes when terrain or obstacles change (e.g. heightmap edit) */
+    uint64_t generation;   /* changes when terrain, obstacles or meshes change */
 } sq_world;
 
 SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);
 SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
 SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
+
+/* Places meshes in the world (replacing any placed before): validates every instance (mesh
+ * index, finite position, scale > 0, footprint inside the terrain — SQ_ERR_INVALID_ARG naming
+ * the instance, its mesh and the rule), resolves z on the terrain (NaN: the lowest terrain under
+ * the footprint), builds the BVHs the solid queries use and bumps the generation. Closed meshes
+ * become solids for sq_world_solid_at; every mesh raises sq_world_surface_at. */
+/* The rule every placed instance meets (sq_world_set_meshes checks it for each): finite
+ * position and yaw, scale factors > 0 (or all 0 = 1), the footprint inside the terrain. */
+SQ_API sq_result sq_world_check_mesh_instance(sq_context *ctx, const sq_world *w,
+                                              const sq_mesh *mesh, const sq_mesh_instance *inst);
+SQ_API sq_result sq_world_set_meshes(sq_context *ctx, sq_world *w, const sq_mesh *const *meshes,
+                                     int mesh_count, const sq_mesh_instance *instances,
+                                     int instance_count);
 
 /* Sets the world's time (scene seconds): with a sun clock (sq_sun_desc.utc_set) the sun's
  * direction, radiance and the sky colours move to that time; otherwise only time_s changes. */
@@ -222,9 +246,9 @@ SQ_API void sq_world_set_time(sq_world *w, double t_s);
 /* Terrain height and normal at (x, y), bilinear; outside the heightfield the edge is extended. */
 SQ_API float sq_world_height_at(const sq_world *w, float x, float y);
 SQ_API sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y);
-/* Highest surface (terrain or obstacle top/roof) at (x, y). */
+/* Highest surface (terrain, obstacle top/roof or mesh) at (x, y). */
 SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
-/* True if the point is inside the terrain or inside an obstacle. */
+/* True if the point is inside the terrain, an obstacle or a closed mesh instance. */
 SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
 /* World bounds of the terrain: min/max x, y and heights. */
 SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);

@@ -55,4 +55,9 @@ sq_result sq__write_error(sq_context *ctx, const char *path, int err, const char
 sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
                                const sq_named_field *fields, int count, const char *what);
 
+/* Decodes PNG bytes held in memory (an embedded texture) to 8-bit RGBA, rows top first; name is
+ * used in messages. Free with sq_free. */
+sq_result sq__png_decode_rgba8(sq_context *ctx, const void *data, size_t size, const char *name,
+                               uint8_t **rgba_out, int *width, int *height);
+
 #endif

@@ -8,6 +8,7 @@
 #include <limits.h>
 #include <png.h>
 #include <setjmp.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -154,20 +155,11 @@ static void limit_reader(png_structp png)
     png_set_chunk_malloc_max(png, SQ__PNG_CHUNK_MAX);
 }
 
-static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode, int64_t max_pixels,
-                          void **out, int *width_out, int *height_out)
+/* Reads an open PNG stream (closed here); path names it in messages. */
+static sq_result png_read_fp(sq_context *ctx, FILE *fp, const char *path, png_read_mode mode,
+                             int64_t max_pixels, void **out, int *width_out, int *height_out)
 {
     const char *what = mode == READ_HEIGHTMAP16 ? "heightmap" : "image";
-    if (out) *out = NULL;
-    if (width_out) *width_out = 0;
-    if (height_out) *height_out = 0;
-    if (!path || !*path) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s path is empty", what);
-    if (!out || !width_out || !height_out)
-        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "reading '%s' needs output pointers", path);
-
-    FILE *fp = NULL;
-    sq_result r0 = sq__input_open(ctx, "io", what, path, &fp);
-    if (r0 != SQ_OK) return r0;
     unsigned char sig[8];
     size_t got = fread(sig, 1, sizeof sig, fp);
     if (got < sizeof sig || png_sig_cmp(sig, 0, sizeof sig) != 0) {
@@ -270,6 +262,37 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     *width_out = (int)w;
     *height_out = (int)h;
     return SQ_OK;
+}
+
+static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode, int64_t max_pixels,
+                          void **out, int *width_out, int *height_out)
+{
+    const char *what = mode == READ_HEIGHTMAP16 ? "heightmap" : "image";
+    if (out) *out = NULL;
+    if (width_out) *width_out = 0;
+    if (height_out) *height_out = 0;
+    if (!path || !*path) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s path is empty", what);
+    if (!out || !width_out || !height_out)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "reading '%s' needs output pointers", path);
+
+    FILE *fp = NULL;
+    sq_result r0 = sq__input_open(ctx, "io", what, path, &fp); /* no FIFO; never written */
+    if (r0 != SQ_OK) return r0;
+    return png_read_fp(ctx, fp, path, mode, max_pixels, out, width_out, height_out);
+}
+
+sq_result sq__png_decode_rgba8(sq_context *ctx, const void *data, size_t size, const char *name,
+                               uint8_t **rgba_out, int *width, int *height)
+{
+    *rgba_out = NULL;
+    *width = *height = 0;
+    FILE *fp = size > 0 ? fmemopen((void *)(uintptr_t)data, size, "rb") : NULL;
+    if (!fp) return sq__fail(ctx, SQ_ERR_PARSE, "io", "%s: empty or unreadable PNG data", name);
+    void *p = NULL;
+    sq_result r = png_read_fp(ctx, fp, name, READ_RGBA8, (int64_t)SQ__PNG_MAX_SIDE * SQ__PNG_MAX_SIDE,
+                              &p, width, height);
+    *rgba_out = (uint8_t *)p;
+    return r;
 }
 
 sq_result sq_png_read_rgba8(sq_context *ctx, const char *path, uint8_t **rgba_out, int *width,

@@ -9,10 +9,10 @@
 #include "render/render_internal.h"
 
 static const GLenum tex_targets[SQ_GL_STATE_TEX_TARGETS] = {
-    GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_CUBE_MAP};
+    GL_TEXTURE_2D, GL_TEXTURE_3D, GL_TEXTURE_2D_ARRAY, GL_TEXTURE_CUBE_MAP, GL_TEXTURE_BUFFER};
 static const GLenum tex_bindings[SQ_GL_STATE_TEX_TARGETS] = {
     GL_TEXTURE_BINDING_2D, GL_TEXTURE_BINDING_3D, GL_TEXTURE_BINDING_2D_ARRAY,
-    GL_TEXTURE_BINDING_CUBE_MAP};
+    GL_TEXTURE_BINDING_CUBE_MAP, GL_TEXTURE_BINDING_BUFFER};
 
 /* Capabilities saved, set to the neutral value below during the renderer's work, restored. */
 static const GLenum caps[] = {GL_BLEND,           GL_DEPTH_TEST,

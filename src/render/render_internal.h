@@ -14,6 +14,8 @@
 typedef struct sq__gl_context sq__gl_context;       /* EGL display + context (gl_context.c) */
 typedef struct sq__volume_pass sq__volume_pass;     /* render_volume.c */
 typedef struct sq__particle_pass sq__particle_pass; /* render_particles.c */
+typedef struct sq__mesh_pass sq__mesh_pass;         /* render_meshes.c */
+typedef struct sq__shadow_pass sq__shadow_pass;     /* render_shadow.c */
 
 struct sq_renderer {
     sq_context *ctx;
@@ -62,6 +64,8 @@ struct sq_renderer {
 
     sq__volume_pass *volume;
     sq__particle_pass *particles;
+    sq__mesh_pass *meshes;
+    sq__shadow_pass *shadow;
 
     /* Frame constants (renderer.c): a uniform buffer bound at binding 0 for the whole frame,
      * the `Frame` block of shaders/frame_common.glsl (camera, sun, sky, near/far, viewport,
@@ -85,7 +89,7 @@ sq_result sq__gl_context_make_current(sq__gl_context *gl);
 /* ---- gl_state.c -------------------------------------------------------------------------- */
 /* The caller's GL state around a renderer drawing in the caller's context (see render.h). */
 #define SQ_GL_STATE_UNITS 16       /* texture units 0..15 (binding and sampler) */
-#define SQ_GL_STATE_TEX_TARGETS 4  /* 2D, 3D, 2D array, cube map */
+#define SQ_GL_STATE_TEX_TARGETS 5  /* 2D, 3D, 2D array, cube map, buffer (mesh instances) */
 #define SQ_GL_STATE_BUFFERS 8      /* indexed uniform and shader-storage bindings 0..7 */
 #define SQ_GL_STATE_IMAGES 8       /* image units 0..7 */
 #define SQ_GL_STATE_CAPS 24
@@ -174,5 +178,57 @@ sq_result sq__particle_pass_create(sq_renderer *r);
 void sq__particle_pass_destroy(sq_renderer *r);
 /* Instanced camera-facing quads with soft depth fade, blended into hdr_color. */
 sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p);
+
+/* ---- render_meshes.c, render_shadow.c: world meshes, sun shadows, depth views ----------- */
+/* A view for drawing world geometry: its view-projection, and how it picks LODs and culls
+ * small instances (pixels per metre: orthographic views have one value; perspective views give
+ * it at 1 m and divide by the distance from eye). */
+typedef struct sq__depth_view {
+    sq_mat4 view_proj;  /* world -> clip (OpenGL conventions) */
+    bool ortho;         /* orthographic: no near/far culling (draw with depth clamp) */
+    sq_vec3 eye;        /* perspective: the eye, for distances */
+    float px_per_m;     /* ortho: pixels per metre; perspective: H / (2 tan(fov_y / 2)) */
+    float lod_pixels;   /* largest projected LOD error (px); 0 -> 1 */
+    float min_pixels;   /* instances with a smaller projected radius are skipped; 0 -> 0.5 */
+} sq__depth_view;
+
+typedef struct sq__mesh_stats {
+    int64_t instances, faces; /* drawn since the last reset, over all views */
+} sq__mesh_stats;
+
+sq_result sq__mesh_pass_create(sq_renderer *r);
+void sq__mesh_pass_destroy(sq_renderer *r);
+/* Uploads the world's meshes and instances when the world or its generation changed. */
+sq_result sq__mesh_pass_update(sq_renderer *r, const sq_world *w);
+/* The camera's view as a depth view (after the camera is set up). */
+sq__depth_view sq__depth_view_camera(const sq_renderer *r);
+/* Lit, shadowed instances for the camera into the bound HDR target (the Frame block bound). */
+void sq__mesh_pass_draw(sq_renderer *r);
+/* Depth only, with v's view-projection, into the bound target. */
+void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v);
+/* The culled instances of view v drawn with the caller's program, whose vertex shader includes
+ * mesh_common.glsl (attributes 0..3, instance table at unit 9). materials: per part the
+ * program's uniforms at locations 0 (vec3 base colour), 1 (int tint slot), 2 (int has texture)
+ * are set and the texture bound at unit 10; back faces of closed meshes are culled. */
+void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
+                             bool materials);
+/* Box around every instance (any = false when there are none). */
+void sq__mesh_pass_bounds(const sq_renderer *r, sq_vec3 *mn, sq_vec3 *mx, bool *any);
+sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset);
+
+sq_result sq__shadow_pass_create(sq_renderer *r);
+void sq__shadow_pass_destroy(sq_renderer *r);
+/* Fits the cascades to the camera, renders them, uploads the Shadow block and binds it (UBO 3,
+ * the map at unit 8). Call after the camera is set and the world caches are up to date.
+ * draw = false: no shadows this frame (the block says 0 cascades). */
+sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw);
+/* Binds the Shadow block and map (or the 1x1 stand-in) for passes that include frame_common. */
+void sq__shadow_bind(sq_renderer *r);
+/* All opaque world geometry (terrain, obstacles, mesh instances) into the bound depth target
+ * with v's view-projection: the shadow cascades and the snow occlusion map use this. The caller
+ * binds the framebuffer, sets the viewport and clears depth. */
+void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
+/* CPU time of the last shadow render (ms; GL work may still be queued). */
+double sq__shadow_pass_ms(const sq_renderer *r);
 
 #endif

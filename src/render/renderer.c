@@ -1,8 +1,9 @@
 /* renderer.c — the base OpenGL 4.5 renderer (ARCHITECTURE "render"): frame buffers (HDR
  * RGBA16F + DEPTH32F texture, 8-bit LDR), camera matrices, input checks (camera inside the
  * terrain, non-finite volume densities), and the passes of a frame in order:
- *   volume light passes (sun shadow) -> sky -> terrain -> obstacles -> surfaces ->
- *   volumes -> particles -> tone mapping.
+ *   volume light passes (sun shadow) -> opaque shadow cascades (render_shadow.c) -> sky ->
+ *   terrain -> obstacles -> meshes (render_meshes.c) -> surfaces -> volumes -> particles ->
+ *   tone mapping.
  * Static geometry (terrain mesh, obstacles) is uploaded once per world generation; surfaces
  * once per drawable version. Shading models are in shaders/<pass>.glsl (frame_common.glsl holds the
  * sky, ambient and haze). */
@@ -651,6 +652,7 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         glBindVertexArray(r->obstacle_vao);
         glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
     }
+    sq__mesh_pass_draw(r);
 }
 
 static void pass_surfaces(sq_renderer *r, const sq_drawable *ds, int count)
@@ -702,6 +704,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     if (world_geometry && (res = check_camera_above_terrain(r, world)) != SQ_OK) return res;
     if ((res = check_drawables(r, drawables, count)) != SQ_OK) return res;
     if (world_geometry && (res = update_world_cache(r, world)) != SQ_OK) return res;
+    if (world_geometry && (res = sq__mesh_pass_update(r, world)) != SQ_OK) return res;
     r->world = world;
     r->time_s = time_s;
 
@@ -716,6 +719,9 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
             return res;
     }
     upload_frame_block(r, world); /* with the sun shadow, if any */
+    /* opaque sun shadows of the world's geometry (none when only drawables are added over the
+     * caller's picture: its geometry is not known) */
+    if ((res = sq__shadow_pass_prepare(r, world, world_geometry)) != SQ_OK) return res;
 
     bind_scene_state(r);
     glDepthMask(GL_TRUE);
@@ -1080,6 +1086,15 @@ static sq_result resolve_desc(sq_context *ctx, const sq_render_desc *in, sq_rend
     if (d.volume_slices < 1 || d.volume_slices > 4096)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "volume_slices = %d; must be in 1..4096 (0 -> 128)", d.volume_slices);
+    if (d.shadow_map_size == 0) d.shadow_map_size = 2048;
+    if (d.shadow_cascades == 0) d.shadow_cascades = 3;
+    if (d.shadow_distance_m == 0.0f) d.shadow_distance_m = 1500.0f;
+    if (d.shadow_map_size < 16 || d.shadow_map_size > 16384 || d.shadow_cascades < 1 ||
+        d.shadow_cascades > 4 || !(d.shadow_distance_m > 0.0f) || !isfinite(d.shadow_distance_m))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "shadow map %d px x %d cascades up to %g m; need 16..16384 px, 1..4 "
+                        "cascades and a distance > 0 (0 -> 2048, 3, 1500)",
+                        d.shadow_map_size, d.shadow_cascades, (double)d.shadow_distance_m);
     if (d.light_buffer_size == 0) d.light_buffer_size = 256;
     if (d.light_buffer_size < 1)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
@@ -1257,6 +1272,8 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
         if (res == SQ_OK) res = create_programs(r);
         if (res == SQ_OK) res = sq__volume_pass_create(r);
         if (res == SQ_OK) res = sq__particle_pass_create(r);
+        if (res == SQ_OK) res = sq__mesh_pass_create(r);
+        if (res == SQ_OK) res = sq__shadow_pass_create(r);
         if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
         gl_leave(r, &saved);
     }
@@ -1276,6 +1293,8 @@ void sq_renderer_destroy(sq_renderer *r)
     sq_context *ctx = r->ctx;
     sq__gl_state saved;
     if ((r->gl || r->external) && gl_enter(r, &saved) == SQ_OK) {
+        sq__shadow_pass_destroy(r);
+        sq__mesh_pass_destroy(r);
         sq__particle_pass_destroy(r);
         sq__volume_pass_destroy(r);
         if (r->base)

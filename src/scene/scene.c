@@ -40,6 +40,10 @@ struct sq_scene {
     char metric_names[MAX_METRICS][96];
     char camera_where[320];                      /* file:line of camera.position */
     char key_where[SQ_MAX_CAMERA_KEYS][320];     /* file:line of each camera.path key */
+    /* meshes placed in the world (the world borrows them; destroyed after it) */
+    sq_place *place;
+    sq_mesh **file_meshes;
+    int file_mesh_count;
 };
 
 /* Logs the error already set (by the parameter tables) and returns r. */
@@ -243,13 +247,13 @@ static sq_result world_from_wrf_and_date(sq_context *ctx, const sq_scene_desc *s
 }
 
 static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_cfg_node *node,
-                             sq_world **out)
+                             sq__world_section *ws_out, sq_world **out)
 {
     const sq_cfg *cfg = sd->cfg;
     sq__world_section ws;
     sq_params_defaults(sq__world_params, sq__world_param_count, &ws);
     apply_ctx a = {cfg, "world"};
-    static const char *const skip[] = {"obstacles", "areas", NULL};
+    static const char *const skip[] = {"obstacles", "areas", "meshes", NULL};
     sq_obstacle *obs = (sq_obstacle *)calloc(SQ_MAX_OBSTACLES, sizeof *obs);
     sq__area_item *areas = (sq__area_item *)calloc(SQ_MAX_WORLD_AREAS, sizeof *areas);
     sq__scene_geo *geo = (sq__scene_geo *)calloc(1, sizeof *geo);
@@ -427,6 +431,160 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     free(obs);
     free(areas);
     free(geo);
+    *ws_out = ws;
+    return r;
+}
+
+/* ---- meshes: a procedural place and mesh files ---------------------------------------------- */
+static float world_height(const void *user, float x, float y)
+{
+    return sq_world_height_at((const sq_world *)user, x, y);
+}
+
+static sq_result build_place(sq_scene *s, const sq_cfg *cfg, const sq__world_section *ws)
+{
+    if (ws->place_kind == SQ_PLACE_NONE) return SQ_OK;
+    sq_place_desc pd;
+    memset(&pd, 0, sizeof pd);
+    pd.kind = (sq_place_kind)ws->place_kind;
+    pd.size_m[0] = ws->place_size_count == 2 ? ws->place_size_m[0] : 1000.0f;
+    pd.size_m[1] = ws->place_size_count == 2 ? ws->place_size_m[1] : 1000.0f;
+    pd.center_m[0] = ws->place_center_count == 2 ? ws->place_center[0] : 0.0f;
+    pd.center_m[1] = ws->place_center_count == 2 ? ws->place_center[1] : 0.0f;
+    pd.seed = ws->place_seed;
+    pd.tree_density = ws->place_tree_density;
+    pd.height_at = world_height;
+    pd.height_user = s->world;
+    sq_vec3 lo, hi;
+    sq_world_bounds(s->world, &lo, &hi);
+    const float x0 = pd.center_m[0] - 0.5f * pd.size_m[0], x1 = pd.center_m[0] + 0.5f * pd.size_m[0];
+    const float y0 = pd.center_m[1] - 0.5f * pd.size_m[1], y1 = pd.center_m[1] + 0.5f * pd.size_m[1];
+    if (x0 < lo.x || x1 > hi.x || y0 < lo.y || y1 > hi.y)
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                        "%s: world.place: size_m [%g, %g] around center [%g, %g] covers x %g..%g m, "
+                        "y %g..%g m, which reaches outside the terrain (x %g..%g m, y %g..%g m); "
+                        "enlarge world.terrain.size_m or shrink the place",
+                        cfg->source, (double)pd.size_m[0], (double)pd.size_m[1],
+                        (double)pd.center_m[0], (double)pd.center_m[1], (double)x0, (double)x1,
+                        (double)y0, (double)y1, (double)lo.x, (double)hi.x, (double)lo.y,
+                        (double)hi.y);
+    return sq_place_generate(s->ctx, &pd, &s->place);
+}
+
+typedef struct file_key {
+    char path[1024];
+    int lods, up;
+} file_key;
+
+static sq_result build_meshes(sq_scene *s, const sq_scene_desc *sd, const sq_cfg_node *wnode,
+                              const sq__world_section *ws)
+{
+    const sq_cfg *cfg = sd->cfg;
+    sq_result r = build_place(s, cfg, ws);
+    if (r != SQ_OK) return r;
+    const sq_cfg_node *ml = wnode ? sq_cfg_get(wnode, "meshes") : NULL;
+    apply_ctx a = {cfg, "world.meshes"};
+    int items = 0;
+    if (ml) {
+        r = expect_kind(&a, ml, SQ_CFG_SEQ, "world.meshes");
+        if (r != SQ_OK) return relog(s->ctx, r);
+        for (const sq_cfg_node *o = ml->child; o; o = o->next) items++;
+    }
+    const int np = s->place ? s->place->mesh_count : 0, nip = s->place ? s->place->instance_count : 0;
+    if (items == 0 && np == 0) return SQ_OK;
+    if (items > 0 && !sd->load_mesh)
+        return sq__fail(s->ctx, SQ_ERR_UNSUPPORTED, "scene", "%s: world.meshes need a mesh loader",
+                        cfg->source);
+    s->file_meshes = calloc((size_t)(items > 0 ? items : 1), sizeof *s->file_meshes);
+    file_key *keys = calloc((size_t)(items > 0 ? items : 1), sizeof *keys);
+    const sq_mesh **all = calloc((size_t)(np + items + 1), sizeof *all);
+    sq_mesh_instance *inst = calloc((size_t)(nip + items + 1), sizeof *inst);
+    if (!s->file_meshes || !keys || !all || !inst) {
+        free(keys);
+        free(all);
+        free(inst);
+        return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    }
+    for (int i = 0; i < np; i++) all[i] = s->place->meshes[i];
+    if (nip > 0) memcpy(inst, s->place->instances, (size_t)nip * sizeof *inst);
+    int ni = nip, i = 0;
+    for (const sq_cfg_node *o = ml ? ml->child : NULL; r == SQ_OK && o; o = o->next, i++) {
+        char sec[64], w[320];
+        snprintf(sec, sizeof sec, "world.meshes[%d]", i);
+        apply_ctx oa = {cfg, sec};
+        where_of(&oa, o, w, sizeof w);
+        r = expect_kind(&oa, o, SQ_CFG_MAP, sec);
+        if (r != SQ_OK) {
+            r = relog(s->ctx, r);
+            break;
+        }
+        sq__mesh_item it;
+        sq_params_defaults(sq__mesh_params, sq__mesh_param_count, &it);
+        r = apply_map(&oa, o, "", sq__mesh_params, sq__mesh_param_count, &it, NULL);
+        if (r != SQ_OK) {
+            r = relog(s->ctx, r);
+            break;
+        }
+        if (!it.file[0]) {
+            r = sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "%s: %s.file: a mesh file is required",
+                         w, sec);
+            break;
+        }
+        if (it.position_count < 2) {
+            r = sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                         "%s: %s.position: expected [x, y] or [x, y, z]", w, sec);
+            break;
+        }
+        file_key k;
+        if (it.file[0] == '/' || !cfg->base_dir[0]) snprintf(k.path, sizeof k.path, "%s", it.file);
+        else snprintf(k.path, sizeof k.path, "%s/%s", cfg->base_dir, it.file);
+        k.lods = it.lods;
+        k.up = it.up;
+        int mesh = -1;
+        for (int f = 0; f < s->file_mesh_count; f++)
+            if (!strcmp(keys[f].path, k.path) && keys[f].lods == k.lods && keys[f].up == k.up) mesh = f;
+        if (mesh < 0) {
+            sq_mesh_import_desc md = {k.path, it.lods, (sq_mesh_up)it.up};
+            sq_mesh *m = NULL;
+            r = sd->load_mesh(s->ctx, &md, &m);
+            if (r != SQ_OK) {
+                char why[1024];
+                snprintf(why, sizeof why, "%s", sq_last_error());
+                r = sq__fail(s->ctx, r, "scene", "%s: %s.file: %s", w, sec, why);
+                break;
+            }
+            mesh = s->file_mesh_count;
+            keys[mesh] = k;
+            s->file_meshes[s->file_mesh_count++] = m;
+            all[np + mesh] = m;
+        }
+        sq_mesh_instance *in = &inst[ni];
+        memset(in, 0, sizeof *in);
+        in->mesh = np + mesh;
+        in->position_m = sq_v3(it.position[0], it.position[1],
+                               it.position_count == 3 ? it.position[2] : NAN);
+        in->yaw_deg = it.yaw_deg;
+        in->scale = it.scale_count >= 3 ? sq_v3(it.scale[0], it.scale[1], it.scale[2])
+                                        : sq_v3(it.scale[0], it.scale[0], it.scale[0]);
+        in->tint[0] = sq_v3(it.color[0], it.color[1], it.color[2]);
+        r = sq_world_check_mesh_instance(s->ctx, s->world, s->file_meshes[mesh], in);
+        if (r != SQ_OK) {
+            char why[1024];
+            snprintf(why, sizeof why, "%s", sq_last_error());
+            r = sq__fail(s->ctx, r, "scene", "%s: %s: %s", w, sec, why);
+            break;
+        }
+        ni++;
+    }
+    if (r == SQ_OK)
+        r = sq_world_set_meshes(s->ctx, s->world, all, np + s->file_mesh_count, inst, ni);
+    free(keys);
+    free(all);
+    free(inst);
+    if (r == SQ_OK && s->world->mesh_instance_count > 0)
+        sq_log(s->ctx, SQ_LOG_INFO, "scene", "meshes: %d instances of %d meshes, %lld faces",
+               s->world->mesh_instance_count, s->world->mesh_count,
+               (long long)s->world->mesh_faces);
     return r;
 }
 
@@ -776,7 +934,10 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     }
     sq_result r = build_output(s, cfg, sq_cfg_get(cfg->root, "output"));
     if (r == SQ_OK) r = build_camera(s, cfg, sq_cfg_get(cfg->root, "camera"));
-    if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &s->world);
+    sq__world_section ws;
+    memset(&ws, 0, sizeof ws);
+    if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &ws, &s->world);
+    if (r == SQ_OK) r = build_meshes(s, desc, sq_cfg_get(cfg->root, "world"), &ws);
     if (r == SQ_OK) note_camera_places(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
     if (r == SQ_OK && !desc->validate_only)
@@ -804,6 +965,9 @@ void sq_scene_destroy(sq_scene *s)
     if (!s) return;
     for (int i = s->layer_count - 1; i >= 0; i--) sq_phenomenon_destroy(s->layers[i].ph);
     sq_world_destroy(s->ctx, s->world);
+    sq_place_destroy(s->ctx, s->place);
+    for (int i = 0; i < s->file_mesh_count; i++) sq_mesh_destroy(s->ctx, s->file_meshes[i]);
+    free(s->file_meshes);
     free(s);
 }
 

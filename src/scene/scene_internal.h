@@ -43,7 +43,26 @@ typedef struct sq__world_section {
     float city_block_m, city_street_m, city_height_min_m, city_height_max_m;
     float city_center[3];
     uint64_t city_seed;
+    int place_kind;
+    float place_size_m[2];
+    int place_size_count;
+    float place_center[2];
+    int place_center_count;
+    uint64_t place_seed;
+    float place_tree_density;
 } sq__world_section;
+
+typedef struct sq__mesh_item {
+    char file[SQ_PARAM_STRING_MAX];
+    float position[3];
+    int position_count;
+    float yaw_deg;
+    float scale[3];
+    int scale_count;
+    int lods;
+    int up;
+    float color[3];
+} sq__mesh_item;
 
 typedef struct sq__obstacle_item {
     int kind;
@@ -78,6 +97,8 @@ extern const sq_param sq__world_params[];
 extern const size_t sq__world_param_count;
 extern const sq_param sq__obstacle_params[];
 extern const size_t sq__obstacle_param_count;
+extern const sq_param sq__mesh_params[];
+extern const size_t sq__mesh_param_count;
 extern const sq_param sq__area_params[];
 extern const size_t sq__area_param_count;
 extern const sq_param sq__camera_params[];

@@ -121,6 +121,17 @@ const sq_param sq__world_params[] = {
     F("city.height_max_m", city_height_max_m, "m", 60, 2, 800, "Tallest building."),
     V3("city.center", city_center, "m", "0 0 0", -1e7, 1e7, "Centre of the city (x, y; z unused)."),
     U64("city.seed", city_seed, 1, "Seed of the building heights."),
+    E("place.kind", place_kind, 0, "none|suburb|town",
+      "Procedural place built from meshes: suburb (houses with gable and hip roofs on garden "
+      "plots, trees, cars, fences, a park with a pavilion) or town (blocks of town houses and "
+      "apartment buildings, shops, street trees, a square); none = no place."),
+    FL("place.size_m", place_size_m, place_size_count, "m", "1000 1000", 2, 100, 50000,
+       "Extent of the place along x and y; it must lie on the terrain."),
+    FL("place.center", place_center, place_center_count, "m", "0 0", 2, -1e7, 1e7,
+       "Centre of the place (x, y)."),
+    U64("place.seed", place_seed, 1, "Seed of the place: the same seed builds the same place."),
+    F("place.tree_density", place_tree_density, "1", 1, 0.01, 10,
+      "Multiplier of the trees per garden, park and street."),
 };
 const size_t sq__world_param_count = sizeof sq__world_params / sizeof sq__world_params[0];
 #undef S
@@ -136,6 +147,28 @@ const sq_param sq__obstacle_params[] = {
     V3("albedo", albedo, "1", "0 0 0", 0, 1, "Surface albedo; [0, 0, 0] = default per kind."),
 };
 const size_t sq__obstacle_param_count = sizeof sq__obstacle_params / sizeof sq__obstacle_params[0];
+#undef S
+
+#define S sq__mesh_item
+const sq_param sq__mesh_params[] = {
+    STR("file", file, "",
+        "Mesh file (glTF 2.0 .gltf/.glb, OBJ, FBX, PLY), relative to the scene file."),
+    FL("position", position, position_count, "m", "0 0", 3, -1e7, 1e7,
+       "Where the mesh origin goes: [x, y] (on the terrain: the lowest ground under the "
+       "footprint) or [x, y, z]."),
+    FZ("yaw_deg", yaw_deg, "deg", 0, -360, 360,
+       "Heading: rotation about the vertical axis, counter-clockwise seen from above."),
+    FL("scale", scale, scale_count, "1", "1", 3, 1e-4, 1e4,
+       "Scale factor: one number, or [x, y, z] along the mesh's own axes."),
+    I("lods", lods, "1", 4, 1, 4,
+      "Levels of detail: a file's single level is simplified by vertex clustering up to this "
+      "many (1 = none)."),
+    E("up", up, 0, "default|y|z",
+      "The file's up axis: default = y for glTF, OBJ and FBX, z for PLY."),
+    V3("color", color, "1", "0 0 0", 0, 1,
+       "Colour for the mesh's tintable materials; [0, 0, 0] = the file's colours."),
+};
+const size_t sq__mesh_param_count = sizeof sq__mesh_params / sizeof sq__mesh_params[0];
 #undef S
 
 #define S sq__area_item
@@ -216,6 +249,7 @@ const sq_param *sq_scene_section_params(const char *section, size_t *count)
     } t[] = {{"world", sq__world_params, sizeof sq__world_params / sizeof sq__world_params[0]},
              {"obstacle", sq__obstacle_params,
               sizeof sq__obstacle_params / sizeof sq__obstacle_params[0]},
+             {"mesh", sq__mesh_params, sizeof sq__mesh_params / sizeof sq__mesh_params[0]},
              {"area", sq__area_params, sizeof sq__area_params / sizeof sq__area_params[0]},
              {"camera", sq__camera_params, sizeof sq__camera_params / sizeof sq__camera_params[0]},
              {"camera-key", sq__camera_key_params,

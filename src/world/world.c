@@ -10,7 +10,7 @@
 
 #include "core/core_internal.h"
 #include "squall/noise.h"
-#include "squall/world.h"
+#include "world_internal.h"
 
 #define WORLD_MAX_SAMPLES (8192 * 8192)
 
@@ -528,6 +528,7 @@ void sq_world_set_time(sq_world *w, double t_s)
 void sq_world_destroy(sq_context *ctx, sq_world *w)
 {
     if (!w) return;
+    sq__world_meshes_free(ctx, w);
     sq_free(ctx, w->heights);
     sq_free(ctx, w->normals);
     sq_free(ctx, w->crs_wkt);
@@ -605,6 +606,8 @@ float sq_world_surface_at(const sq_world *w, float x, float y)
         float top = obstacle_top_local(o, l.x, l.y);
         if (!isnan(top) && o->center_m.z + top > h) h = o->center_m.z + top;
     }
+    float zm;
+    if (sq__world_mesh_top_at(w, x, y, &zm) && zm > h) h = zm;
     return h;
 }
 
@@ -617,7 +620,7 @@ bool sq_world_solid_at(const sq_world *w, sq_vec3 p)
         float top = obstacle_top_local(o, l.x, l.y);
         if (!isnan(top) && l.z >= 0.0f && l.z <= top) return true;
     }
-    return false;
+    return sq__world_mesh_solid_at(w, p);
 }
 
 void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out)

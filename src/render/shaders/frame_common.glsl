@@ -22,6 +22,16 @@ layout(std140, binding = 0) uniform Frame {
 
 layout(binding = 7) uniform sampler2D u_sun_shadow; // transmittance of sun light (rgb)
 
+// Sun shadows of opaque geometry (render_shadow.c): cascaded shadow maps fitted to the view
+// (binding 3, mirrored by shadow_block in render_shadow.c).
+layout(std140, binding = 3) uniform Shadow {
+    mat4 u_shadow_matrix[4]; // world -> (u, v, depth) in [0, 1] of cascade c
+    vec4 u_shadow_split;     // far end of cascade c along the view axis (m)
+    vec4 u_shadow_texel;     // world size of one texel of cascade c (m)
+    vec4 u_shadow_params;    // x cascades (0 = no shadows), y map size (px), z fade start (m)
+};
+layout(binding = 8) uniform sampler2DArrayShadow u_shadow_map;
+
 const float SQ_PI = 3.14159265358979;
 const float SQ_SUN_ANGULAR_RADIUS = 0.00465; // rad (0.27 degrees)
 
@@ -43,6 +53,37 @@ vec3 sq_sun_transmittance(vec3 p)
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0)))) return vec3(1.0);
     return texture(u_sun_shadow, uv).rgb;
 }
+
+// Fraction of the sun's disc visible from p (0 in the shadow of opaque geometry, 1 lit), with
+// unit surface normal n: the cascade covering p's view depth, a receiver offset along n of 1.5
+// texels against acne, and 3 x 3 bilinear comparisons (percentage-closer filtering over about
+// 4 x 4 texels). Beyond the last cascade it fades to 1.
+float sq_opaque_shadow(vec3 p, vec3 n)
+{
+    int count = int(u_shadow_params.x);
+    if (count == 0) return 1.0;
+    float depth = -(u_view * vec4(p, 1.0)).z;
+    int c = 0;
+    while (c < count - 1 && depth > u_shadow_split[c]) c++;
+    if (depth > u_shadow_split[count - 1]) return 1.0;
+    float texel = u_shadow_texel[c];
+    float cosl = dot(n, u_sun_dir.xyz);
+    vec3 q = p + n * texel * (1.0 + 1.5 * (1.0 - abs(cosl)));
+    vec4 t = u_shadow_matrix[c] * vec4(q, 1.0);
+    if (any(lessThan(t.xy, vec2(0.0))) || any(greaterThan(t.xy, vec2(1.0)))) return 1.0;
+    float inv = 1.0 / u_shadow_params.y;
+    float ref = t.z - 0.0002;
+    float lit = 0.0;
+    for (int j = -1; j <= 1; j++)
+        for (int i = -1; i <= 1; i++)
+            lit += texture(u_shadow_map, vec4(t.xy + vec2(i, j) * inv, float(c), ref));
+    lit /= 9.0;
+    float fade = smoothstep(u_shadow_params.z, u_shadow_split[count - 1], depth);
+    return mix(lit, 1.0, fade);
+}
+
+// Sun light reaching p with normal n: through the volumes and past opaque geometry.
+vec3 sq_sun_visibility(vec3 p, vec3 n) { return sq_sun_transmittance(p) * sq_opaque_shadow(p, n); }
 
 float sq_hg(float cos_theta, float g)
 {

@@ -17,7 +17,7 @@ void main()
         if (!rail && fract(v_aux.y / 0.15) > 0.667) discard;
     }
     vec3 n = normalize(v_normal);
-    vec3 E = u_sun_radiance.xyz * sq_sun_transmittance(v_pos);
+    vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = v_albedo * (E * max(dot(n, u_sun_dir.xyz), 0.0) + sq_ambient(n));
     o_color = vec4(sq_haze(L, v_pos), 1.0);
 }

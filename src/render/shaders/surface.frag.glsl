@@ -19,7 +19,7 @@ void main()
     if (v_coverage < 1.0 / 255.0) discard;
     vec3 n = normalize(v_normal);
     vec3 s = u_sun_dir.xyz;
-    vec3 E = u_sun_radiance.xyz * sq_sun_transmittance(v_pos);
+    vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L;
     if (u_material == 2) {
         vec2 q = v_pos.xy / 0.6;

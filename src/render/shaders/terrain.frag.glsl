@@ -21,7 +21,7 @@ void main()
                    (0.9 + 0.2 * sq_value_noise(v_pos.xy / 2.0));
     albedo *= detail;
     vec3 s = u_sun_dir.xyz;
-    vec3 E = u_sun_radiance.xyz * sq_sun_transmittance(v_pos);
+    vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
     o_color = vec4(sq_haze(L, v_pos), 1.0);
 }

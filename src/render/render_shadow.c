@@ -1,0 +1,236 @@
+/* render_shadow.c — sun shadows of opaque geometry: cascaded shadow maps fitted to the view
+ * (Engel 2006; Zhang et al. 2006 "parallel-split shadow maps"), and the one routine that draws
+ * all opaque world geometry (terrain, obstacles, mesh instances) into a depth target for any
+ * view, which the shadow cascades and the snow occlusion map share.
+ *
+ * Per frame: the view depth range [near, shadow distance] is split with the practical scheme
+ * (a 0.75 blend of logarithmic and uniform splits); each slice gets the bounding sphere of its
+ * frustum corners (its radius depends only on the slice and the field of view, so it never
+ * changes while the camera moves), an orthographic sun view around it whose origin is snapped to
+ * whole texels (no shimmer), and a depth render with depth clamping (casters between the slice
+ * and the sun outside the box still occlude) and a slope-scaled polygon offset. Surfaces look the
+ * cascade up with a normal offset and 3 x 3 percentage-closer filtering (frame_common.glsl). */
+#include <math.h>
+#include <string.h>
+
+#include "render/render_internal.h"
+
+#define MAX_CASCADES 4
+
+/* std140 mirror of the Shadow block in shaders/frame_common.glsl. */
+typedef struct shadow_block {
+    float matrix[MAX_CASCADES][16];
+    float split[4], texel[4], params[4];
+} shadow_block;
+
+struct sq__shadow_pass {
+    GLuint tex, dummy, ubo, prog_world;
+    GLuint fbo[MAX_CASCADES];
+    int size, cascades;
+    float distance_m;
+    bool enabled;
+    double ms_last;
+};
+
+sq_result sq__shadow_pass_create(sq_renderer *r)
+{
+    sq_context *ctx = r->ctx;
+    sq__shadow_pass *s = sq_alloc_zero(ctx, sizeof *s);
+    if (!s) return SQ_ERR_OUT_OF_MEMORY;
+    r->shadow = s;
+    s->size = r->desc.shadow_map_size;
+    s->cascades = r->desc.shadow_cascades;
+    s->distance_m = r->desc.shadow_distance_m;
+    s->enabled = !r->desc.shadows_off && s->cascades > 0 && s->size > 0;
+    sq_result res = sq__gl_program(ctx, "depth_world.vert", NULL, "depth.frag", &s->prog_world);
+    if (res != SQ_OK) return res;
+    glCreateBuffers(1, &s->ubo);
+    shadow_block zero;
+    memset(&zero, 0, sizeof zero);
+    glNamedBufferStorage(s->ubo, sizeof zero, &zero, GL_DYNAMIC_STORAGE_BIT);
+    /* a 1x1x1 map for frames without shadows (the sampler must have a depth texture bound) */
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &s->dummy);
+    glTextureStorage3D(s->dummy, 1, GL_DEPTH_COMPONENT32F, 1, 1, 1);
+    glTextureParameteri(s->dummy, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTextureParameteri(s->dummy, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    if (s->enabled) {
+        glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &s->tex);
+        glTextureStorage3D(s->tex, 1, GL_DEPTH_COMPONENT32F, s->size, s->size, s->cascades);
+        glTextureParameteri(s->tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTextureParameteri(s->tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTextureParameteri(s->tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(s->tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        glTextureParameteri(s->tex, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+        glTextureParameteri(s->tex, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+        for (int c = 0; c < s->cascades; c++) {
+            glCreateFramebuffers(1, &s->fbo[c]);
+            glNamedFramebufferTextureLayer(s->fbo[c], GL_DEPTH_ATTACHMENT, s->tex, 0, c);
+            glNamedFramebufferDrawBuffer(s->fbo[c], GL_NONE);
+            glNamedFramebufferReadBuffer(s->fbo[c], GL_NONE);
+            res = sq__gl_check_framebuffer(ctx, s->fbo[c], "shadow cascade");
+            if (res != SQ_OK) return res;
+        }
+    }
+    return sq__gl_check(ctx, "shadow map creation");
+}
+
+void sq__shadow_pass_destroy(sq_renderer *r)
+{
+    sq__shadow_pass *s = r->shadow;
+    if (!s) return;
+    glDeleteProgram(s->prog_world);
+    glDeleteBuffers(1, &s->ubo);
+    glDeleteTextures(1, &s->tex);
+    glDeleteTextures(1, &s->dummy);
+    for (int c = 0; c < MAX_CASCADES; c++)
+        if (s->fbo[c]) glDeleteFramebuffers(1, &s->fbo[c]);
+    sq_free(r->ctx, s);
+    r->shadow = NULL;
+}
+
+/* ---- all opaque world geometry into a depth target ---------------------------------------- */
+void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v)
+{
+    const sq__shadow_pass *s = r->shadow;
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+    glDisable(GL_BLEND);
+    glDisable(GL_CULL_FACE);
+    if (v->ortho) glEnable(GL_DEPTH_CLAMP);
+    glProgramUniformMatrix4fv(s->prog_world, 0, 1, GL_FALSE, v->view_proj.m);
+    glUseProgram(s->prog_world);
+    if (r->terrain_index_count > 0) {
+        glBindVertexArray(r->terrain_vao);
+        glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
+    }
+    if (r->obstacle_vertex_count > 0) {
+        glBindVertexArray(r->obstacle_vao);
+        glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
+    }
+    sq__mesh_pass_draw_depth(r, v);
+    if (v->ortho) glDisable(GL_DEPTH_CLAMP);
+}
+
+/* ---- cascades ------------------------------------------------------------------------------- */
+/* Light frame: lz toward the sun, lx, ly across. */
+static void light_basis(sq_vec3 sun, sq_vec3 *lx, sq_vec3 *ly, sq_vec3 *lz)
+{
+    *lz = sq_v3_norm(sun);
+    const sq_vec3 ref = fabsf(lz->z) > 0.99f ? sq_v3(0, 1, 0) : sq_v3(0, 0, 1);
+    *lx = sq_v3_norm(sq_v3_cross(ref, *lz));
+    *ly = sq_v3_cross(*lz, *lx);
+}
+
+/* World -> clip of an orthographic sun view: x, y in [c - R, c + R] of the light frame, depth
+ * from zlo (away from the sun) to zhi (toward it) mapped to clip z 1 .. -1. */
+static sq_mat4 light_matrix(sq_vec3 lx, sq_vec3 ly, sq_vec3 lz, float cx, float cy, float R,
+                            float zlo, float zhi)
+{
+    sq_mat4 m = sq_m4_identity();
+    const float dz = zhi - zlo;
+    const sq_vec3 rows[3] = {sq_v3_scale(lx, 1.0f / R), sq_v3_scale(ly, 1.0f / R),
+                             sq_v3_scale(lz, -2.0f / dz)};
+    const float t[3] = {-cx / R, -cy / R, 1.0f + 2.0f * zlo / dz};
+    for (int row = 0; row < 3; row++) {
+        m.m[0 * 4 + row] = rows[row].x;
+        m.m[1 * 4 + row] = rows[row].y;
+        m.m[2 * 4 + row] = rows[row].z;
+        m.m[3 * 4 + row] = t[row];
+    }
+    return m;
+}
+
+sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
+{
+    sq__shadow_pass *s = r->shadow;
+    shadow_block blk;
+    memset(&blk, 0, sizeof blk);
+    const bool sun_up = w->sun_dir.z > 0.0f;
+    if (draw && s->enabled && sun_up) {
+        const double t0 = sq_time_now();
+        const int C = s->cascades;
+        const float n = r->near_m, f = fminf(r->far_m, s->distance_m);
+        /* tangents of the half field of view from the projection */
+        const float ty = 1.0f / r->proj.m[5], tx = 1.0f / r->proj.m[0];
+        const float k2 = tx * tx + ty * ty;
+        sq_vec3 lx, ly, lz;
+        light_basis(w->sun_dir, &lx, &ly, &lz);
+        /* the highest thing in the world, for how far toward the sun to look */
+        sq_vec3 wmin, wmax, mmin, mmax;
+        bool any;
+        sq_world_bounds(w, &wmin, &wmax);
+        sq__mesh_pass_bounds(r, &mmin, &mmax, &any);
+        float top = wmax.z;
+        if (any) top = fmaxf(top, mmax.z);
+        for (int i = 0; i < w->obstacle_count; i++)
+            top = fmaxf(top, w->obstacles[i].center_m.z + w->obstacles[i].size_m.z + w->obstacles[i].roof_m);
+        float d0 = n;
+        /* the map must not stay bound for sampling while it is rendered into */
+        glBindTextureUnit(8, s->dummy);
+        glViewport(0, 0, s->size, s->size);
+        glEnable(GL_POLYGON_OFFSET_FILL);
+        glPolygonOffset(2.0f, 2.0f);
+        for (int c = 0; c < C; c++) {
+            const float u = (float)(c + 1) / (float)C;
+            const float d1 = 0.75f * n * powf(f / n, u) + 0.25f * (n + (f - n) * u);
+            /* bounding sphere of the slice's corners: centre on the view axis */
+            float zc = 0.5f * (d0 + d1) * (1.0f + k2);
+            if (zc > d1) zc = d1;
+            float R = sqrtf((zc - d0) * (zc - d0) + k2 * d0 * d0);
+            R = fmaxf(R, sqrtf((d1 - zc) * (d1 - zc) + k2 * d1 * d1));
+            R *= 1.02f;
+            const sq_vec3 centre = sq_v3_add(r->cam_pos, sq_v3_scale(r->cam_forward, zc));
+            const float texel = 2.0f * R / (float)s->size;
+            /* snap the light-space origin to whole texels */
+            float cx = sq_v3_dot(centre, lx), cy = sq_v3_dot(centre, ly);
+            cx = floorf(cx / texel) * texel;
+            cy = floorf(cy / texel) * texel;
+            const float cz = sq_v3_dot(centre, lz);
+            /* toward the sun: up to where the highest object can be seen from the slice */
+            const float reach = fmaxf(0.0f, top - (centre.z - R)) / fmaxf(lz.z, 0.05f);
+            const float zlo = cz - R, zhi = cz + R + fminf(reach, 20000.0f);
+            const sq_mat4 vp = light_matrix(lx, ly, lz, cx, cy, R, zlo, zhi);
+                /* lookup: clip -> [0, 1] */
+            sq_mat4 bias = sq_m4_identity();
+            bias.m[0] = bias.m[5] = bias.m[10] = 0.5f;
+            bias.m[12] = bias.m[13] = bias.m[14] = 0.5f;
+            const sq_mat4 look = sq_m4_mul(bias, vp);
+            memcpy(blk.matrix[c], look.m, sizeof look.m);
+            blk.split[c] = d1;
+            blk.texel[c] = texel;
+            glBindFramebuffer(GL_FRAMEBUFFER, s->fbo[c]);
+            glDepthMask(GL_TRUE); /* a clear obeys the depth mask */
+            const float one = 1.0f;
+            glClearNamedFramebufferfv(s->fbo[c], GL_DEPTH, 0, &one);
+            sq__depth_view v;
+            memset(&v, 0, sizeof v);
+            v.view_proj = vp;
+            v.ortho = true;
+            v.px_per_m = 1.0f / texel;
+            v.lod_pixels = 2.0f;
+            v.min_pixels = 1.0f;
+            sq__world_depth_draw(r, &v);
+            d0 = d1;
+        }
+        glDisable(GL_POLYGON_OFFSET_FILL);
+        blk.params[0] = (float)C;
+        blk.params[1] = (float)s->size;
+        blk.params[2] = 0.85f * f;
+        s->ms_last = (sq_time_now() - t0) * 1e3;
+    } else {
+        s->ms_last = 0.0;
+    }
+    glNamedBufferSubData(s->ubo, 0, sizeof blk, &blk);
+    sq__shadow_bind(r);
+    return sq__gl_check(r->ctx, "shadow maps");
+}
+
+void sq__shadow_bind(sq_renderer *r)
+{
+    const sq__shadow_pass *s = r->shadow;
+    glBindBufferBase(GL_UNIFORM_BUFFER, 3, s->ubo);
+    glBindTextureUnit(8, s->enabled ? s->tex : s->dummy);
+}
+
+double sq__shadow_pass_ms(const sq_renderer *r) { return r->shadow ? r->shadow->ms_last : 0.0; }

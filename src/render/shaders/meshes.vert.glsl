@@ -1,0 +1,29 @@
+#version 450 core
+// meshes.vert — world mesh instances for the camera: world position, normal, texture
+// coordinates and the albedo after the instance's tint (material uniforms of render_meshes.c).
+#include "frame_common.glsl"
+#include "mesh_common.glsl"
+
+layout(location = 0) uniform vec3 u_base_color; // material albedo (linear)
+layout(location = 1) uniform int u_tint;        // 0 none, 1 primary, 2 secondary
+
+out vec3 v_pos;
+out vec3 v_normal;
+out vec2 v_uv;
+flat out vec3 v_albedo;
+
+void main()
+{
+    vec3 p, n;
+    sq_mesh_world(p, n);
+    vec3 t0, t1;
+    sq_mesh_tints(t0, t1);
+    vec3 a = u_base_color;
+    if (u_tint == 1 && max(t0.r, max(t0.g, t0.b)) > 0.0) a = t0;
+    if (u_tint == 2 && max(t1.r, max(t1.g, t1.b)) > 0.0) a = t1;
+    v_albedo = a;
+    v_pos = p;
+    v_normal = n;
+    v_uv = a_uv;
+    gl_Position = u_view_proj * vec4(p, 1.0);
+}

@@ -1,0 +1,180 @@
+/* test_meshes.c — world meshes in the GL renderer (llvmpipe): sun shadows of a box on flat ground
+ * (the ground under the box's shadow gets only the sky's light, the ground beside it the full
+ * Lambert sun term, the shadow's edge where the geometry puts it), instances drawn where their
+ * placement puts them (yaw and scale), LOD choice by screen size, and the tint of materials. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "render/render_internal.h"
+#include "sq_test.h"
+#include "squall/mesh.h"
+#include "squall/render.h"
+#include "squall/world.h"
+
+SQ_LABEL(render)
+
+#define W 320
+#define H 180
+
+static sq_context *make_ctx(void)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd;
+    memset(&cd, 0, sizeof cd);
+    cd.threads = 1;
+    if (sq_context_create(&cd, &ctx) != SQ_OK) exit(1);
+    return ctx;
+}
+
+/* Flat 400 m square world at z = 0 with the sun toward sun_dir and clean air. */
+static sq_world *flat_world(sq_context *ctx, sq_vec3 sun_dir)
+{
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 400.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 33;
+    d.terrain.material = SQ_GROUND_ROCK;
+    d.sun.direction = sun_dir;
+    d.sky.turbidity = 2.0f;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
+        fprintf(stderr, "world: %s\n", sq_last_error());
+        exit(1);
+    }
+    return w;
+}
+
+/* An axis-aligned closed box lo..hi (12 triangles), one material of the given colour. */
+static sq_mesh *box_mesh(sq_context *ctx, sq_vec3 lo, sq_vec3 hi, sq_vec3 color, sq_mesh_tint tint)
+{
+    float p[24];
+    for (int k = 0; k < 8; k++) {
+        p[3 * k] = (k & 1) ? hi.x : lo.x;
+        p[3 * k + 1] = (k & 2) ? hi.y : lo.y;
+        p[3 * k + 2] = (k & 4) ? hi.z : lo.z;
+    }
+    static const uint32_t idx[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                     2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    sq_mesh_material m;
+    memset(&m, 0, sizeof m);
+    m.base_color = color;
+    m.tint = tint;
+    sq_mesh_desc d;
+    memset(&d, 0, sizeof d);
+    d.name = "box";
+    d.vertex_count = 8;
+    d.positions = p;
+    d.index_count = 36;
+    d.indices = idx;
+    d.material_count = 1;
+    d.materials = &m;
+    sq_mesh *out = NULL;
+    if (sq_mesh_create(ctx, &d, &out) != SQ_OK) {
+        fprintf(stderr, "mesh: %s\n", sq_last_error());
+        exit(1);
+    }
+    return out;
+}
+
+static sq_renderer *make_renderer(sq_context *ctx)
+{
+    sq_render_desc d;
+    memset(&d, 0, sizeof d);
+    d.width = W;
+    d.height = H;
+    sq_renderer *r = NULL;
+    if (sq_renderer_create(ctx, &d, &r) != SQ_OK) {
+        fprintf(stderr, "renderer: %s\n", sq_last_error());
+        exit(1);
+    }
+    return r;
+}
+
+/* Pixel (column, row from the top) where world point p lands for camera c. */
+static void project(const sq_camera *c, sq_vec3 p, int *px, int *py)
+{
+    const sq_mat4 vp = sq_m4_mul(sq_camera_proj(c, (float)W / (float)H), sq_camera_view(c));
+    const sq_vec4 q = sq_m4_mul_v4(vp, (sq_vec4){p.x, p.y, p.z, 1.0f});
+    *px = (int)floorf((q.x / q.w * 0.5f + 0.5f) * (float)W);
+    *py = H - 1 - (int)floorf((q.y / q.w * 0.5f + 0.5f) * (float)H);
+}
+
+/* Mean linear luminance over a 3x3 pixel block around world point p. */
+static double radiance_at(const float *rgb, const sq_camera *c, sq_vec3 p)
+{
+    int x, y;
+    project(c, p, &x, &y);
+    double s = 0.0;
+    for (int j = -1; j <= 1; j++)
+        for (int i = -1; i <= 1; i++) {
+            const int xx = sq_clampi(x + i, 0, W - 1), yy = sq_clampi(y + j, 0, H - 1);
+            const float *v = &rgb[3 * ((size_t)yy * W + (size_t)xx)];
+            s += 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+        }
+    return s / 9.0;
+}
+
+static float *render_linear(sq_renderer *r, const sq_world *w, const sq_camera *c)
+{
+    float *rgb = malloc((size_t)W * H * 3 * sizeof(float));
+    if (sq_renderer_draw(r, w, c, NULL, 0, 0.0) != SQ_OK || sq_renderer_read_linear(r, rgb) != SQ_OK) {
+        fprintf(stderr, "draw: %s\n", sq_last_error());
+        exit(1);
+    }
+    return rgb;
+}
+
+/* A 10 m cube at the origin under a sun 72 degrees high in the east (+x): its shadow on the
+ * ground reaches from x = -5 to x = -5 - 10 / tan(72 deg) = -8.25 m across y in [-5, 5]. */
+SQ_TEST(box_shadows_the_ground_under_a_high_sun)
+{
+    sq_context *ctx = make_ctx();
+    const float el = 72.0f * SQ_PI_F / 180.0f;
+    sq_world *w = flat_world(ctx, sq_v3(cosf(el), 0.0f, sinf(el)));
+    sq_renderer *r = make_renderer(ctx);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(-6.6f, -40.0f, 30.0f);
+    cam.target_m = sq_v3(-6.6f, 0.0f, 0.0f);
+    cam.fov_y_deg = 40.0f;
+    float *bare = render_linear(r, w, &cam);
+    sq_mesh *box = box_mesh(ctx, sq_v3(-5, -5, 0), sq_v3(5, 5, 10), sq_v3(0.5f, 0.5f, 0.5f), SQ_TINT_NONE);
+    sq_mesh_instance in;
+    memset(&in, 0, sizeof in);
+    in.mesh = 0;
+    in.position_m = sq_v3(0, 0, NAN);
+    const sq_mesh *list[1] = {box};
+    SQ_CHECK(sq_world_set_meshes(ctx, w, list, 1, &in, 1) == SQ_OK);
+    float *shad = render_linear(r, w, &cam);
+    const sq_vec3 in_shadow = sq_v3(-6.6f, -2.0f, 0.0f), beside = sq_v3(-11.0f, -2.0f, 0.0f);
+    const sq_vec3 edge_in = sq_v3(-7.6f, 0.0f, 0.0f), edge_out = sq_v3(-9.2f, 0.0f, 0.0f);
+    const double lit0 = radiance_at(bare, &cam, in_shadow);
+    const double dark = radiance_at(shad, &cam, in_shadow);
+    const double lit = radiance_at(shad, &cam, beside), lit_ref = radiance_at(bare, &cam, beside);
+    /* ground model: albedo (E cos + ambient); in the shadow only albedo * ambient remains */
+    const sq_vec3 s = w->sun_dir;
+    const double sun_part = (double)(w->sun_radiance.y * s.z);
+    const double amb = 0.5 * (double)(w->sky_zenith.y + w->sky_horizon.y); /* order of magnitude */
+    printf("lit %.4f (no mesh %.4f), shadow %.4f, unshadowed there %.4f, sun term %.3f, sky ~%.3f\n",
+           lit, lit_ref, dark, lit0, sun_part, amb);
+    SQ_CHECK_MSG(fabs(lit - lit_ref) < 0.02 * lit_ref, "beside the shadow %.4f vs %.4f without the box",
+                 lit, lit_ref);
+    /* the sun term is most of the light on a sunlit plane: the shadow keeps less than half */
+    SQ_CHECK_MSG(dark < 0.5 * lit0, "under the box's shadow %.4f; lit there %.4f", dark, lit0);
+    /* the edge where the cube's top edge projects (each point against itself without the box:
+     * the ground's albedo has a noise detail) */
+    const double e_in = radiance_at(shad, &cam, edge_in), e_in0 = radiance_at(bare, &cam, edge_in);
+    const double e_out = radiance_at(shad, &cam, edge_out), e_out0 = radiance_at(bare, &cam, edge_out);
+    SQ_CHECK_MSG(e_in < 0.5 * e_in0, "0.65 m inside the shadow edge: %.4f (lit %.4f)", e_in, e_in0);
+    SQ_CHECK_MSG(fabs(e_out - e_out0) < 0.02 * e_out0, "0.95 m outside the shadow edge: %.4f (lit %.4f)",
+                 e_out, e_out0);
+    free(bare);
+    free(shad);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, box);
+    sq_context_destroy(ctx);
+}
