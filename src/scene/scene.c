@@ -461,7 +461,7 @@ static sq_result build_place(sq_scene *s, const sq_cfg *cfg, const sq__world_sec
     const float y0 = pd.center_m[1] - 0.5f * pd.size_m[1], y1 = pd.center_m[1] + 0.5f * pd.size_m[1];
     if (x0 < lo.x || x1 > hi.x || y0 < lo.y || y1 > hi.y)
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
-                        "%s: world.place: size_m [%g, %g] around center [%g, %g] covers x %g..%g m, "
+                        "%s: world.place.size_m = [%g, %g] around world.place.center = [%g, %g] covers x %g..%g m, "
                         "y %g..%g m, which reaches outside the terrain (x %g..%g m, y %g..%g m); "
                         "enlarge world.terrain.size_m or shrink the place",
                         cfg->source, (double)pd.size_m[0], (double)pd.size_m[1],

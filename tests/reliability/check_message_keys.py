@@ -32,7 +32,8 @@ scene_keys = {"name", "description", "seed", "world", "camera", "layers", "outpu
               "layers.type", "layers.name", "layers.enabled", "type", "enabled",
               "world.obstacles", "camera.path"}
 # list-item sections and where their items live; any other section is a top-level key
-prefix_of = {"obstacle": "world.obstacles.", "area": "world.areas.", "camera-key": "camera.path."}
+prefix_of = {"obstacle": "world.obstacles.", "mesh": "world.meshes.", "area": "world.areas.",
+             "camera-key": "camera.path."}
 for s in sections:
     for k in params(s):
         scene_keys.add(prefix_of.get(s, s + ".") + k)
@@ -159,8 +160,8 @@ for f in scene_files:
 # that layer's public headers (a scene user meets these messages only through a caller that
 # translates them).
 api_headers = {"src/render": ["render.h", "drawable.h", "world.h", "image.h", "core.h", "sqmath.h"],
-               "src/io": ["io.h", "drawable.h", "world.h", "core.h", "wrf.h", "geo.h"],
-               "src/world": ["world.h", "core.h"],
+               "src/io": ["io.h", "drawable.h", "world.h", "core.h", "wrf.h", "geo.h", "mesh.h"],
+               "src/world": ["world.h", "core.h", "mesh.h"],
                "src/core": ["core.h", "field.h"]}
 solver_root = os.path.join(SRC, "src/solvers")
 for solver in sorted(os.listdir(solver_root)):
