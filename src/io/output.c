@@ -264,6 +264,19 @@ static void dir_and_name(const char *p, char *dir, size_t size, const char **nam
     split_path(p, dir, size, name);
 }
 
+/* Whether path reaches input ip through a link: path is a symbolic link, or another name of the
+ * file (a hard link); "dem.tif" and "./dem.tif" are the same name. */
+static bool through_link(const char *path, const char *ip)
+{
+    struct stat ls;
+    if (lstat(path, &ls) == 0 && S_ISLNK(ls.st_mode)) return true;
+    char *a = realpath(path, NULL), *b = realpath(ip, NULL);
+    const bool other = !a || !b || strcmp(a, b) != 0;
+    free(a);
+    free(b);
+    return other;
+}
+
 static sq_result refuse_input(sq_context *ctx, const char *path, int i)
 {
     const char *ip = sq_context_input_path(ctx, i);
@@ -271,7 +284,7 @@ static sq_result refuse_input(sq_context *ctx, const char *path, int i)
                     "output '%s' is the %s '%s'%s: inputs are never written, not even with "
                     "--overwrite; choose another output name",
                     path, sq_context_input_what(ctx, i), ip,
-                    strcmp(path, ip) == 0 ? "" : " (the same file through a link)");
+                    through_link(path, ip) ? " (the same file through a link)" : "");
 }
 
 static int input_index(const sq_context *ctx, const struct stat *st)
