@@ -57,6 +57,8 @@ sq_result sq_context_create(const sq_context_desc *desc, sq_context **out)
                       : phys ? phys / 10 * 8
                              : (uint64_t)8 << 30;
     c->seed = d.seed;
+    c->interrupt = d.interrupt;
+    c->interrupt_user = d.interrupt_user;
     *out = c;
     return SQ_OK;
 }
@@ -73,7 +75,7 @@ void sq_context_cancel(sq_context *ctx)
 {
     if (ctx) ctx->cancel = 1;
 }
-bool sq_context_cancelled(const sq_context *ctx) { return ctx && ctx->cancel; }
+bool sq_context_cancelled(const sq_context *ctx) { return sq__cancelled(ctx); }
 void sq_context_cancel_clear(sq_context *ctx)
 {
     if (ctx) ctx->cancel = 0;
@@ -228,4 +230,11 @@ bool sq_has_feature(const char *name)
         f = e + 1;
     }
     return false;
+}
+
+sq_result sq_context_poll_interrupt(sq_context *ctx, const char *module, const char *what)
+{
+    if (!sq__cancelled(ctx)) return SQ_OK; /* sq_context_cancel or the interrupt callback */
+    return sq__fail(ctx, SQ_ERR_CANCELLED, module ? module : "squall", "interrupted during %s",
+                    what ? what : "set-up");
 }

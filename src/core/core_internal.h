@@ -28,6 +28,8 @@ struct sq_context {
     uint64_t bytes_in_use; /* updated atomically */
     uint64_t bytes_peak;
     volatile sig_atomic_t cancel; /* set by sq_context_cancel (signal handlers) */
+    bool (*interrupt)(void *user); /* sq_context_desc.interrupt: polled like cancel */
+    void *interrupt_user;
     sq__input *inputs;
     int input_count, input_cap;
 };
@@ -60,8 +62,12 @@ void sq__state_reader_init(sq_state_reader *r, sq_context *ctx, const char *sour
 sq_result sq__state_write_raw(sq_state_writer *w, const void *data, size_t n);
 sq_result sq__state_read_raw(sq_state_reader *r, void *data, size_t n);
 
-/* True once sq_context_cancel was called: long loops check it and return SQ_ERR_CANCELLED. */
-static inline bool sq__cancelled(const sq_context *ctx) { return ctx && ctx->cancel; }
+/* True once sq_context_cancel was called or the desc's interrupt callback asks to stop: long
+ * loops check it and return SQ_ERR_CANCELLED. */
+static inline bool sq__cancelled(const sq_context *ctx)
+{
+    return ctx && (ctx->cancel || (ctx->interrupt && ctx->interrupt(ctx->interrupt_user)));
+}
 /* Fails with SQ_ERR_CANCELLED naming what was interrupted. */
 sq_result sq__fail_cancelled(sq_context *ctx, const char *module, const char *what);
 /* Records an input file (device, inode of the file path names, symlinks followed); a file

@@ -24,7 +24,7 @@ layers:
     draw: {flakes: 200}
 output: {fps: 4, frames: 8}
 YAML
-AVALANCHE=(alpine-avalanche --threads 1)
+AVALANCHE=("$SRC/tests/cli/data/slope-avalanche.yaml" --threads 1)  # procedural: no GDAL needed
 
 # same_tail REF RESUMED: the rows of RESUMED equal the rows of REF with the same frame numbers
 same_tail() {
