@@ -81,7 +81,7 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
     if (!pos_finite(d->release_depth_m))
         BAD("%srelease.depth_m = %g; the slab thickness must be > 0 m", P, d->release_depth_m);
     if (!isfinite(d->release_gradient_m) || !isfinite(d->release_reference_altitude_m))
-        BAD("%srelease.gradient_m, reference_altitude_m: not finite", P);
+        BAD("%srelease.gradient_m, release.reference_altitude_m: not finite", P);
     if (d->domain_layer_m < 0.0 || !isfinite(d->domain_layer_m))
         BAD("%sdomain.layer_m = %g; must be > 0 m (0 = auto)", P, d->domain_layer_m);
     if (!(d->hazard_cell_m >= 0.0) || !isfinite(d->hazard_cell_m))
