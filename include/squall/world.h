@@ -250,6 +250,12 @@ SQ_API sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y);
 SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
 /* True if the point is inside the terrain, an obstacle or a closed mesh instance. */
 SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
+/* Voxelises the world's solids (terrain, obstacles, closed meshes) on cells of size h_m: cell
+ * (i, j, k) is centred at origin_m + (i + 1/2, j + 1/2, k + 1/2) h_m (each coordinate rounded to
+ * float) and solid[i + n[0] (j + n[1] k)] gets sq_world_solid_at there (1/0) — the same answers,
+ * from one pass along each column's vertical line instead of one query per cell. */
+SQ_API sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double h_m,
+                                   const int n[3], uint8_t *solid);
 /* World bounds of the terrain: min/max x, y and heights. */
 SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);
 /* The area of that name (NULL if none). */
