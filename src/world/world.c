@@ -617,11 +617,12 @@ bool sq_world_solid_at(const sq_world *w, sq_vec3 p)
 }
 
 sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double h_m, const int n[3],
-                            uint8_t *solid)
+                            int parts, uint8_t *solid)
 {
-    if (!w || !origin_m || !solid || !n || !(h_m > 0.0) || n[0] <= 0 || n[1] <= 0 || n[2] <= 0)
+    if (!w || !origin_m || !solid || !n || !(h_m > 0.0) || n[0] <= 0 || n[1] <= 0 || n[2] <= 0 ||
+        (parts & ~SQ_SOLID_ALL) != 0)
         return sq__fail(NULL, SQ_ERR_INVALID_ARG, "world",
-                        "sq_world_voxelise: needs a world, an origin, h > 0, n > 0 and a mask");
+                        "sq_world_voxelise: needs a world, an origin, h > 0, n > 0, SQ_SOLID_* parts and a mask");
     const int nx = n[0], ny = n[1], nz = n[2];
     float *zc = (float *)malloc((size_t)nz * sizeof *zc);
     uint8_t *col = (uint8_t *)malloc((size_t)nz);
@@ -637,9 +638,9 @@ sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double 
         for (int i = 0; i < nx; i++) {
             const float x = (float)(origin_m[0] + (i + 0.5) * h_m);
             const float y = (float)(origin_m[1] + (j + 0.5) * h_m);
-            const float ht = sq_world_height_at(w, x, y);
+            const float ht = parts & SQ_SOLID_TERRAIN ? sq_world_height_at(w, x, y) : -INFINITY;
             for (int k = 0; k < nz; k++) col[k] = zc[k] <= ht;
-            for (int o = 0; o < w->obstacle_count; o++) {
+            for (int o = 0; (parts & SQ_SOLID_OBSTACLES) && o < w->obstacle_count; o++) {
                 const sq_obstacle *ob = &w->obstacles[o];
                 const sq_vec3 l = to_local(ob, sq_v3(x, y, 0.0f));
                 const float top = obstacle_top_local(ob, l.x, l.y);
@@ -649,7 +650,7 @@ sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double 
                     col[k] |= lz >= 0.0f && lz <= top;
                 }
             }
-            sq__world_mesh_solid_column(w, x, y, zc, nz, col);
+            if (parts & SQ_SOLID_MESHES) sq__world_mesh_solid_column(w, x, y, zc, nz, col);
             for (int k = 0; k < nz; k++) solid[(size_t)i + (size_t)nx * j + plane * k] = col[k];
         }
     free(zc);

@@ -235,3 +235,206 @@ SQ_TEST(snowdrift_lattice_house_blocks_the_wind)
     sq_mesh_destroy(ctx, m);
     sq_context_destroy(ctx);
 }
+
+/* ---- SPH colliders ----------------------------------------------------------------------- */
+#include "squall/sph.h"
+
+/* One SPH particle (gravity and the contact only) in a 40 m box over the house mesh, which is
+ * voxelised on 0.1 m cells (meshes only: the terrain is the SPH heightfield's business) into a
+ * signed-distance collider. */
+static sq_sph *one_particle_over_house(sq_context *ctx, sq_world *w, const float p0[3],
+                                       const float v0[3], double restitution)
+{
+    sq_sph_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = 0.5;
+    d.collision_radius_m = 0.025;
+    d.speed_of_sound_mps = 50.0;
+    d.gravity_mps2[2] = -9.81;
+    for (int a = 0; a < 3; a++) {
+        d.domain_min_m[a] = -20.0;
+        d.domain_max_m[a] = 20.0;
+    }
+    d.domain_min_m[2] = -1.0;
+    d.max_particles = 4;
+    sq_sph *s = NULL;
+    if (sq_sph_create(ctx, &d, &s) != SQ_OK) return NULL;
+    const double h = 0.1;
+    const int n[3] = {160, 120, 100};
+    const double origin[3] = {-8.0, -6.0, -1.0};
+    uint8_t *mask = (uint8_t *)malloc((size_t)n[0] * n[1] * n[2]);
+    if (!mask) exit(1);
+    SQ_CHECK_OK(sq_world_voxelise(w, origin, h, n, SQ_SOLID_MESHES, mask));
+    sq_sph_solid_grid_desc g;
+    memset(&g, 0, sizeof g);
+    memcpy(g.origin_m, origin, sizeof origin);
+    g.cell_m = h;
+    memcpy(g.n, n, sizeof n);
+    g.solid = mask;
+    g.contact.frictionless = true;
+    g.contact.restitution = restitution;
+    SQ_CHECK_OK(sq_sph_add_solid_grid(s, &g));
+    free(mask);
+    SQ_CHECK_OK(sq_sph_add_particles(s, 1, p0, v0));
+    return s;
+}
+
+/* The voxelised house as an SPH collider: its signed distance and normal match the analytic house
+ * (within the 0.1 m cells), a particle thrown at a wall stops at the wall (e = 0) or comes back
+ * (e = 1), and a particle let go on the frictionless roof slides down the slope at g sin(pitch). */
+SQ_TEST(sph_collides_with_a_voxelised_house)
+{
+    sq_context *ctx = make_ctx();
+    const house_dims hd = {12.0f, 8.0f, 5.0f, 3.0f}; /* x -6..6, y -4..4, eaves 5 m, ridge 8 m */
+    sq_mesh *m = house_mesh(ctx, hd);
+    sq_world *w = world_with(ctx, m, false, hd, sq_v3(0.0f, 0.0f, 0.0f), 0.0f);
+    const float r = 0.025f;
+    /* distances and normals: in front of the x = 6 wall, inside, above the roof slope */
+    {
+        const float p0[3] = {0.0f, 0.0f, 15.0f};
+        sq_sph *s = one_particle_over_house(ctx, w, p0, NULL, 0.0);
+        SQ_CHECK(s != NULL);
+        if (s) {
+            double nrm[3];
+            const double q1[3] = {7.0, 0.3, 2.0}, q2[3] = {0.0, 0.0, 2.5};
+            const double d1 = sq_sph_solid_distance(s, q1, nrm);
+            printf("1 m in front of the wall: %.4f m, normal (%.3f %.3f %.3f)\n", d1, nrm[0], nrm[1],
+                   nrm[2]);
+            SQ_CHECK_NEAR(d1, 1.0, 0.05);
+            SQ_CHECK(nrm[0] > 0.99);
+            const double d2 = sq_sph_solid_distance(s, q2, nrm);
+            printf("house centre at 2.5 m: %.4f m (analytic -2.5)\n", d2);
+            SQ_CHECK_NEAR(d2, -2.5, 0.1);
+            /* 0.5 m above the slope along its normal, at y = 2 (slope height 6.5 m there) */
+            const double th = atan2(3.0, 4.0);
+            const double q3[3] = {1.0, 2.0 + 0.5 * sin(th), 6.5 + 0.5 * cos(th)};
+            const double d3 = sq_sph_solid_distance(s, q3, nrm);
+            const double ang = acos(nrm[1] * sin(th) + nrm[2] * cos(th)) * 180.0 / M_PI;
+            printf("0.5 m above the roof: %.4f m, normal %.2f deg off the slope's\n", d3, ang);
+            SQ_CHECK_NEAR(d3, 0.5, 0.07);
+            SQ_CHECK(ang < 5.0);
+            const double far[3] = {30.0, 0.0, 0.0};
+            SQ_CHECK(isinf(sq_sph_solid_distance(s, far, NULL)));
+            sq_sph_destroy(s);
+        }
+    }
+    /* thrown at the wall x = -6 from the west, without gravity */
+    for (int c = 0; c < 2; c++) {
+        const double e = c;
+        const float p0[3] = {-7.0f, 0.7f, 2.0f}, v0[3] = {4.0f, 0.0f, 0.0f};
+        sq_sph *s = one_particle_over_house(ctx, w, p0, v0, e);
+        SQ_CHECK(s != NULL);
+        if (!s) continue;
+        const double g0[3] = {0.0, 0.0, 0.0};
+        SQ_CHECK_OK(sq_sph_set_gravity(s, g0));
+        SQ_CHECK_OK(sq_sph_step(s, 0.5));
+        const sq_sph_view v = sq_sph_particles(s);
+        printf("wall e = %.0f: x = %.4f m, vx = %.4f m/s\n", e, v.x[0], v.vx[0]);
+        if (e == 0.0) {
+            SQ_CHECK_NEAR(v.x[0], -6.0 - r, 2e-3);
+            SQ_CHECK_NEAR(v.vx[0], 0.0, 1e-3);
+        } else {
+            SQ_CHECK_NEAR(v.vx[0], -4.0, 1e-2);
+            SQ_CHECK(v.x[0] < -6.0 - r);
+        }
+        sq_sph_destroy(s);
+    }
+    /* let go on the roof slope (y = 1, z = 7.25 + r / cos): slides at g sin(pitch) along it */
+    {
+        const double th = atan2(3.0, 4.0), g = 9.81, T = 0.4;
+        const float p0[3] = {0.5f, 1.0f, (float)(7.25 + r / cos(th))};
+        sq_sph *s = one_particle_over_house(ctx, w, p0, NULL, 0.0);
+        SQ_CHECK(s != NULL);
+        if (s) {
+            for (int f = 0; f < 40; f++) SQ_CHECK_OK(sq_sph_step(s, T / 40));
+            const sq_sph_view v = sq_sph_particles(s);
+            const double speed = sqrt((double)v.vy[0] * v.vy[0] + (double)v.vz[0] * v.vz[0]);
+            const double zs = 8.0 - 3.0 * fabs((double)v.y[0]) / 4.0; /* the slope under it */
+            printf("roof: speed %.4f m/s after %.1f s (analytic %.4f), y %.3f m, %.4f m above "
+                   "the slope\n", speed, T, g * sin(th) * T, v.y[0], (v.z[0] - zs) * cos(th));
+            SQ_CHECK_REL(speed, g * sin(th) * T, 0.05);
+            SQ_CHECK(v.vy[0] > 0.0f && v.vz[0] < 0.0f); /* down the slope toward +y */
+            SQ_CHECK_NEAR((v.z[0] - zs) * cos(th), r, 0.03);
+            sq_sph_destroy(s);
+        }
+    }
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, m);
+    sq_context_destroy(ctx);
+}
+
+/* ---- the avalanche ------------------------------------------------------------------------ */
+#include "squall/avalanche.h"
+
+/* A slab of snow on a 35 degree slope runs into a box mesh (2 x 3 x 3 m, in its path 8 m below
+ * the release): the snow touches the box and no particle gets deeper into it than a quarter of the
+ * particle spacing (the bound the obstacle box meets in tests/avalanche). */
+SQ_TEST(avalanche_stops_at_a_mesh)
+{
+    sq_context *ctx = make_ctx();
+    sq_world_desc wd;
+    memset(&wd, 0, sizeof wd);
+    wd.terrain.kind = SQ_TERRAIN_MOUNTAIN;
+    wd.terrain.size_m[0] = 160.0f;
+    wd.terrain.size_m[1] = 48.0f;
+    wd.terrain.resolution[0] = 161;
+    wd.terrain.resolution[1] = 49;
+    wd.terrain.relief_m = 2.0f;
+    wd.terrain.feature_m = 60.0f;
+    wd.terrain.slope_deg = 35.0f;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
+    if (!w) return;
+    /* the box mesh: 8 corners, 12 triangles, base at z = 0 */
+    const float p[] = {-1, -1.5f, 0, 1, -1.5f, 0, -1, 1.5f, 0, 1, 1.5f, 0,
+                       -1, -1.5f, 3, 1, -1.5f, 3, -1, 1.5f, 3, 1, 1.5f, 3};
+    static const uint32_t idx[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                     2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+    sq_mesh_desc md;
+    memset(&md, 0, sizeof md);
+    md.name = "box";
+    md.vertex_count = 8;
+    md.positions = p;
+    md.index_count = 36;
+    md.indices = idx;
+    sq_mesh *m = NULL;
+    SQ_CHECK_OK(sq_mesh_create(ctx, &md, &m));
+    sq_mesh_instance in;
+    memset(&in, 0, sizeof in);
+    in.position_m = sq_v3(-4.0f, 0.0f, NAN); /* on the lowest terrain under it */
+    const sq_mesh *list[1] = {m};
+    SQ_CHECK_OK(sq_world_set_meshes(ctx, w, list, 1, &in, 1));
+    const sq_vec3 c = w->mesh_instances[0].position_m;
+    sq_avalanche_desc d;
+    memset(&d, 0, sizeof d);
+    d.spacing_m = 0.5;
+    d.release_x_m = -12.0;
+    d.release_length_m = 8.0;
+    d.release_width_m = 8.0;
+    d.release_depth_m = 1.5;
+    sq_avalanche *a = NULL;
+    SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
+    double worst_inside = 0.0;
+    int hit = 0;
+    for (int f = 0; a && f < 25; f++) {
+        SQ_CHECK_OK(sq_avalanche_step(a, 0.1));
+        size_t n = 0;
+        const float *q = sq_avalanche_positions(a, &n);
+        for (size_t i = 0; i < n; i++) {
+            const float dx = fabsf(q[3 * i] - c.x) - 1.0f, dy = fabsf(q[3 * i + 1] - c.y) - 1.5f;
+            const float dz = fmaxf(q[3 * i + 2] - (c.z + 3.0f), c.z - q[3 * i + 2]);
+            const float depth = -fmaxf(dx, fmaxf(dy, dz));
+            if (dx < 0.5f && dy < 0.5f && dz < 0.5f) hit = 1;
+            /* inside the box and above the terrain (the box's base is below the slope) */
+            if (depth > worst_inside && q[3 * i + 2] > sq_world_height_at(w, q[3 * i], q[3 * i + 1]))
+                worst_inside = depth;
+        }
+    }
+    printf("avalanche: deepest inside the box mesh %.3f m, touched %d\n", worst_inside, hit);
+    SQ_CHECK(hit);
+    SQ_CHECK(worst_inside < 0.25 * d.spacing_m);
+    sq_avalanche_destroy(a);
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, m);
+    sq_context_destroy(ctx);
+}

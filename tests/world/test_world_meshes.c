@@ -437,7 +437,7 @@ SQ_TEST(voxelise_equals_point_queries_over_a_town)
     uint8_t *m = (uint8_t *)malloc(cells);
     SQ_CHECK(m != NULL);
     if (!m) return;
-    SQ_CHECK(sq_world_voxelise(w, origin, h, n, m) == SQ_OK);
+    SQ_CHECK(sq_world_voxelise(w, origin, h, n, SQ_SOLID_ALL, m) == SQ_OK);
     size_t mismatch = 0, solid = 0, mesh_solid = 0;
     for (int k = 0; k < n[2]; k++)
         for (int j = 0; j < n[1]; j++)
@@ -457,7 +457,7 @@ SQ_TEST(voxelise_equals_point_queries_over_a_town)
     SQ_CHECK(mesh_solid > 10000); /* buildings and the obstacle were really in the box */
     const double bad_o[3] = {0, 0, 0};
     const int bad_n[3] = {4, 0, 4};
-    SQ_CHECK(sq_world_voxelise(w, bad_o, h, bad_n, m) == SQ_ERR_INVALID_ARG);
+    SQ_CHECK(sq_world_voxelise(w, bad_o, h, bad_n, SQ_SOLID_ALL, m) == SQ_ERR_INVALID_ARG);
     free(m);
     sq_world_destroy(ctx, w);
     sq_place_destroy(ctx, pl);

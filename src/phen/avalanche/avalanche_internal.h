@@ -87,6 +87,8 @@ void sq__aval_powder_source(const float *x, const float *y, const float *z, cons
 void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay);
 
 /* ---- used by the plug-in (avalanche_plugin.c) and tests ----------------------------------- */
+/* The world's closed meshes inside the SPH domain as one voxelised collider (avalanche_meshes.c). */
+sq_result sq__avalanche_add_meshes(sq_avalanche *a);
 sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
                              bool count_only, sq__aval_plan *out, float *positions);
 int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max);

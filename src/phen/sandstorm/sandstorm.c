@@ -236,7 +236,7 @@ static sq_result create_grid(sq_sandstorm *s)
         return SQ_ERR_OUT_OF_MEMORY;
     }
     const int dims[3] = {s->nx, s->ny, s->nz};
-    r = sq_world_voxelise(s->world, s->origin, s->h, dims, mask);
+    r = sq_world_voxelise(s->world, s->origin, s->h, dims, SQ_SOLID_ALL, mask);
     if (r != SQ_OK) {
         sq_free(s->ctx, mask);
         return r;

@@ -284,7 +284,7 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
      * snow (the bottom layer always) */
     if (world) {
         const int dims[3] = {s->nx, s->ny, s->nz};
-        r = sq_world_voxelise(world, s->origin, s->h, dims, mask);
+        r = sq_world_voxelise(world, s->origin, s->h, dims, SQ_SOLID_ALL, mask);
         if (r != SQ_OK) {
             sq_free(ctx, mask);
             sq_snowdrift_destroy(s);
