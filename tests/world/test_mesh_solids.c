@@ -315,6 +315,22 @@ SQ_TEST(sph_collides_with_a_voxelised_house)
             SQ_CHECK(ang < 5.0);
             const double far[3] = {30.0, 0.0, 0.0};
             SQ_CHECK(isinf(sq_sph_solid_distance(s, far, NULL)));
+            /* bad grids are refused, naming the field */
+            const uint8_t one[8] = {1, 1, 1, 1, 1, 1, 1, 1};
+            sq_sph_solid_grid_desc bad;
+            memset(&bad, 0, sizeof bad);
+            bad.cell_m = 0.0;
+            bad.n[0] = bad.n[1] = bad.n[2] = 2;
+            bad.solid = one;
+            SQ_CHECK(sq_sph_add_solid_grid(s, &bad) == SQ_ERR_INVALID_ARG);
+            SQ_CHECK_MSG(strstr(sq_last_error(), "cell_m = 0"), "%s", sq_last_error());
+            bad.cell_m = 1.0;
+            bad.n[1] = 1;
+            SQ_CHECK(sq_sph_add_solid_grid(s, &bad) == SQ_ERR_INVALID_ARG);
+            SQ_CHECK_MSG(strstr(sq_last_error(), "n[1] = 1"), "%s", sq_last_error());
+            bad.n[1] = 2;
+            bad.contact.restitution = 2.0;
+            SQ_CHECK(sq_sph_add_solid_grid(s, &bad) == SQ_ERR_INVALID_ARG);
             sq_sph_destroy(s);
         }
     }
