@@ -38,6 +38,10 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "--preset village-snowdrift --spinup 48", sq_bench_snowdrift, NULL, NULL},
     {"wrf", "WRF reader: open + read and derive every stored time; one time; an interpolated time",
      "--file wrfout.nc (repeatable; default data/wrf sample)", sq_bench_wrf, NULL, NULL},
+    {"clouds", "clouds (S4): 15 000 particles lit (MFS) and drawn, plain vs structured; S4 "
+     "Table 1 rows; impostors vs particles for a distant field",
+     "--particles 15000 --width 640 --height 360 --only frame|table|impostor", sq_bench_clouds,
+     NULL, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},
 };

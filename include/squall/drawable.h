@@ -20,7 +20,8 @@ typedef enum sq_drawable_kind {
     SQ_DRAWABLE_NONE = 0,
     SQ_DRAWABLE_VOLUME = 1,
     SQ_DRAWABLE_PARTICLES = 2,
-    SQ_DRAWABLE_SURFACE = 3
+    SQ_DRAWABLE_SURFACE = 3,
+    SQ_DRAWABLE_CLOUDS = 4
 } sq_drawable_kind;
 
 /* Participating medium on a regular grid inside an axis-aligned box.
@@ -93,6 +94,46 @@ typedef struct sq_surface_view {
     uint64_t version;
 } sq_surface_view;
 
+/* One cloud of a clouds view: its particles are the contiguous range [first, first + count);
+ * centre and radius bound their discs (impostors are fitted to this sphere). */
+typedef struct sq_cloud_group {
+    sq_vec3 center_m;
+    float radius_m;
+    int first, count;
+} sq_cloud_group;
+
+/* Cloud particles lit by Harris multiple forward scattering (SPEC 8.4–8.5, src/render/
+ * render_clouds.c): the renderer sorts them by distance from the sun and carries the light
+ * I_k = g_{k-1} + T_{k-1} I_{k-1} through a light buffer, then draws camera-facing billboards
+ * back to front with the view-dependent phase function; distant groups become impostors.
+ * Opacity of particle k at sprite radius t in [0, 1] (eta(t) = 2|t|³ - 3t² + 1):
+ *   physical:       alpha = 1 - exp(-tau[k] eta(t))
+ *   splat_opacity:  alpha = (1 - exp(-tau_splat)) eta_1 eta(t)   (Harris / S4, tau = 80) */
+typedef struct sq_clouds_view {
+    int count;
+    const float *position;     /* 3*count, world metres */
+    const float *radius_m;     /* count */
+    const float *tau;          /* count, optical depth through the centre (physical opacity) */
+    const float *g;            /* count, HG asymmetry per particle; NULL -> g_default */
+    const sq_cloud_group *groups; /* group_count groups covering [0, count); NULL: one group */
+    int group_count;
+    float g_default;           /* HG asymmetry (droplets 0.85) */
+    float albedo;              /* single-scattering albedo */
+    bool rayleigh;             /* S4's Rayleigh phase instead of HG (seed reproduction) */
+    bool splat_opacity;        /* Harris/S4 opacity from the splat alpha */
+    float eta1, tau_splat;     /* splat peak eta_1 (S4 0.4) and S4's tau_k = 80 */
+    float splat_noise;         /* 0..1: eta(t) times a mean-one noise of this amplitude (texture) */
+    float gamma_sr;            /* forward solid angle kept in the light (Harris 0.09 sr) */
+    int light_buffer;          /* light-buffer texels per side at most (0 -> 512) */
+    float light_texels_per_radius; /* and no finer than mean radius / this (0 -> 4) */
+    bool multiple_scattering;  /* add the diffuse (two-stream) light to the forward MFS light */
+    bool shadows;              /* the clouds shadow the terrain */
+    bool impostors;            /* groups beyond dist_impostor_m drawn as impostors */
+    float dist_3d_m, dist_impostor_m; /* cross-fade band between particles and impostors */
+    float impostor_angle_deg;  /* impostor refreshed when the view angle changes more */
+    uint64_t version;          /* changes whenever the particles change */
+} sq_clouds_view;
+
 typedef struct sq_drawable {
     sq_drawable_kind kind;
     const char *name; /* e.g. "dust", "snowfall", "snow-cover" */
@@ -100,6 +141,7 @@ typedef struct sq_drawable {
         sq_volume_view volume;
         sq_particles_view particles;
         sq_surface_view surface;
+        sq_clouds_view clouds;
     } u;
 } sq_drawable;
 

@@ -231,6 +231,90 @@ SQ_API double sq_hg_sample_cos(double g, double u);
 SQ_API void sq_hg_sample_direction(const double dir_in[3], double g, double u1, double u2,
                                    double dir_out[3]);
 
+/* ---- cloud condensate (SPEC §8, issue 10; src/solvers/optics/cloud.c) ---------------------- */
+/* The one home of the cloud extinction formula: the WRF export, the clouds phenomenon and the
+ * renderer all call this. Droplets and ice crystals are much larger than visible wavelengths, so
+ * the extinction efficiency is Q_ext ~ 2 (the extinction paradox) and a population with mass
+ * concentration C, particle density rho_p and effective radius r_eff = <r^3>/<r^2> has
+ *     beta = Q_ext pi <r^2> N = 3 C / (2 rho_p r_eff)        [m^-1]
+ * (Stephens 1978, J. Atmos. Sci. 35, 2123; Hansen & Travis 1974). For ice, r_eff is the radius of
+ * the ice-volume-equivalent population in this formula; Fu (1996, J. Climate 9, 2058) gives
+ * beta ~ 2.52 IWC / D_ge (g m-3, um, m^-1), i.e. r_eff ~ 0.65 D_ge. Exact Mie for a log-normal
+ * droplet population with r_eff = 10 um is 4 % above the formula (tests/optics). */
+#define SQ_WATER_DENSITY_KG_M3 1000.0
+#define SQ_ICE_DENSITY_KG_M3 917.0
+/* Default effective radii: 10 um for liquid cloud droplets (Stephens 1978; Miles et al. 2000,
+ * J. Atmos. Sci. 57, 295: continental ~ 8-10 um, marine ~ 12 um), 25 um for cloud ice
+ * (Fu 1996: D_ge ~ 40 um of mid-latitude cirrus). Snow 100 um and rain 500 um are the sizes the
+ * Stoelinga–Warner extinctions of NCEP UPP imply (snow 10.36 C^0.7776 km-1 at 0.01-0.1 g m-3:
+ * 56-95 um; rain 2.24 C^0.75 km-1 at 0.1-1 g m-3: 375-670 um; reference/wrf_format.md); graupel
+ * 1 mm (millimetre-sized rimed particles). */
+#define SQ_CLOUD_DROPLET_R_EFF_M 10.0e-6
+#define SQ_CLOUD_ICE_R_EFF_M 25.0e-6
+#define SQ_CLOUD_SNOW_R_EFF_M 100.0e-6
+#define SQ_CLOUD_RAIN_R_EFF_M 500.0e-6
+#define SQ_CLOUD_GRAUPEL_R_EFF_M 1.0e-3
+/* Henyey–Greenstein asymmetry at visible wavelengths: droplets 0.85 (Hansen & Travis 1974:
+ * 0.84-0.87 for water clouds at 0.55 um; Mie gives 0.866 for the default population), ice 0.75
+ * (roughened and aggregate crystals: Fu 1996; Yang et al. 2013), snow 0.80 (aggregates, between
+ * ice and drops), rain and graupel 0.88 (large particles, geometric optics plus diffraction). */
+#define SQ_CLOUD_DROPLET_G 0.85
+#define SQ_CLOUD_ICE_G 0.75
+#define SQ_CLOUD_SNOW_G 0.80
+#define SQ_CLOUD_RAIN_G 0.88
+#define SQ_CLOUD_GRAUPEL_G 0.88
+
+/* beta = 3 C / (2 rho_p r_eff) in m^-1 for a mass concentration C in kg m^-3 (values <= 0 and
+ * NaN give 0), a particle density in kg m^-3 and an effective radius in m (both > 0: the
+ * caller validates its parameters). */
+SQ_API double sq_cloud_extinction(double mass_kg_m3, double particle_density_kg_m3,
+                                  double r_eff_m);
+
+/* Hydrometeor species in the order of sq_wrf_species (include/squall/wrf.h). */
+typedef enum sq_hydrometeor {
+    SQ_HYDRO_CLOUD = 0,   /* cloud liquid water (QCLOUD) */
+    SQ_HYDRO_ICE = 1,     /* cloud ice (QICE) */
+    SQ_HYDRO_SNOW = 2,    /* snow (QSNOW) */
+    SQ_HYDRO_RAIN = 3,    /* rain (QRAIN) */
+    SQ_HYDRO_GRAUPEL = 4, /* graupel (QGRAUP) */
+    SQ_HYDRO_COUNT = 5
+} sq_hydrometeor;
+
+/* Effective radii and asymmetries per species; zeros take the defaults above. */
+typedef struct sq_cloud_optics {
+    double r_eff_m[SQ_HYDRO_COUNT]; /* > 0 after resolve */
+    double g[SQ_HYDRO_COUNT];       /* in (-1, 1) after resolve; 0 -> default */
+} sq_cloud_optics;
+
+/* Fills zeros with the defaults and checks the rest (r_eff in [1 um, 10 mm], |g| < 1); messages
+ * name r_eff_m[species] or g[species]. in may be NULL (all defaults); in and out may alias. */
+SQ_API sq_result sq_cloud_optics_resolve(const sq_cloud_optics *in, sq_cloud_optics *out);
+
+/* Particle density (kg/m³) used in the formula for a species: water for droplets and rain, solid
+ * ice for ice, snow and graupel (ice-volume-equivalent spheres, as UPP's CALVIS does). */
+SQ_API double sq_hydrometeor_density(sq_hydrometeor species);
+
+/* Effective radius (m) from the mass (g/m³) and number (1/m³) concentrations of a gamma size
+ * distribution n(D) ~ D^mu exp(-lambda D) of spheres of the given density (mu = 0: the
+ * exponential of Thompson's ice and rain):
+ *   r_v = (3 W / (4 pi rho N))^(1/3),  r_eff = r_v (mu + 3) / ((mu + 1)(mu + 2)(mu + 3))^(1/3).
+ * Returns 0 when a concentration is <= 0 or not finite (the caller keeps its default). */
+SQ_API double sq_cloud_effective_radius(double conc_g_m3, double number_per_m3,
+                                        double density_kg_m3, double mu);
+
+/* Extinction (1/m) of a mixture of species and its scattering-weighted asymmetry (the single-
+ * scattering albedo of every species is ~1 in the visible, so the weights are the extinctions):
+ *   beta = sum_s beta_s,  g = sum_s beta_s g_s / beta  (g = 0 where beta = 0).
+ * conc_g_m3[s]: mass concentration per species (0 for one the file lacks); r_eff_m may be NULL
+ * (o's radii) or hold per-species radii for this cell (entries <= 0 fall back to o). */
+SQ_API double sq_cloud_mixture(const sq_cloud_optics *o, const float conc_g_m3[SQ_HYDRO_COUNT],
+                               const float *r_eff_m, double *g_out);
+
+/* Rayleigh phase function (1/sr), normalised to 1 over 4 pi: 3 (1 + cos²theta) / (16 pi). Kept
+ * only for reproducing S4, which applied it to cloud droplets (SPEC 8.4 ⚠: droplets are Mie
+ * scatterers; use Henyey–Greenstein with g ~ 0.85). */
+SQ_API double sq_rayleigh_phase(double cos_theta);
+
 /* ---- visibility (Koschmieder, SPEC §2.7) --------------------------------------------------- */
 
 #define SQ_VISIBILITY_CONTRAST_DEFAULT 0.05 /* S0 and WMO MOR; the UM and UPP use 0.02 */
@@ -248,29 +332,6 @@ SQ_API sq_result sq_visibility_from_concentration(double conc_kg_m3, double mass
 /* The dust mass concentration (kg/m³) that gives visibility V (m, > 0). */
 SQ_API sq_result sq_concentration_for_visibility(double visibility_m, double mass_ext_m2_per_kg,
                                                  double contrast, double *out_kg_m3);
-
-/* ---- cloud condensate (SPEC §8, issue 10; src/solvers/optics/cloud.c) ---------------------- */
-/* The one home of the cloud extinction formula: the WRF export, the clouds phenomenon and the
- * renderer all call this. Droplets and ice crystals are much larger than visible wavelengths, so
- * the extinction efficiency is Q_ext ~ 2 (the extinction paradox) and a population with mass
- * concentration C, particle density rho_p and effective radius r_eff = <r^3>/<r^2> has
- *     beta = Q_ext pi <r^2> N = 3 C / (2 rho_p r_eff)        [m^-1]
- * (Stephens 1978, J. Atmos. Sci. 35, 2123; Hansen & Travis 1974). For ice, r_eff is the radius of
- * the ice-volume-equivalent population in this formula; Fu (1996, J. Climate 9, 2058) gives
- * beta ~ 2.52 IWC / D_ge (g m-3, um, m^-1), i.e. r_eff ~ 0.65 D_ge. */
-#define SQ_WATER_DENSITY_KG_M3 1000.0
-#define SQ_ICE_DENSITY_KG_M3 917.0
-/* Default effective radii: 10 um for liquid cloud droplets (Stephens 1978; Miles et al. 2000,
- * J. Atmos. Sci. 57, 295: continental ~ 8-10 um, marine ~ 12 um), 25 um for cloud ice
- * (Fu 1996: D_ge ~ 40 um of mid-latitude cirrus). */
-#define SQ_CLOUD_DROPLET_R_EFF_M 10.0e-6
-#define SQ_CLOUD_ICE_R_EFF_M 25.0e-6
-
-/* beta = 3 C / (2 rho_p r_eff) in m^-1 for a mass concentration C in kg m^-3 (values <= 0 and
- * NaN give 0), a particle density in kg m^-3 and an effective radius in m (both > 0: the
- * caller validates its parameters). */
-SQ_API double sq_cloud_extinction(double mass_kg_m3, double particle_density_kg_m3,
-                                  double r_eff_m);
 
 #ifdef __cplusplus
 }

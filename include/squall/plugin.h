@@ -33,7 +33,9 @@ typedef enum sq_param_type {
 
 enum {
     SQ_PARAM_ZERO_IS_PHYSICAL = 1u << 0, /* 0 is a real value and is never replaced */
-    SQ_PARAM_ADVANCED = 1u << 1          /* hidden from short listings */
+    SQ_PARAM_ADVANCED = 1u << 1,         /* hidden from short listings */
+    SQ_PARAM_PATH = 1u << 2              /* STRING: a file path; the scene resolves a relative
+                                            one against the scene file's folder */
 };
 
 typedef struct sq_param {

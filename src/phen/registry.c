@@ -13,6 +13,9 @@ extern const sq_phen_plugin sq__snowdrift_plugin;
 #if SQ_HAVE_AVALANCHE
 extern const sq_phen_plugin sq__avalanche_plugin;
 #endif
+#if SQ_HAVE_CLOUDS
+extern const sq_phen_plugin sq__clouds_plugin;
+#endif
 
 static const sq_phen_plugin *const plugins[] = {
 #if SQ_HAVE_SANDSTORM
@@ -23,6 +26,9 @@ static const sq_phen_plugin *const plugins[] = {
 #endif
 #if SQ_HAVE_AVALANCHE
     &sq__avalanche_plugin,
+#endif
+#if SQ_HAVE_CLOUDS
+    &sq__clouds_plugin,
 #endif
     NULL};
 

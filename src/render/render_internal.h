@@ -14,6 +14,7 @@
 typedef struct sq__gl_context sq__gl_context;       /* EGL display + context (gl_context.c) */
 typedef struct sq__volume_pass sq__volume_pass;     /* render_volume.c */
 typedef struct sq__particle_pass sq__particle_pass; /* render_particles.c */
+typedef struct sq__clouds_pass sq__clouds_pass;     /* render_clouds.c */
 typedef struct sq__mesh_pass sq__mesh_pass;         /* render_meshes.c */
 typedef struct sq__shadow_pass sq__shadow_pass;     /* render_shadow.c */
 
@@ -64,6 +65,7 @@ struct sq_renderer {
 
     sq__volume_pass *volume;
     sq__particle_pass *particles;
+    sq__clouds_pass *clouds;
     sq__mesh_pass *meshes;
     sq__shadow_pass *shadow;
 
@@ -179,6 +181,21 @@ void sq__particle_pass_destroy(sq_renderer *r);
 /* Instanced camera-facing quads with soft depth fade, blended into hdr_color. */
 sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p);
 
+/* ---- render_clouds.c --------------------------------------------------------------------- */
+sq_result sq__clouds_pass_create(sq_renderer *r);
+void sq__clouds_pass_destroy(sq_renderer *r);
+/* The particles' MFS light (cached while the view's version and the sun stay) and, when the
+ * view asks for shadows and no volume set one, the sun shadow of the opaque passes. */
+sq_result sq__clouds_pass_prepare(sq_renderer *r, const sq_clouds_view *v);
+/* Impostors and back-to-front billboards into hdr_color, tested against depth_tex. */
+sq_result sq__clouds_pass_draw(sq_renderer *r, const sq_clouds_view *v);
+typedef struct sq__clouds_pass_stats {
+    double ms_light;      /* last light computation (CPU) */
+    double ms_draw_cpu;   /* last draw call's CPU side (sorting, packing, submission) */
+    uint64_t relights, impostor_renders;
+    int particles_drawn, impostors_drawn;
+} sq__clouds_pass_stats;
+void sq__clouds_pass_get_stats(const sq_renderer *r, sq__clouds_pass_stats *out);
 /* ---- render_meshes.c, render_shadow.c: world meshes, sun shadows, depth views ----------- */
 /* A view for drawing world geometry: its view-projection, and how it picks LODs and culls
  * small instances (pixels per metre: orthographic views have one value; perspective views give

@@ -242,6 +242,7 @@ static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int coun
                                 drawable_name(d), p->count, p->position ? "set" : "NULL");
             break;
         }
+        case SQ_DRAWABLE_CLOUDS: break; /* checked by the cloud pass */
         case SQ_DRAWABLE_NONE: break;
         default:
             return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
@@ -718,6 +719,10 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         if ((res = sq__volume_pass_prepare_shadow(r, &drawables[i].u.volume)) != SQ_OK)
             return res;
     }
+    for (int i = 0; i < count; i++)
+        if (drawables[i].kind == SQ_DRAWABLE_CLOUDS &&
+            (res = sq__clouds_pass_prepare(r, &drawables[i].u.clouds)) != SQ_OK)
+            return res;
     upload_frame_block(r, world); /* with the sun shadow, if any */
     /* opaque sun shadows of the world's geometry (none when only drawables are added over the
      * caller's picture: its geometry is not known) */
@@ -746,6 +751,11 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         if (drawables[i].kind != SQ_DRAWABLE_PARTICLES) continue;
         bind_scene_state(r);
         if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
+    }
+    for (int i = 0; i < count; i++) {
+        if (drawables[i].kind != SQ_DRAWABLE_CLOUDS) continue;
+        bind_scene_state(r);
+        if ((res = sq__clouds_pass_draw(r, &drawables[i].u.clouds)) != SQ_OK) return res;
     }
     return SQ_OK;
 }
@@ -1272,6 +1282,7 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
         if (res == SQ_OK) res = create_programs(r);
         if (res == SQ_OK) res = sq__volume_pass_create(r);
         if (res == SQ_OK) res = sq__particle_pass_create(r);
+        if (res == SQ_OK) res = sq__clouds_pass_create(r);
         if (res == SQ_OK) res = sq__mesh_pass_create(r);
         if (res == SQ_OK) res = sq__shadow_pass_create(r);
         if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
@@ -1293,6 +1304,7 @@ void sq_renderer_destroy(sq_renderer *r)
     sq_context *ctx = r->ctx;
     sq__gl_state saved;
     if ((r->gl || r->external) && gl_enter(r, &saved) == SQ_OK) {
+        sq__clouds_pass_destroy(r);
         sq__shadow_pass_destroy(r);
         sq__mesh_pass_destroy(r);
         sq__particle_pass_destroy(r);

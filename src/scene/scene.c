@@ -603,6 +603,27 @@ static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
     return SQ_OK;
 }
 
+/* Relative file paths of a layer (SQ_PARAM_PATH entries) are taken against the scene file's
+ * folder (a preset's: the source tree). */
+static sq_result resolve_paths(const sq_cfg *cfg, const sq_phen_plugin *pl, void *desc)
+{
+    if (!cfg->base_dir[0]) return SQ_OK;
+    for (size_t i = 0; i < pl->param_count; i++) {
+        const sq_param *p = &pl->params[i];
+        if (p->type != SQ_PARAM_STRING || !(p->flags & SQ_PARAM_PATH)) continue;
+        char *v = (char *)desc + p->offset;
+        if (!v[0] || v[0] == '/') continue;
+        char path[SQ_PARAM_STRING_MAX];
+        const int n = snprintf(path, sizeof path, "%s/%s", cfg->base_dir, v);
+        if (n < 0 || (size_t)n >= sizeof path)
+            return sq__set_error(SQ_ERR_INVALID_ARG, "%s: %s = '%s': the path with the scene's "
+                                 "folder is longer than %d characters",
+                                 cfg->source, p->key, v, SQ_PARAM_STRING_MAX - 1);
+        memcpy(v, path, (size_t)n + 1);
+    }
+    return SQ_OK;
+}
+
 /* The node of a dotted table key under a layer's map: nested maps ("wind: {speed_mps: 3}") or
  * dotted keys ("wind.speed_mps: 3"); NULL when the key is not in the file (a default). */
 static const sq_cfg_node *find_key(const sq_cfg_node *map, const char *key)
@@ -711,6 +732,7 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
         sq_params_defaults(pl->params, pl->param_count, desc);
         static const char *const skip[] = {"type", "name", "enabled", NULL};
         r = apply_map(&la, l, "", pl->params, pl->param_count, desc, skip);
+        if (r == SQ_OK) r = resolve_paths(cfg, pl, desc);
         if (r != SQ_OK) {
             free(desc);
             return relog(s->ctx, r);

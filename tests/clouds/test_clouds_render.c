@@ -1,0 +1,186 @@
+/* test_clouds_render.c — the cloud pass in frames (SPEC 8.5): the splat falloff as drawn (a
+ * single absorbing particle's opacity across the frame against 1 - exp(-tau eta(t)), eta the
+ * Hermite falloff with |t|), and the impostor cross-fade (a camera approaching a cloud through
+ * dist_impostor and dist_3d: impostors beyond, particles within, and no step between
+ * consecutive frames larger than the steady change of the approach — nothing pops). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "render/render_internal.h"
+#include "sq_test.h"
+#include "squall/clouds.h"
+#include "squall/render.h"
+#include "squall/world.h"
+
+SQ_LABEL(render)
+
+static sq_context *new_ctx(void)
+{
+    sq_context_desc cd = {0};
+    cd.log_level = SQ_LOG_NONE;
+    sq_context *ctx = NULL;
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    return ctx;
+}
+
+static sq_world *new_world(sq_context *ctx)
+{
+    sq_world_desc wd = {0};
+    wd.terrain.kind = SQ_TERRAIN_FLAT;
+    wd.terrain.size_m[0] = wd.terrain.size_m[1] = 400000.0f;
+    wd.terrain.resolution[0] = wd.terrain.resolution[1] = 17;
+    wd.sun.direction = sq_v3(0.3f, -0.4f, 0.8f);
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
+    return w;
+}
+
+/* One absorbing particle (albedo 0: it only dims what lies behind it) of radius 100 m and
+ * optical depth 2 at its centre, 1 km in front of the camera against the sky, no texture noise:
+ * along a row through its centre the transmittance L / L_sky equals exp(-2 eta(t)) with
+ * eta(t) = 2t³ - 3t² + 1, within 0.02 (8-bit-free linear read-back; pixel centres sample t). */
+SQ_TEST(splat_falloff_in_the_frame)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx);
+    const int W = 129, H = 129;
+    sq_render_desc rd = {0};
+    rd.width = W;
+    rd.height = H;
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &rd, &r));
+    if (!r) return;
+    sq_camera cam = {0};
+    cam.position_m = sq_v3(0.0f, 0.0f, 500.0f);
+    cam.target_m = sq_v3(0.0f, 1000.0f, 700.0f);
+    cam.fov_y_deg = 16.0f;
+    cam.near_m = 1.0f;
+    cam.far_m = 10000.0f;
+    const float pos[3] = {0.0f, 1000.0f, 700.0f}, rad[1] = {100.0f}, tau[1] = {2.0f};
+    sq_drawable d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_DRAWABLE_CLOUDS;
+    sq_clouds_view *v = &d.u.clouds;
+    v->count = 1;
+    v->position = pos;
+    v->radius_m = rad;
+    v->tau = tau;
+    v->g_default = 0.85f;
+    v->albedo = 0.0f;
+    v->gamma_sr = 0.09f;
+    v->version = 1;
+    float *sky = malloc(sizeof(float) * W * H * 3), *img = malloc(sizeof(float) * W * H * 3);
+    SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0));
+    SQ_CHECK_OK(sq_renderer_read_linear(r, sky));
+    SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0));
+    SQ_CHECK_OK(sq_renderer_read_linear(r, img));
+    /* pixel size at the particle's distance (the view axis passes through its centre) */
+    const double d_m = sqrt(1000.0 * 1000.0 + 200.0 * 200.0);
+    const double px_m = 2.0 * d_m * tan(8.0 * 3.14159265358979 / 180.0) / H;
+    const int cy = H / 2, cx = W / 2;
+    double worst = 0.0;
+    int inside = 0;
+    for (int x = 0; x < W; x++) {
+        const size_t q = ((size_t)cy * W + (size_t)x) * 3 + 1; /* green */
+        const double T = (double)img[q] / (double)sky[q];
+        const double t = fabs((double)(x - cx)) * px_m / 100.0;
+        const double eta = t < 1.0 ? (2.0 * t - 3.0) * t * t + 1.0 : 0.0;
+        const double want = exp(-2.0 * eta);
+        worst = fmax(worst, fabs(T - want));
+        inside += t < 1.0;
+    }
+    printf("splat row: %d pixels inside the disc, worst |T - exp(-tau eta)| = %.4f\n", inside,
+           worst);
+    SQ_CHECK(inside > 20);
+    SQ_CHECK(worst <= 0.02);
+    free(sky);
+    free(img);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* A cumulus approached from 95 km to 55 km in 40 frames (dist_3d 65 km, dist_impostor 85 km):
+ * beyond 85 km only its impostor is drawn, within 65 km only particles, between both. Each frame
+ * is also drawn with particles only; e_k, the mean difference the impostor makes, goes from its
+ * far value to 0 through the band without a jump: no step of e_k exceeds half its largest
+ * value (a hard switch at one distance steps by all of it). */
+SQ_TEST(impostor_crossfade_no_pop)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx);
+    const int W = 96, H = 64, N = 40;
+    sq_render_desc rd = {0};
+    rd.width = W;
+    rd.height = H;
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &rd, &r));
+    sq_clouds_desc cd;
+    memset(&cd, 0, sizeof cd);
+    cd.source = SQ_CLOUDS_SOURCE_CUMULUS;
+    cd.synthetic_clouds = 1;
+    cd.synthetic_size_m[0] = cd.synthetic_size_m[1] = 8000.0;
+    cd.synthetic_size_m[2] = 3000.0;
+    cd.synthetic_cells[0] = cd.synthetic_cells[1] = 32;
+    cd.particles = 4000;
+    cd.dist_3d_m = 65000.0;
+    cd.dist_impostor_m = 85000.0;
+    sq_clouds *c = NULL;
+    SQ_CHECK_OK(sq_clouds_create(ctx, &cd, w, &c));
+    if (!r || !c) return;
+    sq_drawable d, dp;
+    SQ_CHECK_OK(sq_clouds_drawable(c, &d));
+    dp = d;
+    dp.u.clouds.impostors = false;
+    const sq_cloud_group *g = &d.u.clouds.groups[0];
+    float *img = malloc(sizeof(float) * W * H * 3), *ref = malloc(sizeof(float) * W * H * 3);
+    double e[64];
+    int imp_frames = 0, part_frames = 0;
+    for (int k = 0; k < N; k++) {
+        const float dist = 95000.0f - 40000.0f * (float)k / (float)(N - 1);
+        sq_camera cam = {0};
+        cam.target_m = g->center_m;
+        cam.position_m = sq_v3(g->center_m.x - dist, g->center_m.y, g->center_m.z + 200.0f);
+        cam.fov_y_deg = 9.0f;
+        cam.near_m = 10.0f;
+        cam.far_m = 300000.0f;
+        SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0));
+        SQ_CHECK_OK(sq_renderer_read_linear(r, img));
+        sq__clouds_pass_stats st;
+        sq__clouds_pass_get_stats(r, &st);
+        if (dist > 85000.0f + g->radius_m) {
+            SQ_CHECK(st.impostors_drawn == 1 && st.particles_drawn == 0);
+            imp_frames++;
+        }
+        if (dist < 65000.0f - g->radius_m) {
+            SQ_CHECK(st.impostors_drawn == 0 && st.particles_drawn > 0);
+            part_frames++;
+        }
+        SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, &dp, 1, 0.0));
+        SQ_CHECK_OK(sq_renderer_read_linear(r, ref));
+        double s = 0.0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                const size_t q = ((size_t)y * W + (size_t)x) * 3 + 1;
+                s += fabs((double)img[q] - (double)ref[q]);
+            }
+        e[k] = s / (double)(W * H);
+    }
+    double emax = 0.0, step = 0.0;
+    for (int k = 0; k < N; k++) emax = fmax(emax, e[k]);
+    for (int k = 1; k < N; k++) step = fmax(step, fabs(e[k] - e[k - 1]));
+    printf("impostor error: first %.5f, largest %.5f, largest step %.5f, last %.5f (%d "
+           "impostor-only, %d particle-only frames)\n",
+           e[0], emax, step, e[N - 1], imp_frames, part_frames);
+    SQ_CHECK(imp_frames >= 3 && part_frames >= 3);
+    SQ_CHECK(emax > 0.0 && e[N - 1] == 0.0);
+    SQ_CHECK(step <= 0.5 * emax);
+    free(img);
+    free(ref);
+    sq_clouds_destroy(c);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
