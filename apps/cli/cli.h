@@ -31,8 +31,13 @@ bool sq_cli_double(int argc, char **argv, const char *name, double def, double m
                    double *out);
 
 /* A context configured from the common options (--threads N, --quiet, --verbose) with a
- * stderr logger. */
+ * stderr logger; its interrupt callback reads the flag of sq_cli_catch_interrupts. */
 sq_result sq_cli_context(int argc, char **argv, sq_context **out);
+/* Installs the SIGINT/SIGTERM handler: the first signal sets the flag (sq_cli_interrupted, the
+ * context's interrupt callback) so that long stages stop cleanly; a second one ends at once. */
+void sq_cli_catch_interrupts(void);
+bool sq_cli_interrupted(void);
+extern volatile int sq_cli_interrupted_flag;
 
 /* ---- one JSON object per line ------------------------------------------------------------ */
 typedef struct sq_json {

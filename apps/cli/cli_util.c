@@ -1,5 +1,6 @@
 /* cli_util.c — option helpers, exit codes, JSON lines, benchmark timing and STREAM triad. */
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -96,6 +97,26 @@ static void stderr_logger(void *user, sq_log_level level, const char *module, co
     fprintf(stderr, "squall[%s]: %s%s\n", module, tag, msg);
 }
 
+/* Ctrl-C / SIGTERM: a flag the commands and the library's long stages poll (through the
+ * context's interrupt callback), so that set-up and frame loops stop cleanly. */
+volatile int sq_cli_interrupted_flag;
+static void on_signal(int sig)
+{
+    sq_cli_interrupted_flag = 1;
+    signal(sig, SIG_DFL); /* a second Ctrl-C ends the process at once */
+}
+bool sq_cli_interrupted(void) { return sq_cli_interrupted_flag != 0; }
+void sq_cli_catch_interrupts(void)
+{
+    signal(SIGINT, on_signal);
+    signal(SIGTERM, on_signal);
+}
+static bool interrupt_cb(void *user)
+{
+    (void)user;
+    return sq_cli_interrupted_flag != 0;
+}
+
 sq_result sq_cli_context(int argc, char **argv, sq_context **out)
 {
     int threads = 0;
@@ -103,6 +124,7 @@ sq_result sq_cli_context(int argc, char **argv, sq_context **out)
     sq_context_desc d = {0};
     d.threads = threads;
     d.log = stderr_logger;
+    d.interrupt = interrupt_cb;
     d.log_level = sq_cli_flag(argc, argv, "--quiet")     ? SQ_LOG_ERROR
                   : sq_cli_flag(argc, argv, "--verbose") ? SQ_LOG_DEBUG
                                                          : SQ_LOG_WARN;

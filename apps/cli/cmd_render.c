@@ -14,19 +14,13 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "rasters.h"
 #include "squall/image.h"
 #include "squall/io.h"
 #include "squall/render.h"
 #include "squall/run.h"
 #include "squall/scene.h"
 #include "squall/wrf.h"
-
-static volatile int interrupted; /* set by SIGINT/SIGTERM, polled by the run */
-static void on_signal(int sig)
-{
-    (void)sig;
-    interrupted = 1;
-}
 
 static void render_usage(bool simulate)
 {
@@ -47,6 +41,9 @@ static void render_usage(bool simulate)
            "  --fps N              frames per second\n"
            "  --metrics PATH       per-frame metrics CSV\n"
            "  --fields PREFIX      field files PREFIX_NNNNN.nc (see output.fields_every)\n"
+           "  --rasters DIR        at the end: every 2D map (avalanche hazard maps) as a GeoTIFF\n"
+           "                       in the world's CRS, and DIR/summary.json (metrics)\n"
+           "  --raster-format F    tif (default) or asc (ESRI ASCII grid + .prj)\n"
            "  --set KEY=VALUE      override any scene key, e.g. --set output.fps=30\n"
            "                       --set layers.sandstorm.wind.speed_mps=20 (see squall params)\n"
            "  --overwrite          replace existing outputs (never done otherwise)\n"
@@ -61,7 +58,7 @@ static void render_usage(bool simulate)
 static bool takes_value(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
-                       "--metrics", "--fields", "--samples", NULL};
+                       "--metrics", "--fields", "--samples", "--rasters", "--raster-format", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0) return true;
     return false;
@@ -71,7 +68,7 @@ static bool known_option(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
                        "--metrics", "--fields", "--samples", "--overwrite", "--quiet", "--json",
-                       "--reference", "--verbose", NULL};
+                       "--reference", "--verbose", "--rasters", "--raster-format", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -174,6 +171,15 @@ int sq_cmd_render(int argc, char **argv)
     const bool reference = !simulate && sq_cli_flag(argc, argv, "--reference");
     int samples = 0;
     if (!sq_cli_int(argc, argv, "--samples", 64, -1000000, 1000000, &samples)) return SQ_EXIT_USAGE;
+    const char *rasters = sq_cli_value(argc, argv, "--rasters");
+    const char *rfmt = sq_cli_value(argc, argv, "--raster-format");
+    if (rfmt && strcmp(rfmt, "tif") != 0 && strcmp(rfmt, "asc") != 0) {
+        sq_cli_error("--raster-format %s: must be tif (GeoTIFF) or asc (ESRI ASCII grid)", rfmt);
+        return SQ_EXIT_USAGE;
+    }
+    const int raster_format = rfmt && strcmp(rfmt, "asc") == 0 ? SQ_RASTER_ASCII : SQ_RASTER_GEOTIFF;
+    bool rasters_created = false;
+    double raster_s = 0.0;
     if (reference && samples <= 0) {
         sq_cli_error("--samples %d: the reference path tracer needs at least 1 sample per pixel",
                      samples);
@@ -182,6 +188,7 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
+    sq_cli_catch_interrupts(); /* the scene's set-up (a particle release, a DEM) polls it too */
     sq_cfg *cfg = NULL;
     sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
@@ -257,6 +264,14 @@ int sq_cmd_render(int argc, char **argv)
     const char *video = !simulate && out->video[0] ? out->video : NULL;
     const char *frames_dir = !simulate && out->frames_dir[0] ? out->frames_dir : NULL;
     const char *metrics_path = out->metrics[0] ? out->metrics : NULL;
+    sq_run *run = NULL;
+    if (rasters) {
+        r = sq_cli_rasters_check(scene, rasters, raster_format, overwrite, &rasters_created);
+        if (r != SQ_OK) {
+            rc = fail(r, NULL);
+            goto done;
+        }
+    }
 
     /* the frame loop, its outputs and their safety rules are the library's (squall/run.h) */
     bool tty = isatty(2) && !quiet;
@@ -267,16 +282,18 @@ int sq_cmd_render(int argc, char **argv)
     rd.reference_samples = samples;
     rd.write_outputs = true;
     rd.overwrite = overwrite;
-    rd.cancel_flag = &interrupted;
+    rd.cancel_flag = &sq_cli_interrupted_flag;
     rd.progress = on_progress;
     rd.user = &tty;
-    sq_run *run = NULL;
-    signal(SIGINT, on_signal);
-    signal(SIGTERM, on_signal);
     r = sq_run_create(ctx, &rd, &run);
     if (r == SQ_OK) r = sq_run_execute(run);
     if (tty && r != SQ_OK) fprintf(stderr, "\n");
     if (r == SQ_OK) r = sq_run_finish(run);
+    if (r == SQ_OK && rasters) {
+        sq_metric mv[128];
+        const int nm = sq_scene_metrics(scene, mv, 128);
+        r = sq_cli_rasters_write(ctx, scene, rasters, raster_format, overwrite, mv, nm, &raster_s);
+    }
     if (r != SQ_OK) {
         rc = fail(r, NULL);
         goto done;
@@ -291,6 +308,7 @@ int sq_cmd_render(int argc, char **argv)
             if (video) fprintf(stderr, " -> %s", video);
             if (frames_dir) fprintf(stderr, " -> %s/", frames_dir);
             if (metrics_path) fprintf(stderr, " (metrics %s)", metrics_path);
+            if (rasters) fprintf(stderr, " (rasters %s/, written in %.2f s)", rasters, raster_s);
             fprintf(stderr, "\n");
         }
         if (json) {
@@ -307,6 +325,8 @@ int sq_cmd_render(int argc, char **argv)
             sq_json_str(&j, "video", video ? video : "");
             sq_json_str(&j, "frames_dir", frames_dir ? frames_dir : "");
             sq_json_str(&j, "metrics_file", metrics_path ? metrics_path : "");
+            sq_json_str(&j, "rasters_dir", rasters ? rasters : "");
+            sq_json_num(&j, "rasters_seconds", raster_s);
             metrics_summary_json(run, &j);
             sq_json_end(&j, stdout);
         } else if (!quiet && video) {
@@ -314,6 +334,7 @@ int sq_cmd_render(int argc, char **argv)
         }
     }
 done:
+    if (rc != SQ_EXIT_OK && rasters_created) sq_cli_rasters_discard(rasters, scene, raster_format);
     sq_run_destroy(run);
     sq_scene_destroy(scene);
     sq_context_destroy(ctx);

@@ -57,11 +57,21 @@ typedef struct sq_avalanche_desc {
     double density_kgm3;       /* rest density ρ₀ of the flowing snow; 0 -> 300 kg/m³ */
     double speed_of_sound_mps; /* c_s; 0 = auto (5 × sqrt(2 g ΔH), ΔH the possible drop) */
     bool cohesion;             /* keep negative pressure (default clamps p ≥ 0, SPEC §7.2 ⚠ 2) */
-    /* release slab */
+    /* release slab: the rectangle, or the polygons of a world area (release_area) */
     double release_x_m, release_y_m; /* centre of the release rectangle; 0 is physical */
     double release_length_m;   /* extent along x; 0 -> 40 m */
     double release_width_m;    /* extent along y; 0 -> 30 m */
-    double release_depth_m;    /* slab thickness normal to the slope; 0 -> 2 m */
+    double release_depth_m;    /* slab thickness normal to the slope; 0 -> 2 m (an area's
+                                  polygons override it with their attribute, when given) */
+    char release_area[256];    /* name of a world area (world.areas) whose polygons are the
+                                  release; "" = the rectangle */
+    /* Slope-dependent thickness of the Swiss guidelines (Salm, Burkard & Gubler 1990, also in
+     * RAMMS and AvaFrame): d(psi) = d0 * 0.291 / (sin psi - 0.202 cos psi), = d0 at psi = 28 deg
+     * and thinner on steeper slopes (psi below 28 deg keeps d0), plus release_gradient_m per
+     * 100 m of altitude above release_reference_altitude_m (d0 the thickness above). */
+    bool release_slope_dependent;
+    double release_gradient_m;          /* m per 100 m altitude; 0 is physical (none) */
+    double release_reference_altitude_m; /* 0 -> 2000 m */
     /* rheology */
     int rheology;              /* sq_avalanche_rheology; 0 = Cross */
     double mu_pa_s;            /* NEWTONIAN: μ; 0 -> 1 Pa·s */
@@ -85,12 +95,26 @@ typedef struct sq_avalanche_desc {
     /* terrain contact (SPEC §7.7) */
     double friction;           /* kinetic Coulomb μ_k; 0 -> 0.2 (S2) */
     double restitution;        /* normal restitution e; 0 is physical (perfectly inelastic) */
+    bool column_friction;      /* the basal friction of the depth-averaged models over the flow
+                                  column (sq_sph_collider_desc.column_friction) instead of S2's
+                                  contact friction */
+    double turbulent_friction_mps2; /* Voellmy xi (m/s²) of the basal drag rho g v²/xi on top of
+                                       the Coulomb part (needs column_friction); 0 is physical
+                                       (none, S2) */
     /* domain box of the simulation; all zero = auto: the terrain's footprint, from below the
      * lowest terrain to 10 H + 20 m above the release top */
     float domain_min_m[3];
     float domain_max_m[3];
+    /* > 0: the neighbour grid follows the terrain and holds this height above it (particles
+     * higher leave through the open top; sq_sph_desc.terrain_layer_m); 0 = auto: follows the
+     * terrain, with 10 H + 20 m above the release's thickest column, when domain_min_m/max_m
+     * are all zero or when that needs less than half the cells of the box; else the dense box */
+    double domain_layer_m;
     /* deposit map and metrics */
     double deposit_cell_m;     /* deposit grid cell; 0 = auto (2 dx) */
+    /* hazard maps (peak flow depth, peak speed, peak pressure, deposit depth, travel angle):
+     * a grid over the whole terrain, aligned with its samples; cell 0 = the terrain's spacing */
+    double hazard_cell_m;
     double moving_speed_mps;   /* a particle "moves" above this speed; 0 -> 0.5 m/s */
     double front_percentile;   /* quantile of the fall-line coordinate that is the front; 0 -> 0.99 */
     double airborne_m;         /* a particle is airborne this far above the terrain; 0 -> 2 m */
@@ -132,6 +156,18 @@ typedef struct sq_avalanche_state {
     double deposit_area_m2;     /* area of covered cells */
     int substeps;               /* solver sub-steps since the previous evaluation */
     double dt_s;                /* the last sub-step */
+    /* along the thalweg (the path of the mass centre, sampled every 0.05 s): */
+    double thalweg_runout_m;    /* horizontal length from the crown (the release's highest point)
+                                   along the thalweg to the front */
+    double thalweg_alpha_deg;   /* atan(drop / thalweg_runout_m), crown to the terrain under the
+                                   front */
+    double beta_deg;            /* Lied & Bakkehøi's beta: from the crown to the first point of
+                                   the path (the thalweg, continued straight on beyond its end)
+                                   below which the terrain's slope over 100 m is under 10 deg;
+                                   0 if there is none */
+    double alpha_lb_deg;        /* their statistical run-out angle 0.96 beta − 1.4 deg */
+    double released_volume_m3;  /* sum of the released particles' rest volumes m/rho0 */
+    double mass_balance;        /* (alive + removed − released) / released particles: 0 */
 } sq_avalanche_state;
 
 /* The desc with zero fields replaced by defaults (no validation). */

@@ -74,6 +74,11 @@ typedef struct sq_context_desc {
     sq_log_level log_level;    /* messages below this level are dropped; 0 = INFO */
     uint64_t memory_limit_bytes; /* 0 = 80 % of physical memory; requests above are refused */
     uint64_t seed;             /* default seed for reproducible randomness; 0 is a valid seed */
+    /* Polled by long stages (set-up loops over millions of particles, ...): returning true
+     * stops them with SQ_ERR_CANCELLED. NULL = never. Must be safe to call from the thread that
+     * uses the context (e.g. read a flag a signal handler sets). */
+    bool (*interrupt)(void *user);
+    void *interrupt_user;
 } sq_context_desc;
 
 typedef struct sq_context sq_context;
@@ -96,6 +101,10 @@ SQ_API uint64_t sq_context_bytes_peak(const sq_context *ctx);
 /* Refuses, before anything is allocated, a request whose total size exceeds the memory limit.
  * what: e.g. "lattice 512x512x512"; the message names it and the bytes needed. */
 SQ_API sq_result sq_context_check_memory(sq_context *ctx, uint64_t bytes, const char *what);
+
+/* SQ_ERR_CANCELLED ("interrupted during <what>", logged under module) if the context's
+ * interrupt callback asks to stop, else SQ_OK. ctx may be NULL (never interrupted). */
+SQ_API sq_result sq_context_poll_interrupt(sq_context *ctx, const char *module, const char *what);
 
 SQ_API void sq_log(sq_context *ctx, sq_log_level level, const char *module, const char *fmt, ...)
     SQ_PRINTF(4, 5);

@@ -258,6 +258,20 @@ typedef struct sq_sph_collider_desc {
     double restitution;    /* e in [0, 1] for the normal velocity; 0 is physical (default) */
     double friction;       /* kinetic Coulomb μ_k ≥ 0; 0 -> 0.2 (S2), see frictionless */
     bool frictionless;     /* μ_k = 0 */
+    /* Terrain only. false (default): S2's contact friction above (SPEC §7.7), which acts on the
+     * particles touching the terrain; an almost inviscid flow then slides over its own braked
+     * base. true: the basal friction of the depth-averaged avalanche models (Savage & Hutter;
+     * Voellmy in RAMMS and AvaFrame), spread over the flow column as in those models: every
+     * particle within the flow depth h of its column (particle volumes per area on the neighbour
+     * grid's columns, 3x3 smoothed, at least dx) loses μ_k g_n dt of its speed along the terrain
+     * (g_n the gravity normal to it; a particle at rest stays where tan θ < μ_k) and the Voellmy
+     * drag g |v_t| v_t / (ξ h) (implicit); the contact itself is then frictionless. A layer of
+     * depth h tends to sqrt(ξ h (sin θ − μ_k cos θ)) and decelerates at g (μ_k cos θ − sin θ)
+     * where the slope is below the friction angle. */
+    bool column_friction;
+    /* Voellmy's turbulent friction ξ (m/s²) of avalanche practice (Salm 1993): the basal stress
+     * ρ g |v|²/ξ on top of the Coulomb part; needs column_friction. 0 is physical (none). */
+    double turbulent_friction_mps2;
 } sq_sph_collider_desc;
 
 /* Heightfield terrain: heights_m[j*nx + i] is the elevation at (origin_x + i dx, origin_y +
@@ -282,6 +296,11 @@ typedef struct sq_sph_box_desc {
     sq_sph_collider_desc contact;
 } sq_sph_box_desc;
 SQ_API sq_result sq_sph_add_box_obstacle(sq_sph *sph, const sq_sph_box_desc *box);
+/* Moves box obstacle `index` (0-based, in the order added) to [min_m, max_m] between steps: a
+ * gate that is lifted, a moving wall (its contact law is kept; the box has no velocity of its
+ * own, so particles are only pushed out of where it now is). */
+SQ_API sq_result sq_sph_move_box_obstacle(sq_sph *sph, int index, const double min_m[3],
+                                          const double max_m[3]);
 
 /* A voxelised solid (e.g. meshes voxelised with sq_world_voxelise): solid[i + n[0] (j + n[1] k)]
  * != 0 for the cell centred at origin_m + (i + 1/2, j + 1/2, k + 1/2) cell_m. The solver keeps

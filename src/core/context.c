@@ -57,6 +57,8 @@ sq_result sq_context_create(const sq_context_desc *desc, sq_context **out)
                       : phys ? phys / 10 * 8
                              : (uint64_t)8 << 30;
     c->seed = d.seed;
+    c->interrupt = d.interrupt;
+    c->interrupt_user = d.interrupt_user;
     *out = c;
     return SQ_OK;
 }
@@ -175,4 +177,11 @@ bool sq_has_feature(const char *name)
         f = e + 1;
     }
     return false;
+}
+
+sq_result sq_context_poll_interrupt(sq_context *ctx, const char *module, const char *what)
+{
+    if (!ctx || !ctx->interrupt || !ctx->interrupt(ctx->interrupt_user)) return SQ_OK;
+    return sq__fail(ctx, SQ_ERR_CANCELLED, module ? module : "squall", "interrupted during %s",
+                    what ? what : "set-up");
 }

@@ -18,6 +18,8 @@ struct sq_context {
     uint64_t seed;
     uint64_t bytes_in_use; /* updated atomically */
     uint64_t bytes_peak;
+    bool (*interrupt)(void *user);
+    void *interrupt_user;
 };
 
 /* Sets the thread-local error text (printf-style), logs it at ERROR level under module

@@ -29,7 +29,8 @@
  * S as its desc type first (`#define S sq_<n>_desc`); only <n>_plugin.c files include this
  * header, so the short names stay local to them.
  *   D  double, I int, B bool, E enum ("a|b|c"), V3 float[3] ("x y z" default text),
- *   FL float list with a count field; Z and A are the flags zero-is-physical and advanced. */
+ *   FL float list with a count field, STR string (char[SQ_PARAM_STRING_MAX]); Z and A are the
+ *   flags zero-is-physical and advanced. */
 #define D(key, field, unit, def, lo, hi, flags, doc)                                               \
     {key, SQ_PARAM_DOUBLE, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, flags, doc}
 #define I(key, field, unit, def, lo, hi, doc)                                                      \
@@ -43,6 +44,8 @@
 #define FL(key, field, cnt, unit, deftext, maxc, lo, hi, doc)                                      \
     {key, SQ_PARAM_FLOATS, unit, offsetof(S, field), 0, lo, hi, deftext, NULL, maxc,              \
      offsetof(S, cnt), 0, doc}
+#define STR(key, field, deftext, doc)                                                              \
+    {key, SQ_PARAM_STRING, "", offsetof(S, field), 0, 0, 0, deftext, NULL, 0, 0, 0, doc}
 #define Z SQ_PARAM_ZERO_IS_PHYSICAL
 #define A SQ_PARAM_ADVANCED
 

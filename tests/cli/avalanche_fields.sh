@@ -5,7 +5,8 @@
 # their units, and writes the deposit depth map as NetCDF-4 (CF units m), VTK and a 16-bit grey
 # PNG at 1 mm per unit (north up) whose pixels integrate to the deposit volume of the metrics.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
-"$SQ" simulate alpine-avalanche --frames 3 --fields f --set output.fields_every=2 \
+SLOPE="$SRC/tests/cli/data/slope-avalanche.yaml"
+"$SQ" simulate "$SLOPE" --frames 3 --fields f --set output.fields_every=2 \
     --set output.fields_format=both --metrics m.csv --json --threads 1 > s.json 2> err.txt \
     || fail "simulate exited $?: $(cat err.txt)"
 for n in f_maps_00000.nc f_maps_00002.nc; do
@@ -37,9 +38,9 @@ for path in sys.argv[2:]:
         pos += 12 + n
         if t == b"IHDR": w, h, depth, ctype = struct.unpack(">IIBB", d[:10])
         if t == b"IDAT": idat += d
-    # the preset: domain x [-70, 250], y [-90, 90] m at deposit.cell_m = 1.5 m
-    if (w, h, depth, ctype) != (214, 120, 16, 0):
-        bad.append("%s: %dx%d, %d bits, colour type %d; want 214x120 16-bit grey" % (path, w, h, depth, ctype))
+    # the scene's terrain: 500 x 400 m in 251 x 201 samples, one map cell of 2 m per sample
+    if (w, h, depth, ctype) != (251, 201, 16, 0):
+        bad.append("%s: %dx%d, %d bits, colour type %d; want 251x201 16-bit grey" % (path, w, h, depth, ctype))
         continue
     raw = zlib.decompress(idat); stride = 1 + 2 * w; prev = bytearray(2 * w); total = 0; top = 0
     for r in range(h):
@@ -55,7 +56,7 @@ for path in sys.argv[2:]:
         prev = row
         for i in range(w):
             v = (row[2 * i] << 8) | row[2 * i + 1]; total += v; top = max(top, v)
-    vol = total * 1e-3 * 1.5 * 1.5
+    vol = total * 1e-3 * 2.0 * 2.0
     print("%s: max %.3f m, volume %.1f m3" % (path, top * 1e-3, vol))
     want = s["slide.deposit_volume_m3"]
     if not (want["min"] * 0.99 <= vol <= want["max"] * 1.01):

@@ -32,6 +32,7 @@ void sq_avalanche_destroy(sq_avalanche *a)
     sq_free(ctx, a->pos);
     sq_free(ctx, a->pw_density);
     sq_free(ctx, a->pw_tmp);
+    sq__aval_hazard_free(a);
     sq_free(ctx, a);
 }
 
@@ -114,11 +115,23 @@ sq_result sq_avalanche_create(sq_context *ctx, const sq_avalanche_desc *desc, co
     if (!a) return SQ_ERR_OUT_OF_MEMORY;
     a->ctx = ctx;
     a->world = world;
-    r = sq__avalanche_plan(ctx, desc, world, true, &a->plan, NULL);
-    if (r == SQ_OK) r = alloc_buffers(a);
-    /* the release slab (positions into the drawable buffer, which is free until the first
-     * evaluation) */
-    if (r == SQ_OK) r = sq__avalanche_plan(ctx, desc, world, false, &a->plan, a->pos);
+    r = sq__avalanche_plan(ctx, desc, world, &a->plan);
+    /* the exact release (O(columns), interruptible), then its positions into the drawable
+     * buffer, which is free until the first evaluation */
+    size_t n = 0;
+    if (r == SQ_OK) r = sq__aval_release_place(ctx, &a->plan, world, NULL, 0, &n, NULL, NULL);
+    if (r == SQ_OK && n == 0)
+        r = sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                     "sq_avalanche_desc.release: the release produces no particles at spacing %g "
+                     "m; thicken it or lower particles.spacing_m", a->plan.spacing);
+    if (r == SQ_OK) {
+        a->plan.count = n;
+        a->plan.sph.max_particles = n;
+        r = alloc_buffers(a);
+    }
+    if (r == SQ_OK)
+        r = sq__aval_release_place(ctx, &a->plan, world, a->pos, n, &n, &a->plan.volume_m3,
+                                   &a->plan.release_top_z);
     if (r == SQ_OK) r = sq_sph_create(ctx, &a->plan.sph, &a->sph);
     if (r == SQ_OK) {
         sq_sph_terrain_desc t;
@@ -132,17 +145,22 @@ sq_result sq_avalanche_create(sq_context *ctx, const sq_avalanche_desc *desc, co
         t.heights_m = world->heights;
         t.contact.friction = a->plan.d.friction;
         t.contact.restitution = a->plan.d.restitution;
+        t.contact.column_friction = a->plan.d.column_friction;
+        t.contact.turbulent_friction_mps2 = a->plan.d.turbulent_friction_mps2;
         r = sq_sph_set_terrain(a->sph, &t);
     }
     if (r == SQ_OK) r = add_obstacles(a);
     if (r == SQ_OK) r = sq__avalanche_add_meshes(a);
+    if (r == SQ_OK) r = sq_context_poll_interrupt(ctx, MOD, "the particle release");
     if (r == SQ_OK) r = sq_sph_add_particles(a->sph, a->plan.count, a->pos, NULL);
+    if (r == SQ_OK) r = sq__aval_hazard_alloc(a);
     if (r != SQ_OK) {
         sq_avalanche_destroy(a);
         return r;
     }
     const sq_sph_info info = sq_sph_get_info(a->sph);
     a->particle_mass = info.particle_mass_kg;
+    sq__aval_hazard_track(a); /* the release: travel origins, the thalweg's first point */
     a->memory_bytes = sq_context_bytes_in_use(ctx);
     a->dirty = true;
     sq_log(ctx, SQ_LOG_INFO, MOD,
@@ -168,6 +186,8 @@ sq_result sq_avalanche_step(sq_avalanche *a, double dt_s)
     sq_result r = sq_sph_step(a->sph, dt_s);
     a->time_s += dt_s;
     a->dirty = true;
+    /* hazard maps and thalweg: sampled at a fixed interval of simulated time */
+    if (r == SQ_OK && a->time_s - a->track_t >= SQ_AVAL_TRACK_S - 1e-9) sq__aval_hazard_track(a);
     return r;
 }
 
@@ -180,6 +200,8 @@ sq_sph *sq__avalanche_sph(sq_avalanche *a) { return a ? a->sph : NULL; }
 
 /* ---- diagnostics ---------------------------------------------------------------------------- */
 
+/* The deposit: the display grid's depth (dep_depth, for the surface drawable) and the hazard
+ * map's (hz_deposit, the exported map), whose covered cells give the metrics. */
 static void evaluate_deposit(sq_avalanche *a, const sq_sph_view *v)
 {
     const sq__aval_plan *pl = &a->plan;
@@ -189,22 +211,24 @@ static void evaluate_deposit(sq_avalanche *a, const sq_sph_view *v)
                                 pl->d.density_kgm3, pl->dep_origin[0], pl->dep_origin[1],
                                 pl->dep_cell, pl->dep_nx, pl->dep_ny, a->dep_acc);
     const double inv_area = 1.0 / (pl->dep_cell * pl->dep_cell);
+    for (size_t c = 0; c < cells; c++) a->dep_depth[c] = (float)(a->dep_acc[c] * inv_area);
+    sq__aval_hazard_deposit(a);
+    const size_t hc = (size_t)pl->hz_nx * (size_t)pl->hz_ny;
+    const double area = pl->hz_cell * pl->hz_cell;
     double vol = 0.0, dmax = 0.0;
     size_t covered = 0;
-    for (size_t c = 0; c < cells; c++) {
-        const double depth = a->dep_acc[c] * inv_area;
-        a->dep_depth[c] = (float)depth;
+    for (size_t c = 0; c < hc; c++) {
+        const double depth = a->hz_deposit[c];
         if (depth > 0.0) {
             covered++;
-            vol += a->dep_acc[c];
+            vol += depth * area;
             if (depth > dmax) dmax = depth;
         }
     }
-    const double area = (double)covered * pl->dep_cell * pl->dep_cell;
     a->st.deposit_volume_m3 = vol;
-    a->st.deposit_area_m2 = area;
+    a->st.deposit_area_m2 = (double)covered * area;
     a->st.deposit_max_m = dmax;
-    a->st.deposit_mean_m = area > 0.0 ? vol / area : 0.0;
+    a->st.deposit_mean_m = covered ? vol / a->st.deposit_area_m2 : 0.0;
 }
 
 static void evaluate(sq_avalanche *a)
@@ -286,6 +310,11 @@ static void evaluate(sq_avalanche *a)
         st->alpha_deg = atan2(st->drop_m, L) * (180.0 / SQ_PI);
     }
     evaluate_deposit(a, &v);
+    st->released_volume_m3 = (double)pl->count * a->particle_mass / pl->d.density_kgm3;
+    st->mass_balance = pl->count ? ((double)n + (double)ss.removed - (double)pl->count) /
+                                       (double)pl->count
+                                 : 0.0;
+    sq__aval_hazard_summary(a, &v, st);
     a->version++;
     a->dirty = false;
 }
@@ -468,6 +497,12 @@ int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max)
         {"deposit_depth_mean_m", s->deposit_mean_m, "m"},
         {"deposit_depth_max_m", s->deposit_max_m, "m"},
         {"deposit_volume_m3", s->deposit_volume_m3, "m3"},
+        {"released_volume_m3", s->released_volume_m3, "m3"},
+        {"mass_balance", s->mass_balance, "1"},
+        {"thalweg_runout_m", s->thalweg_runout_m, "m"},
+        {"thalweg_alpha_deg", s->thalweg_alpha_deg, "deg"},
+        {"beta_deg", s->beta_deg, "deg"},
+        {"alpha_lb_deg", s->alpha_lb_deg, "deg"},
         {"particles", (double)s->particles, "1"},
         {"substeps", (double)s->substeps, "1"},
         {"dt_s", s->dt_s, "s"},
@@ -480,21 +515,5 @@ int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max)
 int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max)
 {
     evaluate(a);
-    if (max < 1) return 0;
-    const sq__aval_plan *pl = &a->plan;
-    sq_named_field *f = &out[0];
-    memset(f, 0, sizeof *f);
-    f->name = "deposit_depth";
-    f->units = "m";
-    f->long_name = "avalanche snow depth (snow volume per unit area at max(rho, rho0))";
-    f->standard_name = NULL;
-    f->data = a->dep_depth;
-    f->nx = pl->dep_nx;
-    f->ny = pl->dep_ny;
-    f->nz = 1;
-    f->origin_m = sq_v3((float)(pl->dep_origin[0] + 0.5 * pl->dep_cell),
-                        (float)(pl->dep_origin[1] + 0.5 * pl->dep_cell),
-                        0.0f);
-    f->spacing_m = sq_v3((float)pl->dep_cell, (float)pl->dep_cell, 1.0f);
-    return 1;
+    return sq__aval_hazard_fields(a, out, max);
 }

@@ -42,6 +42,7 @@ sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_de
     if (d.albedo == 0.0) d.albedo = 0.9;
     if (d.powder_speed_mps == 0.0) d.powder_speed_mps = 10.0;
     if (d.powder_cell_m == 0.0) d.powder_cell_m = 4.0;
+    if (d.release_reference_altitude_m == 0.0) d.release_reference_altitude_m = 2000.0;
     if (out) *out = d;
     return SQ_OK;
 }
@@ -78,8 +79,16 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
         BAD("%srelease.width_m = %g; must be > 0 m", P, d->release_width_m);
     if (!pos_finite(d->release_depth_m))
         BAD("%srelease.depth_m = %g; the slab thickness must be > 0 m", P, d->release_depth_m);
-    if (d->release_length_m < d->spacing_m || d->release_width_m < d->spacing_m ||
-        d->release_depth_m < d->spacing_m)
+    if (!isfinite(d->release_gradient_m) || !isfinite(d->release_reference_altitude_m))
+        BAD("%srelease.gradient_m, reference_altitude_m: not finite", P);
+    if (d->domain_layer_m < 0.0 || !isfinite(d->domain_layer_m))
+        BAD("%sdomain.layer_m = %g; must be > 0 m (0 = auto)", P, d->domain_layer_m);
+    if (!(d->hazard_cell_m >= 0.0) || !isfinite(d->hazard_cell_m))
+        BAD("%shazard.cell_m = %g; must be > 0 m (0 = the terrain's spacing)", P,
+            d->hazard_cell_m);
+    if (!d->release_area[0] &&
+        (d->release_length_m < d->spacing_m || d->release_width_m < d->spacing_m ||
+         d->release_depth_m < d->spacing_m))
         BAD("%srelease: %g x %g m, %g m deep, is smaller than one particle spacing (%g m) along "
             "an axis; enlarge the slab or lower particles.spacing_m", P, d->release_length_m,
             d->release_width_m, d->release_depth_m, d->spacing_m);
@@ -136,6 +145,12 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
     if (!(d->friction >= 0.0) || !isfinite(d->friction))
         BAD("%sterrain.friction = %g; the kinetic Coulomb coefficient must be >= 0", P,
             d->friction);
+    if (!(d->turbulent_friction_mps2 >= 0.0) || !isfinite(d->turbulent_friction_mps2))
+        BAD("%sterrain.turbulent_friction_mps2 = %g; must be >= 0 m/s2 (0 = none)", P,
+            d->turbulent_friction_mps2);
+    if (d->turbulent_friction_mps2 > 0.0 && !d->column_friction)
+        BAD("%sterrain.turbulent_friction_mps2 = %g needs terrain.column_friction: true (the "
+            "Voellmy drag acts on the flow column)", P, d->turbulent_friction_mps2);
     if (!(d->restitution >= 0.0 && d->restitution <= 1.0))
         BAD("%sterrain.restitution = %g; must be in [0, 1]", P, d->restitution);
     if (!(d->deposit_cell_m >= 0.0) || !isfinite(d->deposit_cell_m))
@@ -191,44 +206,8 @@ static sq_sph_rheology rheology_of(const sq_avalanche_desc *d)
     return r;
 }
 
-/* Release columns: calls back for each particle (positions may be NULL: count only). */
-static void release_slab(const sq__aval_plan *pl, const sq_world *w, float *pos, size_t *count,
-                         double *volume, double *top_z)
-{
-    const double dx = pl->spacing, depth = pl->d.release_depth_m;
-    const int ni = (int)floor(pl->d.release_length_m / dx + 1e-9);
-    const int nj = (int)floor(pl->d.release_width_m / dx + 1e-9);
-    const double x0 = pl->d.release_x_m - 0.5 * ni * dx, y0 = pl->d.release_y_m - 0.5 * nj * dx;
-    size_t n = 0;
-    double vol = 0.0, top = -DBL_MAX;
-    for (int j = 0; j < nj; j++)
-        for (int i = 0; i < ni; i++) {
-            const float x = (float)(x0 + (i + 0.5) * dx), y = (float)(y0 + (j + 0.5) * dx);
-            const double h = sq_world_height_at(w, x, y);
-            double nz = sq_world_normal_at(w, x, y).z;
-            if (!(nz > 0.05)) nz = 0.05; /* a cliff: cap the column at 20 x the depth */
-            const double D = depth / nz; /* vertical extent of the slab */
-            vol += dx * dx * D;
-            const int m = (int)floor(D / dx + sq__aval_dither(i, j));
-            const double zb = h + 0.5 * dx / nz;
-            for (int k = 0; k < m; k++) {
-                const double z = zb + k * dx;
-                if (pos) {
-                    pos[3 * n] = x;
-                    pos[3 * n + 1] = y;
-                    pos[3 * n + 2] = (float)z;
-                }
-                if (z > top) top = z;
-                n++;
-            }
-        }
-    *count = n;
-    *volume = vol;
-    *top_z = top;
-}
-
 sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
-                             bool count_only, sq__aval_plan *out, float *positions)
+                             sq__aval_plan *out)
 {
     sq__aval_plan pl;
     memset(&pl, 0, sizeof pl);
@@ -242,60 +221,89 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
     pl.spacing = d->spacing_m;
     pl.support = d->support_radius_m > 0.0 ? d->support_radius_m : 2.0 * d->spacing_m;
 
-    /* the release rectangle must lie on the terrain */
+    /* the release region must lie on the terrain */
     sq_vec3 lo, hi;
     sq_world_bounds(w, &lo, &hi);
-    pl.release_lo[0] = d->release_x_m - 0.5 * d->release_length_m;
-    pl.release_hi[0] = d->release_x_m + 0.5 * d->release_length_m;
-    pl.release_lo[1] = d->release_y_m - 0.5 * d->release_width_m;
-    pl.release_hi[1] = d->release_y_m + 0.5 * d->release_width_m;
-    if (pl.release_lo[0] < (double)lo.x || pl.release_hi[0] > (double)hi.x ||
-        pl.release_lo[1] < (double)lo.y || pl.release_hi[1] > (double)hi.y)
-        BAD("%srelease: x [%g, %g] m, y [%g, %g] m (release.x_m = %g, y_m = %g, length_m = %g, "
-            "width_m = %g) lies outside the terrain x [%g, %g] m, y [%g, %g] m",
-            P, pl.release_lo[0], pl.release_hi[0], pl.release_lo[1], pl.release_hi[1],
-            d->release_x_m, d->release_y_m, d->release_length_m, d->release_width_m,
-            (double)lo.x, (double)hi.x, (double)lo.y, (double)hi.y);
-
-    /* fall line: the horizontal part of the terrain normal averaged over the release zone */
-    double gx = 0.0, gy = 0.0;
-    for (int j = 0; j < 5; j++)
-        for (int i = 0; i < 5; i++) {
-            float x = (float)(pl.release_lo[0] + (i + 0.5) / 5.0 * d->release_length_m);
-            float y = (float)(pl.release_lo[1] + (j + 0.5) / 5.0 * d->release_width_m);
-            sq_vec3 n = sq_world_normal_at(w, x, y);
-            gx += (double)n.x;
-            gy += (double)n.y;
+    if (d->release_area[0]) {
+        pl.area = sq_world_area_find(w, d->release_area);
+        if (!pl.area) {
+            char names[256] = "";
+            for (int k = 0; k < w->area_count; k++) {
+                strncat(names, k ? ", " : "", sizeof names - strlen(names) - 1);
+                strncat(names, w->areas[k].name, sizeof names - strlen(names) - 1);
+            }
+            BAD("%srelease.area = '%s': no such area in world.areas (%s)", P, d->release_area,
+                names[0] ? names : "the world has none");
         }
-    double gl = sqrt(gx * gx + gy * gy);
-    pl.fall_dir[0] = gl > 1e-6 ? gx / gl : 1.0;
-    pl.fall_dir[1] = gl > 1e-6 ? gy / gl : 0.0;
-    const double hx = 0.5 * d->release_length_m, hy = 0.5 * d->release_width_m;
+        const double *b = pl.area->bounds;
+        const int outside = b[2] < (double)lo.x || b[0] > (double)hi.x || b[3] < (double)lo.y ||
+                            b[1] > (double)hi.y;
+        if (outside || b[0] < (double)lo.x || b[2] > (double)hi.x || b[1] < (double)lo.y ||
+            b[3] > (double)hi.y)
+            BAD("%srelease.area = '%s' ('%s'): its polygons span x [%.1f, %.1f] m, y [%.1f, %.1f] m "
+                "and %s the terrain (DEM) x [%g, %g] m, y [%g, %g] m (world coordinates); the "
+                "release must lie on the terrain", P, d->release_area, pl.area->source, b[0], b[2],
+                b[1], b[3], outside ? "lie outside" : "reach outside", (double)lo.x, (double)hi.x,
+                (double)lo.y, (double)hi.y);
+        for (int f = 0; f < pl.area->feature_count; f++) {
+            const double v = pl.area->feature_value[f];
+            if (isfinite(v) && !(v > 0.0))
+                BAD("%srelease.area = '%s' ('%s'): polygon %d has thickness %g m; a release "
+                    "thickness must be > 0 m", P, d->release_area, pl.area->source, f, v);
+        }
+        memcpy(pl.release_lo, b, 2 * sizeof(double));
+        memcpy(pl.release_hi, b + 2, 2 * sizeof(double));
+    } else {
+        pl.release_lo[0] = d->release_x_m - 0.5 * d->release_length_m;
+        pl.release_hi[0] = d->release_x_m + 0.5 * d->release_length_m;
+        pl.release_lo[1] = d->release_y_m - 0.5 * d->release_width_m;
+        pl.release_hi[1] = d->release_y_m + 0.5 * d->release_width_m;
+        if (pl.release_lo[0] < (double)lo.x || pl.release_hi[0] > (double)hi.x ||
+            pl.release_lo[1] < (double)lo.y || pl.release_hi[1] > (double)hi.y)
+            BAD("%srelease: x [%g, %g] m, y [%g, %g] m (release.x_m = %g, y_m = %g, length_m = %g, "
+                "width_m = %g) lies outside the terrain x [%g, %g] m, y [%g, %g] m",
+                P, pl.release_lo[0], pl.release_hi[0], pl.release_lo[1], pl.release_hi[1],
+                d->release_x_m, d->release_y_m, d->release_length_m, d->release_width_m,
+                (double)lo.x, (double)hi.x, (double)lo.y, (double)hi.y);
+    }
+
+    /* volume, count, fall line, top and crown from a coarse pass over the region (O(cells)) */
+    r = sq__aval_release_estimate(ctx, &pl, w);
+    if (r != SQ_OK) return r;
+    if (pl.columns > 4.0 * pl.count_estimate + 1e6)
+        BAD("%srelease: %.4g m3 over %.4g m2 is thinner than the particle spacing %g m on "
+            "average (%.3g columns for %.3g particles); lower particles.spacing_m or thicken the "
+            "release", P, pl.volume_m3, pl.release_area_m2, pl.spacing, pl.columns,
+            pl.count_estimate);
+    const double hx = 0.5 * (pl.release_hi[0] - pl.release_lo[0]);
+    const double hy = 0.5 * (pl.release_hi[1] - pl.release_lo[1]);
+    const double cx = 0.5 * (pl.release_hi[0] + pl.release_lo[0]);
+    const double cy = 0.5 * (pl.release_hi[1] + pl.release_lo[1]);
     const double reach = fabs(pl.fall_dir[0]) * hx + fabs(pl.fall_dir[1]) * hy;
-    pl.edge_s = d->release_x_m * pl.fall_dir[0] + d->release_y_m * pl.fall_dir[1] + reach;
-    pl.crown[0] = d->release_x_m - pl.fall_dir[0] * reach;
-    pl.crown[1] = d->release_y_m - pl.fall_dir[1] * reach;
-    pl.crown[2] = sq_world_height_at(w, (float)pl.crown[0], (float)pl.crown[1]);
+    pl.edge_s = cx * pl.fall_dir[0] + cy * pl.fall_dir[1] + reach;
+    if (!pl.area) {
+        /* the rectangle's crown: the centre of its upslope edge */
+        pl.crown[0] = cx - pl.fall_dir[0] * reach;
+        pl.crown[1] = cy - pl.fall_dir[1] * reach;
+        pl.crown[2] = sq_world_height_at(w, (float)pl.crown[0], (float)pl.crown[1]);
+    }
+    /* capacity: the estimate's count with the dither's and the coarse pass's slack */
+    pl.count = (size_t)ceil(pl.count_estimate * 1.03 + 64.0);
 
-    /* the slab */
-    release_slab(&pl, w, count_only ? NULL : positions, &pl.count, &pl.volume_m3,
-                 &pl.release_top_z);
-    if (pl.count == 0)
-        BAD("%srelease: %g x %g m, %g m deep, produces no particles at spacing %g m", P,
-            d->release_length_m, d->release_width_m, d->release_depth_m, d->spacing_m);
-
-    /* the domain box */
+    /* the domain box; the neighbour grid follows the terrain (layer) or fills the box */
     double dmin[3], dmax[3];
     bool auto_domain = true;
     for (int a = 0; a < 3; a++)
         auto_domain = auto_domain && d->domain_min_m[a] == 0.0f && d->domain_max_m[a] == 0.0f;
+    pl.layer_m = d->domain_layer_m;
+    const double auto_layer = pl.max_column_m + 20.0 + 10.0 * pl.support;
     if (auto_domain) {
         dmin[0] = lo.x;
         dmax[0] = hi.x;
         dmin[1] = lo.y;
         dmax[1] = hi.y;
         dmin[2] = (double)w->height_min - 2.0 * pl.support;
-        dmax[2] = pl.release_top_z + 20.0 + 10.0 * pl.support;
+        dmax[2] = (double)w->height_max + auto_layer + 2.0 * pl.support;
     } else {
         for (int a = 0; a < 3; a++) {
             dmin[a] = d->domain_min_m[a];
@@ -307,11 +315,17 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
         const double top = pl.release_top_z + 0.5 * pl.spacing;
         if (pl.release_lo[0] < dmin[0] || pl.release_hi[0] > dmax[0] ||
             pl.release_lo[1] < dmin[1] || pl.release_hi[1] > dmax[1] || top > dmax[2] ||
-            (double)sq_world_height_at(w, (float)d->release_x_m, (float)d->release_y_m) < dmin[2])
+            (double)sq_world_height_at(w, (float)cx, (float)cy) < dmin[2])
             BAD("%sdomain: [%g, %g] x [%g, %g] x [%g, %g] m does not hold the release slab "
                 "(x [%g, %g], y [%g, %g], top z %g m)", P, dmin[0], dmax[0], dmin[1], dmax[1],
                 dmin[2], dmax[2], pl.release_lo[0], pl.release_hi[0], pl.release_lo[1],
                 pl.release_hi[1], top);
+    }
+    if (pl.layer_m == 0.0) {
+        /* auto: the terrain-following grid when it needs less than half the box's cells */
+        const double H = pl.support;
+        const double box = floor((dmax[2] - dmin[2]) / H);
+        if (auto_domain || ceil(auto_layer / H) + 3.0 < 0.5 * box) pl.layer_m = auto_layer;
     }
 
     /* speed of sound: 5 x the free-fall speed over the possible drop (Mach <= 0.2,
@@ -344,19 +358,37 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
         s->domain_max_m[a] = dmax[a];
     }
     for (int f = 0; f < 6; f++) s->boundary[f] = SQ_SPH_BOUNDARY_OPEN;
+    s->terrain_layer_m = pl.layer_m;
     s->max_particles = pl.count;
     s->dt_max_s = d->dt_max_s;
     if (sq_sph_desc_validate(s) != SQ_OK) {
         char why[512];
         snprintf(why, sizeof why, "%s", sq_last_error());
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "%sparticles.spacing_m = %g m (support %g m): the release makes %zu "
-                        "particles and the SPH solver refuses the set-up: %s",
-                        P, pl.spacing, pl.support, pl.count, why);
+                        "%sparticles.spacing_m = %g m (support %g m): the release makes about "
+                        "%.0f particles and the SPH solver refuses the set-up: %s",
+                        P, pl.spacing, pl.support, pl.count_estimate, why);
     }
 
-    /* deposit grid over the domain's footprint */
+    if (pl.layer_m > 0.0) {
+        /* a terrain-following grid of cells_x x cells_y columns: refuse a footprint whose
+         * columns alone would not fit, naming what bounds it */
+        const double cols = floor((dmax[0] - dmin[0]) / pl.support) *
+                            floor((dmax[1] - dmin[1]) / pl.support);
+        const double cells = cols * (ceil(pl.layer_m / pl.support) + 3.0);
+        if (cells > 512.0 * 1024 * 1024)
+            BAD("%sdomain: the neighbour grid over x [%g, %g] m, y [%g, %g] m with cells of %g m "
+                "and a %g m layer would need %.3g cells (at most 5.4e8); bound the flow's "
+                "footprint with domain.min_m / domain.max_m", P, dmin[0], dmax[0], dmin[1],
+                dmax[1], pl.support, pl.layer_m, cells);
+    }
+
+    /* deposit grid over the domain's footprint (auto: 2 dx, coarser to stay under 16 Mi cells) */
     pl.dep_cell = d->deposit_cell_m > 0.0 ? d->deposit_cell_m : 2.0 * pl.spacing;
+    if (d->deposit_cell_m == 0.0) {
+        const double need = sqrt((dmax[0] - dmin[0]) * (dmax[1] - dmin[1]) / (15.0 * 1024 * 1024));
+        if (need > pl.dep_cell) pl.dep_cell = need;
+    }
     double nxd = ceil((dmax[0] - dmin[0]) / pl.dep_cell), nyd = ceil((dmax[1] - dmin[1]) / pl.dep_cell);
     if (nxd * nyd > 16.0 * 1024 * 1024 || nxd < 1 || nyd < 1)
         BAD("%sdeposit.cell_m = %g m gives a %.0f x %.0f deposit grid over the domain; at most "
@@ -365,6 +397,21 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
     pl.dep_ny = nyd < 2 ? 2 : (int)nyd;
     pl.dep_origin[0] = dmin[0];
     pl.dep_origin[1] = dmin[1];
+
+    /* hazard maps: cells centred on the terrain's samples (or of hazard.cell_m) over the whole
+     * terrain, so that the rasters line up with the DEM */
+    pl.hz_cell = d->hazard_cell_m > 0.0 ? d->hazard_cell_m : (double)w->dx;
+    pl.hz_origin[0] = (double)w->origin.x - 0.5 * (double)w->dx;
+    pl.hz_origin[1] = (double)w->origin.y - 0.5 * (double)w->dy;
+    {
+        const double nxh = ceil((double)w->nx * (double)w->dx / pl.hz_cell - 1e-9);
+        const double nyh = ceil((double)w->ny * (double)w->dy / pl.hz_cell - 1e-9);
+        if (nxh * nyh > 64.0 * 1024 * 1024)
+            BAD("%shazard.cell_m = %g m gives a %.0f x %.0f grid over the terrain; at most 64 Mi "
+                "cells", P, pl.hz_cell, nxh, nyh);
+        pl.hz_nx = (int)nxh;
+        pl.hz_ny = (int)nyh;
+    }
 
     /* powder grid: at most 128 cells per axis (the cell grows to fit) */
     if (d->powder) {
@@ -389,7 +436,8 @@ static uint64_t plan_bytes(const sq__aval_plan *pl)
     uint64_t b = sq_sph_memory_bytes(&pl->sph, pl->count);
     const uint64_t cells = (uint64_t)pl->dep_nx * (uint64_t)pl->dep_ny;
     b += cells * (8u + 5u * 4u);
-    b += (uint64_t)pl->count * (4u + 12u);
+    b += (uint64_t)pl->hz_nx * (uint64_t)pl->hz_ny * (8u + 6u * 4u); /* hazard maps */
+    b += (uint64_t)pl->count * (4u + 12u + 16u); /* scratch, positions, travel tracking */
     b += 2u * 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1] * (uint64_t)pl->pw_n[2];
     return b + 4096u;
 }
@@ -399,30 +447,34 @@ size_t sq_avalanche_release_count(const sq_avalanche_desc *desc, const sq_world 
 {
     sq__aval_plan pl;
     if (volume_m3) *volume_m3 = 0.0;
-    if (sq__avalanche_plan(NULL, desc, world, true, &pl, NULL) != SQ_OK) return 0;
-    if (volume_m3) *volume_m3 = pl.volume_m3;
-    return pl.count;
+    if (sq__avalanche_plan(NULL, desc, world, &pl) != SQ_OK) return 0;
+    size_t n = 0;
+    double vol = 0.0;
+    if (sq__aval_release_place(NULL, &pl, world, NULL, 0, &n, &vol, NULL) != SQ_OK) return 0;
+    if (volume_m3) *volume_m3 = vol;
+    return n;
 }
 
 uint64_t sq_avalanche_memory_bytes(const sq_avalanche_desc *desc, const sq_world *world)
 {
     sq__aval_plan pl;
-    if (sq__avalanche_plan(NULL, desc, world, true, &pl, NULL) != SQ_OK) return 0;
+    if (sq__avalanche_plan(NULL, desc, world, &pl) != SQ_OK) return 0;
     return plan_bytes(&pl);
 }
 
-/* Plans (count only) and refuses a release the memory limit cannot hold, before allocating. */
+/* Plans (O(cells), no particle is counted one by one) and refuses a release the memory limit
+ * cannot hold, before allocating. */
 static sq_result validate_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
                                sq__aval_plan *pl)
 {
-    sq_result r = sq__avalanche_plan(ctx, desc, w, true, pl, NULL);
+    sq_result r = sq__avalanche_plan(ctx, desc, w, pl);
     if (r != SQ_OK) return r;
     const uint64_t bytes = plan_bytes(pl);
     char what[256];
     snprintf(what, sizeof what,
-             P "particles.spacing_m = %g m: a release of %.4g m3 makes %zu "
+             P "particles.spacing_m = %g m: a release of %.4g m3 makes about %.0f "
              "particles, which",
-             pl->spacing, pl->volume_m3, pl->count);
+             pl->spacing, pl->volume_m3, pl->count_estimate);
     return sq_context_check_memory(ctx, bytes, what);
 }
 

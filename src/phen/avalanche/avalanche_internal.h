@@ -7,6 +7,7 @@
 #include "squall/sph.h"
 
 #define SQ_AVAL_GRAVITY 9.81 /* m/s² */
+#define SQ_AVAL_TRACK_S 0.05 /* s between samples of the hazard maps and the thalweg */
 
 /* Everything create derives from the desc and the world before allocating: the SPH desc,
  * the fall line, the release geometry and the grids. */
@@ -19,8 +20,16 @@ typedef struct sq__aval_plan {
     double fall_dir[2];           /* horizontal unit vector downhill */
     double edge_s;                /* fall-line coordinate of the release's lower edge */
     double crown[3];              /* centre of the upslope edge, on the terrain */
-    size_t count;                 /* particles of the release */
+    const sq_world_area *area;    /* the release polygons (NULL: the rectangle) */
+    size_t count;                 /* particles of the release (capacity until create counts) */
+    double count_estimate;        /* V / dx³ from the coarse pass */
+    double columns;               /* columns of the release lattice */
     double volume_m3;             /* release volume */
+    double release_area_m2;
+    double max_column_m;          /* thickest vertical column of the release */
+    double layer_m;               /* terrain-following grid layer (0: dense box) */
+    int hz_nx, hz_ny;             /* hazard maps over the terrain */
+    double hz_origin[2], hz_cell;
     int dep_nx, dep_ny;           /* deposit grid */
     double dep_origin[2], dep_cell;
     int pw_n[3];                  /* powder grid (0 when off) */
@@ -52,6 +61,21 @@ struct sq_avalanche {
     float *dep_cover;             /* coverage of the surface drawable (snow at rest) */
     /* particles drawable */
     float *pos;                   /* 3*count */
+    /* hazard maps over the terrain (hz_nx*hz_ny): peaks since release, sampled every
+     * SQ_AVAL_TRACK_S of simulated time */
+    double *hz_vol, *hz_mom;      /* this sample: volume (m³) and volume x speed per cell */
+    float *hz_depth_peak;         /* peak flow depth: volume per map area (m) */
+    float *hz_speed_peak;         /* peak of the cell's volume-weighted mean speed (m/s) */
+    float *hz_pressure_peak;      /* rho0 v² at that (kPa) */
+    float *hz_alpha;              /* smallest travel angle of the snow that reached the cell
+                                     (deg; NaN = never reached) */
+    float *hz_deposit;            /* depth of the current state (m), for the deposit map */
+    double track_t;               /* time of the last sample (−1 before the first) */
+    /* travel tracking per particle id: release height, horizontal path length, last x, y */
+    float *tr_z0, *tr_path, *tr_px, *tr_py;
+    /* the thalweg: the mass centre's path (x, y, terrain z), one point per SQ_AVAL_TRACK_S */
+    double *thw;
+    int thw_n, thw_cap;
     /* powder cloud */
     float *pw_density, *pw_tmp;   /* pw_n[0]*pw_n[1]*pw_n[2] */
     float pw_max;
@@ -86,11 +110,40 @@ void sq__aval_powder_source(const float *x, const float *y, const float *z, cons
  * zero outside the grid. dst and src must not overlap. */
 void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay);
 
+/* ---- hazard maps and the thalweg (avalanche_hazard.c) ------------------------------------- */
+sq_result sq__aval_hazard_alloc(sq_avalanche *a);
+void sq__aval_hazard_free(sq_avalanche *a);
+/* One sample: travel paths, the maps' peaks, the thalweg point (at a->time_s). */
+void sq__aval_hazard_track(sq_avalanche *a);
+/* The deposit map of the current state (hz_deposit). */
+void sq__aval_hazard_deposit(sq_avalanche *a);
+/* Thalweg run-out, alpha, beta and Lied & Bakkehøi's alpha into st (uses a->scratch). */
+void sq__aval_hazard_summary(sq_avalanche *a, const sq_sph_view *v, sq_avalanche_state *st);
+/* The maps as named fields on the hazard grid. */
+int sq__aval_hazard_fields(sq_avalanche *a, sq_named_field *out, int max);
+
 /* ---- used by the plug-in (avalanche_plugin.c) and tests ----------------------------------- */
 /* The world's closed meshes inside the SPH domain as one voxelised collider (avalanche_meshes.c). */
 sq_result sq__avalanche_add_meshes(sq_avalanche *a);
 sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
-                             bool count_only, sq__aval_plan *out, float *positions);
+                             sq__aval_plan *out);
+
+/* ---- the release (avalanche_release.c) ------------------------------------------------------ */
+/* The Swiss slope factor 0.291 / (sin psi - 0.202 cos psi) (1 at and below 28 deg); nz = cos psi. */
+double sq__aval_slope_factor(double nz);
+/* Bounds (xmin, ymin, xmax, ymax) of the release region. */
+void sq__aval_region_bounds(const sq__aval_plan *pl, double b[4]);
+/* Slope-normal release thickness at (x, y) (m); −1 outside the region. *nz_out: the terrain
+ * normal's vertical component there (capped below at 0.05). */
+double sq__aval_thickness_at(const sq__aval_plan *pl, const sq_world *w, double x, double y,
+                             double *nz_out);
+/* The coarse pass: volume, count estimate, fall line, top, thickest column, crown (areas),
+ * lattice columns; refuses a region without snow or over no-data. */
+sq_result sq__aval_release_estimate(sq_context *ctx, sq__aval_plan *pl, const sq_world *w);
+/* The exact release: counts (pos NULL) or places up to cap particles; polls ctx's interrupt. */
+sq_result sq__aval_release_place(sq_context *ctx, const sq__aval_plan *pl, const sq_world *w,
+                                 float *pos, size_t cap, size_t *count, double *volume,
+                                 double *top_z);
 int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max);
 int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max);
 int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max);

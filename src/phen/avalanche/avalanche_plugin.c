@@ -9,6 +9,9 @@
 #define S sq_avalanche_desc
 #include "phen/plugin_glue.h"
 
+_Static_assert(sizeof(((sq_avalanche_desc *)0)->release_area) == SQ_PARAM_STRING_MAX,
+               "string fields of a desc hold SQ_PARAM_STRING_MAX bytes");
+
 static const sq_param params[] = {
     D("particles.spacing_m", spacing_m, "m", 1.0, 1e-3, 100, 0,
       "Initial particle spacing dx; the particle count is the release volume / dx^3 (S2 leaves "
@@ -34,6 +37,19 @@ static const sq_param params[] = {
     D("release.depth_m", release_depth_m, "m", 2, 1e-3, 1e3, 0,
       "Slab thickness measured normal to the slope (typical slab fracture depths 0.5-3 m); "
       "the release volume is sum(dx^2 depth / n_z) over the columns."),
+    STR("release.area", release_area, "",
+        "Name of a world area (world.areas: polygons from GeoJSON/Shapefile or a raster mask) "
+        "that is the release; its polygons' thickness attribute (m, slope-normal) overrides "
+        "release.depth_m. Empty = the rectangle release.x_m/y_m/length_m/width_m."),
+    B("release.slope_dependent", release_slope_dependent,
+      "Slope-dependent thickness of the Swiss guidelines (Salm et al. 1990; RAMMS, AvaFrame): "
+      "d = d0 * 0.291 / (sin psi - 0.202 cos psi), d0 at psi = 28 deg and thinner on steeper "
+      "slopes (d0 below 28 deg)."),
+    D("release.gradient_m", release_gradient_m, "m", 0, -10, 10, Z,
+      "Thickness added per 100 m of altitude above release.reference_altitude_m (Swiss "
+      "practice: +0.05 m per 100 m); 0 = none."),
+    D("release.reference_altitude_m", release_reference_altitude_m, "m", 2000, -1e4, 1e4, 0,
+      "Altitude at which the release thickness is d0 (for release.gradient_m)."),
     E("rheology.model", rheology, "cross|newtonian|power-law|bingham",
       "Effective viscosity model (S2 eqs 3.26-3.29): cross (S2's avalanche), newtonian, "
       "power-law (Ostwald-de Waele) or bingham (Papanastasiou-regularised)."),
@@ -60,6 +76,16 @@ static const sq_param params[] = {
     D("terrain.friction", friction, "1", 0.2, 1e-6, 5, 0,
       "Kinetic Coulomb friction mu_k of the terrain and obstacles (S2 §3.6: 0.2), applied at "
       "each contact as v_t *= max(0, 1 - mu_k |dv_n| / |v_t|) (SPEC §7.7)."),
+    B("terrain.column_friction", column_friction,
+      "Basal friction of the depth-averaged avalanche models (Savage-Hutter, Voellmy as in RAMMS "
+      "and AvaFrame) spread over the flow column: every particle within its column's flow depth "
+      "loses mu g_n dt (and the Voellmy drag) of its speed along the terrain. Off = S2's contact "
+      "friction, which brakes only the particles touching the terrain (SPEC §7.7)."),
+    D("terrain.turbulent_friction_mps2", turbulent_friction_mps2, "m/s2", 0, 0, 1e6, Z,
+      "Voellmy turbulent friction xi (RAMMS, AvaFrame: 1000-4000 m/s2; needs "
+      "terrain.column_friction): the basal stress rho g v^2 / xi on top of the Coulomb part, so "
+      "that a flow of depth h on a slope theta tends to sqrt(xi h (sin theta - mu cos theta)); "
+      "0 = none (S2)."),
     D("terrain.restitution", restitution, "1", 0, 0, 1, Z,
       "Restitution e of the normal velocity at a contact (SPEC §7.7: e ~ 0 for snow)."),
     D("numerics.speed_of_sound_mps", speed_of_sound_mps, "m/s", 0, 0, 1e5, Z,
@@ -91,8 +117,19 @@ static const sq_param params[] = {
     V3("domain.max_m", domain_max_m, "m", "0 0 0", -1e7, 1e7,
        "Upper corner of the simulation box; all zero (with domain.min_m) = auto, up to 10 H + "
        "20 m above the release top."),
+    D("domain.layer_m", domain_layer_m, "m", 0, 0, 1e5, Z,
+      "Height the neighbour grid keeps above the terrain (a terrain-following grid: real slopes "
+      "with a drop of hundreds of metres need no box of cells); particles higher leave the "
+      "domain. 0 = auto: follows the terrain with 10 H + 20 m above the thickest release column "
+      "when domain.min_m/max_m are all zero or when that needs less than half the cells of the "
+      "domain box, else the dense box."),
     D("deposit.cell_m", deposit_cell_m, "m", 0, 0, 1e4, Z,
-      "Cell of the deposit depth map over the domain's footprint; 0 = 2 x spacing."),
+      "Cell of the deposit depth map over the domain's footprint; 0 = 2 x spacing (coarser if "
+      "the footprint would need more than 15 Mi cells)."),
+    D("hazard.cell_m", hazard_cell_m, "m", 0, 0, 1e4, Z,
+      "Cell of the hazard maps (peak flow depth, peak speed, peak pressure, deposit depth, "
+      "travel angle) over the whole terrain, aligned with its samples; 0 = the terrain's "
+      "spacing (a DEM's cell)."),
     D("metrics.moving_speed_mps", moving_speed_mps, "m/s", 0.5, 1e-6, 1e3, 0,
       "A particle faster than this counts as moving (moving_fraction). Chosen: 0.5 m/s."),
     D("metrics.front_percentile", front_percentile, "1", 0.99, 1e-6, 1, 0,

@@ -31,6 +31,8 @@ static void free_arrays(sq_sph *s)
     sq_free(ctx, s->nb_plain);
     sq_free(ctx, s->cell_start);
     sq_free(ctx, s->kbase);
+    sq_free(ctx, s->col_depth);
+    sq_free(ctx, s->col_tmp);
     sq_free(ctx, s->hist);
     sq_free(ctx, s->red);
     sq_free(ctx, s->terrain.h);
@@ -347,8 +349,23 @@ sq_result sq__sph_contact_from_desc(sq_sph *s, const sq_sph_collider_desc *c, co
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
                         "%s.contact.friction = %g; must be >= 0 (kinetic Coulomb coefficient)",
                         what, c->friction);
+    if (!(c->turbulent_friction_mps2 >= 0.0) || !isfinite(c->turbulent_friction_mps2))
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "%s.contact.turbulent_friction_mps2 = %g; must be >= 0 (m/s2, 0 = none)",
+                        what, c->turbulent_friction_mps2);
+    if (c->turbulent_friction_mps2 > 0.0 && !c->column_friction)
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "%s.contact.turbulent_friction_mps2 = %g needs column_friction (the "
+                        "Voellmy drag acts on the flow column)", what, c->turbulent_friction_mps2);
     out->e = (float)c->restitution;
     out->mu_k = c->frictionless ? 0.0f : (float)(c->friction == 0.0 ? 0.2 : c->friction);
+    out->column = c->column_friction;
+    out->col_mu = out->column ? out->mu_k : 0.0f;
+    if (out->column) out->mu_k = 0.0f; /* the friction acts on the column instead */
+    const double g = sqrt(s->d.gravity_mps2[0] * s->d.gravity_mps2[0] +
+                          s->d.gravity_mps2[1] * s->d.gravity_mps2[1] +
+                          s->d.gravity_mps2[2] * s->d.gravity_mps2[2]);
+    out->turb_k = c->turbulent_friction_mps2 > 0.0 ? (float)(g / c->turbulent_friction_mps2) : 0.0f;
     return SQ_OK;
 }
 
@@ -436,6 +453,14 @@ sq_result sq_sph_set_terrain(sq_sph *s, const sq_sph_terrain_desc *t)
     tr->c = c;
     s->has_terrain = 1;
     if (s->column) column_bases(s);
+    if (c.column && !s->col_depth) {
+        const size_t ncol = (size_t)s->n[0] * (size_t)s->n[1];
+        s->col_depth = (float *)sq_alloc_zero(s->ctx, ncol * sizeof(float));
+        s->col_tmp = (float *)sq_alloc_zero(s->ctx, ncol * sizeof(float));
+        if (!s->col_depth || !s->col_tmp)
+            return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, MOD,
+                            "out of memory for the flow-depth columns (%zu)", ncol);
+    }
     return SQ_OK;
 }
 
@@ -479,6 +504,26 @@ sq_result sq_sph_add_box_obstacle(sq_sph *s, const sq_sph_box_desc *b)
         bx->hi[a] = (float)b->max_m[a];
     }
     bx->c = c;
+    return SQ_OK;
+}
+
+sq_result sq_sph_move_box_obstacle(sq_sph *s, int index, const double min_m[3],
+                                   const double max_m[3])
+{
+    if (!s || !min_m || !max_m)
+        return sq__fail(s ? s->ctx : NULL, SQ_ERR_INVALID_ARG, MOD, "sph and bounds must not be NULL");
+    if (index < 0 || index >= s->box_count)
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD, "box obstacle %d: there are %d", index,
+                        s->box_count);
+    for (int a = 0; a < 3; a++)
+        if (!(max_m[a] > min_m[a]) || !isfinite(min_m[a]) || !isfinite(max_m[a]))
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "box %d %c: min %g, max %g; needs finite max > min", index, "xyz"[a],
+                            min_m[a], max_m[a]);
+    for (int a = 0; a < 3; a++) {
+        s->boxes[index].lo[a] = (float)min_m[a];
+        s->boxes[index].hi[a] = (float)max_m[a];
+    }
     return SQ_OK;
 }
 
@@ -657,10 +702,69 @@ static sq_result final_kick(sq_sph *s, float dt)
     return SQ_OK;
 }
 
+/* Basal friction over the flow column (sq_sph_collider_desc.column_friction): the flow depth h
+ * per column of the neighbour grid (particle volumes per area, 3x3 smoothed, at least dx), then
+ * for each particle within h + dx of the terrain its velocity along the terrain loses the
+ * Coulomb part μ_k g_n dt (not beyond rest) and the Voellmy drag:
+ * |v_t| ← max(0, |v_t| − μ_k g_n dt) / (1 + (g/ξ) |v_t| dt / h). */
+static void basal_drag(sq_sph *s, float dt)
+{
+    const int nx = s->n[0], ny = s->n[1];
+    const size_t N = s->count, ncol = (size_t)nx * (size_t)ny;
+    float *restrict dep = s->col_depth, *restrict tmp = s->col_tmp;
+    memset(tmp, 0, ncol * sizeof(float));
+    for (size_t i = 0; i < N; i++) {
+        const int cx = (int)fminf(fmaxf((s->x[i] - s->lo[0]) * s->inv_cell[0], 0.0f), (float)(nx - 1));
+        const int cy = (int)fminf(fmaxf((s->y[i] - s->lo[1]) * s->inv_cell[1], 0.0f), (float)(ny - 1));
+        tmp[(size_t)cy * (size_t)nx + (size_t)cx] += s->vol[i];
+    }
+    const float area = s->cell[0] * s->cell[1];
+    for (int cy = 0; cy < ny; cy++)
+        for (int cx = 0; cx < nx; cx++) {
+            float sum = 0.0f;
+            int cells = 0;
+            for (int j = cy - 1; j <= cy + 1; j++)
+                for (int i = cx - 1; i <= cx + 1; i++) {
+                    int ii = i, jj = j; /* periodic axes wrap, others end at the domain */
+                    if (s->periodic[0]) ii = (i + nx) % nx;
+                    if (s->periodic[1]) jj = (j + ny) % ny;
+                    if (ii < 0 || jj < 0 || ii >= nx || jj >= ny) continue;
+                    sum += tmp[(size_t)jj * (size_t)nx + (size_t)ii];
+                    cells++;
+                }
+            dep[(size_t)cy * (size_t)nx + (size_t)cx] = sum / ((float)cells * area);
+        }
+    const float k = s->terrain.c.turb_k * dt, hmin = (float)s->d.spacing_m;
+    const float mu_dt = s->terrain.c.col_mu * dt;
+    const int nt = sq__sph_threads(s, N);
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int64_t ii = 0; ii < (int64_t)N; ii++) {
+        const size_t i = (size_t)ii;
+        const int cx = (int)fminf(fmaxf((s->x[i] - s->lo[0]) * s->inv_cell[0], 0.0f), (float)(nx - 1));
+        const int cy = (int)fminf(fmaxf((s->y[i] - s->lo[1]) * s->inv_cell[1], 0.0f), (float)(ny - 1));
+        const float h = fmaxf(dep[(size_t)cy * (size_t)nx + (size_t)cx], hmin);
+        float th, n[3];
+        sq__sph_terrain_eval(&s->terrain, s->x[i], s->y[i], &th, n);
+        if ((s->z[i] - th) * n[2] > h + hmin) continue; /* above its flow: airborne */
+        const float v[3] = {s->vx[i], s->vy[i], s->vz[i]};
+        const float vn = v[0] * n[0] + v[1] * n[1] + v[2] * n[2];
+        const float t[3] = {v[0] - vn * n[0], v[1] - vn * n[1], v[2] - vn * n[2]};
+        const float vt = sqrtf(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        const float gn = -(s->g[0] * n[0] + s->g[1] * n[1] + s->g[2] * n[2]);
+        const float c = vt > 0.0f ? fmaxf(vt - mu_dt * fmaxf(gn, 0.0f), 0.0f) / vt : 0.0f;
+        const float f = c / (1.0f + k * vt / h);
+        s->vx[i] = vn * n[0] + f * t[0];
+        s->vy[i] = vn * n[1] + f * t[1];
+        s->vz[i] = vn * n[2] + f * t[2];
+    }
+}
+
 static sq_result substep(sq_sph *s, double dt_s)
 {
     const float dt = (float)dt_s;
     double t0 = now_ms();
+    if (s->col_depth && s->has_terrain && s->terrain.c.column && s->forces_valid)
+        basal_drag(s, dt);                     /* Coulomb + Voellmy over the flow column */
     sq_result r = kick_drift(s, dt);           /* v½, x(t + dt), colliders, v* */
     double t1 = now_ms();
     s->stats.ms_integrate += t1 - t0;

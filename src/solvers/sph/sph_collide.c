@@ -3,7 +3,8 @@
  * safety clamp inside the domain walls.
  * A penetrating particle is projected to the surface plus the collision radius; if it moves
  * into the surface, the normal velocity is reversed and scaled by the restitution e and the
- * tangential velocity is reduced by Coulomb friction v_t ← v_t max(0, 1 − μ_k |Δv_n| / |v_t|). */
+ * tangential velocity is reduced by Coulomb friction v_t ← v_t max(0, 1 − μ_k |Δv_n| / |v_t|).
+ * Voellmy's turbulent friction is a drag over the flow's depth (sph.c, basal_drag). */
 #include "solvers/sph/sph_internal.h"
 
 void sq__sph_terrain_eval(const sq__sph_terrain *t, float x, float y, float *h, float n[3])
@@ -64,7 +65,8 @@ static inline void respond(float v[3], const float n[3], const sq__sph_contact *
 
 /* Contacts of position p (projected if project) and velocity v. Returns 1 if anything
  * changed. Without projection only particles already on a surface (within a hair of the
- * collision radius, where the drift's projection left them) get the velocity response. */
+ * collision radius, where the drift's projection left them) get the velocity response.
+ */
 static int contact(const sq_sph *s, float p[3], float v[3], int project)
 {
     int touched = 0;

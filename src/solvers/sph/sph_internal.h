@@ -150,6 +150,10 @@ sq_sph_rheology sq__sph_rheology_resolve(const sq_sph_rheology *in);
 /* ---- colliders ---------------------------------------------------------------------------- */
 typedef struct sq__sph_contact {
     float e, mu_k;
+    int column;               /* column friction (terrain only): mu_k and turb_k act on the flow
+                                 column in sph.c (basal_drag); the contact is frictionless */
+    float col_mu;             /* column friction: μ_k */
+    float turb_k;             /* column friction: Voellmy g / ξ (1), 0 = none */
 } sq__sph_contact;
 
 typedef struct sq__sph_terrain {
@@ -219,6 +223,7 @@ struct sq_sph {
     int n[3];                 /* cells per axis (terrain-following grid: n[2] per column) */
     int column;               /* 1: terrain-following grid; cell = (cy nx + cx) n[2] + k − kbase */
     int32_t *kbase;           /* per column: the absolute z cell (from lo[2]) of its lowest cell */
+    float *col_depth, *col_tmp; /* n[0]*n[1]: flow depth per column (Voellmy drag), scratch */
     float cell[3], inv_cell[3];
     uint32_t ncell;
     uint32_t *cell_start;     /* ncell + 2 */
