@@ -4,6 +4,7 @@
  * if the box would exceed SQ_AVAL_MESH_CELLS cells, into one signed-distance collider. */
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "phen/avalanche/avalanche_internal.h"
 #include "squall/mesh.h"
@@ -61,8 +62,16 @@ sq_result sq__avalanche_add_meshes(sq_avalanche *a)
     if (!mask) return sq__fail(a->ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for the mesh colliders");
     sq_result r = sq_world_voxelise(w, origin, h, n, SQ_SOLID_MESHES, mask);
     if (r == SQ_OK) {
-        sq_sph_solid_grid_desc g = {{origin[0], origin[1], origin[2]}, h, {n[0], n[1], n[2]}, mask,
-                                    {a->plan.d.restitution, a->plan.d.friction, false}};
+        sq_sph_solid_grid_desc g;
+        memset(&g, 0, sizeof g);
+        for (int k = 0; k < 3; k++) {
+            g.origin_m[k] = origin[k];
+            g.n[k] = n[k];
+        }
+        g.cell_m = h;
+        g.solid = mask;
+        g.contact.friction = a->plan.d.friction; /* as the box obstacles */
+        g.contact.restitution = a->plan.d.restitution;
         r = sq_sph_add_solid_grid(a->sph, &g);
     }
     sq_free(a->ctx, mask);
