@@ -175,8 +175,17 @@ void sq__aval_hazard_deposit(sq_avalanche *a)
     const sq_sph_view v = sq_sph_particles(a->sph);
     bin_particles(a, &v);
     const size_t cells = (size_t)pl->hz_nx * (size_t)pl->hz_ny;
-    const double inv = 1.0 / (pl->hz_cell * pl->hz_cell);
-    for (size_t c = 0; c < cells; c++) a->hz_deposit[c] = (float)(a->hz_vol[c] * inv);
+    const double inv = 1.0 / (pl->hz_cell * pl->hz_cell), rho0 = pl->d.density_kgm3;
+    for (size_t c = 0; c < cells; c++) {
+        a->hz_deposit[c] = (float)(a->hz_vol[c] * inv);
+        /* the state now is a sample of the flow too: the peaks never fall below it */
+        if (!(a->hz_vol[c] > 0.0)) continue;
+        const double sp = a->hz_mom[c] / a->hz_vol[c];
+        if (a->hz_deposit[c] > a->hz_depth_peak[c]) a->hz_depth_peak[c] = a->hz_deposit[c];
+        if (sp > (double)a->hz_speed_peak[c]) a->hz_speed_peak[c] = (float)sp;
+        const double p = 1e-3 * rho0 * sp * sp;
+        if (p > (double)a->hz_pressure_peak[c]) a->hz_pressure_peak[c] = (float)p;
+    }
 }
 
 /* The path used for the profile: the straight line from the crown to the thalweg's first point,
