@@ -33,6 +33,7 @@ static inline void sq_test_register(const char *name, sq_test_fn fn)
 }
 
 #define SQ_LABEL(x)
+#define SQ_REQUIRES(x) /* read by tests/CMakeLists.txt: features the file needs ("gl mp4") */
 #define SQ_TEST(name)                                                                          \
     static void sq_test_##name(void);                                                          \
     __attribute__((constructor)) static void sq_test_reg_##name(void)                          \

@@ -55,45 +55,6 @@ typedef struct mesh_vertex {
 static sq_result check_size(sq_renderer *r, int width, int height, const char *what);
 static sq_result resize_targets(sq_renderer *r, int w, int h, GLenum depth_format);
 
-/* ---- materials -------------------------------------------------------------------------- */
-void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep)
-{
-    *steep = sq_v3(0.30f, 0.28f, 0.26f); /* weathered rock */
-    switch (w->terrain_material) {
-    case SQ_GROUND_SAND: *flat = *steep = sq_v3(0.58f, 0.45f, 0.30f); return;
-    case SQ_GROUND_SNOW: /* snow on the flats, wind-scoured snow/rock on steep slopes */
-        *flat = sq_v3(0.88f, 0.90f, 0.94f);
-        *steep = sq_v3(0.62f, 0.64f, 0.68f);
-        return;
-    case SQ_GROUND_ROCK: *flat = sq_v3(0.32f, 0.30f, 0.28f); return;
-    case SQ_GROUND_GRASS: *flat = sq_v3(0.21f, 0.23f, 0.11f); return;
-    case SQ_GROUND_ASPHALT: *flat = *steep = sq_v3(0.12f, 0.12f, 0.12f); return;
-    default: break;
-    }
-    switch (w->terrain_kind) {
-    case SQ_TERRAIN_DUNES: /* desert sand on every slope */
-        *flat = sq_v3(0.58f, 0.45f, 0.30f);
-        *steep = sq_v3(0.52f, 0.40f, 0.27f);
-        break;
-    case SQ_TERRAIN_MOUNTAIN: /* alpine meadow / scree */
-        *flat = sq_v3(0.20f, 0.22f, 0.13f);
-        break;
-    default: /* dry grass and soil */
-        *flat = sq_v3(0.21f, 0.23f, 0.11f);
-        break;
-    }
-}
-
-sq_vec3 sq__material_albedo(sq_material m)
-{
-    switch (m) {
-    case SQ_MATERIAL_SAND: return sq_v3(0.58f, 0.45f, 0.30f);
-    case SQ_MATERIAL_SNOW: return sq_v3(0.90f, 0.92f, 0.95f);
-    case SQ_MATERIAL_ROCK: return sq_v3(0.30f, 0.28f, 0.26f);
-    default: return sq_v3(0.30f, 0.25f, 0.19f); /* soil */
-    }
-}
-
 /* ---- camera ----------------------------------------------------------------------------- */
 static bool finite3(sq_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
 

@@ -48,7 +48,6 @@ static bool renders(const sq_run *run) { return run->desc.render != SQ_RUN_SIMUL
 static sq_result create_renderer(sq_run *run)
 {
     if (run->renderer || run->desc.render == SQ_RUN_REFERENCE || !renders(run)) return SQ_OK;
-#if SQ_HAVE_GL
     sq_render_desc rd;
     memset(&rd, 0, sizeof rd);
     rd.width = run->out->width;
@@ -60,11 +59,6 @@ static sq_result create_renderer(sq_run *run)
     rd.seed = sq_scene_seed(run->scene);
     rd.use_current_context = run->desc.render == SQ_RUN_GL_CURRENT_CONTEXT;
     return sq_renderer_create(run->ctx, &rd, &run->renderer);
-#else
-    return sq__fail(run->ctx, SQ_ERR_UNSUPPORTED, "run",
-                    "this libsquall was built without OpenGL (SQ_WITH_GL=OFF); use "
-                    "SQ_RUN_SIMULATE or SQ_RUN_REFERENCE");
-#endif
 }
 
 sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
@@ -137,9 +131,8 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     }
     /* the renderer's own context fails here, before any simulation work */
     if (r == SQ_OK && desc->render == SQ_RUN_GL) r = create_renderer(run);
-#if !SQ_HAVE_GL
-    if (r == SQ_OK && desc->render == SQ_RUN_GL_CURRENT_CONTEXT) r = create_renderer(run);
-#endif
+    if (r == SQ_OK && desc->render == SQ_RUN_GL_CURRENT_CONTEXT && !SQ_HAVE_GL)
+        r = create_renderer(run); /* refuses at once */
     if (r == SQ_OK) r = sq__run_outputs_open(o);
     if (r != SQ_OK) {
         sq_log(ctx, SQ_LOG_DEBUG, "run", "not started: %s", sq_last_error());

@@ -1,5 +1,6 @@
 #!/bin/bash
 # label: render
+# requires: gl
 # Frame size 0, odd for MP4, or beyond the GL implementation's limit.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 tiny_scene s.yaml

@@ -1,5 +1,6 @@
 #!/bin/bash
 # label: render
+# requires: gl
 # No usable GL context: exit 1, and the message says how to get one.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 tiny_scene s.yaml

@@ -1,5 +1,6 @@
 #!/bin/bash
 # label: smoke
+# requires: gl
 # The clouds phenomenon (issue 10) through the CLI: parameters listed, an analytic cumulus scene
 # rendered with its metrics, the benchmark's JSON keys, and bad input refused with exit code 2 and
 # one line naming the key or file, the value and the rule, before anything is written.

@@ -1,5 +1,6 @@
 #!/bin/bash
 # label: smoke
+# requires: gl mp4
 # Renders a tiny scene to MP4 and PNG frames; checks the files, the summary and that no
 # temporary file is left.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"

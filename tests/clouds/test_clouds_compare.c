@@ -18,6 +18,7 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 #ifndef CW
 #define CW 96

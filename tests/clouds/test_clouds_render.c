@@ -15,6 +15,7 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 static sq_context *new_ctx(void)
 {

@@ -23,6 +23,7 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 #define CW 96
 #define CH 64

@@ -14,6 +14,7 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 #define W 320
 #define H 180

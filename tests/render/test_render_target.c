@@ -24,6 +24,7 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 #define W 192
 #define H 108

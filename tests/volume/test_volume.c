@@ -17,6 +17,7 @@
 #include "sq_test.h"
 
 SQ_LABEL(render)
+SQ_REQUIRES(gl)
 
 #define IMG_W 320
 #define IMG_H 180
