@@ -101,7 +101,6 @@ typedef struct sq_clouds_desc {
     double impostor_angle_deg;        /* refresh tolerance; 0 -> 2 deg */
     bool no_impostors;                /* particles at every distance */
     int volume_cells[3];              /* volume mode voxels; 0 -> 128 128 48 */
-    double vertical_exaggeration;     /* heights above the datum scaled; 0 -> 1 */
 } sq_clouds_desc;
 
 typedef struct sq_clouds sq_clouds;

@@ -5,6 +5,7 @@
 #include "squall/geo.h"
 #include "squall/io.h"
 #include "squall/scene.h"
+#include "squall/wrf.h"
 
 SQ_LABEL(unit)
 
@@ -193,6 +194,7 @@ SQ_TEST(presets_validate)
         /* the loaders the CLI passes: a preset may stand on a DEM (alpine-avalanche) */
         sq_scene_desc d = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
                            .load_dem = sq_dem_load, .load_area = sq_area_load,
+                           .load_wrf_world = sq_scene_wrf_world_loader, /* wrf-clouds */
                            .validate_only = true};
         sq_scene *s = NULL;
         sq_result r = sq_scene_create(ctx, &d, &s);

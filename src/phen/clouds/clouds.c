@@ -160,7 +160,7 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
     sq__cloud_grid grid;
     if (r == SQ_OK) {
         sq__cloud_source_grid(c->src, &grid);
-        r = sq__cloud_field_init(ctx, &c->field, &grid, &d, (float)d.vertical_exaggeration);
+        r = sq__cloud_field_init(ctx, &c->field, &grid, &d, sq__clouds_exaggeration(world));
     }
     if (r == SQ_OK) r = sq__segment_init(ctx, &c->seg, &grid);
     if (r == SQ_OK && d.particles_per_km3 > 0.0) r = particles_for_density(c);

@@ -49,7 +49,6 @@ sq_result sq_clouds_desc_resolve(const sq_clouds_desc *in, sq_clouds_desc *out)
     if (d.dist_3d_m == 0.0) d.dist_3d_m = 60000.0;
     if (d.dist_impostor_m == 0.0) d.dist_impostor_m = 90000.0;
     if (d.impostor_angle_deg == 0.0) d.impostor_angle_deg = 2.0;
-    if (d.vertical_exaggeration == 0.0) d.vertical_exaggeration = 1.0;
     if (out) *out = d;
     return SQ_OK;
 }

@@ -182,8 +182,6 @@ void sq__cloud_field_update(sq__cloud_field *f, const sq__cloud_frame *fr, doubl
     memcpy(f->v, fr->v, cells * sizeof(float));
     memcpy(f->w, fr->w, cells * sizeof(float));
     if (fr->cldfra) memcpy(f->frac, fr->cldfra, cells * sizeof(float));
-    f->has_sun = fr->has_sun;
-    f->sun_dir = fr->sun_dir;
     /* optics per cell */
     float beta_max = 0.0f;
     double mu = 0.0, mv = 0.0, mw = 0.0;

@@ -105,6 +105,13 @@ void sq__cluster_aggregate(const sq__clustering *c, const sq__cluster_input *in,
 
 /* ==== the cloud field (clouds_source.c, clouds_field.c) ======================================= */
 
+/* The world's vertical exaggeration (world.terrain.vertical_exaggeration, its one home): the
+ * clouds stretch with the terrain. 1 without a world. */
+static inline float sq__clouds_exaggeration(const sq_world *w)
+{
+    return w && w->vertical_exaggeration > 0.0f ? w->vertical_exaggeration : 1.0f;
+}
+
 /* Fields of the model at one time on its mass grid (borrowed from the source until its next
  * read). 3D arrays nx*ny*nz, index (k*ny + j)*nx + i, x fastest, row 0 south, level 0 lowest. */
 typedef struct sq__cloud_frame {
@@ -115,8 +122,6 @@ typedef struct sq__cloud_frame {
     const float *cldfra;                   /* cloud fraction [0, 1] or NULL */
     const float *u, *v, *w;                /* m/s along world x, y, z */
     const float *terrain_m;                /* nx*ny, m above sea level */
-    bool has_sun;
-    sq_vec3 sun_dir;                       /* toward the sun at this time (world frame) */
 } sq__cloud_frame;
 
 typedef struct sq__cloud_source sq__cloud_source;
@@ -169,8 +174,6 @@ typedef struct sq__cloud_field {
     float *terrain;              /* nx*ny */
     int32_t *label;              /* cloud id of the cell or -1 */
     float beta_max;
-    bool has_sun;
-    sq_vec3 sun_dir;
     sq__subgrid sub;
     sq_cloud_optics optics;
     bool reff_from_number, rayleigh;

@@ -125,9 +125,6 @@ static const sq_param params[] = {
     I("volume.nx", volume_cells[0], "1", 128, 4, 1024, "Volume mode: voxels along x."),
     I("volume.ny", volume_cells[1], "1", 128, 4, 1024, "Volume mode: voxels along y."),
     I("volume.nz", volume_cells[2], "1", 48, 4, 1024, "Volume mode: voxels along z."),
-    D("vertical_exaggeration", vertical_exaggeration, "1", 1, 0.1, 100, 0,
-      "Heights above sea level multiplied by this in the world (the extinction divided by it, so "
-      "vertical optical depths stay physical); must match world.terrain.vertical_exaggeration."),
 };
 
 SQ__PHEN_PLUGIN(clouds, "clouds from WRF output: structured particles, MFS lighting, impostors (S4)",

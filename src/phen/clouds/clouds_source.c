@@ -86,7 +86,9 @@ static sq_result syn_open(sq__cloud_source *s, const sq_world *world)
     for (int j = 0; j < g->ny; j++)
         for (int i = 0; i < g->nx; i++) {
             const float x = g->x0 + (float)i * g->dx, y = g->y0 + (float)j * g->dy;
-            const float h = world ? sq_world_height_at(world, x, y) : 0.0f;
+            /* the model's terrain: the world's, without its vertical exaggeration */
+            const float h =
+                world ? sq_world_height_at(world, x, y) / sq__clouds_exaggeration(world) : 0.0f;
             s->terrain[(size_t)j * g->nx + i] = h;
             for (int k = 0; k <= g->nz; k++)
                 s->zw[((size_t)k * g->ny + j) * g->nx + i] = h + (float)k * dz;
@@ -228,8 +230,6 @@ static sq_result wrf_read_source(sq__cloud_source *s, double t, sq__cloud_frame 
     fr->v = st.v_mps;
     fr->w = st.w_mps;
     fr->terrain_m = st.terrain_m;
-    fr->has_sun = true;
-    fr->sun_dir = st.sun_dir;
     return SQ_OK;
 }
 #endif

@@ -1,0 +1,26 @@
+#!/bin/bash
+# label: unit
+# Every public header compiles alone as C11 and as C++17 (strict warnings, -Werror), and the
+# umbrella header squall/squall.h includes every header of include/squall/.
+set -u
+SRC="${SQ_SOURCE_DIR:?}"
+CC="${SQ_CC:-cc}"
+CXX="${SQ_CXX:-g++}"
+fails=0
+for h in "$SRC"/include/squall/*.h; do
+    n=$(basename "$h")
+    if ! echo "#include \"squall/$n\"" | "$CC" -std=c11 -Wall -Wextra -Wpedantic -Wstrict-prototypes \
+            -Wshadow -Werror -fsyntax-only -I "$SRC/include" -x c - 2> err.txt; then
+        echo "FAIL: squall/$n alone as C11: $(cat err.txt)"; fails=$((fails + 1))
+    fi
+    if ! echo "#include \"squall/$n\"" | "$CXX" -std=c++17 -Wall -Wextra -Wpedantic -Werror \
+            -fsyntax-only -I "$SRC/include" -x c++ - 2> err.txt; then
+        echo "FAIL: squall/$n alone as C++17: $(cat err.txt)"; fails=$((fails + 1))
+    fi
+    if [ "$n" != squall.h ] && ! grep -q "#include \"squall/$n\"" "$SRC/include/squall/squall.h"; then
+        echo "FAIL: squall/squall.h does not include squall/$n"; fails=$((fails + 1))
+    fi
+done
+rm -f err.txt
+[ "$fails" = 0 ] && echo "ok: $(ls "$SRC"/include/squall/*.h | wc -l) headers"
+exit $((fails > 0))
