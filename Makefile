@@ -1,12 +1,17 @@
 # Squall — the two commands of the README:
 #   make demo   install missing Debian packages, build (Release), render the default scene to MP4
-#   make test   install missing packages, build and run the whole suite (Release, then ASan+UBSan)
+#   make test   install missing packages, build and run the whole suite (Release, then ASan+UBSan,
+#               then every fuzz harness for FUZZ_CI_SECONDS under libFuzzer + ASan+UBSan)
+#   make fuzz   run every fuzz harness for FUZZ_SECONDS each (clang, libFuzzer, ASan+UBSan)
 JOBS ?= $(shell nproc)
 BUILD ?= build/release
 ASAN_BUILD ?= build/asan
+FUZZ_BUILD ?= build/fuzz
 DEMO_OUT ?= out/demo.mp4
+FUZZ_SECONDS ?= 300
+FUZZ_CI_SECONDS ?= 10
 
-.PHONY: all deps build demo test test-release test-asan bench clean
+.PHONY: all deps build demo test test-release test-asan test-fuzz fuzz fuzz-build bench clean
 
 all: build
 
@@ -31,7 +36,21 @@ test-asan: deps
 	@cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	    ctest --output-on-failure -j$(JOBS) -LE perf
 
-test: test-release test-asan
+# The fuzz harnesses (tests/fuzz) with libFuzzer: clang, the whole library instrumented (no
+# -Werror here: warnings are enforced by the gcc builds; clang-only ones must not stop fuzzing).
+fuzz-build: deps
+	@CC=clang cmake -S . -B $(FUZZ_BUILD) -DCMAKE_BUILD_TYPE=RelWithDebInfo -DSQ_FUZZ=ON -DSQ_WERROR=OFF >/dev/null
+	@cmake --build $(FUZZ_BUILD) -j$(JOBS) --target fuzz_all
+
+# Each harness for a short budget (new inputs stay in $(FUZZ_BUILD)/fuzz-work, never the repo).
+test-fuzz: fuzz-build
+	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_CI_SECONDS) ctest --output-on-failure -L fuzz
+
+fuzz: fuzz-build
+	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_SECONDS) ctest --output-on-failure -L fuzz
+	@echo "fuzz log: $(abspath $(FUZZ_BUILD))/fuzz-work/fuzz-log.tsv"
+
+test: test-release test-asan test-fuzz
 
 clean:
 	rm -rf build

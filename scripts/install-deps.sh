@@ -7,10 +7,11 @@ PKGS=(build-essential cmake pkg-config libyaml-dev libpng-dev libepoxy-dev libeg
       libnetcdf-dev libomp-dev python3
       # WRF clouds (PROJ), real terrain (GDAL), meshes (assimp), the viewer (GTK 4 + Xvfb for its
       # tests), MPI scale-out (Open MPI, parallel NetCDF), fuzzing (clang + libFuzzer runtime),
-      # independent readers used by the tests (ncdump, netCDF4-python, GDAL's Python, VTK's Python)
+      # independent readers used by the tests (ncdump, ncrcat, netCDF4-python, GDAL's Python,
+      # VTK's Python)
       libproj-dev proj-data libgdal-dev gdal-bin libassimp-dev libgtk-4-dev xvfb xauth
       libopenmpi-dev openmpi-bin libnetcdf-mpi-dev clang libclang-rt-14-dev
-      netcdf-bin python3-netcdf4 python3-numpy python3-gdal python3-vtk9 ffmpeg)
+      netcdf-bin nco python3-netcdf4 python3-numpy python3-gdal python3-vtk9 ffmpeg)
 missing=()
 for p in "${PKGS[@]}"; do
     if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

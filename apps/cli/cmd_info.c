@@ -189,7 +189,7 @@ static void print_table(const char *title, const sq_param *t, size_t n, size_t d
 int sq_cmd_params(int argc, char **argv)
 {
     if (sq_cli_flag(argc, argv, "--help")) {
-        printf("usage: squall params [LAYER|world|obstacle|camera|camera-key|output] [--yaml|--markdown]\n\n"
+        printf("usage: squall params [LAYER|world|obstacle|mesh|area|camera|camera-key|output] [--yaml|--markdown]\n\n"
                "Prints every parameter with its unit, default, range and meaning. Scene files use\n"
                "these keys (nested maps or dotted keys); --set layers.NAME.KEY=VALUE overrides.\n");
         return SQ_EXIT_OK;
@@ -198,7 +198,7 @@ int sq_cmd_params(int argc, char **argv)
     g_markdown = sq_cli_flag(argc, argv, "--markdown");
     const char *what = argc > 1 && argv[1][0] != '-' ? argv[1] : NULL;
     if (!what) {
-        printf("sections: world obstacle area camera camera-key output\nlayers:  ");
+        printf("sections: world obstacle mesh area camera camera-key output\nlayers:  ");
         for (int i = 0; i < sq_plugin_count(); i++) printf("%s ", sq_plugin_at(i)->name);
         printf("\n\nusage: squall params NAME\n");
         return SQ_EXIT_OK;

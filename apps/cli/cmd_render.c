@@ -5,10 +5,10 @@
  * temporaries. Here: options, the progress line and the summary. */
 #include <errno.h>
 #include <math.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -17,6 +17,7 @@
 #include "rasters.h"
 #include "squall/image.h"
 #include "squall/io.h"
+#include "squall/plugin.h"
 #include "squall/render.h"
 #include "squall/run.h"
 #include "squall/scene.h"
@@ -33,6 +34,8 @@ static void render_usage(bool simulate)
            sq_preset_default());
     if (!simulate)
         printf("  -o PATH              output: a .mp4 file, or a directory for PNG frames\n"
+               "                       (default: output.video, out/squall.mp4; out/ is made if\n"
+               "                       missing)\n"
                "  --size WxH           frame size in pixels (even for MP4), e.g. 1280x720\n"
                "  --reference          render with the CPU reference path tracer (PNG frames)\n"
                "  --samples N          reference path tracer samples per pixel (> 0)\n");
@@ -46,11 +49,17 @@ static void render_usage(bool simulate)
            "  --raster-format F    tif (default) or asc (ESRI ASCII grid + .prj)\n"
            "  --set KEY=VALUE      override any scene key, e.g. --set output.fps=30\n"
            "                       --set layers.sandstorm.wind.speed_mps=20 (see squall params)\n"
-           "  --overwrite          replace existing outputs (never done otherwise)\n"
+           "  --overwrite          replace existing outputs (never done otherwise; inputs never)\n"
+           "  --checkpoint-every T write the complete state every T simulated seconds\n"
+           "  --checkpoint PATH    where (default squall.ckpt); replaced by each new one\n"
+           "  --resume CHECKPOINT  continue a run from its checkpoint, bit-identically (the scene\n"
+           "                       comes from the checkpoint; only output settings may change)\n"
            "  --threads N          worker threads (default: all cores)\n"
            "  --quiet              no progress, only errors\n"
            "  --json               print a machine-readable summary on stdout\n\n"
            "Progress goes to stderr (a live line on a terminal, one summary line otherwise).\n"
+           "Ctrl-C stops within a second and leaves nothing but the metrics rows so far\n"
+           "(NAME.partial.csv); see docs/reliability.md.\n"
            "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n");
 }
 
@@ -58,7 +67,8 @@ static void render_usage(bool simulate)
 static bool takes_value(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
-                       "--metrics", "--fields", "--samples", "--rasters", "--raster-format", NULL};
+                       "--metrics", "--fields", "--samples", "--rasters", "--raster-format",
+                       "--checkpoint-every", "--checkpoint", "--resume", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0) return true;
     return false;
@@ -68,7 +78,8 @@ static bool known_option(const char *a)
 {
     const char *v[] = {"-o", "--size", "--frames", "--duration", "--fps", "--set", "--threads",
                        "--metrics", "--fields", "--samples", "--overwrite", "--quiet", "--json",
-                       "--reference", "--verbose", "--rasters", "--raster-format", NULL};
+                       "--reference", "--verbose", "--rasters", "--raster-format",
+                       "--checkpoint-every", "--checkpoint", "--resume", NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -85,10 +96,38 @@ static int fail(sq_result r, const char *what)
     return sq_cli_exit_code(r);
 }
 
-static bool ends_with(const char *s, const char *suf)
+/* An option's value is checked against the output table here, so a bad value is blamed on the
+ * option (--size 10x10), not on the scene's --set overrides. Returns false after printing. */
+static bool option_value_ok(const char *opt, const char *optval, const char *key, const char *value)
 {
-    size_t a = strlen(s), b = strlen(suf);
-    return a >= b && strcmp(s + a - b, suf) == 0;
+    size_t n = 0;
+    const sq_param *t = sq_scene_section_params("output", &n);
+    sq_scene_output scratch;
+    sq_params_defaults(t, n, &scratch);
+    if (sq_params_set(t, n, &scratch, "output", key, value, NULL) == SQ_OK) return true;
+    sq_cli_error("%s %s: %s", opt, optval, sq_last_error());
+    return false;
+}
+
+/* -o PATH: a .mp4 file (any case) is video; a name without an extension, or ending in '/', is a
+ * directory of PNG frames; anything else (out.avi, frame.png) is refused rather than silently
+ * becoming a directory. */
+static bool output_is_video(const char *v, bool *ok)
+{
+    const size_t n = strlen(v);
+    const char *base = strrchr(v, '/');
+    base = base ? base + 1 : v;
+    const char *dot = strrchr(base, '.');
+    *ok = true;
+    if (n >= 4 && strcasecmp(v + n - 4, ".mp4") == 0) return true;
+    if (*base && dot && dot != base && dot[1]) {
+        sq_cli_error("-o %s: squall writes video as .mp4 (H.264) and frames as PNG into a "
+                     "directory; '%s' is neither (end the name with .mp4, or give a directory "
+                     "name without an extension, or end it with '/')",
+                     v, dot);
+        *ok = false;
+    }
+    return false;
 }
 
 static void format_eta(double s, char *buf, size_t n)
@@ -164,7 +203,23 @@ int sq_cmd_render(int argc, char **argv)
         }
         scene_arg = argv[i];
     }
+    const char *resume = sq_cli_value(argc, argv, "--resume");
+    if (resume && scene_arg) {
+        sq_cli_error("--resume %s: the scene comes from the checkpoint; do not name one ('%s')",
+                     resume, scene_arg);
+        return SQ_EXIT_USAGE;
+    }
     if (!scene_arg) scene_arg = sq_preset_default();
+    double ck_every = 0.0;
+    if (!sq_cli_double(argc, argv, "--checkpoint-every", 0.0, 0.0, 1e12, &ck_every))
+        return SQ_EXIT_USAGE;
+    if (sq_cli_value(argc, argv, "--checkpoint-every") && !(ck_every > 0.0)) {
+        sq_cli_error("--checkpoint-every %s: must be > 0 simulated seconds",
+                     sq_cli_value(argc, argv, "--checkpoint-every"));
+        return SQ_EXIT_USAGE;
+    }
+    const char *ck_path = sq_cli_value(argc, argv, "--checkpoint");
+    if (!ck_path) ck_path = "squall.ckpt";
     const bool overwrite = sq_cli_flag(argc, argv, "--overwrite");
     const bool quiet = sq_cli_flag(argc, argv, "--quiet");
     const bool json = sq_cli_flag(argc, argv, "--json");
@@ -188,9 +243,14 @@ int sq_cmd_render(int argc, char **argv)
 
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
-    sq_cli_catch_interrupts(); /* the scene's set-up (a particle release, a DEM) polls it too */
+    /* Ctrl-C is answered from here on: loading, terrain generation, layer creation and
+     * stepping poll the context's interrupt callback, the run its cancel_flag */
+    sq_cli_catch_interrupts();
     sq_cfg *cfg = NULL;
-    sq_result r = sq_cfg_load(ctx, scene_arg, &cfg);
+    sq_checkpoint_info ck_info;
+    memset(&ck_info, 0, sizeof ck_info);
+    sq_result r = resume ? sq_checkpoint_read_header(ctx, resume, &ck_info, &cfg)
+                         : sq_cfg_load(ctx, scene_arg, &cfg);
     if (r != SQ_OK) {
         sq_context_destroy(ctx);
         return fail(r, NULL);
@@ -201,10 +261,30 @@ int sq_cmd_render(int argc, char **argv)
     for (int i = 1; i < argc && r == SQ_OK; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
         set[0] = 0;
+        /* a resumed run continues the same simulation: only outputs may change, not the
+         * physics, nor the frame clock (fps, steps per frame, time scale, warm-up) */
+        if (resume && (strcmp(a, "--fps") == 0 ||
+                       (strcmp(a, "--set") == 0 &&
+                        (strncmp(v, "output.", 7) != 0 || strncmp(v, "output.fps", 10) == 0 ||
+                         strncmp(v, "output.steps_per_frame", 22) == 0 ||
+                         strncmp(v, "output.time_scale", 17) == 0 ||
+                         strncmp(v, "output.warmup_s", 15) == 0)))) {
+            sq_cli_error("%s %s: cannot change this when resuming from '%s': the run would not "
+                         "continue the same simulation (only output settings may change)",
+                         a, v, resume);
+            rc = SQ_EXIT_USAGE;
+            break;
+        }
         if (strcmp(a, "--set") == 0) {
             r = sq_cfg_set(cfg, v);
         } else if (strcmp(a, "-o") == 0 && !simulate) {
-            if (ends_with(v, ".mp4")) {
+            bool ok = true;
+            const bool is_video = output_is_video(v, &ok);
+            if (!ok) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
+            if (is_video) {
                 snprintf(set, sizeof set, "output.video=%s", v);
                 r = sq_cfg_set(cfg, set);
             } else {
@@ -220,18 +300,37 @@ int sq_cmd_render(int argc, char **argv)
                 rc = SQ_EXIT_USAGE;
                 break;
             }
+            char ws[32], hs[32];
+            snprintf(ws, sizeof ws, "%d", w);
+            snprintf(hs, sizeof hs, "%d", h);
+            if (!option_value_ok(a, v, "width", ws) || !option_value_ok(a, v, "height", hs)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.width=%d", w);
             r = sq_cfg_set(cfg, set);
             snprintf(set, sizeof set, "output.height=%d", h);
             if (r == SQ_OK) r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--frames") == 0) {
+            if (!option_value_ok(a, v, "frames", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.frames=%s", v);
             r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--duration") == 0) {
+            if (!option_value_ok(a, v, "duration_s", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.duration_s=%s", v);
             r = sq_cfg_set(cfg, set);
             if (r == SQ_OK) r = sq_cfg_set(cfg, "output.frames=0");
         } else if (strcmp(a, "--fps") == 0) {
+            if (!option_value_ok(a, v, "fps", v)) {
+                rc = SQ_EXIT_USAGE;
+                break;
+            }
             snprintf(set, sizeof set, "output.fps=%s", v);
             r = sq_cfg_set(cfg, set);
         } else if (strcmp(a, "--metrics") == 0) {
@@ -254,8 +353,17 @@ int sq_cmd_render(int argc, char **argv)
                         .load_mesh = sq_scene_mesh_loader};
     sq_scene *scene = NULL;
     r = sq_scene_create(ctx, &sd, &scene);
-    sq_cfg_destroy(cfg);
+    if (r == SQ_OK && resume) r = sq_checkpoint_restore(ctx, resume, scene, &ck_info);
+    /* a checkpoint being written when its run was killed left a temporary next to it */
+    if (r == SQ_OK && resume) sq_output_remove_stale(ctx, resume, false);
+    if (r == SQ_OK && resume && ck_info.frame >= sq_scene_frame_count(scene))
+        r = sq_set_error(SQ_ERR_INVALID_ARG,
+                         "--resume %s: the checkpoint is at frame %d; the scene has %d frames "
+                         "(more with --frames)",
+                         resume, ck_info.frame, sq_scene_frame_count(scene));
     if (r != SQ_OK) {
+        sq_scene_destroy(scene);
+        sq_cfg_destroy(cfg);
         sq_context_destroy(ctx);
         return fail(r, NULL);
     }
@@ -283,6 +391,27 @@ int sq_cmd_render(int argc, char **argv)
     rd.write_outputs = true;
     rd.overwrite = overwrite;
     rd.cancel_flag = &sq_cli_interrupted_flag;
+    rd.checkpoint_every_s = ck_every;
+    rd.checkpoint_path = ck_path;
+    rd.checkpoint_cfg = cfg;
+    rd.resume_frame = resume ? ck_info.frame : 0;
+    {
+        struct stat a, b;
+        rd.checkpoint_replaces = resume && stat(resume, &a) == 0 && stat(ck_path, &b) == 0 &&
+                                 a.st_dev == b.st_dev && a.st_ino == b.st_ino;
+    }
+    /* a first run in a fresh directory: the default video's directory (out/) is made */
+    if (video && !simulate) {
+        size_t nt = 0;
+        const sq_param *vp = sq_params_find(sq_scene_section_params("output", &nt), nt, "video");
+        const char *slash = strrchr(video, '/');
+        if (vp && vp->def_text && strcmp(video, vp->def_text) == 0 && slash) {
+            char dir[256];
+            snprintf(dir, sizeof dir, "%.*s", (int)(slash - video), video);
+            if (mkdir(dir, 0777) == 0 && !quiet)
+                fprintf(stderr, "squall: made '%s/' for the default output\n", dir);
+        }
+    }
     rd.progress = on_progress;
     rd.user = &tty;
     r = sq_run_create(ctx, &rd, &run);
@@ -337,6 +466,7 @@ done:
     if (rc != SQ_EXIT_OK && rasters_created) sq_cli_rasters_discard(rasters, scene, raster_format);
     sq_run_destroy(run);
     sq_scene_destroy(scene);
+    sq_cfg_destroy(cfg);
     sq_context_destroy(ctx);
     return rc;
 }

@@ -43,7 +43,8 @@ typedef enum sq_result {
     SQ_ERR_EXISTS = -9,      /* output exists and overwrite was not requested */
     SQ_ERR_NOT_FOUND = -10,  /* unknown preset, layer, key */
     SQ_ERR_INTERNAL = -11,
-    SQ_ERR_CANCELLED = -12
+    SQ_ERR_CANCELLED = -12,  /* sq_context_cancel was called (Ctrl-C): a clean stop */
+    SQ_ERR_NO_SPACE = -13    /* an output could not be written: the disk or quota is full */
 } sq_result;
 
 SQ_API const char *sq_result_name(sq_result r);
@@ -97,6 +98,33 @@ SQ_API void sq_free(sq_context *ctx, void *p);
 /* Bytes currently allocated through the context and the peak. */
 SQ_API uint64_t sq_context_bytes_in_use(const sq_context *ctx);
 SQ_API uint64_t sq_context_bytes_peak(const sq_context *ctx);
+
+/* Cancellation: asks every long operation on ctx (scene building, stepping, sub-steps, terrain
+ * generation, the reference renderer) to stop at its next check, within about a second, with
+ * SQ_ERR_CANCELLED. Async-signal-safe: a SIGINT/SIGTERM handler may call it. The request stays
+ * until sq_context_cancel_clear. */
+SQ_API void sq_context_cancel(sq_context *ctx);
+SQ_API bool sq_context_cancelled(const sq_context *ctx);
+SQ_API void sq_context_cancel_clear(sq_context *ctx);
+
+/* The input files read through ctx (scene file, heightmap, DEM, mesh, WRF file ...), recorded
+ * by the io layer when it opens them, by identity (device and inode, symlinks followed): the
+ * output layer refuses to write any of them (sq_output_check_inputs). */
+SQ_API int sq_context_input_count(const sq_context *ctx);
+SQ_API const char *sq_context_input_path(const sq_context *ctx, int i);
+SQ_API const char *sq_context_input_what(const sq_context *ctx, int i);
+
+/* ---- checkpoint records ---------------------------------------------------------------------
+ * A scene's phenomena and their solvers save their complete state (what a step depends on) as a
+ * sequence of tagged records and restore it by reading the same records in the same order; the
+ * checkpoint file (squall/io.h, sq_checkpoint_*) wraps the stream with a header and checksum.
+ * sq_state_get refuses a record whose tag or size differs from the one asked for, naming both. */
+typedef struct sq_state_writer sq_state_writer;
+typedef struct sq_state_reader sq_state_reader;
+SQ_API sq_result sq_state_put(sq_state_writer *w, const char *tag, const void *data, size_t bytes);
+SQ_API sq_result sq_state_get(sq_state_reader *r, const char *tag, void *data, size_t bytes);
+/* The next record's tag and size without consuming it (for variable-size records). */
+SQ_API sq_result sq_state_peek(sq_state_reader *r, const char **tag, uint64_t *bytes);
 
 /* Refuses, before anything is allocated, a request whose total size exceeds the memory limit.
  * what: e.g. "lattice 512x512x512"; the message names it and the bytes needed. */

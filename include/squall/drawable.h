@@ -152,6 +152,14 @@ typedef struct sq_metric {
     const char *unit;
 } sq_metric;
 
+/* What origin_m.z of a 2D map (nz == 1) is. */
+typedef enum sq_field_level {
+    SQ_FIELD_LEVEL_ALTITUDE = 0, /* the world z of a horizontal slice (default) */
+    SQ_FIELD_LEVEL_HEIGHT = 1,   /* a height above the terrain surface: a terrain-following map
+                                    such as visibility 2 m above the ground */
+    SQ_FIELD_LEVEL_SURFACE = 2   /* a property of the surface itself (snow depth); z unused */
+} sq_field_level;
+
 /* A named 3D (or 2D with n.nz = 1) field for NetCDF/VTK export. */
 typedef struct sq_named_field {
     const char *name;       /* NetCDF variable name, e.g. "dust_mass_concentration" */
@@ -162,6 +170,10 @@ typedef struct sq_named_field {
     int nx, ny, nz;
     sq_vec3 origin_m;       /* centre of cell (0,0,0) */
     sq_vec3 spacing_m;
+    const uint8_t *invalid; /* nx*ny*nz, non-zero: no value here (inside a solid, below the
+                               ground), written as _FillValue (NetCDF) / NaN (VTK); NULL: every
+                               cell has a value. NaN data are written the same way. */
+    sq_field_level level;   /* 2D maps: what origin_m.z is (sq_field_level) */
 } sq_named_field;
 
 #ifdef __cplusplus

@@ -280,6 +280,11 @@ SQ_API sq_vec3 sq_grid_cell_velocity(const sq_grid *g, int i, int j, int k);
 SQ_API void sq_grid_get_stats(const sq_grid *g, sq_grid_stats *out);
 SQ_API void sq_grid_stats_reset(sq_grid *g);
 
+/* Checkpoints (squall/core.h records): velocity, scalars, pressure, inflow and solids, to restore
+ * into a grid created from the same desc, which then steps bit-identically. */
+SQ_API sq_result sq_grid_save_state(const sq_grid *g, sq_state_writer *w);
+SQ_API sq_result sq_grid_load_state(sq_grid *g, sq_state_reader *r);
+
 #ifdef __cplusplus
 }
 #endif

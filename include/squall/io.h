@@ -26,6 +26,17 @@ SQ_API sq_result sq_output_temp_name(const char *path, char *buf, size_t size);
 /* Flushes tmp to disk and renames it to path (atomic on one filesystem); refuses to replace an
  * existing path unless overwrite (SQ_ERR_EXISTS). On failure tmp is left for the caller. */
 SQ_API sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite);
+/* Inputs are never written: refuses (SQ_ERR_INVALID_ARG, naming the output and the input) an
+ * output path that resolves, symlinks followed, to a file ctx has read (the scene file,
+ * heightmap, DEM, mesh, WRF file: sq_context_input_count). With prefix, the numbered outputs
+ * of a series are checked: every existing entry whose name starts with the path's last part and
+ * ends in five or more digits and an extension ("out/frames/frame_" covers frame_00012.png).
+ * Call it for every output before any work; --overwrite does not change the answer. */
+SQ_API sq_result sq_output_check_inputs(sq_context *ctx, const char *path, bool prefix);
+/* Removes the temporaries ".NAME.tmp-PID-N" that a run killed by SIGKILL (or a crash) left next
+ * to path (with prefix: next to every name starting with the path's last part), if process
+ * PID is gone; each removal is logged as a warning. Returns how many were removed. */
+SQ_API int sq_output_remove_stale(sq_context *ctx, const char *path, bool prefix);
 /* Writes bytes to path through a temporary file (removed on any failure). */
 SQ_API sq_result sq_output_write_file(const char *path, const void *data, size_t size,
                                       bool overwrite);
@@ -95,21 +106,66 @@ typedef struct sq_field_file_desc {
      * as "YYYY-MM-DD" or "YYYY-MM-DD hh:mm:ss" (UTC). NULL -> "2000-01-01 00:00:00", an
      * arbitrary origin (then only differences of time are meaningful). NetCDF only. */
     const char *reference_time;
+    /* The world's georeference (sq_world: crs_wkt, crs_offset_m): when crs_wkt is set, x and y
+     * are written as world + offset (easting, northing in that CRS) and NetCDF fields carry
+     * grid_mapping = "crs", a variable holding the WKT (crs_wkt, and GDAL's spatial_ref). */
+    const char *crs_wkt;
+    double crs_offset_m[2];
 } sq_field_file_desc;
 
-/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing) as netCDF-4 with CF-1.8
- * metadata: dimensions time (1), z, y, x; coordinate variables x, y, z (cell centres, metres,
- * axis X/Y/Z) and time; each field a float variable (time, z, y, x), or (time, y, x) with a
- * scalar z coordinate when nz == 1, carrying units, long_name, standard_name (where given) and
- * _FillValue. Written through a temporary name; the conventions are detailed in
+/* Writes fields sharing one grid (same nx, ny, nz, origin, spacing; 2D maps share x and y and
+ * may lie at different levels) as netCDF-4 with CF-1.8 metadata: dimensions time (UNLIMITED,
+ * one record: files of successive frames join with ncrcat), z, y, x; coordinate variables x, y,
+ * z (cell centres, metres, axis and standard_name) and time; each field a float variable (time,
+ * z, y, x), or (time, y, x) for a 2D map with its level as a scalar coordinate (z for a slice,
+ * height above the surface for a terrain-following map, none for a surface property), carrying
+ * units, long_name, standard_name (where given) and _FillValue, which marks invalid cells and
+ * NaN. Written through a temporary name; the conventions are detailed in
  * src/io/netcdf_fields.c. Names must match [A-Za-z_][A-Za-z0-9_.-]* and be unique. */
 SQ_API sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                         const sq_named_field *fields, int count);
 /* The same grid as VTK XML ImageData (.vti, raw appended binary): each field a Float32 point
- * array on points at the cell centres (Origin = centre of cell 0, Spacing in metres), the time
- * as field data "TimeValue". Written through a temporary name. */
+ * array on points at the cell centres (Origin = centre of cell 0, Spacing in metres), invalid
+ * cells NaN; three consecutive fields u, v, w (or P_u, P_v, P_w) become one 3-component vector
+ * array "wind" (or P); the time as field data "TimeValue". Written through a temporary name. */
 SQ_API sq_result sq_vtk_write_fields(sq_context *ctx, const sq_field_file_desc *desc,
                                      const sq_named_field *fields, int count);
+/* A ParaView time-series index (.pvd, VTK Collection): one DataSet per file with its time.
+ * files are written as given (relative to the .pvd's directory). Written through a temporary
+ * name; rewrite it after each new file so an interrupted run still has a complete index. */
+SQ_API sq_result sq_vtk_write_series(sq_context *ctx, const char *path, const char *const *files,
+                                     const double *times_s, int count, bool overwrite);
+
+/* ---- checkpoints ----------------------------------------------------------------------------- */
+struct sq_scene;
+struct sq_cfg;
+/* What a checkpoint says about itself. */
+typedef struct sq_checkpoint_info {
+    int format;          /* file format version */
+    char squall[32];     /* version that wrote it */
+    char build[40];      /* build id (compiler, flags, features) */
+    char scene[256];     /* scene name */
+    char source[256];    /* the scene file or preset it came from */
+    char base_dir[512];  /* directory the scene's relative paths resolve against */
+    int frame;           /* the next frame to make: frames 0..frame-1 were done */
+    double time_s;       /* simulated time of the checkpoint */
+} sq_checkpoint_info;
+/* Writes the complete state of scene (sq_scene_save_state), the configuration it was built
+ * from (cfg, overrides included) and frame (the next frame to make) to path, atomically
+ * (temporary + rename: a checkpoint is whole or absent), with a checksum. Refuses a scene with
+ * a layer that cannot be checkpointed (SQ_ERR_UNSUPPORTED), an input as path. */
+SQ_API sq_result sq_checkpoint_write(sq_context *ctx, const char *path, bool overwrite,
+                                     const struct sq_scene *scene, const struct sq_cfg *cfg,
+                                     int frame);
+/* Verifies path (checksum over the whole file, format, byte order, build) and reads its
+ * header and configuration (*cfg_out may be NULL): create the scene from it, then restore.
+ * Damaged or truncated files: SQ_ERR_PARSE; another build or format: SQ_ERR_INVALID_ARG. */
+SQ_API sq_result sq_checkpoint_read_header(sq_context *ctx, const char *path,
+                                           sq_checkpoint_info *info, struct sq_cfg **cfg_out);
+/* Restores the state of path into scene (created from the checkpoint's configuration); refuses
+ * another scene's layers or records and input files that changed since (size, mtime). */
+SQ_API sq_result sq_checkpoint_restore(sq_context *ctx, const char *path, struct sq_scene *scene,
+                                       sq_checkpoint_info *info);
 
 /* ---- scene files (YAML through libyaml) ----------------------------------------------------- */
 struct sq_cfg;

@@ -219,6 +219,11 @@ SQ_API sq_result sq_lbm_get_totals(sq_lbm *lbm, sq_lbm_totals *out);
 SQ_API const char *sq_lbm_collision_name(sq_lbm_collision c);
 SQ_API const char *sq_lbm_bc_name(sq_lbm_bc bc);
 
+/* Checkpoints (squall/core.h records): populations, solid flags, step and wind state, to restore
+ * into a lattice created from the same desc, which then steps bit-identically. */
+SQ_API sq_result sq_lbm_save_state(const sq_lbm *lbm, sq_state_writer *w);
+SQ_API sq_result sq_lbm_load_state(sq_lbm *lbm, sq_state_reader *r);
+
 #ifdef __cplusplus
 }
 #endif

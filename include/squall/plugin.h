@@ -97,6 +97,12 @@ typedef struct sq_phen_plugin {
     int (*metrics)(void *self, sq_metric *out, int max);
     /* Fills up to max fields for export; returns the count. */
     int (*fields)(void *self, sq_named_field *out, int max);
+    /* Optional (checkpoints): save writes every piece of state the following steps depend on
+     * as records (sq_state_put); load reads the same records into an instance created from the
+     * same desc and world, after which it continues bit-identically. NULL: the phenomenon cannot
+     * be checkpointed (a checkpoint of a scene with it is refused, naming the layer). */
+    sq_result (*save_state)(const void *self, sq_state_writer *w);
+    sq_result (*load_state)(void *self, sq_state_reader *r);
 } sq_phen_plugin;
 
 SQ_API int sq_plugin_count(void);

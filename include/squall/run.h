@@ -105,6 +105,19 @@ typedef struct sq_run_desc {
     /* progress after every frame (and during reference frames) */
     void (*progress)(void *user, const sq_run_progress *p);
     void *user;               /* for cancel and progress */
+    /* Checkpoints (squall/io.h): after the first frame at or past every multiple of
+     * checkpoint_every_s simulated seconds (the last frame included, so that a finished run can
+     * be extended with more frames), the complete state goes to checkpoint_path,
+     * atomically, replacing the run's previous checkpoint; checkpoint_cfg is the configuration
+     * the scene was built from (overrides included), stored with it. 0 = none. */
+    double checkpoint_every_s;
+    const char *checkpoint_path;
+    const struct sq_cfg *checkpoint_cfg;
+    bool checkpoint_replaces; /* the file at checkpoint_path may be replaced (the one resumed) */
+    /* Resume: the scene was restored from a checkpoint made before frame resume_frame
+     * (sq_checkpoint_info.frame); the run continues from there, bit-identically to a run that
+     * was never stopped, and writes the frames, metrics rows and fields from it on. */
+    int resume_frame;
 } sq_run_desc;
 
 /* Checks every output (before any work), opens the temporaries of the video and metrics files.

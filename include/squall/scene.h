@@ -46,11 +46,17 @@ SQ_API void sq_cfg_node_free(sq_cfg_node *n);
 SQ_API void sq_cfg_node_append(sq_cfg_node *parent, sq_cfg_node *child);
 /* Map lookup (NULL if absent or parent is not a map). */
 SQ_API sq_cfg_node *sq_cfg_get(const sq_cfg_node *map, const char *key);
-/* Applies "path.to.key=value". Path parts address map keys; for sequences a part is an index
- * or, in `layers`, a layer's name or type. Missing map keys are created. */
+/* Applies "path.to.key=value". Path parts (separated by single dots) address map keys; for
+ * sequences a part is an index or, in `layers`, a layer's name or type. Missing map keys are
+ * created. A value starting with '[' is a list "[a, b, c]" of plain values and must end with
+ * ']'. The whole text must be UTF-8 without control characters (what a scene file can hold).
+ * On failure the tree is unchanged. */
 SQ_API sq_result sq_cfg_set(sq_cfg *cfg, const char *assignment);
-/* Writes the tree as YAML into a malloc'd string (free with free()). */
+/* Writes the tree as YAML into a malloc'd string (free with free()); sq_cfg_parse reads it
+ * back as the same tree. NULL (error text set) when the tree holds invalid UTF-8. */
 SQ_API char *sq_cfg_to_yaml(const sq_cfg *cfg);
+/* True when text is valid UTF-8 without control characters (U+0000..U+001F, U+007F). */
+SQ_API bool sq_cfg_text_ok(const char *text);
 
 /* Built-in presets (the YAML files of scenes/ compiled into the library). */
 SQ_API int sq_preset_count(void);
@@ -132,6 +138,10 @@ SQ_API int sq_scene_frame_count(const sq_scene *s);
 /* Simulated seconds between frames. */
 SQ_API double sq_scene_frame_dt(const sq_scene *s);
 
+/* For rendering: the camera's position, every camera.path key and the path between keys must
+ * be at least 0.1 m above the terrain (the renderer's rule); the message names the key and its
+ * file:line. Simulation alone needs no camera and does not call it. */
+SQ_API sq_result sq_scene_check_camera(const sq_scene *s);
 /* Advances every layer by dt (each sub-cycled to its max stable step). */
 SQ_API sq_result sq_scene_step(sq_scene *s, double dt_s);
 /* The camera at the current time (calls each layer's observe hook). */
@@ -143,6 +153,13 @@ SQ_API int sq_scene_fields(sq_scene *s, sq_named_field *out, int max);
 SQ_API int sq_scene_layer_count(const sq_scene *s);
 SQ_API const char *sq_scene_layer_name(const sq_scene *s, int i);
 SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
+/* Checkpoints: the scene's clock (time, step count) and every layer's complete state as
+ * records (squall/core.h, sq_state_*); load restores them into a scene created from the same
+ * configuration, which then continues bit-identically. A layer whose phenomenon has no state
+ * hooks is refused (SQ_ERR_UNSUPPORTED, naming it); load refuses records of other layers or
+ * sizes (SQ_ERR_INVALID_ARG). The file around them: squall/io.h, sq_checkpoint_*. */
+SQ_API sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w);
+SQ_API sq_result sq_scene_load_state(sq_scene *s, sq_state_reader *r);
 /* Layer i as a generic phenomenon handle (squall/phenomenon.h), owned by the scene: valid until
  * sq_scene_destroy; never destroy it yourself. NULL outside [0, layer count). Stepping it alone
  * puts it ahead of the scene's clock; read it, or step the scene. */

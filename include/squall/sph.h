@@ -377,6 +377,11 @@ typedef struct sq_sph_stats {
 } sq_sph_stats;
 SQ_API sq_sph_stats sq_sph_get_stats(const sq_sph *sph);
 
+/* Checkpoints (squall/core.h records): the complete particle state, to restore into a solver
+ * created from the same desc and colliders, which then steps bit-identically. */
+SQ_API sq_result sq_sph_save_state(const sq_sph *s, sq_state_writer *w);
+SQ_API sq_result sq_sph_load_state(sq_sph *s, sq_state_reader *r);
+
 #ifdef __cplusplus
 }
 #endif

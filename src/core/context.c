@@ -63,7 +63,60 @@ sq_result sq_context_create(const sq_context_desc *desc, sq_context **out)
     return SQ_OK;
 }
 
-void sq_context_destroy(sq_context *ctx) { free(ctx); }
+void sq_context_destroy(sq_context *ctx)
+{
+    if (!ctx) return;
+    for (int i = 0; i < ctx->input_count; i++) free(ctx->inputs[i].path);
+    free(ctx->inputs);
+    free(ctx);
+}
+
+void sq_context_cancel(sq_context *ctx)
+{
+    if (ctx) ctx->cancel = 1;
+}
+bool sq_context_cancelled(const sq_context *ctx) { return sq__cancelled(ctx); }
+void sq_context_cancel_clear(sq_context *ctx)
+{
+    if (ctx) ctx->cancel = 0;
+}
+
+sq_result sq__fail_cancelled(sq_context *ctx, const char *module, const char *what)
+{
+    return sq__fail(ctx, SQ_ERR_CANCELLED, module, "interrupted %s", what ? what : "");
+}
+
+void sq__context_note_input(sq_context *ctx, const char *path, uint64_t dev, uint64_t ino,
+                            const char *what)
+{
+    if (!ctx || !path) return;
+    for (int i = 0; i < ctx->input_count; i++)
+        if (ctx->inputs[i].dev == dev && ctx->inputs[i].ino == ino) return;
+    if (ctx->input_count == ctx->input_cap) {
+        int cap = ctx->input_cap ? 2 * ctx->input_cap : 8;
+        sq__input *n = (sq__input *)realloc(ctx->inputs, sizeof *n * (size_t)cap);
+        if (!n) return;
+        ctx->inputs = n;
+        ctx->input_cap = cap;
+    }
+    sq__input *in = &ctx->inputs[ctx->input_count];
+    in->path = strdup(path);
+    if (!in->path) return;
+    in->dev = dev;
+    in->ino = ino;
+    snprintf(in->what, sizeof in->what, "%s", what ? what : "input");
+    ctx->input_count++;
+}
+
+int sq_context_input_count(const sq_context *ctx) { return ctx ? ctx->input_count : 0; }
+const char *sq_context_input_path(const sq_context *ctx, int i)
+{
+    return ctx && i >= 0 && i < ctx->input_count ? ctx->inputs[i].path : NULL;
+}
+const char *sq_context_input_what(const sq_context *ctx, int i)
+{
+    return ctx && i >= 0 && i < ctx->input_count ? ctx->inputs[i].what : NULL;
+}
 int sq_context_threads(const sq_context *ctx) { return ctx ? ctx->threads : 1; }
 uint64_t sq_context_seed(const sq_context *ctx) { return ctx ? ctx->seed : 0; }
 uint64_t sq_context_memory_limit(const sq_context *ctx) { return ctx ? ctx->memory_limit : 0; }
@@ -181,7 +234,7 @@ bool sq_has_feature(const char *name)
 
 sq_result sq_context_poll_interrupt(sq_context *ctx, const char *module, const char *what)
 {
-    if (!ctx || !ctx->interrupt || !ctx->interrupt(ctx->interrupt_user)) return SQ_OK;
+    if (!sq__cancelled(ctx)) return SQ_OK; /* sq_context_cancel or the interrupt callback */
     return sq__fail(ctx, SQ_ERR_CANCELLED, module ? module : "squall", "interrupted during %s",
                     what ? what : "set-up");
 }

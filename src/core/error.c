@@ -22,6 +22,7 @@ const char *sq_result_name(sq_result r)
     case SQ_ERR_NOT_FOUND: return "SQ_ERR_NOT_FOUND";
     case SQ_ERR_INTERNAL: return "SQ_ERR_INTERNAL";
     case SQ_ERR_CANCELLED: return "SQ_ERR_CANCELLED";
+    case SQ_ERR_NO_SPACE: return "SQ_ERR_NO_SPACE";
     }
     return "SQ_ERR_UNKNOWN";
 }

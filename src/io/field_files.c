@@ -26,6 +26,10 @@ sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
     if (!desc) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s desc is NULL", what);
     if (!desc->path || !*desc->path)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s path is empty", what);
+    if (desc->crs_wkt && *desc->crs_wkt &&
+        (!isfinite(desc->crs_offset_m[0]) || !isfinite(desc->crs_offset_m[1])))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s '%s': crs_offset_m is not finite", what,
+                        desc->path);
     if (!isfinite(desc->time_s))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s '%s': time_s = %g; must be finite", what,
                         desc->path, desc->time_s);
@@ -64,7 +68,17 @@ sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
                             "a file share one grid",
                             what, desc->path, f->name, f->nx, f->ny, f->nz, f0->name, f0->nx,
                             f0->ny, f0->nz);
-        if (!vec_equal(f->origin_m, f0->origin_m) || !vec_equal(f->spacing_m, f0->spacing_m))
+        /* 2D maps share x and y; each may lie at its own level */
+        const bool same_grid = f0->nz == 1 ? f->origin_m.x == f0->origin_m.x &&
+                                                 f->origin_m.y == f0->origin_m.y &&
+                                                 f->spacing_m.x == f0->spacing_m.x &&
+                                                 f->spacing_m.y == f0->spacing_m.y
+                                           : vec_equal(f->origin_m, f0->origin_m) &&
+                                                 vec_equal(f->spacing_m, f0->spacing_m);
+        if (f0->nz == 1 && (f->level < SQ_FIELD_LEVEL_ALTITUDE || f->level > SQ_FIELD_LEVEL_SURFACE))
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "%s '%s': field '%s' level = %d; not an "
+                            "sq_field_level", what, desc->path, f->name, (int)f->level);
+        if (!same_grid)
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io",
                             "%s '%s': field '%s' has another origin or spacing than '%s'; all "
                             "fields of a file share one grid",
@@ -72,7 +86,7 @@ sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
         if (!(f->spacing_m.x > 0.0f) || !(f->spacing_m.y > 0.0f) || !(f->spacing_m.z > 0.0f) ||
             !isfinite(f->spacing_m.x) || !isfinite(f->spacing_m.y) || !isfinite(f->spacing_m.z))
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io",
-                            "%s '%s': field '%s' spacing = (%g, %g, %g) m; each must be > 0 and "
+                            "%s '%s': field '%s' spacing_m = (%g, %g, %g); each must be > 0 and "
                             "finite",
                             what, desc->path, f->name, (double)f->spacing_m.x,
                             (double)f->spacing_m.y, (double)f->spacing_m.z);

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "geo_internal.h"
+#include "io/io_internal.h"
 
 #define MOD "area"
 
@@ -180,7 +181,8 @@ sq_result sq_area_load(sq_context *ctx, const sq_area_desc *desc, sq_area *out)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
                         "%s.file = '%s': polygon areas need a georeferenced world (a DEM terrain); "
                         "this world has no CRS", key, desc->path);
-    sq_result r = SQ_OK;
+    sq_result r = sq__input_guard(ctx, MOD, "area file", desc->path); /* no FIFO; never written */
+    if (r != SQ_OK) return r;
     area_build b;
     memset(&b, 0, sizeof b);
     b.ctx = ctx;

@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "geo_internal.h"
+#include "io/io_internal.h"
 
 #define MOD "dem"
 #define DEM_NODATA (-99999.0)
@@ -213,7 +214,8 @@ sq_result sq_dem_load(sq_context *ctx, const sq_dem_desc *desc, sq_dem *out)
                         j->key, d->cell_m);
     const int64_t max_samples = d->max_samples > 0 ? d->max_samples : (int64_t)8192 * 8192;
 
-    sq_result r = SQ_OK;
+    sq_result r = sq__input_guard(ctx, MOD, "DEM", d->path); /* no FIFO; never written */
+    if (r != SQ_OK) return r;
     sq__geo_quiet_begin();
     j->src = GDALOpenEx(d->path, GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, NULL,
                         NULL, NULL);

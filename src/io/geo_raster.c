@@ -115,7 +115,9 @@ sq_result sq_raster_write(sq_context *ctx, const sq_raster_desc *d)
                         d->y0);
     char tmp[SQ__TEMP_NAME_MAX];
     int fd = -1;
-    sq_result r = sq__output_open_temp(d->path, d->overwrite, tmp, sizeof tmp, &fd);
+    sq_result r = sq_output_check_inputs(ctx, d->path, false);
+    if (r != SQ_OK) return r;
+    r = sq__output_open_temp(d->path, d->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) return sq__io_relog(ctx, r);
     sq__geo_quiet_begin();
     if (d->format == SQ_RASTER_ASCII) {

@@ -5,6 +5,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdio.h>
 
 #include "core/core_internal.h"
 #include "squall/drawable.h"
@@ -26,6 +27,27 @@ void sq__output_discard(const char *tmp);
 /* Logs the current error text (set by a context-free function) on ctx under "io" and returns r
  * unchanged; SQ_OK passes through silently. */
 sq_result sq__io_relog(sq_context *ctx, sq_result r);
+
+/* Opens path for reading as *out ("rb") without ever blocking: anything but a regular file
+ * (directory, FIFO, socket, device) is refused with SQ_ERR_IO naming what (e.g. "scene file"),
+ * the path and its kind; a missing file names the system's reason. */
+sq_result sq__input_open(sq_context *ctx, const char *module, const char *what, const char *path,
+                         FILE **out);
+/* For paths another library opens and reports on itself (GDAL, libnetcdf): a path that does
+ * not exist (or names a library-virtual file) passes, to be reported by the library; one that
+ * exists must be a regular file and is recorded as an input. */
+sq_result sq__input_guard(sq_context *ctx, const char *module, const char *what, const char *path);
+/* The same check for a path another library will open (follows symlinks). */
+sq_result sq__input_check(sq_context *ctx, const char *module, const char *what,
+                          const char *path);
+
+/* True when a write of path failed because the disk or quota is full: err is ENOSPC or
+ * EDQUOT, or (for libraries that lose errno) the filesystem of path has no free blocks left. */
+bool sq__io_no_space(const char *path, int err);
+/* Fails for a write of path that failed with errno err: SQ_ERR_NO_SPACE "cannot write 'path':
+ * no space left on device ..." when the disk is full (a runtime error, exit 1), else SQ_ERR_IO
+ * with detail (or strerror(err)). ctx may be NULL (then nothing is logged). */
+sq_result sq__write_error(sq_context *ctx, const char *path, int err, const char *detail);
 
 /* Validates a set of fields for one field file: count >= 1, names [A-Za-z_][A-Za-z0-9_.-]*
  * unique and none of x, y, z, time; data non-NULL; sizes >= 1 and equal; origin and spacing

@@ -67,13 +67,15 @@ static sq_result precheck(sq_context *ctx, const char *path, fmt *f)
     char ext[16];
     struct stat st;
     if (!path || !path[0]) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MODULE, "mesh file path is empty");
-    if (stat(path, &st) != 0)
-        return sq__fail(ctx, SQ_ERR_IO, MODULE, "cannot open mesh '%s': %s", path, strerror(errno));
-    if (S_ISDIR(st.st_mode))
-        return sq__fail(ctx, SQ_ERR_IO, MODULE, "cannot open mesh '%s': it is a directory", path);
-    FILE *fp = fopen(path, "rb");
-    if (!fp)
-        return sq__fail(ctx, SQ_ERR_IO, MODULE, "cannot open mesh '%s': %s", path, strerror(errno));
+    /* only a regular file (a FIFO would block the open), recorded so no output replaces it */
+    FILE *fp = NULL;
+    sq_result r = sq__input_open(ctx, MODULE, "mesh", path, &fp);
+    if (r != SQ_OK) return r;
+    if (fstat(fileno(fp), &st) != 0) {
+        const int e = errno;
+        fclose(fp);
+        return sq__fail(ctx, SQ_ERR_IO, MODULE, "cannot open mesh '%s': %s", path, strerror(e));
+    }
     *f = format_of(path, ext, sizeof ext);
     if (*f == FMT_NONE) {
         fclose(fp);

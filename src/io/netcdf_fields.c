@@ -1,25 +1,42 @@
-/* netcdf_fields.c — field output as netCDF-4 following the CF conventions 1.8 (issue 3 part 5).
+/* netcdf_fields.c — field output as netCDF-4 following the CF conventions 1.8 (issue 3 part 5,
+ * issue 17 part 7: files the standard tools accept).
+ *
+ * Format: netCDF-4 (HDF5) in the classic data model (no groups or user types), the variant that
+ * every reader accepts, netCDF4-python's MFDataset and NCO included.
  *
  * Layout (C order, x fastest, matching sq_named_field):
- *   dimensions  time = 1, z = nz (only when nz > 1), y = ny, x = nx
+ *   dimensions  time = UNLIMITED (one record per file, so ncrcat joins the files of successive
+ *               frames into one time series), z = nz (only when nz > 1), y = ny, x = nx
  *   x(x), y(y)  double, units "m", axis "X"/"Y", standard_name projection_x_coordinate /
  *               projection_y_coordinate: world axes x east, y north (ARCHITECTURE.md), cell
- *               centres origin + i * spacing. There is no map projection: the grid is a local
- *               Cartesian frame, so no grid_mapping is written.
- *   z(z)        double, units "m", axis "Z", positive "up", long_name "height of cell centres
- *               above the world origin". No standard_name: CF's "height" means above the local
- *               surface and "altitude" above the geoid; the world's z is neither in general.
- *               When nz == 1, z is a scalar coordinate variable (the height of the slice) named
- *               by each field's "coordinates" attribute, and fields are (time, y, x).
+ *               centres origin + i * spacing. When the world has a CRS (desc->crs_wkt), the
+ *               values are world + crs_offset_m, i.e. easting and northing in that CRS, and a
+ *               scalar int variable "crs" holds the WKT (attributes crs_wkt, and spatial_ref for
+ *               GDAL); every field names it in grid_mapping. Without a CRS the grid is a local
+ *               Cartesian frame and no grid_mapping is written.
+ *   z(z)        double, units "m", axis "Z", positive "up", standard_name "altitude": the world z
+ *               (for a georeferenced world, heights above sea level as in its DEM or WRF file;
+ *               for a procedural world, above its datum z = 0).
+ *   2D maps     fields with nz == 1 are (time, y, x) and carry their level as a scalar
+ *               coordinate named in "coordinates": a horizontal slice (SQ_FIELD_LEVEL_ALTITUDE)
+ *               a scalar "z" (altitude) at its world z; a terrain-following map
+ *               (SQ_FIELD_LEVEL_HEIGHT, e.g. visibility 2 m above the ground) a scalar "height"
+ *               (standard_name height: above the surface) at its height; maps at different
+ *               levels get one coordinate each (z_2m, height_10m ...). A surface property
+ *               (SQ_FIELD_LEVEL_SURFACE: snow depth) has no vertical coordinate.
  *   time(time)  double, standard_name "time", axis "T", calendar "standard", units
  *               "seconds since <reference_time>" (desc; default "2000-01-01 00:00:00", an
  *               arbitrary origin). CF requires a reference date in time units; a bare "s" would
  *               make time a duration, not a time coordinate.
- *   fields      float (time, z, y, x) with units, long_name (the name when none is given),
- *               standard_name where given, _FillValue = NC_FILL_FLOAT (9.96921e36).
+ *   fields      float (time, [z,] y, x) with units, long_name (the name when none is given),
+ *               standard_name where given, _FillValue = NC_FILL_FLOAT (9.96921e36) in every cell
+ *               the field marks invalid (inside solids, below the ground) and wherever it is NaN.
  *   globals     Conventions "CF-1.8", title, source, history ("<UTC time> squall <version>:
  *               written"; SOURCE_DATE_EPOCH, when set, replaces the clock for reproducibility).
- * The file is written to a temporary name and renamed when closed (output.c). */
+ * The file is written to a temporary name and renamed when closed (output.c); a full disk is
+ * reported as "no space left on device" naming the file. */
+#include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -72,6 +89,9 @@ typedef struct nc_writer {
 
 static sq_result nc_fail(const nc_writer *w, int status, const char *doing)
 {
+    /* HDF5 reports a full disk as a generic "HDF error": errno or the filesystem tells */
+    if (status != NC_ENOMEM && sq__io_no_space(w->path, errno))
+        return sq__write_error(w->ctx, w->path, ENOSPC, NULL);
     return sq__fail(w->ctx, status == NC_ENOMEM ? SQ_ERR_OUT_OF_MEMORY : SQ_ERR_IO, "io",
                     "cannot write '%s' (%s): %s", w->path, doing, nc_strerror(status));
 }
@@ -87,7 +107,7 @@ static int def_coord(int ncid, const char *name, int dim, const char *units, con
 {
     int st = nc_def_var(ncid, name, NC_DOUBLE, dim >= 0 ? 1 : 0, dim >= 0 ? &dim : NULL, varid);
     if (st == NC_NOERR) st = put_text(ncid, *varid, "units", units);
-    if (st == NC_NOERR) st = put_text(ncid, *varid, "axis", axis);
+    if (st == NC_NOERR && axis) st = put_text(ncid, *varid, "axis", axis);
     if (st == NC_NOERR && standard_name)
         st = put_text(ncid, *varid, "standard_name", standard_name);
     if (st == NC_NOERR) st = put_text(ncid, *varid, "long_name", long_name);
@@ -107,6 +127,52 @@ static int put_axis(int ncid, int varid, size_t n, double origin, double spacing
     return st;
 }
 
+/* The scalar level coordinate of a 2D map: one variable per distinct (kind, value). */
+#define SQ__NC_MAX_LEVELS 32
+typedef struct nc_level {
+    sq_field_level kind;
+    double value;
+    char name[48];
+    int varid;
+} nc_level;
+
+static void level_name(const nc_level *l, int index, int same_kind, char *buf, size_t size)
+{
+    const char *base = l->kind == SQ_FIELD_LEVEL_HEIGHT ? "height" : "z";
+    if (same_kind <= 1) {
+        snprintf(buf, size, "%s", base);
+        return;
+    }
+    char v[24];
+    snprintf(v, sizeof v, "%g", l->value);
+    for (char *c = v; *c; c++)
+        if (*c == '.') *c = 'p';
+        else if (*c == '-') *c = 'm';
+        else if (*c == '+') *c = '_';
+    int n = snprintf(buf, size, "%s_%sm", base, v);
+    if (n < 0 || (size_t)n >= size) snprintf(buf, size, "%s_%d", base, index);
+}
+
+/* Writes field f of record 0, slab by slab, with invalid cells and NaN as the fill value. */
+static int put_field(nc_writer *w, int varid, const sq_named_field *f, bool has_z, float *slab)
+{
+    const size_t nxy = (size_t)f->nx * (size_t)f->ny;
+    int st = NC_NOERR;
+    for (int k = 0; k < f->nz && st == NC_NOERR; k++) {
+        const float *src = f->data + (size_t)k * nxy;
+        const uint8_t *inv = f->invalid ? f->invalid + (size_t)k * nxy : NULL;
+        for (size_t c = 0; c < nxy; c++)
+            slab[c] = (inv && inv[c]) || isnan(src[c]) ? NC_FILL_FLOAT : src[c];
+        size_t start[4] = {0, 0, 0, 0}, count[4] = {1, 1, 1, 1};
+        int d = 1;
+        if (has_z) start[d++] = (size_t)k;
+        count[d] = (size_t)f->ny;
+        count[d + 1] = (size_t)f->nx;
+        st = nc_put_vara_float(w->ncid, varid, start, count, slab);
+    }
+    return st;
+}
+
 /* Defines, fills and closes the file; ncid is open in define mode. */
 static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
                                 const sq_named_field *fields, int count, const char *reference)
@@ -114,29 +180,78 @@ static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
     const int ncid = w->ncid;
     const sq_named_field *g = &fields[0];
     const bool has_z_dim = g->nz > 1;
+    const bool georef = desc->crs_wkt && *desc->crs_wkt;
+    const double off_x = georef ? desc->crs_offset_m[0] : 0.0;
+    const double off_y = georef ? desc->crs_offset_m[1] : 0.0;
     int dim_t, dim_z = -1, dim_y, dim_x;
-    int st = nc_def_dim(ncid, "time", 1, &dim_t);
+    int st = nc_def_dim(ncid, "time", NC_UNLIMITED, &dim_t);
     if (st == NC_NOERR && has_z_dim) st = nc_def_dim(ncid, "z", (size_t)g->nz, &dim_z);
     if (st == NC_NOERR) st = nc_def_dim(ncid, "y", (size_t)g->ny, &dim_y);
     if (st == NC_NOERR) st = nc_def_dim(ncid, "x", (size_t)g->nx, &dim_x);
     if (st != NC_NOERR) return nc_fail(w, st, "defining dimensions");
 
-    int var_t, var_z, var_y, var_x;
+    int var_t, var_z = -1, var_y, var_x, var_crs = -1;
     char time_units[64];
     snprintf(time_units, sizeof time_units, "seconds since %s", reference);
     st = def_coord(ncid, "time", dim_t, time_units, "T", "time", "simulation time", &var_t);
     if (st == NC_NOERR) st = put_text(ncid, var_t, "calendar", "standard");
-    if (st == NC_NOERR)
-        st = def_coord(ncid, "z", has_z_dim ? dim_z : -1, "m", "Z", NULL,
-                       "height of cell centres above the world origin", &var_z);
-    if (st == NC_NOERR) st = put_text(ncid, var_z, "positive", "up");
+    if (st == NC_NOERR && has_z_dim) {
+        st = def_coord(ncid, "z", dim_z, "m", "Z", "altitude", "altitude of cell centres", &var_z);
+        if (st == NC_NOERR) st = put_text(ncid, var_z, "positive", "up");
+    }
     if (st == NC_NOERR)
         st = def_coord(ncid, "y", dim_y, "m", "Y", "projection_y_coordinate",
-                       "y (north) of cell centres", &var_y);
+                       georef ? "northing of cell centres" : "y (north) of cell centres", &var_y);
     if (st == NC_NOERR)
         st = def_coord(ncid, "x", dim_x, "m", "X", "projection_x_coordinate",
-                       "x (east) of cell centres", &var_x);
+                       georef ? "easting of cell centres" : "x (east) of cell centres", &var_x);
+    if (st == NC_NOERR && georef) {
+        st = nc_def_var(ncid, "crs", NC_INT, 0, NULL, &var_crs);
+        if (st == NC_NOERR) st = put_text(ncid, var_crs, "crs_wkt", desc->crs_wkt);
+        if (st == NC_NOERR) st = put_text(ncid, var_crs, "spatial_ref", desc->crs_wkt);
+        if (st == NC_NOERR)
+            st = put_text(ncid, var_crs, "long_name", "coordinate reference system of x and y");
+    }
     if (st != NC_NOERR) return nc_fail(w, st, "defining coordinates");
+
+    /* levels of the 2D maps */
+    nc_level levels[SQ__NC_MAX_LEVELS];
+    int nlev = 0;
+    int *level_of = (int *)sq_alloc(w->ctx, sizeof(int) * (size_t)count);
+    if (!level_of) return sq__io_relog(w->ctx, SQ_ERR_OUT_OF_MEMORY);
+    for (int i = 0; i < count; i++) {
+        level_of[i] = -1;
+        if (has_z_dim || fields[i].level == SQ_FIELD_LEVEL_SURFACE) continue;
+        const double v = (double)fields[i].origin_m.z;
+        int L = 0;
+        while (L < nlev && !(levels[L].kind == fields[i].level && levels[L].value == v)) L++;
+        if (L == nlev) {
+            if (nlev == SQ__NC_MAX_LEVELS) {
+                sq_free(w->ctx, level_of);
+                return sq__fail(w->ctx, SQ_ERR_INVALID_ARG, "io",
+                                "NetCDF file '%s': 2D maps at more than %d levels", w->path,
+                                SQ__NC_MAX_LEVELS);
+            }
+            levels[nlev].kind = fields[i].level;
+            levels[nlev].value = v;
+            nlev++;
+        }
+        level_of[i] = L;
+    }
+    for (int L = 0; L < nlev && st == NC_NOERR; L++) {
+        int same = 0;
+        for (int M = 0; M < nlev; M++) same += levels[M].kind == levels[L].kind;
+        level_name(&levels[L], L, same, levels[L].name, sizeof levels[L].name);
+        const bool h = levels[L].kind == SQ_FIELD_LEVEL_HEIGHT;
+        st = def_coord(ncid, levels[L].name, -1, "m", "Z", h ? "height" : "altitude",
+                       h ? "height above the terrain surface" : "altitude of the slice",
+                       &levels[L].varid);
+        if (st == NC_NOERR) st = put_text(ncid, levels[L].varid, "positive", "up");
+    }
+    if (st != NC_NOERR) {
+        sq_free(w->ctx, level_of);
+        return nc_fail(w, st, "defining levels");
+    }
 
     int dims4[4], nd = 0;
     dims4[nd++] = dim_t;
@@ -144,7 +259,13 @@ static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
     dims4[nd++] = dim_y;
     dims4[nd++] = dim_x;
     int *varids = (int *)sq_alloc(w->ctx, sizeof(int) * (size_t)count);
-    if (!varids) return sq__io_relog(w->ctx, SQ_ERR_OUT_OF_MEMORY);
+    float *slab = (float *)sq_alloc(w->ctx, sizeof(float) * (size_t)g->nx * (size_t)g->ny);
+    if (!varids || !slab) {
+        sq_free(w->ctx, varids);
+        sq_free(w->ctx, slab);
+        sq_free(w->ctx, level_of);
+        return sq__io_relog(w->ctx, SQ_ERR_OUT_OF_MEMORY);
+    }
     const float fill = NC_FILL_FLOAT;
     char doing[192] = "";
     for (int i = 0; i < count && st == NC_NOERR; i++) {
@@ -159,7 +280,9 @@ static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
                           f->long_name && *f->long_name ? f->long_name : f->name);
         if (st == NC_NOERR && f->standard_name && *f->standard_name)
             st = put_text(ncid, varids[i], "standard_name", f->standard_name);
-        if (st == NC_NOERR && !has_z_dim) st = put_text(ncid, varids[i], "coordinates", "z");
+        if (st == NC_NOERR && level_of[i] >= 0)
+            st = put_text(ncid, varids[i], "coordinates", levels[level_of[i]].name);
+        if (st == NC_NOERR && georef) st = put_text(ncid, varids[i], "grid_mapping", "crs");
     }
     if (st == NC_NOERR) {
         char history[128];
@@ -182,23 +305,27 @@ static sq_result write_contents(nc_writer *w, const sq_field_file_desc *desc,
     }
     if (st == NC_NOERR) {
         snprintf(doing, sizeof doing, "writing coordinates");
-        st = nc_put_var_double(ncid, var_t, &desc->time_s);
+        const size_t t0 = 0, t1 = 1;
+        st = nc_put_vara_double(ncid, var_t, &t0, &t1, &desc->time_s);
+        if (st == NC_NOERR && has_z_dim)
+            st = put_axis(ncid, var_z, (size_t)g->nz, (double)g->origin_m.z, (double)g->spacing_m.z);
+        for (int L = 0; L < nlev && st == NC_NOERR; L++)
+            st = nc_put_var_double(ncid, levels[L].varid, &levels[L].value);
         if (st == NC_NOERR)
-            st = has_z_dim ? put_axis(ncid, var_z, (size_t)g->nz, (double)g->origin_m.z,
-                                      (double)g->spacing_m.z)
-                           : nc_put_var_double(ncid, var_z, &(double){(double)g->origin_m.z});
+            st = put_axis(ncid, var_y, (size_t)g->ny, (double)g->origin_m.y + off_y,
+                          (double)g->spacing_m.y);
         if (st == NC_NOERR)
-            st =
-                put_axis(ncid, var_y, (size_t)g->ny, (double)g->origin_m.y, (double)g->spacing_m.y);
-        if (st == NC_NOERR)
-            st =
-                put_axis(ncid, var_x, (size_t)g->nx, (double)g->origin_m.x, (double)g->spacing_m.x);
+            st = put_axis(ncid, var_x, (size_t)g->nx, (double)g->origin_m.x + off_x,
+                          (double)g->spacing_m.x);
+        if (st == NC_NOERR && georef) st = nc_put_var_int(ncid, var_crs, &(int){0});
     }
     for (int i = 0; i < count && st == NC_NOERR; i++) {
         snprintf(doing, sizeof doing, "writing variable '%s'", fields[i].name);
-        st = nc_put_var_float(ncid, varids[i], fields[i].data);
+        st = put_field(w, varids[i], &fields[i], has_z_dim, slab);
     }
     sq_free(w->ctx, varids);
+    sq_free(w->ctx, slab);
+    sq_free(w->ctx, level_of);
     if (st != NC_NOERR) return nc_fail(w, st, doing);
     return SQ_OK;
 }
@@ -216,12 +343,14 @@ sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc
                         desc->path, reference);
     char tmp[SQ__TEMP_NAME_MAX];
     int fd = -1;
+    r = sq_output_check_inputs(ctx, desc->path, false);
+    if (r != SQ_OK) return r;
     r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) return sq__io_relog(ctx, r);
     close(fd); /* reserved exclusively; libnetcdf recreates it */
 
     nc_writer w = {.ctx = ctx, .path = desc->path, .ncid = -1};
-    int st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &w.ncid);
+    int st = nc_create(tmp, NC_NETCDF4 | NC_CLASSIC_MODEL | NC_CLOBBER, &w.ncid);
     if (st != NC_NOERR) {
         r = nc_fail(&w, st, "creating the temporary");
         sq__output_discard(tmp);

@@ -4,11 +4,15 @@
  * name is checked before any expensive work (sq_output_check); an existing file is replaced only
  * with overwrite, and without it the rename itself refuses to replace (RENAME_NOREPLACE, or
  * link + unlink where the filesystem lacks it), so a file that appears meanwhile is kept too. */
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "io/io_internal.h"
@@ -184,6 +188,7 @@ sq_result sq_output_commit(const char *tmp, const char *path, bool overwrite)
     if (fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
         int e = errno;
         close(fd);
+        if (sq__io_no_space(path, e)) return sq__write_error(NULL, path, e, NULL);
         return sq__set_error(SQ_ERR_IO, "cannot finish '%s': flushing '%s' failed: %s", path, tmp,
                              strerror(e));
     }
@@ -239,7 +244,7 @@ sq_result sq_output_write_file(const char *path, const void *data, size_t size, 
             int e = errno;
             close(fd);
             sq__output_discard(tmp);
-            return sq__set_error(SQ_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+            return sq__write_error(NULL, path, e, NULL);
         }
         p += n;
         left -= (size_t)n;
@@ -247,9 +252,161 @@ sq_result sq_output_write_file(const char *path, const void *data, size_t size, 
     if (close(fd) != 0) {
         int e = errno;
         sq__output_discard(tmp);
-        return sq__set_error(SQ_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+        return sq__write_error(NULL, path, e, NULL);
     }
     return sq__output_finish(tmp, path, overwrite);
+}
+
+/* ---- inputs are never written ---------------------------------------------------------------- */
+/* Splits a path or prefix into its directory and the name (part) it ends with. */
+static void dir_and_name(const char *p, char *dir, size_t size, const char **name)
+{
+    split_path(p, dir, size, name);
+}
+
+/* Whether path reaches input ip through a link: path is a symbolic link, or another name of the
+ * file (a hard link); "dem.tif" and "./dem.tif" are the same name. */
+static bool through_link(const char *path, const char *ip)
+{
+    struct stat ls;
+    if (lstat(path, &ls) == 0 && S_ISLNK(ls.st_mode)) return true;
+    char *a = realpath(path, NULL), *b = realpath(ip, NULL);
+    const bool other = !a || !b || strcmp(a, b) != 0;
+    free(a);
+    free(b);
+    return other;
+}
+
+static sq_result refuse_input(sq_context *ctx, const char *path, int i)
+{
+    const char *ip = sq_context_input_path(ctx, i);
+    return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io",
+                    "output '%s' is the %s '%s'%s: inputs are never written, not even with "
+                    "--overwrite; choose another output name",
+                    path, sq_context_input_what(ctx, i), ip,
+                    through_link(path, ip) ? " (the same file through a link)" : "");
+}
+
+static int input_index(const sq_context *ctx, const struct stat *st)
+{
+    for (int i = 0; i < ctx->input_count; i++)
+        if (ctx->inputs[i].dev == (uint64_t)st->st_dev && ctx->inputs[i].ino == (uint64_t)st->st_ino)
+            return i;
+    return -1;
+}
+
+/* A numbered output name: "<anything>DDDDD.<ext>" (5 or more digits before the extension). */
+static bool numbered_name(const char *name)
+{
+    const char *dot = strrchr(name, '.');
+    if (!dot || dot == name) return false;
+    int digits = 0;
+    for (const char *p = dot - 1; p >= name && *p >= '0' && *p <= '9'; p--) digits++;
+    return digits >= 5;
+}
+
+sq_result sq_output_check_inputs(sq_context *ctx, const char *path, bool prefix)
+{
+    if (!ctx || ctx->input_count == 0 || !path || !*path) return SQ_OK;
+    struct stat st;
+    if (!prefix) {
+        /* A path that does not exist yet replaces nothing; one that resolves (symlinks followed)
+         * to an input's device and inode is that input. */
+        if (stat(path, &st) != 0) return SQ_OK;
+        const int i = input_index(ctx, &st);
+        return i >= 0 ? refuse_input(ctx, path, i) : SQ_OK;
+    }
+    char dir[SQ__TEMP_NAME_MAX];
+    const char *name = NULL;
+    dir_and_name(path, dir, sizeof dir, &name);
+    const size_t nl = strlen(name);
+    DIR *d = opendir(dir);
+    if (!d) return SQ_OK;
+    sq_result r = SQ_OK;
+    struct dirent *e;
+    while (r == SQ_OK && (e = readdir(d)) != NULL) {
+        if (strncmp(e->d_name, name, nl) != 0 || !numbered_name(e->d_name)) continue;
+        char full[SQ__TEMP_NAME_MAX];
+        int n = strcmp(dir, ".") == 0 && name == path
+                    ? snprintf(full, sizeof full, "%s", e->d_name)
+                    : snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
+        if (n < 0 || (size_t)n >= sizeof full || stat(full, &st) != 0) continue;
+        const int i = input_index(ctx, &st);
+        if (i >= 0) r = refuse_input(ctx, full, i);
+    }
+    closedir(d);
+    return r;
+}
+
+/* ---- temporaries left by a killed run ---------------------------------------------------------- */
+/* The pid of a temporary ".NAME.tmp-PID-N" (0 if the name is not one). */
+static long temp_pid(const char *entry, const char *name, size_t nl, bool prefix)
+{
+    if (entry[0] != '.' || strncmp(entry + 1, name, nl) != 0) return 0;
+    const char *t = strstr(entry + 1 + nl, ".tmp-");
+    if (!t || (!prefix && t != entry + 1 + nl)) return 0;
+    const char *p = t + 5;
+    char *end = NULL;
+    long pid = strtol(p, &end, 10);
+    if (end == p || *end != '-' || pid <= 0) return 0;
+    for (const char *q = end + 1; *q; q++)
+        if (*q < '0' || *q > '9') return 0;
+    return end[1] ? pid : 0;
+}
+
+int sq_output_remove_stale(sq_context *ctx, const char *path, bool prefix)
+{
+    if (!path || !*path) return 0;
+    char dir[SQ__TEMP_NAME_MAX];
+    const char *name = NULL;
+    dir_and_name(path, dir, sizeof dir, &name);
+    const size_t nl = strlen(name);
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    int removed = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        const long pid = temp_pid(e->d_name, name, nl, prefix);
+        if (pid == 0 || pid == (long)getpid()) continue;
+        /* a live process (perhaps another squall writing the same name) keeps its file */
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        char full[SQ__TEMP_NAME_MAX];
+        int n = snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
+        if (n < 0 || (size_t)n >= sizeof full) continue;
+        if (unlink(full) == 0) {
+            removed++;
+            sq_log(ctx, SQ_LOG_WARN, "io",
+                   "removed '%s': a temporary left by an interrupted run (process %ld is gone)",
+                   full, pid);
+        }
+    }
+    closedir(d);
+    return removed;
+}
+
+/* ---- write errors ------------------------------------------------------------------------------ */
+bool sq__io_no_space(const char *path, int err)
+{
+    if (err == ENOSPC || err == EDQUOT) return true;
+    /* libraries that lose errno (HDF5 under libnetcdf): a filesystem without free blocks */
+    char dir[SQ__TEMP_NAME_MAX];
+    const char *base = NULL;
+    split_path(path ? path : ".", dir, sizeof dir, &base);
+    struct statvfs vfs;
+    return statvfs(dir, &vfs) == 0 && (uint64_t)vfs.f_bavail * (uint64_t)vfs.f_frsize < 65536;
+}
+
+sq_result sq__write_error(sq_context *ctx, const char *path, int err, const char *detail)
+{
+    if (sq__io_no_space(path, err))
+        return sq__fail(ctx, SQ_ERR_NO_SPACE, "io",
+                        "cannot write '%s': no space left on device (free some space, or write "
+                        "elsewhere)",
+                        path);
+    if (detail && *detail)
+        return sq__fail(ctx, SQ_ERR_IO, "io", "cannot write '%s': %s", path, detail);
+    return sq__fail(ctx, SQ_ERR_IO, "io", "cannot write '%s': %s", path,
+                    strerror(err ? err : EIO));
 }
 
 sq_result sq_output_check_dir(const char *dir, const char *first_file, bool overwrite,

@@ -96,10 +96,13 @@ static sq_result png_write(const char *path, int width, int height, const void *
                              path);
     }
     if (setjmp(png_jmpbuf(png))) {
+        const int e = errno; /* a failed fwrite (a full disk) left its reason here */
         png_destroy_write_struct(&png, &info);
         fclose(fp);
         sq__output_discard(tmp);
-        return sq__set_error(SQ_ERR_IO, "cannot write '%s': libpng: %s", path, err.msg);
+        char detail[300];
+        snprintf(detail, sizeof detail, "libpng: %s", err.msg);
+        return sq__write_error(NULL, path, e, detail);
     }
     png_init_io(png, fp);
     png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, bit_depth, color_type,
@@ -114,7 +117,7 @@ static sq_result png_write(const char *path, int width, int height, const void *
     if (ferror(fp) || fclose(fp) != 0) {
         int e = errno;
         sq__output_discard(tmp);
-        return sq__set_error(SQ_ERR_IO, "cannot write '%s': %s", path, strerror(e));
+        return sq__write_error(NULL, path, e, NULL);
     }
     return sq__output_finish(tmp, path, overwrite);
 }
@@ -134,6 +137,23 @@ sq_result sq_png_write_gray16(const char *path, int width, int height, const uin
 /* ---- readers ------------------------------------------------------------------------------- */
 
 typedef enum png_read_mode { READ_RGBA8, READ_HEIGHTMAP16 } png_read_mode;
+
+/* What a file may make libpng allocate besides the image: the ancillary chunks whose length
+ * libpng would allocate whole (text, ICC profile, palettes, EXIF, calibration) are skipped
+ * unread; they carry nothing the readers use, and a 41-byte file whose tEXt chunk declares
+ * 1.3 GB made libpng allocate 1.3 GB (tests/fuzz/regress/heightmap). Other chunks are limited
+ * to SQ__PNG_CHUNK_MAX bytes, at most SQ__PNG_CHUNK_CACHE ancillary chunks are kept, and the
+ * image sides to SQ__PNG_MAX_SIDE. */
+#define SQ__PNG_CHUNK_MAX (1u << 20)
+#define SQ__PNG_CHUNK_CACHE 64
+static void limit_reader(png_structp png)
+{
+    static const png_byte skipped[] = "tEXt\0zTXt\0iTXt\0iCCP\0sPLT\0eXIf\0pCAL\0sCAL\0hIST\0";
+    png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, skipped, 9);
+    png_set_user_limits(png, SQ__PNG_MAX_SIDE, SQ__PNG_MAX_SIDE);
+    png_set_chunk_cache_max(png, SQ__PNG_CHUNK_CACHE);
+    png_set_chunk_malloc_max(png, SQ__PNG_CHUNK_MAX);
+}
 
 /* Reads an open PNG stream (closed here); path names it in messages. */
 static sq_result png_read_fp(sq_context *ctx, FILE *fp, const char *path, png_read_mode mode,
@@ -172,6 +192,7 @@ static sq_result png_read_fp(sq_context *ctx, FILE *fp, const char *path, png_re
     }
     png_init_io(png, fp);
     png_set_sig_bytes(png, (int)sizeof sig);
+    limit_reader(png);
     png_read_info(png, info);
     png_uint_32 w = 0, h = 0;
     int bit_depth = 0, color_type = 0, interlace = 0;
@@ -254,13 +275,9 @@ static sq_result png_read(sq_context *ctx, const char *path, png_read_mode mode,
     if (!out || !width_out || !height_out)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "io", "reading '%s' needs output pointers", path);
 
-    FILE *fp = fopen(path, "rb");
-    if (!fp) return sq__fail(ctx, SQ_ERR_IO, "io", "cannot open '%s': %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fileno(fp), &st) == 0 && S_ISDIR(st.st_mode)) {
-        fclose(fp);
-        return sq__fail(ctx, SQ_ERR_IO, "io", "cannot open '%s': it is a directory", path);
-    }
+    FILE *fp = NULL;
+    sq_result r0 = sq__input_open(ctx, "io", what, path, &fp); /* no FIFO; never written */
+    if (r0 != SQ_OK) return r0;
     return png_read_fp(ctx, fp, path, mode, max_pixels, out, width_out, height_out);
 }
 

@@ -10,6 +10,7 @@
 #include <yaml.h>
 
 #include "core/core_internal.h"
+#include "io/io_internal.h"
 #include "squall/io.h"
 #include "squall/scene.h"
 
@@ -103,8 +104,29 @@ sq_result sq_cfg_parse(sq_context *ctx, const char *text, size_t len, const char
         case YAML_SCALAR_EVENT:
         case YAML_MAPPING_START_EVENT:
         case YAML_SEQUENCE_START_EVENT: {
-            if (ev.type == YAML_SCALAR_EVENT && ev.data.scalar.anchor) {
+            const yaml_char_t *anchor = ev.type == YAML_SCALAR_EVENT ? ev.data.scalar.anchor
+                                        : ev.type == YAML_MAPPING_START_EVENT
+                                            ? ev.data.mapping_start.anchor
+                                            : ev.data.sequence_start.anchor;
+            const yaml_char_t *tag = ev.type == YAML_SCALAR_EVENT ? ev.data.scalar.tag
+                                     : ev.type == YAML_MAPPING_START_EVENT
+                                         ? ev.data.mapping_start.tag
+                                         : ev.data.sequence_start.tag;
+            if (anchor) {
                 r = sq__fail(ctx, SQ_ERR_PARSE, "scene", "%s:%d:%d: YAML anchors are not supported",
+                             source, line, col);
+                break;
+            }
+            if (tag) {
+                r = sq__fail(ctx, SQ_ERR_PARSE, "scene",
+                             "%s:%d:%d: YAML tags ('%.40s') are not supported in scene files",
+                             source, line, col, (const char *)tag);
+                break;
+            }
+            if (ev.type == YAML_SCALAR_EVENT &&
+                strlen((const char *)ev.data.scalar.value) != ev.data.scalar.length) {
+                r = sq__fail(ctx, SQ_ERR_PARSE, "scene",
+                             "%s:%d:%d: a value holds a NUL character (\\0); scene text cannot",
                              source, line, col);
                 break;
             }
@@ -179,14 +201,13 @@ sq_result sq_cfg_parse(sq_context *ctx, const char *text, size_t len, const char
 sq_result sq_cfg_load_file(sq_context *ctx, const char *path, sq_cfg **out)
 {
     *out = NULL;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return sq__fail(ctx, SQ_ERR_IO, "scene", "cannot open scene file '%s': %s", path,
-                        strerror(errno));
+    FILE *f = NULL;
+    sq_result r0 = sq__input_open(ctx, "scene", "scene file", path, &f);
+    if (r0 != SQ_OK) return r0;
     struct stat st;
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+    if (fstat(fileno(f), &st) != 0) {
         fclose(f);
-        return sq__fail(ctx, SQ_ERR_IO, "scene", "scene file '%s' is not a regular file", path);
+        return sq__fail(ctx, SQ_ERR_IO, "scene", "cannot read scene file '%s'", path);
     }
     if ((uint64_t)st.st_size > MAX_SCENE_BYTES) {
         fclose(f);

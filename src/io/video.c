@@ -81,6 +81,9 @@ static sq_result fail_av(sq_context *ctx, sq_result code, int averr, const char 
     va_start(ap, fmt);
     vsnprintf(what, sizeof what, fmt, ap);
     va_end(ap);
+    if (code == SQ_ERR_IO && (averr == AVERROR(ENOSPC) || averr == AVERROR(EDQUOT)))
+        return sq__fail(ctx, SQ_ERR_NO_SPACE, "io",
+                        "%s: no space left on device (free some space, or write elsewhere)", what);
     char err[AV_ERROR_MAX_STRING_SIZE] = "";
     av_strerror(averr, err, sizeof err);
     char last[sizeof sq__av_last];
@@ -188,6 +191,7 @@ sq_result sq_video_open(sq_context *ctx, const sq_video_desc *desc, sq_video_wri
                         desc->path);
     /* Cheap checks first: a run that cannot write its output fails before any work. */
     r = sq_output_check(desc->path, desc->overwrite);
+    if (r == SQ_OK) r = sq_output_check_inputs(ctx, desc->path, false);
     if (r != SQ_OK) return sq__io_relog(ctx, r);
 
     av_begin();

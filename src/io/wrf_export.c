@@ -276,6 +276,8 @@ sq_result sq_wrf_export_netcdf(sq_wrf *w, const sq_wrf_export_desc *desc)
         return sq__set_error(SQ_ERR_INVALID_ARG, "sq_wrf_export_netcdf: NULL argument");
     sq_result r = sq_output_check(desc->path, desc->overwrite);
     if (r != SQ_OK) return sq__io_relog(w->ctx, r);
+    r = sq_output_check_inputs(w->ctx, desc->path, false); /* the WRF file itself, say */
+    if (r != SQ_OK) return r;
     sq_wrf_state s;
     r = desc->index >= 0 ? sq_wrf_read_index(w, desc->index, &s) : sq_wrf_read(w, desc->time_s, &s);
     if (r != SQ_OK) return r;

@@ -194,11 +194,37 @@ sq_result sq_phenomenon_step(sq_phenomenon *p, double dt_s)
         n = (int)nn;
     }
     for (int k = 0; k < n; k++) {
+        if (sq__cancelled(p->ctx))
+            return sq__fail_cancelled(p->ctx, "phenomenon", "while stepping (sq_context_cancel)");
         const sq_result r = p->plugin->step(p->self, dt_s / n);
         if (r != SQ_OK) return r;
     }
     p->time_s += dt_s;
     return SQ_OK;
+}
+
+sq_result sq__phenomenon_save_state(const sq_phenomenon *p, sq_state_writer *w)
+{
+    if (!p->plugin->save_state || !p->plugin->load_state)
+        return sq__fail(p->ctx, SQ_ERR_UNSUPPORTED, "phenomenon",
+                        "layers.%s (%s) cannot be checkpointed: the phenomenon has no state hooks",
+                        p->name, p->plugin->name);
+    sq_state_put(w, "phenomenon/time_s", &p->time_s, sizeof p->time_s);
+    if (w->status == SQ_OK && p->self) p->plugin->save_state(p->self, w);
+    return w->status;
+}
+
+sq_result sq__phenomenon_load_state(sq_phenomenon *p, sq_state_reader *r)
+{
+    if (!p->plugin->load_state)
+        return r->status = sq__fail(p->ctx, SQ_ERR_UNSUPPORTED, "phenomenon",
+                                    "layers.%s (%s) cannot be restored: the phenomenon has no "
+                                    "state hooks",
+                                    p->name, p->plugin->name);
+    sq_state_get(r, "phenomenon/time_s", &p->time_s, sizeof p->time_s);
+    if (r->status == SQ_OK && p->self) p->plugin->load_state(p->self, r);
+    invalidate(p);
+    return r->status;
 }
 
 void sq_phenomenon_observe(sq_phenomenon *p, const sq_camera *camera)

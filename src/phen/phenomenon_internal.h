@@ -29,4 +29,9 @@ sq_result sq__phenomenon_make(sq_context *ctx, const sq__phen_make *m, sq_phenom
 /* Creates the phenomenon of a handle made with validate_only (SQ__PHEN_CREATE stage). */
 sq_result sq__phenomenon_instantiate(sq_phenomenon *p);
 
+/* Checkpoints: the handle's clock and the plug-in's records (save_state / load_state hooks);
+ * SQ_ERR_UNSUPPORTED, naming the layer, when the phenomenon has none. */
+sq_result sq__phenomenon_save_state(const sq_phenomenon *p, sq_state_writer *w);
+sq_result sq__phenomenon_load_state(sq_phenomenon *p, sq_state_reader *r);
+
 #endif

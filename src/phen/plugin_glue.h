@@ -116,7 +116,20 @@
         .drawables = n##_p_drawables,                                                              \
         .metrics = n##_p_metrics,                                                                  \
         .fields = n##_p_fields,                                                                    \
+        .save_state = SQ__PHEN_STATE_SAVE,                                                         \
+        .load_state = SQ__PHEN_STATE_LOAD,                                                         \
     }
+
+/* Checkpoint hooks: a plug-in that can be checkpointed says, after including this file,
+ *   #undef SQ__PHEN_STATE_SAVE
+ *   #define SQ__PHEN_STATE_SAVE sq__<n>_save_state   (sq_result (const void *, sq_state_writer *))
+ *   #undef SQ__PHEN_STATE_LOAD
+ *   #define SQ__PHEN_STATE_LOAD sq__<n>_load_state   (sq_result (void *, sq_state_reader *))
+ * before its SQ__PHEN_PLUGIN line; without them the layer is refused by checkpoints. */
+#ifndef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE NULL
+#define SQ__PHEN_STATE_LOAD NULL
+#endif
 
 /* Without a camera hook. */
 #define SQ__PHEN_PLUGIN(n, summary, memory_takes_world)                                            \

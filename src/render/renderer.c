@@ -113,7 +113,7 @@ static sq_result check_camera_above_terrain(sq_renderer *r, const sq_world *w)
     if (p.z < h + 0.1f)
         return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
                         "camera at (%.2f, %.2f, %.2f) is below the terrain surface (%.2f m) or "
-                        "within 0.1 m of it; raise camera.position_m.z above %.2f m",
+                        "within 0.1 m of it; raise the camera (position_m.z) above %.2f m",
                         (double)p.x, (double)p.y, (double)p.z, (double)h, (double)(h + 0.1f));
     return SQ_OK;
 }

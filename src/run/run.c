@@ -16,6 +16,7 @@
 static bool cancelled(const sq_run *run)
 {
     const sq_run_desc *d = &run->desc;
+    if (sq_context_cancelled(run->ctx)) return true; /* sq_context_cancel: a signal handler */
     if (d->cancel_flag && *d->cancel_flag) return true;
     return d->cancel && d->cancel(d->user);
 }
@@ -87,6 +88,21 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     run->frames = sq_scene_frame_count(desc->scene);
     run->t0 = sq_time_now();
     run->front = run->drawing = -1;
+    if (desc->resume_frame < 0 || desc->resume_frame > run->frames ||
+        desc->checkpoint_every_s < 0.0 || !isfinite(desc->checkpoint_every_s) ||
+        (desc->checkpoint_every_s > 0.0 && (!desc->checkpoint_path || !*desc->checkpoint_path ||
+                                            !desc->checkpoint_cfg))) {
+        sq_free(ctx, run);
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "run",
+                        "sq_run_desc: resume_frame = %d (0..%d), checkpoint_every_s = %g (>= 0, "
+                        "with a path and the configuration)",
+                        desc->resume_frame, run->frames, desc->checkpoint_every_s);
+    }
+    run->next = desc->resume_frame;
+    if (desc->checkpoint_every_s > 0.0)
+        run->next_checkpoint_s =
+            (floor(sq_scene_time(desc->scene) / desc->checkpoint_every_s + 1e-9) + 1.0) *
+            desc->checkpoint_every_s;
     run->slots[0].index = run->slots[1].index = -1;
     if (mtx_init(&run->lock, mtx_plain) != thrd_success) {
         sq_free(ctx, run);
@@ -111,13 +127,23 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     o->fields_every = so->fields_every;
     o->fields_format = so->fields_format;
     o->title = sq_scene_name(desc->scene);
+    o->world = sq_scene_world(desc->scene);
     if (desc->write_outputs) {
         o->video = images && so->video[0] ? so->video : NULL;
         o->frames_dir = images && so->frames_dir[0] ? so->frames_dir : NULL;
         o->metrics = so->metrics[0] ? so->metrics : NULL;
         o->fields = so->fields[0] ? so->fields : NULL;
     }
-    sq_result r = sq__run_outputs_check(o, images);
+    /* a camera under the terrain is named by its key and file:line before any work */
+    sq_result r = images ? sq_scene_check_camera(desc->scene) : SQ_OK;
+    if (r == SQ_OK) r = sq__run_outputs_check(o, images);
+    if (r == SQ_OK && desc->checkpoint_every_s > 0.0) {
+        r = sq_output_check(desc->checkpoint_path,
+                            desc->overwrite || desc->checkpoint_replaces);
+        if (r == SQ_OK && !desc->checkpoint_replaces)
+            r = sq_output_check_inputs(ctx, desc->checkpoint_path, false);
+        if (r == SQ_OK) sq_output_remove_stale(ctx, desc->checkpoint_path, false);
+    }
     if (r == SQ_OK && images && desc->write_outputs && !o->video && !o->frames_dir &&
         !desc->sinks.frame)
         r = sq__fail(ctx, SQ_ERR_INVALID_ARG, "run",
@@ -147,7 +173,13 @@ void sq_run_destroy(sq_run *run)
 {
     if (!run) return;
     sq_context *ctx = run->ctx;
-    if (!run->finished) sq__run_outputs_abort(&run->outs);
+    if (!run->finished) {
+        sq__run_outputs_keep_partial(&run->outs);
+        if (run->outs.partial[0])
+            sq_log(ctx, SQ_LOG_INFO, "run", "the metrics of the %d frame%s done are in '%s'",
+                   run->outs.rows, run->outs.rows == 1 ? "" : "s", run->outs.partial);
+        sq__run_outputs_abort(&run->outs);
+    }
     sq__run_outputs_free(&run->outs);
     sq_renderer_destroy(run->renderer);
     sq__run_slot_free(ctx, &run->slots[0]);
@@ -192,7 +224,7 @@ static sq_result step_to_frame(sq_run *run)
     const double frame_dt = sq_scene_frame_dt(run->scene);
     const int spf = run->out->steps_per_frame > 0 ? run->out->steps_per_frame : 1;
     sq_result r = SQ_OK;
-    if (run->next == 0) {
+    if (run->next == 0) { /* a resumed run (resume_frame > 0) has had its warm-up */
         while (r == SQ_OK && sq_scene_time(run->scene) + 1e-9 < run->out->warmup_s) {
             if (cancelled(run)) return interrupted(run);
             r = sq_scene_step(run->scene, frame_dt / spf);
@@ -256,6 +288,16 @@ sq_result sq_run_advance(sq_run *run)
     run->next = frame + 1;
     if (!renders(run)) run->slots[0].camera = cam;
     mtx_unlock(&run->lock);
+    /* a checkpoint: the state after this frame, to make frame + 1 next */
+    if (run->desc.checkpoint_every_s > 0.0 && t + 1e-9 >= run->next_checkpoint_s) {
+        r = sq_checkpoint_write(run->ctx, run->desc.checkpoint_path,
+                                run->checkpoint_written || run->desc.overwrite ||
+                                    run->desc.checkpoint_replaces,
+                                run->scene, run->desc.checkpoint_cfg, run->next);
+        if (r != SQ_OK) return r;
+        run->checkpoint_written = true;
+        while (run->next_checkpoint_s <= t + 1e-9) run->next_checkpoint_s += run->desc.checkpoint_every_s;
+    }
     if (!renders(run)) report(run, run->next, 0.0, run->next == run->frames ? "done" : "frame");
     return SQ_OK;
 }
@@ -375,6 +417,16 @@ sq_result sq_run_execute(sq_run *run)
     while (r == SQ_OK && run->next < run->frames) {
         r = sq_run_advance(run);
         if (r == SQ_OK && renders(run)) r = sq_run_draw(run);
+    }
+    if (r != SQ_OK) {
+        /* the rows so far show what happened (a blow-up, where it stopped): kept, and said so
+         * in the one message */
+        char why[1024];
+        snprintf(why, sizeof why, "%s", sq_last_error());
+        sq__run_outputs_keep_partial(&run->outs);
+        if (run->outs.partial[0])
+            sq__set_error(r, "%s; nothing written but the metrics of the %d frame%s done, in '%s'",
+                          why, run->outs.rows, run->outs.rows == 1 ? "" : "s", run->outs.partial);
     }
     return r;
 }

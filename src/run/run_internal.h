@@ -39,12 +39,27 @@ typedef struct sq__run_outputs {
     const char *video, *frames_dir, *metrics, *fields; /* NULL when not written */
     int fields_every, fields_format, frames;
     const char *title;
+    const sq_world *world; /* for the georeference of field files */
     int width, height, fps;
     bool frames_dir_created;
     int frames_written;     /* PNG frames of this run (removed on abort if the dir was made) */
     sq_video_writer *vw;
     FILE *metrics_file;
     char metrics_tmp[1100];
+    /* per-frame files (PNG frames, field files, depth maps) are staged under hidden temporary
+     * names ("dir/.NAME.tmp-PID-0") and renamed to their final names by commit, all of them;
+     * abort removes them, so an interrupted run leaves nothing (and a killed one only
+     * temporaries, which the next run removes) */
+    struct sq__run_staged {
+        char *staged, *final;
+    } *staged;
+    int staged_count, staged_cap;
+    /* the .vti files of the run (final base names) for the .pvd time-series indices: [0] 3D
+     * fields, [1] 2D maps */
+    char **vti[2];
+    double *vti_t[2];
+    int vti_count[2], vti_cap[2];
+    char partial[1200]; /* where the metrics rows of a failed run were kept ("" = nowhere) */
     /* metric table for the statistics (and the CSV header) */
     int metric_count;
     char names[SQ_RUN_MAX_METRICS][96];
@@ -69,8 +84,12 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
                                  const sq_named_field *f, int n);
 /* Video closed, metrics renamed to their final names. */
 sq_result sq__run_outputs_commit(sq__run_outputs *o);
-/* Temporaries removed; PNG frames of this run removed when it made their directory. */
+/* Temporaries and staged files removed, a directory this run made removed; nothing of the run
+ * stays but the metrics rows so far, committed as "NAME.partial.csv" (o->partial). */
 void sq__run_outputs_abort(sq__run_outputs *o);
+/* The metrics rows so far as a complete file "NAME.partial.csv" (a free name; never replacing
+ * anything); o->partial names it. SQ_OK when there were no metrics. */
+sq_result sq__run_outputs_keep_partial(sq__run_outputs *o);
 void sq__run_outputs_free(sq__run_outputs *o);
 sq_result sq__run_metric_stats(const sq__run_outputs *o, int i, sq_run_metric_stats *out);
 
@@ -84,6 +103,8 @@ struct sq_run {
     int next;            /* frames advanced so far */
     double t0;           /* wall clock at create */
     bool finished;
+    double next_checkpoint_s; /* simulated time of the next checkpoint */
+    bool checkpoint_written;  /* later checkpoints replace the run's own file */
     sq__run_outputs outs;
     /* frames for the drawing side: with snapshots two slots (front = latest complete frame),
      * else slot 0 holds views into the live phenomena */

@@ -1,8 +1,18 @@
 /* run_outputs.c — the files of a run (the scene's output section) under the output-safety rules
- * of src/io/output.c, which this file only calls: every final name checked before any work,
- * temporaries renamed at commit, an existing file replaced only with overwrite, temporaries (and
- * the PNG frames of a directory this run created) removed on abort. Also the metrics table that
- * gives the per-metric statistics. */
+ * of src/io/output.c, which this file only calls. The rules (docs/reliability.md):
+ *   - before any work every final name is checked: directory there, absent unless overwrite, not
+ *     an input of the run (sq_output_check_inputs), and temporaries that a killed run left next
+ *     to it are removed (sq_output_remove_stale);
+ *   - every file is written to a temporary name: the video and the metrics stream into theirs,
+ *     the per-frame files (PNG frames, NetCDF/VTK fields, depth PNGs) are complete files under
+ *     hidden staging names; commit renames them all to their final names (replacing only with
+ *     overwrite) and writes the .pvd indices;
+ *   - abort (an error, SIGINT/SIGTERM) removes every temporary and staged file and a frames
+ *     directory the run made: nothing of the run stays, whether the directory existed or not,
+ *     and no file the run did not create is touched; the metrics rows so far are kept as a
+ *     complete "NAME.partial.csv" (never replacing a file), because they show what happened;
+ *   - a full disk fails with SQ_ERR_NO_SPACE ("no space left on device").
+ * Also the metrics table that gives the per-metric statistics. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -17,9 +27,27 @@
 
 #define PATH_MAX_RUN 1100
 
+/* Inputs are never written, and temporaries of killed runs go: for one output, a numbered series
+ * (prefix) or nothing (NULL). */
+static sq_result protect(sq__run_outputs *o, const char *path, const char *suffix, bool prefix)
+{
+    if (!path) return SQ_OK;
+    char p[PATH_MAX_RUN];
+    snprintf(p, sizeof p, "%s%s", path, suffix);
+    sq_result r = sq_output_check_inputs(o->ctx, p, prefix);
+    if (r == SQ_OK) sq_output_remove_stale(o->ctx, p, prefix);
+    return r;
+}
+
 sq_result sq__run_outputs_check(sq__run_outputs *o, bool rendering)
 {
-    sq_result r = SQ_OK;
+    sq_result r = protect(o, o->video, "", false);
+    if (r == SQ_OK) r = protect(o, o->metrics, "", false);
+    if (r == SQ_OK) r = protect(o, o->frames_dir, "/frame_", true);
+    if (r == SQ_OK) r = protect(o, o->fields, "_", true);
+    if (r == SQ_OK) r = protect(o, o->fields, ".pvd", false);
+    if (r == SQ_OK) r = protect(o, o->fields, "_maps.pvd", false);
+    if (r != SQ_OK) return r;
     if (o->video) {
         if (o->width % 2 || o->height % 2)
             return sq__set_error(SQ_ERR_INVALID_ARG,
@@ -58,11 +86,49 @@ sq_result sq__run_outputs_open(sq__run_outputs *o)
             close(fd);
             sq__output_discard(o->metrics_tmp);
             o->metrics_tmp[0] = 0;
-            return sq__set_error(SQ_ERR_IO, "cannot write metrics '%s': %s", o->metrics,
-                                 strerror(errno));
+            return sq__write_error(NULL, o->metrics, errno, NULL);
         }
     }
     return SQ_OK;
+}
+
+/* The staging name of a per-frame file (a temporary name of this process, which a later run
+ * recognises as stale if this one is killed), recorded with its final name. */
+static sq_result stage(sq__run_outputs *o, const char *final, char *staged, size_t size)
+{
+    char prefix[PATH_MAX_RUN];
+    sq_result r = sq_output_temp_name(final, prefix, sizeof prefix);
+    if (r != SQ_OK) return r;
+    if (snprintf(staged, size, "%s-0", prefix) >= (int)size)
+        return sq__set_error(SQ_ERR_INVALID_ARG, "output name '%.80s' is too long", final);
+    if (o->staged_count == o->staged_cap) {
+        const int cap = o->staged_cap ? 2 * o->staged_cap : 64;
+        struct sq__run_staged *n =
+            (struct sq__run_staged *)realloc(o->staged, sizeof *n * (size_t)cap);
+        if (!n) return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory (staged outputs)");
+        o->staged = n;
+        o->staged_cap = cap;
+    }
+    struct sq__run_staged *e = &o->staged[o->staged_count];
+    e->staged = strdup(staged);
+    e->final = strdup(final);
+    if (!e->staged || !e->final) {
+        free(e->staged);
+        free(e->final);
+        return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory (staged outputs)");
+    }
+    o->staged_count++;
+    return SQ_OK;
+}
+
+/* Forgets (and removes) the last staged file after its writer failed. */
+static void unstage_last(sq__run_outputs *o)
+{
+    if (o->staged_count == 0) return;
+    struct sq__run_staged *e = &o->staged[--o->staged_count];
+    (void)unlink(e->staged);
+    free(e->staged);
+    free(e->final);
 }
 
 sq_result sq__run_outputs_frame(sq__run_outputs *o, int frame, const uint8_t *rgba,
@@ -71,13 +137,21 @@ sq_result sq__run_outputs_frame(sq__run_outputs *o, int frame, const uint8_t *rg
     sq_result r = SQ_OK;
     if (o->vw) r = sq_video_add_rgba8(o->vw, rgba);
     if (r == SQ_OK && o->frames_dir) {
-        char path[PATH_MAX_RUN];
+        char path[PATH_MAX_RUN], staged[PATH_MAX_RUN + 32];
         snprintf(path, sizeof path, "%s/frame_%05d.png", o->frames_dir, frame);
-        r = sq_png_write_rgba8(path, o->width, o->height, rgba, o->overwrite);
+        r = stage(o, path, staged, sizeof staged);
+        if (r == SQ_OK) {
+            r = sq_png_write_rgba8(staged, o->width, o->height, rgba, false);
+            if (r != SQ_OK) unstage_last(o);
+        }
         if (r == SQ_OK) o->frames_written = frame + 1;
         if (r == SQ_OK && linear_rgb) {
             snprintf(path, sizeof path, "%s/frame_%05d.pfm", o->frames_dir, frame);
-            r = sq_pfm_write(path, o->width, o->height, linear_rgb, o->overwrite);
+            r = stage(o, path, staged, sizeof staged);
+            if (r == SQ_OK) {
+                r = sq_pfm_write(staged, o->width, o->height, linear_rgb, false);
+                if (r != SQ_OK) unstage_last(o);
+            }
         }
     }
     return r;
@@ -113,12 +187,13 @@ sq_result sq__run_outputs_metrics(sq__run_outputs *o, int frame, double time_s,
             i < n ? m[i].value : (double)NAN;
     o->rows++;
     if (o->metrics_file) {
-        fprintf(o->metrics_file, "%d,%.6g", frame, time_s);
+        errno = 0;
+        /* full precision: times must difference exactly (and a resumed run must match) */
+        fprintf(o->metrics_file, "%d,%.17g", frame, time_s);
         for (int i = 0; i < o->metric_count; i++)
             fprintf(o->metrics_file, ",%.9g", i < n ? m[i].value : (double)NAN);
         fprintf(o->metrics_file, "\n");
-        if (ferror(o->metrics_file))
-            return sq__set_error(SQ_ERR_IO, "cannot write metrics '%s'", o->metrics);
+        if (ferror(o->metrics_file)) return sq__write_error(NULL, o->metrics, errno, NULL);
     }
     return SQ_OK;
 }
@@ -145,18 +220,42 @@ static sq_result write_depth_png(const char *path, const sq_named_field *f, bool
     return r;
 }
 
+/* Remembers a .vti file of the run for the .pvd index of its group. */
+static sq_result note_vti(sq__run_outputs *o, int grp, const char *final, double t)
+{
+    if (o->vti_count[grp] == o->vti_cap[grp]) {
+        const int cap = o->vti_cap[grp] ? 2 * o->vti_cap[grp] : 64;
+        char **f = (char **)realloc(o->vti[grp], sizeof *f * (size_t)cap);
+        if (f) o->vti[grp] = f;
+        double *tt = f ? (double *)realloc(o->vti_t[grp], sizeof *tt * (size_t)cap) : NULL;
+        if (!f || !tt) return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory (series index)");
+        o->vti_t[grp] = tt;
+        o->vti_cap[grp] = cap;
+    }
+    const char *base = strrchr(final, '/');
+    o->vti[grp][o->vti_count[grp]] = strdup(base ? base + 1 : final);
+    if (!o->vti[grp][o->vti_count[grp]]) return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory");
+    o->vti_t[grp][o->vti_count[grp]++] = t;
+    return SQ_OK;
+}
+
 sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
                                  const sq_named_field *fv, int nf)
 {
     if (!o->fields || nf <= 0) return SQ_OK;
-    char path[PATH_MAX_RUN];
+    char path[PATH_MAX_RUN], staged[PATH_MAX_RUN + 32];
     sq_field_file_desc fd;
     memset(&fd, 0, sizeof fd);
-    fd.path = path;
+    fd.path = staged;
+    if (o->world && o->world->crs_wkt) {
+        fd.crs_wkt = o->world->crs_wkt;
+        fd.crs_offset_m[0] = o->world->crs_offset_m[0];
+        fd.crs_offset_m[1] = o->world->crs_offset_m[1];
+    }
     fd.title = o->title;
     fd.source = "squall " SQ_VERSION_STRING;
     fd.time_s = time_s;
-    fd.overwrite = o->overwrite;
+    fd.overwrite = false; /* staged names are new; commit applies overwrite */
     /* 3D fields and 2D maps go to separate files (a file holds one grid) */
     sq_named_field f3[SQ_RUN_MAX_FIELDS], f2[SQ_RUN_MAX_FIELDS];
     int n3 = 0, n2 = 0;
@@ -172,11 +271,20 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
         const char *tag = grp ? "_maps" : "";
         if (o->fields_format != SQ_FIELDS_VTK) {
             snprintf(path, sizeof path, "%s%s_%05d.nc", o->fields, tag, frame);
-            r = sq_netcdf_write_fields(o->ctx, &fd, fs, nfs);
+            r = stage(o, path, staged, sizeof staged);
+            if (r == SQ_OK) {
+                r = sq_netcdf_write_fields(o->ctx, &fd, fs, nfs);
+                if (r != SQ_OK) unstage_last(o);
+            }
         }
         if (r == SQ_OK && o->fields_format != SQ_FIELDS_NETCDF) {
             snprintf(path, sizeof path, "%s%s_%05d.vti", o->fields, tag, frame);
-            r = sq_vtk_write_fields(o->ctx, &fd, fs, nfs);
+            r = stage(o, path, staged, sizeof staged);
+            if (r == SQ_OK) {
+                r = sq_vtk_write_fields(o->ctx, &fd, fs, nfs);
+                if (r != SQ_OK) unstage_last(o);
+            }
+            if (r == SQ_OK) r = note_vti(o, grp, path, time_s);
         }
     }
     /* 2D maps in metres (snow depth, deposit depth) also as 16-bit PNG, 1 mm per unit, row 0 =
@@ -185,7 +293,11 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
         if (fv[q].nz == 1 && fv[q].units && strcmp(fv[q].units, "m") == 0 &&
             strstr(fv[q].name, "depth")) {
             snprintf(path, sizeof path, "%s_%s_%05d.png", o->fields, fv[q].name, frame);
-            r = write_depth_png(path, &fv[q], o->overwrite);
+            r = stage(o, path, staged, sizeof staged);
+            if (r == SQ_OK) {
+                r = write_depth_png(staged, &fv[q], false);
+                if (r != SQ_OK) unstage_last(o);
+            }
         }
     return r;
 }
@@ -198,14 +310,65 @@ sq_result sq__run_outputs_commit(sq__run_outputs *o)
         if (r != SQ_OK) return r;
     }
     if (o->metrics_file) {
-        const bool bad = fclose(o->metrics_file) != 0;
+        errno = 0;
+        const bool bad = (ferror(o->metrics_file) | fclose(o->metrics_file)) != 0;
+        const int e = errno;
         o->metrics_file = NULL;
-        if (bad) return sq__set_error(SQ_ERR_IO, "cannot write metrics '%s'", o->metrics);
+        if (bad) return sq__write_error(NULL, o->metrics, e, NULL);
         sq_result r = sq_output_commit(o->metrics_tmp, o->metrics, o->overwrite);
         if (r != SQ_OK) return r;
         o->metrics_tmp[0] = 0;
     }
+    /* the staged per-frame files under their final names, then the time-series indices */
+    while (o->staged_count > 0) {
+        struct sq__run_staged *e = &o->staged[0];
+        sq_result r = sq_output_commit(e->staged, e->final, o->overwrite);
+        if (r != SQ_OK) return r; /* abort removes what is still staged */
+        free(e->staged);
+        free(e->final);
+        memmove(o->staged, o->staged + 1, sizeof *o->staged * (size_t)(--o->staged_count));
+    }
+    for (int grp = 0; grp < 2; grp++) {
+        if (!o->vti_count[grp]) continue;
+        char pvd[PATH_MAX_RUN];
+        snprintf(pvd, sizeof pvd, "%s%s.pvd", o->fields, grp ? "_maps" : "");
+        sq_result r = sq_vtk_write_series(o->ctx, pvd, (const char *const *)o->vti[grp],
+                                          o->vti_t[grp], o->vti_count[grp], o->overwrite);
+        if (r != SQ_OK) return r;
+    }
     o->frames_dir_created = false; /* the frames are kept */
+    return SQ_OK;
+}
+
+sq_result sq__run_outputs_keep_partial(sq__run_outputs *o)
+{
+    o->partial[0] = 0;
+    if (!o->metrics_file) return SQ_OK;
+    errno = 0;
+    const bool bad = (ferror(o->metrics_file) | fclose(o->metrics_file)) != 0;
+    o->metrics_file = NULL;
+    if (bad || o->rows == 0) return SQ_OK; /* nothing complete to keep; abort removes it */
+    /* "dir/m.csv" -> "dir/m.partial.csv", then m.partial-2.csv ... never replacing a file */
+    char base[PATH_MAX_RUN];
+    snprintf(base, sizeof base, "%s", o->metrics);
+    char *slash = strrchr(base, '/'), *dot = strrchr(base, '.');
+    const char *ext = "";
+    if (dot && (!slash || dot > slash + 1)) {
+        ext = o->metrics + (dot - base);
+        *dot = 0;
+    }
+    for (int k = 1; k <= 100; k++) {
+        char name[PATH_MAX_RUN + 32];
+        if (k == 1)
+            snprintf(name, sizeof name, "%s.partial%s", base, ext);
+        else
+            snprintf(name, sizeof name, "%s.partial-%d%s", base, k, ext);
+        if (sq_output_commit(o->metrics_tmp, name, false) == SQ_OK) {
+            o->metrics_tmp[0] = 0;
+            snprintf(o->partial, sizeof o->partial, "%s", name);
+            return SQ_OK;
+        }
+    }
     return SQ_OK;
 }
 
@@ -217,16 +380,15 @@ void sq__run_outputs_abort(sq__run_outputs *o)
     o->metrics_file = NULL;
     if (o->metrics_tmp[0]) sq__output_discard(o->metrics_tmp);
     o->metrics_tmp[0] = 0;
+    /* every staged per-frame file: none of them has a final name yet */
+    for (int i = 0; i < o->staged_count; i++) {
+        (void)unlink(o->staged[i].staged);
+        free(o->staged[i].staged);
+        free(o->staged[i].final);
+    }
+    o->staged_count = 0;
     if (o->frames_dir_created) {
-        /* remove the frames written by this failed run, only in a directory it created */
-        for (int f = 0; f < o->frames_written; f++) {
-            char path[PATH_MAX_RUN];
-            snprintf(path, sizeof path, "%s/frame_%05d.png", o->frames_dir, f);
-            remove(path);
-            snprintf(path, sizeof path, "%s/frame_%05d.pfm", o->frames_dir, f);
-            remove(path);
-        }
-        rmdir(o->frames_dir);
+        (void)rmdir(o->frames_dir); /* only when empty: nothing of anyone else is removed */
         o->frames_dir_created = false;
     }
 }
@@ -235,6 +397,21 @@ void sq__run_outputs_free(sq__run_outputs *o)
 {
     free(o->values);
     o->values = NULL;
+    for (int i = 0; i < o->staged_count; i++) {
+        free(o->staged[i].staged);
+        free(o->staged[i].final);
+    }
+    free(o->staged);
+    o->staged = NULL;
+    o->staged_count = o->staged_cap = 0;
+    for (int grp = 0; grp < 2; grp++) {
+        for (int i = 0; i < o->vti_count[grp]; i++) free(o->vti[grp][i]);
+        free(o->vti[grp]);
+        free(o->vti_t[grp]);
+        o->vti[grp] = NULL;
+        o->vti_t[grp] = NULL;
+        o->vti_count[grp] = o->vti_cap[grp] = 0;
+    }
 }
 
 static int cmp_d(const void *a, const void *b)

@@ -3,6 +3,8 @@
  * source of truth for scene-file keys, --set overrides, `squall params` and the docs. */
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,6 +34,26 @@ static int parse_numbers(const char *s, double *out, int max)
         if (*s && !isspace((unsigned char)*s) && *s != ',' && *s != ']') return -1;
     }
     return n;
+}
+
+bool sq__parse_u64(const char *s, uint64_t *out)
+{
+    *out = 0;
+    while (isspace((unsigned char)*s)) s++;
+    if (!isdigit((unsigned char)*s)) return false; /* no sign, no "0x", no ".5", no "1e3" */
+    const char *p = s;
+    while (isdigit((unsigned char)*p)) p++;
+    const char *end = p;
+    while (isspace((unsigned char)*p)) p++;
+    if (*p) return false;
+    uint64_t v = 0;
+    for (const char *d = s; d < end; d++) {
+        const uint64_t digit = (uint64_t)(*d - '0');
+        if (v > (UINT64_MAX - digit) / 10) return false; /* above 2^64 - 1 */
+        v = v * 10 + digit;
+    }
+    *out = v;
+    return true;
 }
 
 static int parse_bool(const char *s, bool *out)
@@ -185,6 +207,12 @@ static sq_result range_error(const sq_param *p, const char *section, const char 
                              const char *value)
 {
     const char *u = unit_text(p);
+    if (p->min == 0.0 && p->max == 0.0) /* unbounded key: only finiteness and the C type limit */
+        return sq__set_error(SQ_ERR_INVALID_ARG, "%s%s%s%s%s = %s%s%s: must be finite and within "
+                             "+-%g",
+                             where ? where : "", where ? ": " : "", section ? section : "",
+                             section ? "." : "", p->key, value, *u ? " " : "", u,
+                             p->type == SQ_PARAM_INT ? (double)INT_MAX : (double)FLT_MAX);
     return sq__set_error(SQ_ERR_INVALID_ARG, "%s%s%s%s%s = %s%s%s: outside the range [%g, %g]%s%s",
                          where ? where : "", where ? ": " : "", section ? section : "",
                          section ? "." : "", p->key, value, *u ? " " : "", u, p->min, p->max,
@@ -194,6 +222,12 @@ static sq_result range_error(const sq_param *p, const char *section, const char 
 static bool in_range(const sq_param *p, double v)
 {
     if (!isfinite(v)) return false;
+    /* Whatever the table says, the value must fit the C type it is stored in (converting an
+     * out-of-range double to float or int is undefined behaviour). */
+    if ((p->type == SQ_PARAM_FLOAT || p->type == SQ_PARAM_VEC3 || p->type == SQ_PARAM_FLOATS) &&
+        fabs(v) > (double)FLT_MAX)
+        return false;
+    if (p->type == SQ_PARAM_INT && (v < (double)INT_MIN || v > (double)INT_MAX)) return false;
     if (p->min == 0.0 && p->max == 0.0) return true; /* unbounded */
     return v >= p->min && v <= p->max;
 }
@@ -220,10 +254,19 @@ sq_result sq_params_set(const sq_param *table, size_t n, void *desc, const char 
     double v[64];
     int cnt;
     switch (p->type) {
+    case SQ_PARAM_U64: {
+        uint64_t n64 = 0;
+        if (!sq__parse_u64(value, &n64))
+            return sq__set_error(SQ_ERR_INVALID_ARG,
+                                 "%s%s%s%s%s = '%s': expected a whole number in 0..%llu (digits "
+                                 "only)",
+                                 W, sep, S, dot, p->key, value, (unsigned long long)UINT64_MAX);
+        *FIELD(desc, p, uint64_t) = n64;
+        return SQ_OK;
+    }
     case SQ_PARAM_FLOAT:
     case SQ_PARAM_DOUBLE:
     case SQ_PARAM_INT:
-    case SQ_PARAM_U64:
         cnt = parse_numbers(value, v, 1);
         if (cnt != 1 || strchr(value, '[')) {
             return sq__set_error(SQ_ERR_INVALID_ARG, "%s%s%s%s%s = '%s': expected a %s%s%s", W,
@@ -233,12 +276,10 @@ sq_result sq_params_set(const sq_param *table, size_t n, void *desc, const char 
                                      : "whole number",
                                  *u ? " in " : "", u);
         }
-        if ((p->type == SQ_PARAM_INT || p->type == SQ_PARAM_U64) && v[0] != floor(v[0]))
+        if (p->type == SQ_PARAM_INT && v[0] != floor(v[0]))
             return sq__set_error(SQ_ERR_INVALID_ARG, "%s%s%s%s%s = '%s': expected a whole number",
                                  W, sep, S, dot, p->key, value);
-        if (p->type == SQ_PARAM_U64 && v[0] < 0)
-            return range_error(p, section, where, value);
-        if (p->type != SQ_PARAM_U64 && !in_range(p, v[0])) return range_error(p, section, where, value);
+        if (!in_range(p, v[0])) return range_error(p, section, where, value);
         return set_numbers(p, desc, v, 1);
     case SQ_PARAM_BOOL: {
         bool b;

@@ -1,10 +1,13 @@
 /* scene.c — builds a scene from a configuration tree through the parameter tables (world,
  * camera, output and each layer's plug-in), creates the world and the phenomena, and steps
  * everything on one clock, sub-cycling each layer to its stable time step. */
+#include <ctype.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "core/core_internal.h"
 #include "phen/phenomenon_internal.h"
@@ -35,6 +38,8 @@ struct sq_scene {
     uint64_t step_count;
     uint64_t memory_bytes;
     char metric_names[MAX_METRICS][96];
+    char camera_where[320];                      /* file:line of camera.position */
+    char key_where[SQ_MAX_CAMERA_KEYS][320];     /* file:line of each camera.path key */
     /* meshes placed in the world (the world borrows them; destroyed after it) */
     sq_place *place;
     sq_mesh **file_meshes;
@@ -46,6 +51,59 @@ static sq_result relog(sq_context *ctx, sq_result r)
 {
     sq_log(ctx, SQ_LOG_ERROR, "scene", "%s", sq_last_error());
     return r;
+}
+
+/* ---- messages for scene users ------------------------------------------------------------- */
+/* A phenomenon's solver names its own C fields ("raise speed_of_sound_mps", "lower dt_s"); a
+ * scene user sets keys. Each identifier with an underscore that is not already a key of the
+ * layer but is the trailing part of exactly one of its keys ("dt_max_s" ->
+ * "numerics.dt_max_s") becomes the full key "layers.NAME.KEY", and the message is prefixed with
+ * "layers.NAME: " unless it names the layer already. Returns r, with the new text set. */
+static const char *unique_key_ending(const sq_param *t, size_t n, const char *word, size_t len)
+{
+    const char *found = NULL;
+    for (size_t i = 0; i < n; i++) {
+        const size_t kl = strlen(t[i].key);
+        if (kl == len && strncmp(t[i].key, word, len) == 0) return NULL; /* a key already */
+        if (kl > len && t[i].key[kl - len - 1] == '.' && strncmp(t[i].key + kl - len, word, len) == 0) {
+            if (found) return NULL; /* ambiguous */
+            found = t[i].key;
+        }
+    }
+    return found;
+}
+
+sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
+                                    sq_result r)
+{
+    char in[1024], out[1536];
+    snprintf(in, sizeof in, "%s", sq_last_error());
+    char prefix[96];
+    snprintf(prefix, sizeof prefix, "layers.%s", layer_name);
+    size_t o = 0;
+    if (!strstr(in, "layers.")) o = (size_t)snprintf(out, sizeof out, "%s: ", prefix);
+    for (const char *p = in; *p && o + 1 < sizeof out;) {
+        const bool start = p == in || !(isalnum((unsigned char)p[-1]) || p[-1] == '_' ||
+                                        p[-1] == '.');
+        if (start && (isalpha((unsigned char)*p) || *p == '_')) {
+            const char *e = p;
+            while (isalnum((unsigned char)*e) || *e == '_') e++;
+            const size_t len = (size_t)(e - p);
+            const char *key = *e != '.' && memchr(p, '_', len) ? unique_key_ending(table, n, p, len)
+                                                                : NULL;
+            if (key)
+                o += (size_t)snprintf(out + o, sizeof out - o, "%s.%s", prefix, key);
+            else
+                o += (size_t)snprintf(out + o, sizeof out - o, "%.*s", (int)len, p);
+            p = e;
+            continue;
+        }
+        out[o++] = *p++;
+        out[o] = 0;
+    }
+    if (o >= sizeof out) o = sizeof out - 1;
+    out[o] = 0;
+    return sq__set_error(r, "%s", out);
 }
 
 /* ---- applying a cfg subtree through a table ------------------------------------------------ */
@@ -349,7 +407,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
             return sq__fail(ctx, SQ_ERR_UNSUPPORTED, "scene", "heightmap terrains need a loader");
         }
         char path[1024];
-        if (ws.heightmap[0] == '/' || !cfg->base_dir[0])
+        if (ws.heightmap[0] == '/' || !cfg->base_dir[0] || strcmp(cfg->base_dir, ".") == 0)
             snprintf(path, sizeof path, "%s", ws.heightmap);
         else
             snprintf(path, sizeof path, "%s/%s", cfg->base_dir, ws.heightmap);
@@ -403,7 +461,7 @@ static sq_result build_place(sq_scene *s, const sq_cfg *cfg, const sq__world_sec
     const float y0 = pd.center_m[1] - 0.5f * pd.size_m[1], y1 = pd.center_m[1] + 0.5f * pd.size_m[1];
     if (x0 < lo.x || x1 > hi.x || y0 < lo.y || y1 > hi.y)
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
-                        "%s: world.place: size_m [%g, %g] around center [%g, %g] covers x %g..%g m, "
+                        "%s: world.place.size_m = [%g, %g] around world.place.center = [%g, %g] covers x %g..%g m, "
                         "y %g..%g m, which reaches outside the terrain (x %g..%g m, y %g..%g m); "
                         "enlarge world.terrain.size_m or shrink the place",
                         cfg->source, (double)pd.size_m[0], (double)pd.size_m[1],
@@ -595,6 +653,16 @@ static sq_result build_output(sq_scene *s, const sq_cfg *cfg, const sq_cfg_node 
         r = expect_kind(&a, node, SQ_CFG_MAP, "output");
         if (r == SQ_OK) r = apply_map(&a, node, "", sq__output_params, sq__output_param_count, &s->out, NULL);
     }
+    const sq_cfg_node *vn = node ? sq_cfg_get(node, "video") : NULL;
+    const size_t vl = strlen(s->out.video);
+    if (r == SQ_OK && vl && (vl < 4 || strcasecmp(s->out.video + vl - 4, ".mp4") != 0)) {
+        char w[320];
+        where_of(&a, vn ? vn : node, w, sizeof w);
+        r = sq__set_error(SQ_ERR_INVALID_ARG,
+                          "%s: output.video = '%s': squall writes H.264 video as .mp4 only; end "
+                          "the name with .mp4, or use output.frames_dir for PNG frames",
+                          w, s->out.video);
+    }
     if (r != SQ_OK) return relog(s->ctx, r);
     if (s->out.frames == 0) {
         double f = floor(s->out.duration_s * s->out.fps + 0.5);
@@ -722,7 +790,29 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
                             MAX_LAYERS);
         layer *L = &s->layers[s->layer_count];
         const sq_cfg_node *nm = sq_cfg_get(l, "name");
+        if (nm) {
+            /* a name addresses the layer in --set layers.NAME.key and prefixes its metrics */
+            where_of(&la, nm, w, sizeof w);
+            const char *v = nm->kind == SQ_CFG_SCALAR && nm->value ? nm->value : "";
+            bool digits = *v != 0;
+            for (const char *c = v; *c; c++) digits = digits && isdigit((unsigned char)*c);
+            if (!*v || strchr(v, '.') || digits || strlen(v) >= sizeof L->name)
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: %s.name = '%s': a layer name is 1..%zu characters, not a "
+                                "number and without '.' (it addresses the layer in --set "
+                                "layers.NAME.key)",
+                                w, sec, v, sizeof L->name - 1);
+        }
         snprintf(L->name, sizeof L->name, "%s", nm && nm->value ? nm->value : pl->name);
+        for (int k = 0; k < s->layer_count; k++)
+            if (strcmp(s->layers[k].name, L->name) == 0) {
+                where_of(&la, nm ? nm : l, w, sizeof w);
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: %s is named '%s' like an earlier layer; give each layer a "
+                                "unique name (layers share names through their type when "
+                                "'name:' is missing)",
+                                w, sec, L->name);
+            }
         snprintf(sec, sizeof sec, "layers.%s", L->name); /* as --set addresses it */
         la.section = sec;
         L->plugin = pl;
@@ -746,6 +836,66 @@ static sq_result build_layers(sq_scene *s, const sq_scene_desc *sd, const sq_cfg
         if (r != SQ_OK)
             return stage == SQ__PHEN_RULES ? translate_layer_error(s, &la, l, L, r) : r;
         s->memory_bytes += sq_phenomenon_memory_bytes(L->ph);
+    }
+    return SQ_OK;
+}
+
+/* The renderer refuses a camera within 0.1 m of the terrain; the scene says it first, naming
+ * the key and its file:line, which it keeps from building the camera: the camera's position,
+ * every path key, and the path between keys (sampled 64 times per segment). Only rendering
+ * needs a camera, so render commands call this; simulate does not. */
+#define CAMERA_CLEARANCE_M 0.1f
+static void note_camera_places(sq_scene *s, const sq_cfg *cfg)
+{
+    const sq_cfg_node *cam = sq_cfg_get(cfg->root, "camera");
+    const sq_cfg_node *path = cam ? sq_cfg_get(cam, "path") : NULL;
+    const sq_cfg_node *pos = cam ? sq_cfg_get(cam, "position") : NULL;
+    apply_ctx a = {cfg, "camera"};
+    where_of(&a, pos ? pos : cam, s->camera_where, sizeof s->camera_where);
+    const sq_cfg_node *kn = path ? path->child : NULL;
+    for (int i = 0; i < s->key_count; i++, kn = kn ? kn->next : NULL)
+        where_of(&a, kn, s->key_where[i], sizeof s->key_where[i]);
+}
+
+sq_result sq_scene_check_camera(const sq_scene *s)
+{
+    if (!s) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_scene_check_camera: scene is NULL");
+    if (s->key_count == 0) {
+        const sq_vec3 p = s->camera.position_m;
+        const float h = sq_world_height_at(s->world, p.x, p.y);
+        if (!(p.z >= h + CAMERA_CLEARANCE_M))
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: camera.position = [%g, %g, %g] m: the terrain surface there is at "
+                            "%.2f m; raise z above %.2f m",
+                            s->camera_where, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            (double)(h + CAMERA_CLEARANCE_M));
+        return SQ_OK;
+    }
+    for (int i = 0; i < s->key_count; i++) {
+        const sq_vec3 p = s->keys[i].position_m;
+        const float h = sq_world_height_at(s->world, p.x, p.y);
+        if (!(p.z >= h + CAMERA_CLEARANCE_M))
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                            "%s: camera.path[%d].position = [%g, %g, %g] m: the terrain surface "
+                            "there is at %.2f m; raise z above %.2f m",
+                            s->key_where[i], i, (double)p.x, (double)p.y, (double)p.z, (double)h,
+                            (double)(h + CAMERA_CLEARANCE_M));
+    }
+    for (int i = 0; i + 1 < s->key_count; i++) {
+        const double t0 = s->keys[i].time_s, t1 = s->keys[i + 1].time_s;
+        for (int k = 1; k < 64; k++) {
+            const double t = t0 + (t1 - t0) * k / 64.0;
+            const sq_camera c = sq_camera_at(&s->camera, s->keys, s->key_count, t);
+            const float hc = sq_world_height_at(s->world, c.position_m.x, c.position_m.y);
+            if (!(c.position_m.z >= hc + CAMERA_CLEARANCE_M))
+                return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene",
+                                "%s: camera.path[%d]..[%d]: the path between these keys passes "
+                                "%.2f m above the terrain at t = %.3g s (x %.1f, y %.1f m); it "
+                                "needs %.2f m: raise the keys or add one between them",
+                                s->key_where[i], i, i + 1, (double)(c.position_m.z - hc), t,
+                                (double)c.position_m.x, (double)c.position_m.y,
+                                (double)CAMERA_CLEARANCE_M);
+        }
     }
     return SQ_OK;
 }
@@ -792,14 +942,15 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     snprintf(s->name, sizeof s->name, "%s", nm && nm->value ? nm->value : cfg->source);
     const sq_cfg_node *seed = sq_cfg_get(cfg->root, "seed");
     if (seed && seed->value) {
-        char *end = NULL;
-        unsigned long long v = strtoull(seed->value, &end, 10);
-        if (!*seed->value || *end) {
+        uint64_t v = 0;
+        if (!sq__parse_u64(seed->value, &v)) {
             char w[320];
             where_of(&a, seed, w, sizeof w);
             sq_scene_destroy(s);
             return sq__fail(ctx, SQ_ERR_INVALID_ARG, "scene",
-                            "%s: seed = '%s': expected a whole number >= 0", w, seed->value);
+                            "%s: seed = '%s': expected a whole number in 0..18446744073709551615 "
+                            "(digits only)",
+                            w, seed->value);
         }
         s->seed = v;
     }
@@ -809,10 +960,20 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     memset(&ws, 0, sizeof ws);
     if (r == SQ_OK) r = build_world(ctx, desc, sq_cfg_get(cfg->root, "world"), &ws, &s->world);
     if (r == SQ_OK) r = build_meshes(s, desc, sq_cfg_get(cfg->root, "world"), &ws);
+    if (r == SQ_OK) note_camera_places(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
     if (r == SQ_OK && !desc->validate_only)
-        for (int i = 0; i < s->layer_count && r == SQ_OK; i++)
+        for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
+            if (sq__cancelled(ctx)) {
+                r = sq__fail_cancelled(ctx, "scene", "while creating the layers");
+                break;
+            }
             r = sq__phenomenon_instantiate(s->layers[i].ph);
+            if (r != SQ_OK)
+                r = sq__scene_translate_error(s->layers[i].plugin->params,
+                                              s->layers[i].plugin->param_count,
+                                              s->layers[i].name, r);
+        }
     if (r != SQ_OK) {
         sq_scene_destroy(s);
         return r;
@@ -831,6 +992,19 @@ void sq_scene_destroy(sq_scene *s)
     free(s->file_meshes);
     free(s);
 }
+
+/* For checkpoints (scene_state.c). */
+sq_phenomenon *sq__scene_layer_handle(const sq_scene *s, int i)
+{
+    return i >= 0 && i < s->layer_count ? s->layers[i].ph : NULL;
+}
+uint64_t sq__scene_steps(const sq_scene *s) { return s->step_count; }
+void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps)
+{
+    s->time_s = time_s;
+    s->step_count = steps;
+}
+sq_context *sq__scene_context(const sq_scene *s) { return s->ctx; }
 
 const sq_scene_output *sq_scene_output_settings(const sq_scene *s) { return &s->out; }
 const sq_world *sq_scene_world(const sq_scene *s) { return s->world; }
@@ -860,7 +1034,11 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "step dt = %g s; must be > 0", dt_s);
     for (int i = 0; i < s->layer_count; i++) {
         const sq_result r = sq_phenomenon_step(s->layers[i].ph, dt_s);
-        if (r != SQ_OK) return r;
+        if (r != SQ_OK)
+            return r == SQ_ERR_CANCELLED ? r
+                                         : sq__scene_translate_error(s->layers[i].plugin->params,
+                                                                     s->layers[i].plugin->param_count,
+                                                                     s->layers[i].name, r);
     }
     s->time_s += dt_s;
     s->step_count++;

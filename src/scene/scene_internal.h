@@ -108,6 +108,17 @@ extern const size_t sq__camera_key_param_count;
 extern const sq_param sq__output_params[];
 extern const size_t sq__output_param_count;
 
+/* Parses a 64-bit unsigned whole number written as decimal digits (surrounding spaces allowed):
+ * no sign, exponent, fraction or hex; false above 2^64 - 1. The one rule for seeds and every
+ * SQ_PARAM_U64 key. */
+bool sq__parse_u64(const char *text, uint64_t *out);
+
+/* Rewrites the current error text of a layer for scene users: solver field names that are the
+ * trailing part of exactly one key of the layer's table become "layers.LAYER.KEY"; the text is
+ * prefixed "layers.LAYER: " unless it names the layer. Returns r. */
+sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
+                                    sq_result r);
+
 /* scene_geo.c: a DEM terrain and polygon areas through the scene's io loaders. Fills the grid
  * terrain, CRS, offset and areas of wd from ws and items; what it allocates stays in keep until
  * sq__scene_geo_release (after sq_world_create has copied it). */
@@ -122,6 +133,12 @@ sq_result sq__scene_geo_world(sq_context *ctx, const sq_scene_desc *sd,
                               const sq__world_section *ws, const sq__area_item *items,
                               int item_count, sq_world_desc *wd, sq__scene_geo *keep);
 void sq__scene_geo_release(sq_context *ctx, sq__scene_geo *keep);
+
+/* Checkpoint access to the scene (scene.c). */
+struct sq_phenomenon *sq__scene_layer_handle(const sq_scene *s, int i);
+uint64_t sq__scene_steps(const sq_scene *s);
+void sq__scene_set_clock(sq_scene *s, double time_s, uint64_t steps);
+sq_context *sq__scene_context(const sq_scene *s);
 
 /* Levenshtein distance between two keys (99 when either is longer than 63 characters): the
  * "did you mean" suggestions of the parameter tables and of the scene sections. */

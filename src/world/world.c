@@ -166,12 +166,15 @@ static float dune_profile(float p)
     return 1.0f - s * s * (3.0f - 2.0f * s) * 0.98f - 0.02f * s;
 }
 
-static void generate(const sq_terrain_desc *t, sq_world *w)
+/* Fills the heights row by row; returns false when ctx was cancelled (checked every row: a
+ * 8192 x 8192 fBm terrain takes minutes). */
+static bool generate(sq_context *ctx, const sq_terrain_desc *t, sq_world *w)
 {
     sq_noise nz;
     sq_noise_init(&nz, t->seed);
     const float inv = 1.0f / t->feature_m;
-    for (int j = 0; j < w->ny; j++)
+    for (int j = 0; j < w->ny; j++) {
+        if (sq__cancelled(ctx)) return false;
         for (int i = 0; i < w->nx; i++) {
             float x = w->origin.x + (float)i * w->dx, y = w->origin.y + (float)j * w->dy;
             float h = t->base_m;
@@ -237,6 +240,8 @@ static void generate(const sq_terrain_desc *t, sq_world *w)
             }
             w->heights[(size_t)j * (size_t)w->nx + (size_t)i] = h;
         }
+    }
+    return true;
 }
 
 static void compute_normals(sq_world *w)
@@ -449,7 +454,10 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->crs_offset_m[0] = d.crs_offset_m[0];
         w->crs_offset_m[1] = d.crs_offset_m[1];
     }
-    generate(t, w);
+    if (!generate(ctx, t, w)) {
+        sq_world_destroy(ctx, w);
+        return sq__fail_cancelled(ctx, "world", "while generating the terrain");
+    }
     if (t->vertical_exaggeration != 1.0f) {
         for (size_t c = 0; c < (size_t)w->nx * (size_t)w->ny; c++)
             w->heights[c] *= t->vertical_exaggeration;

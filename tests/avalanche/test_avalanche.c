@@ -155,7 +155,7 @@ SQ_TEST(bad_input_is_refused_with_messages)
     d = slab_desc();
     d.mu0_pa_s = 0.5; /* below mu_inf = 1 */
     SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,
-                 "rheology.mu0_pa_s = 0.5 is below mu_inf_pa_s = 1");
+                 "rheology.mu0_pa_s = 0.5 is below sq_avalanche_desc.rheology.mu_inf_pa_s = 1");
     d = slab_desc();
     d.cross_n = -2.0;
     SQ_CHECK_ERR(sq_avalanche_validate(ctx, &d, w), SQ_ERR_INVALID_ARG,

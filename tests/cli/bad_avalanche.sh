@@ -18,7 +18,7 @@ expect 2 "layers.slide.particles.support_radius_m = 0.5 m is 0.667 x the spacing
 # release zone outside the terrain (500 x 400 m, centred on the origin)
 expect 2 "layers.slide.release: x \[882, 918\] m, y \[-15, 15\] m \(release.x_m = 900, .*\) lies outside the terrain x \[-250, 250\] m" -- \
     simulate "$SLOPE" --metrics m.csv --set $L.release.x_m=900
-expect 2 "layers.slide.release: .*\(release.x_m = -40, y_m = 190, .*\) lies outside the terrain .*y \[-200, 200\] m" -- \
+expect 2 "layers.slide.release: .*\(release.x_m = -40, release.y_m = 190, .*\) lies outside the terrain .*y \[-200, 200\] m" -- \
     render "$SLOPE" -o v.mp4 --set $L.release.y_m=190
 # too many particles for memory: a 120 x 170 m slab 10 m deep at 8 cm is ~4.6e8 particles,
 # ~220 GiB; refused before allocating, naming the count and the bytes
@@ -42,9 +42,9 @@ grep -Eq "particles.spacing_m = 0.001 m .*makes about [0-9]+ particles" err.txt 
 rm -f out.txt err.txt
 [ "$before" = "$(snapshot "$T")" ] || fail "spacing 1 mm: files changed"
 # rheology outside its physical range: mu0 < mu_inf (Cross), n <= 0
-expect 2 "layers.slide.rheology.mu0_pa_s = 0.5 is below mu_inf_pa_s = 1; the Cross model needs mu0 >= mu_inf" -- \
+expect 2 "layers.slide.rheology.mu0_pa_s = 0.5 is below layers.slide.rheology.mu_inf_pa_s = 1; the Cross model needs mu0 >= mu_inf" -- \
     simulate "$SLOPE" --metrics m.csv --set $L.rheology.mu0_pa_s=0.5
-expect 2 "layers.slide.rheology.mu0_pa_s = 2 is below mu_inf_pa_s = 5" -- \
+expect 2 "layers.slide.rheology.mu0_pa_s = 2 is below layers.slide.rheology.mu_inf_pa_s = 5" -- \
     render "$SLOPE" -o v.mp4 --set $L.rheology.mu0_pa_s=2 --set $L.rheology.mu_inf_pa_s=5
 expect 2 "rheology.cross_n = 0: outside the range \[1e-06, 20\]" -- \
     simulate "$SLOPE" --metrics m.csv --set $L.rheology.cross_n=0
@@ -63,6 +63,6 @@ layers:
     release: {x_m: -40, length_m: 10, width_m: 10, depth_m: 2}
     rheology: {model: cross, mu0_pa_s: 1, mu_inf_pa_s: 10}
 YAML
-expect 2 "s.yaml:9:[0-9]+: layers.avalanche.rheology.mu0_pa_s = 1 is below mu_inf_pa_s = 10" -- simulate s.yaml --metrics m.csv
+expect 2 "s.yaml:9:[0-9]+: layers.avalanche.rheology.mu0_pa_s = 1 is below layers.avalanche.rheology.mu_inf_pa_s = 10" -- simulate s.yaml --metrics m.csv
 expect 2 "cross_n = -2: outside the range" -- render s.yaml --set layers.avalanche.rheology.cross_n=-2
 finish

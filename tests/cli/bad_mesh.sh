@@ -40,7 +40,7 @@ world:
   place: {kind: suburb, size_m: [1000, 400]}
 output: {width: 64, height: 48, frames: 1, video: out.mp4}
 YAML
-expect 2 "g.yaml: world.place: size_m \[1000, 400\] .* reaches outside the terrain" -- render g.yaml
+expect 2 "g.yaml: world.place.size_m = \[1000, 400\] .* reaches outside the terrain" -- render g.yaml
 cat > h.yaml <<YAML
 world:
   terrain: {kind: flat, size_m: [500, 500], resolution: [17, 17]}

@@ -10,6 +10,6 @@ if [ "$(id -u)" != 0 ]; then
 fi
 chmod 644 locked.yaml
 mkdir adir.yaml
-expect 2 "'adir.yaml' is not a regular file" -- render adir.yaml
+expect 2 "'adir.yaml': it is a directory" -- render adir.yaml
 expect 2 "'no-such-preset' is neither a scene file nor a preset \(presets: .*terrain-flight" -- render no-such-preset
 finish

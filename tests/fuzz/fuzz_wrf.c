@@ -4,20 +4,12 @@
  * crash, leak or read out of bounds; it either succeeds or fails with a message naming the file.
  * libnetcdf and HDF5 are the packaged, uninstrumented libraries: a crash inside them (HDF5 is
  * not hardened against hostile files) is theirs, so seed with netCDF-3 files, whose parsing is
- * small, to exercise squall's checks. Not part of the default build (the name does not match
- * tests/CMakeLists.txt's test_*.c glob).
- *
- * Build and run (clang with libFuzzer):
- *   cmake -S . -B build/fuzz -DCMAKE_C_COMPILER=clang   (for build/fuzz/generated/sq_config.h)
- *   clang -std=c11 -D_GNU_SOURCE -DSQ_BUILDING_LIBRARY -g -O1 \
- *     -fsanitize=fuzzer,address,undefined -Iinclude -Isrc -Ibuild/fuzz/generated \
- *     tests/fuzz/fuzz_wrf.c src/core/context.c src/core/error.c src/io/wrf_open.c \
- *     src/io/wrf_read.c src/io/wrf_derive.c src/io/wrf_proj.c src/world/sun.c \
- *     src/solvers/optics/cloud.c src/solvers/optics/optics_common.c \
- *     $(pkg-config --libs netcdf proj) -lm -fopenmp -o build/fuzz/fuzz_wrf
- *   mkdir -p build/fuzz/wrf_corpus   (seed: a few small netCDF-3 wrfout files, e.g. the
- *     fixtures of tests/io/wrf_fixture.h written with classic = true)
- *   build/fuzz/fuzz_wrf -max_len=8192 -rss_limit_mb=2048 -timeout=30 build/fuzz/wrf_corpus
+ * small, to exercise squall's checks. tests/fuzz/CMakeLists.txt builds it like every harness:
+ * fuzz.wrf.replay runs the seeds (corpus/wrf/: netCDF-3 crops of the real sample made by
+ * scripts/reliability/make_wrf_seeds.py) and regress/wrf/ in every build; -DSQ_FUZZ=ON with
+ * clang builds the libFuzzer target, run by `make fuzz` (docs/reliability.md). By hand:
+ *   build/fuzz/tests/fuzz/fuzz_wrf -max_len=8192 -rss_limit_mb=2048 -timeout=30 \
+ *     build/fuzz/wrf_corpus tests/fuzz/corpus/wrf
  * Throughput is low: every input opens a PROJ context, whose first use initialises proj.db
  * (SQLite) through ASan's allocator — about 4 s per input on the loaded 2-core development
  * machine when this harness was written (2 minutes, ~40 inputs from two 2.5 kB netCDF-3 seeds

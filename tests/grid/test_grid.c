@@ -905,11 +905,11 @@ SQ_TEST(bad_input_is_refused)
     SQ_CHECK(used >= need - 4096);
     /* stage arguments */
     SQ_CHECK_ERR(sq_grid_advect_velocity(g, 0.0), SQ_ERR_INVALID_ARG, "dt = 0");
-    SQ_CHECK_ERR(sq_grid_advect_scalar(g, 5, 0.1), SQ_ERR_INVALID_ARG, "scalar index = 5");
+    SQ_CHECK_ERR(sq_grid_advect_scalar(g, 5, 0.1), SQ_ERR_INVALID_ARG, "scalar idx = 5");
     SQ_CHECK_ERR(sq_grid_set_solid(g, 40, 0, 0, true), SQ_ERR_INVALID_ARG, "(40,0,0)");
     SQ_CHECK_ERR(sq_grid_set_inflow_uniform(g, SQ_FACE_XMAX, 1, 0, 0), SQ_ERR_INVALID_ARG,
                  "SQ_FACE_XMAX");
-    SQ_CHECK_ERR(sq_grid_diffuse_eddy(g, -1.0, 0.4, 0.1), SQ_ERR_INVALID_ARG, "nu_mol = -1");
+    SQ_CHECK_ERR(sq_grid_diffuse_eddy(g, -1.0, 0.4, 0.1), SQ_ERR_INVALID_ARG, "nu_mol_m2ps = -1");
     sq_field_view small = {NULL, {4, 4, 4}, 1, 4, 16};
     float buf[64] = {0};
     small.data = buf;

@@ -560,6 +560,56 @@ SQ_TEST(raster_geotiff_and_ascii_read_back_through_gdal)
 #endif
 }
 
+/* Inputs are never written (issue 17): a raster written onto the DEM it was made from, by name
+ * or through a symbolic link, is refused even with overwrite, and the DEM is unchanged. The DEM
+ * is a copy in the test's directory, so a broken guard cannot damage the shared sample. */
+SQ_TEST(raster_refuses_its_input)
+{
+#if SQ_HAVE_GDAL
+    make_dir();
+    sq_context *ctx = make_ctx();
+    char dem_path[1024], link_path[1024];
+    in_dir(dem_path, sizeof dem_path, "dem.tif");
+    in_dir(link_path, sizeof link_path, "link.tif");
+    FILE *in = fopen(hef_path(), "rb");
+    FILE *out = fopen(dem_path, "wb");
+    SQ_CHECK(in && out);
+    long size = 0;
+    for (int c; in && out && (c = fgetc(in)) != EOF; size++) fputc(c, out);
+    if (in) fclose(in);
+    if (out) fclose(out);
+    SQ_CHECK(symlink("dem.tif", link_path) == 0);
+    sq_dem_desc d = {0};
+    d.path = dem_path;
+    d.cell_m = 400.0; /* coarse: only the reading matters here */
+    sq_dem dem;
+    SQ_CHECK_OK(sq_dem_load(ctx, &d, &dem));
+    sq_raster_desc r = {0};
+    r.crs_wkt = dem.crs_wkt;
+    r.nx = dem.nx;
+    r.ny = dem.ny;
+    r.x0 = dem.x0;
+    r.y0 = dem.y0;
+    r.cell_m = 400.0;
+    r.data = dem.heights_m;
+    r.nodata = -9999.0;
+    r.overwrite = true;
+    r.path = dem_path;
+    SQ_CHECK_ERR(sq_raster_write(ctx, &r), SQ_ERR_INVALID_ARG, "inputs are never written");
+    r.path = link_path;
+    SQ_CHECK_ERR(sq_raster_write(ctx, &r), SQ_ERR_INVALID_ARG, "through a link");
+    struct stat st;
+    SQ_CHECK(stat(dem_path, &st) == 0 && st.st_size == size);
+    SQ_CHECK(lstat(link_path, &st) == 0 && S_ISLNK(st.st_mode));
+    sq_dem_release(ctx, &dem);
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
+    sq_context_destroy(ctx);
+    remove_dir();
+#else
+    no_gdal();
+#endif
+}
+
 
 SQ_TEST(scene_dem_terrain_and_area_in_world_coordinates)
 {

@@ -214,7 +214,7 @@ SQ_TEST(scene_layers_are_handles)
     printf("scene refusal: %s\n", sq_last_error());
     SQ_CHECK(r == SQ_ERR_INVALID_ARG && !s);
     SQ_CHECK(strstr(sq_last_error(), "t.yaml:10:") != NULL); /* the line of kx_per_m */
-    SQ_CHECK(strstr(sq_last_error(), "layers.haboob.wave.kx_per_m, ky_per_m = (0.05, 0)") != NULL);
+    SQ_CHECK(strstr(sq_last_error(), "layers.haboob.wave.kx_per_m, layers.haboob.wave.ky_per_m = (0.05, 0)") != NULL);
     SQ_CHECK(strstr(sq_last_error(), "sq_sandstorm_desc") == NULL);
     sq_cfg_destroy(cfg);
     cfg = NULL;

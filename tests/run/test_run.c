@@ -111,10 +111,22 @@ SQ_TEST(output_safety_and_interruption)
     const sq_result r = run ? sq_run_execute(run) : SQ_OK;
     SQ_CHECK(r == SQ_ERR_CANCELLED);
     SQ_CHECK(strstr(sq_last_error(), "interrupted at frame 2 of 6") != NULL);
-    SQ_CHECK(count_files(dir, ".tmp") == 1); /* the metrics temporary, until destroy */
+    /* issue 17: the rows so far are kept as a complete, clearly named partial file (and the
+     * message says where); nothing else, no temporary, no final name */
+    char partial[300];
+    snprintf(partial, sizeof partial, "%s/m.partial.csv", dir);
+    SQ_CHECK(strstr(sq_last_error(), "m.partial.csv") != NULL);
+    SQ_CHECK(count_files(dir, ".tmp") == 0);
     sq_run_destroy(run);
     SQ_CHECK(count_files(dir, ".tmp") == 0);
     SQ_CHECK(access(metrics, F_OK) != 0);
+    int partial_lines = 0;
+    f = fopen(partial, "r");
+    for (int c; f && (c = fgetc(f)) != EOF;) partial_lines += c == '\n';
+    if (f) fclose(f);
+    SQ_CHECK_MSG(partial_lines == 3, "%s has %d lines; a header and 2 rows expected", partial,
+                 partial_lines);
+    remove(partial);
 
     /* finished: the file appears under its final name with a header and one row per frame */
     log.stop_after = 0;

@@ -751,6 +751,6 @@ SQ_TEST(phenomenon_bad_desc_named)
                  "wind.roughness_m = 50");
     memset(&d, 0, sizeof d);
     d.cells[0] = 2;
-    SQ_CHECK_ERR(sq_snowdrift_create(ctx, &d, NULL, &s), SQ_ERR_INVALID_ARG, "domain.cells");
+    SQ_CHECK_ERR(sq_snowdrift_create(ctx, &d, NULL, &s), SQ_ERR_INVALID_ARG, "domain.nx x ny x nz = 2x64x48");
     sq_context_destroy(ctx);
 }

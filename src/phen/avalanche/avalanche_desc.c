@@ -72,7 +72,8 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
         BAD("%snumerics.speed_of_sound_mps = %g; must be > 0 m/s (0 = auto)", P,
             d->speed_of_sound_mps);
     if (!isfinite(d->release_x_m) || !isfinite(d->release_y_m))
-        BAD("%srelease.x_m, y_m = (%g, %g); must be finite", P, d->release_x_m, d->release_y_m);
+        BAD("%srelease.x_m, %srelease.y_m = (%g, %g); must be finite", P, P, d->release_x_m,
+            d->release_y_m);
     if (!pos_finite(d->release_length_m))
         BAD("%srelease.length_m = %g; must be > 0 m", P, d->release_length_m);
     if (!pos_finite(d->release_width_m))
@@ -80,7 +81,7 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
     if (!pos_finite(d->release_depth_m))
         BAD("%srelease.depth_m = %g; the slab thickness must be > 0 m", P, d->release_depth_m);
     if (!isfinite(d->release_gradient_m) || !isfinite(d->release_reference_altitude_m))
-        BAD("%srelease.gradient_m, reference_altitude_m: not finite", P);
+        BAD("%srelease.gradient_m, release.reference_altitude_m: not finite", P);
     if (d->domain_layer_m < 0.0 || !isfinite(d->domain_layer_m))
         BAD("%sdomain.layer_m = %g; must be > 0 m (0 = auto)", P, d->domain_layer_m);
     if (!(d->hazard_cell_m >= 0.0) || !isfinite(d->hazard_cell_m))
@@ -98,9 +99,9 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
             BAD("%srheology.mu_inf_pa_s = %g; the infinite-shear viscosity must be >= 0 Pa s", P,
                 d->mu_inf_pa_s);
         if (!(d->mu0_pa_s >= d->mu_inf_pa_s) || !isfinite(d->mu0_pa_s))
-            BAD("%srheology.mu0_pa_s = %g is below mu_inf_pa_s = %g; the Cross model needs "
-                "mu0 >= mu_inf (zero-shear above infinite-shear viscosity; SPEC §7.4 ⚠ corrects "
-                "the reversed bound of the OCR)", P, d->mu0_pa_s, d->mu_inf_pa_s);
+            BAD("%srheology.mu0_pa_s = %g is below %srheology.mu_inf_pa_s = %g; the Cross model "
+                "needs mu0 >= mu_inf (zero-shear above infinite-shear viscosity; SPEC §7.4 ⚠ "
+                "corrects the reversed bound of the OCR)", P, d->mu0_pa_s, P, d->mu_inf_pa_s);
         if (!pos_finite(d->cross_k_s))
             BAD("%srheology.cross_k_s = %g; the Cross time constant must be > 0 s", P,
                 d->cross_k_s);
@@ -260,8 +261,9 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
         pl.release_hi[1] = d->release_y_m + 0.5 * d->release_width_m;
         if (pl.release_lo[0] < (double)lo.x || pl.release_hi[0] > (double)hi.x ||
             pl.release_lo[1] < (double)lo.y || pl.release_hi[1] > (double)hi.y)
-            BAD("%srelease: x [%g, %g] m, y [%g, %g] m (release.x_m = %g, y_m = %g, length_m = %g, "
-                "width_m = %g) lies outside the terrain x [%g, %g] m, y [%g, %g] m",
+            BAD("%srelease: x [%g, %g] m, y [%g, %g] m (release.x_m = %g, release.y_m = %g, "
+                "release.length_m = %g, release.width_m = %g) lies outside the terrain x [%g, %g] "
+                "m, y [%g, %g] m",
                 P, pl.release_lo[0], pl.release_hi[0], pl.release_lo[1], pl.release_hi[1],
                 d->release_x_m, d->release_y_m, d->release_length_m, d->release_width_m,
                 (double)lo.x, (double)hi.x, (double)lo.y, (double)hi.y);
@@ -309,8 +311,8 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
             dmin[a] = d->domain_min_m[a];
             dmax[a] = d->domain_max_m[a];
             if (!(dmax[a] > dmin[a]))
-                BAD("%sdomain: min_m[%d] = %g >= max_m[%d] = %g; every axis needs max > min", P,
-                    a, dmin[a], a, dmax[a]);
+                BAD("%sdomain.min_m[%d] = %g >= %sdomain.max_m[%d] = %g; every axis needs max > "
+                    "min", P, a, dmin[a], P, a, dmax[a]);
         }
         const double top = pl.release_top_z + 0.5 * pl.spacing;
         if (pl.release_lo[0] < dmin[0] || pl.release_hi[0] > dmax[0] ||

@@ -303,6 +303,7 @@ int sq__aval_hazard_fields(sq_avalanche *a, sq_named_field *out, int max)
         o->origin_m = sq_v3((float)(pl->hz_origin[0] + 0.5 * pl->hz_cell),
                             (float)(pl->hz_origin[1] + 0.5 * pl->hz_cell), 0.0f);
         o->spacing_m = sq_v3((float)pl->hz_cell, (float)pl->hz_cell, 1.0f);
+        o->level = SQ_FIELD_LEVEL_SURFACE; /* maps of the ground: no vertical coordinate */
     }
     return n;
 }

@@ -149,4 +149,8 @@ int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max);
 int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max);
 sq_sph *sq__avalanche_sph(sq_avalanche *a);
 
+/* checkpoint hooks (avalanche_state.c) */
+sq_result sq__avalanche_save_state(const void *self, sq_state_writer *w);
+sq_result sq__avalanche_load_state(void *self, sq_state_reader *r);
+
 #endif

@@ -154,6 +154,10 @@ static const sq_param params[] = {
       "Cell of the powder grid (grown to keep at most 128 cells per axis)."),
 };
 
+#undef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE sq__avalanche_save_state
+#undef SQ__PHEN_STATE_LOAD
+#define SQ__PHEN_STATE_LOAD sq__avalanche_load_state
 SQ__PHEN_PLUGIN(avalanche,
     "dense snow avalanche: SPH slab release on the terrain, Cross rheology, Coulomb friction, "
     "run-out and deposit (S2 ch. 3)",

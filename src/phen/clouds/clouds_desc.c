@@ -73,7 +73,7 @@ sq_result sq_clouds_validate(sq_context *ctx, const sq_clouds_desc *d, const sq_
     if (!(d->dist_impostor_m >= d->dist_3d_m))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "clouds",
                         P "impostor.dist_m = %g m is below impostor.dist_3d_m = %g m; the "
-                        "cross-fade band needs dist_3d <= dist_impostor",
+                        "cross-fade band needs impostor.dist_3d_m <= impostor.dist_m",
                         d->dist_impostor_m, d->dist_3d_m);
     if (d->mode == SQ_CLOUDS_MODE_PARTICLES && d->rayleigh && !d->splat_opacity)
         sq_log(ctx, SQ_LOG_WARN, "clouds",

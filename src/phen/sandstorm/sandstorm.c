@@ -1051,15 +1051,16 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
     int cnt = 0;
     for (int i = 0; i < 6 && cnt < max; i++)
         out[cnt++] = (sq_named_field){f[i].name, f[i].units, f[i].longn, f[i].stdn, f[i].data,
-                                      s->nx, s->ny, s->nz, o, sp};
-    /* visibility planes as 2D maps */
+                                      s->nx, s->ny, s->nz, o, sp,
+                                      sq_grid_solid(s->grid), /* terrain and obstacles: no air */
+                                      SQ_FIELD_LEVEL_ALTITUDE};
+    /* visibility planes as 2D maps, each at its height above the terrain */
     for (int q = 0; q < s->d.vis_height_count && cnt < max; q++) {
-        /* the plane's height above the terrain is in its name; the map's z is 0 so that all
-         * planes share one grid in the file */
         snprintf(s->vis_names[q], sizeof s->vis_names[q], "visibility_%gm", (double)s->d.vis_heights_m[q]);
-        sq_vec3 ov = sq_v3(o.x, o.y, 0.0f);
+        sq_vec3 ov = sq_v3(o.x, o.y, s->d.vis_heights_m[q]);
         out[cnt++] = (sq_named_field){s->vis_names[q], "m", "horizontal visibility (Koschmieder, 550 nm)",
-                                      "visibility_in_air", s->vis[q], s->nx, s->ny, 1, ov, sp};
+                                      "visibility_in_air", s->vis[q], s->nx, s->ny, 1, ov, sp,
+                                      NULL, SQ_FIELD_LEVEL_HEIGHT};
     }
     return cnt;
 }

@@ -72,16 +72,16 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
         BAD("%smode = %d; must be desert (0) or urban (1)", P, d.mode);
     for (int a = 0; a < 3; a++)
         if (d.cells[a] < 4 || d.cells[a] > 1024)
-            BAD("%sdomain.cells = %dx%dx%d; every axis needs 4..1024 cells", P, d.cells[0],
+            BAD("%sdomain.nx x ny x nz = %dx%dx%d; every axis needs 4..1024 cells", P, d.cells[0],
                 d.cells[1], d.cells[2]);
     if (!(d.cell_size_m > 0.0) || !isfinite(d.cell_size_m))
         BAD("%sdomain.cell_size_m = %g; must be > 0 m", P, (double)d.cell_size_m);
     /* wave numbers that alias: a wavelength must span at least 4 cells (|k| h <= pi/2) */
     double kh = sqrt((double)d.kx_per_m * d.kx_per_m + (double)d.ky_per_m * d.ky_per_m) * d.cell_size_m;
     if (kh > SQ_PI / 2.0)
-        BAD("%swave.kx_per_m, ky_per_m = (%g, %g) 1/m: wavelength %.1f m is shorter than 4 cells of "
-            "%g m and would alias on the grid; use |k| <= %.3g 1/m or a smaller cell size",
-            P, (double)d.kx_per_m, (double)d.ky_per_m, 2.0 * SQ_PI / (kh / d.cell_size_m),
+        BAD("%swave.kx_per_m, %swave.ky_per_m = (%g, %g) 1/m: wavelength %.1f m is shorter than 4 "
+            "cells of %g m and would alias on the grid; use |k| <= %.3g 1/m or a smaller cell size",
+            P, P, (double)d.kx_per_m, (double)d.ky_per_m, 2.0 * SQ_PI / (kh / d.cell_size_m),
             (double)d.cell_size_m, SQ_PI / 2.0 / d.cell_size_m);
     if (!(d.median_radius_m > 0.0) || !isfinite(d.median_radius_m))
         BAD("%sdust.median_radius_m = %g; must be a finite radius > 0 m", P, (double)d.median_radius_m);

@@ -105,4 +105,8 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max);
 void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam);
 const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int *ny);
 
+/* checkpoint hooks (sandstorm_state.c) */
+sq_result sq__sandstorm_save_state(const void *self, sq_state_writer *w);
+sq_result sq__sandstorm_load_state(void *self, sq_state_reader *r);
+
 #endif

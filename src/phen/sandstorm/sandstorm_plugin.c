@@ -117,6 +117,10 @@ static const sq_param params[] = {
       "Share of the local extinction drawn by the near-field particles."),
 };
 
+#undef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE sq__sandstorm_save_state
+#undef SQ__PHEN_STATE_LOAD
+#define SQ__PHEN_STATE_LOAD sq__sandstorm_load_state
 SQ__PHEN_PLUGIN_OBSERVING(sandstorm,
     "two-phase Eulerian sandstorm: pressure-wave wind, dust emission/settling, Mie optics, "
     "visibility (S0)",

@@ -556,12 +556,15 @@ static void update_derived(sq_snowdrift *s)
     s->ms_derived += 1e3 * (sq_time_now() - t0);
 }
 
-/* The airborne-snow mass concentration, only for field export. */
+/* The airborne-snow mass concentration, only for field export, in kg m-3 of the real snowfall:
+ * snow.speedup multiplies the flakes that fall and lift (a time-lapse of the accumulation while
+ * the wind stays real-time), so the concentration in the lattice is speedup times the physical
+ * one and is divided by it here (the village preset's 10000x made the field 10^4 too large). */
 static void update_air(sq_snowdrift *s)
 {
     if (!s->air_dirty) return;
     const sq__snow *sn = s->snow;
-    const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h);
+    const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h) / s->d.speedup;
     const int nt = sq_context_threads(s->ctx);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(sn->n >= 32768))
     for (int64_t c = 0; c < sn->n; c++) s->air_kgm3[c] = (float)(sn->air[c] * cell_kg);
@@ -709,18 +712,23 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max)
     const sq_vec3 o = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),
                             (float)(s->origin[2] + 0.5 * s->h));
     const sq_vec3 sp = sq_v3((float)s->h, (float)s->h, (float)s->h);
+    /* terrain, obstacles and cells filled with snow carry no air */
+    const uint8_t *solid = s->snow->kind;
     int n = 0;
     out[n++] = (sq_named_field){"u", "m s-1", "eastward wind", "eastward_wind", v.u[0].data,
-                                s->nx, s->ny, s->nz, o, sp};
+                                s->nx, s->ny, s->nz, o, sp, solid, SQ_FIELD_LEVEL_ALTITUDE};
     out[n++] = (sq_named_field){"v", "m s-1", "northward wind", "northward_wind", v.u[1].data,
-                                s->nx, s->ny, s->nz, o, sp};
+                                s->nx, s->ny, s->nz, o, sp, solid, SQ_FIELD_LEVEL_ALTITUDE};
     out[n++] = (sq_named_field){"w", "m s-1", "upward air velocity", "upward_air_velocity",
-                                v.u[2].data, s->nx, s->ny, s->nz, o, sp};
+                                v.u[2].data, s->nx, s->ny, s->nz, o, sp, solid,
+                                SQ_FIELD_LEVEL_ALTITUDE};
     out[n++] = (sq_named_field){"blowing_snow_concentration", "kg m-3",
-                                "mass concentration of airborne snow", NULL, s->air_kgm3, s->nx,
-                                s->ny, s->nz, o, sp};
+                                "mass concentration of airborne snow at the real snowfall rate "
+                                "(snow.speedup divided out)",
+                                NULL, s->air_kgm3, s->nx, s->ny, s->nz, o, sp, solid,
+                                SQ_FIELD_LEVEL_ALTITUDE};
     out[n++] = (sq_named_field){"snow_depth", "m", "depth of deposited snow",
                                 "surface_snow_thickness", s->depth, s->nx, s->ny, 1,
-                                sq_v3(o.x, o.y, 0.0f), sp};
+                                sq_v3(o.x, o.y, 0.0f), sp, NULL, SQ_FIELD_LEVEL_SURFACE};
     return n;
 }

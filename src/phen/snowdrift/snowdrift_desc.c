@@ -89,7 +89,7 @@ sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *in, co
     const char *P = "sq_snowdrift_desc."; /* the scene shows it as layers.<name>. */
     for (int a = 0; a < 3; a++)
         if (d.cells[a] < 4 || d.cells[a] > 2048)
-            BAD("%sdomain.cells = %dx%dx%d; every axis needs 4..2048 cells", P, d.cells[0],
+            BAD("%sdomain.nx x ny x nz = %dx%dx%d; every axis needs 4..2048 cells", P, d.cells[0],
                 d.cells[1], d.cells[2]);
     if (!pos(d.cell_size_m)) BAD("%sdomain.cell_size_m = %g; must be > 0 m", P, d.cell_size_m);
     if (!(isfinite(d.center_m[0]) && isfinite(d.center_m[1])))
@@ -163,8 +163,8 @@ sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *in, co
                 BAD("world.obstacles[%d] (footprint x %.4g..%.4g m, y %.4g..%.4g m) is not "
                     "inside the snowdrift lattice (x %.4g..%.4g m, y %.4g..%.4g m); move it, or "
                     "move/enlarge the lattice with %sdomain.center_x_m/center_y_m, nx/ny or "
-                    "cell_size_m",
-                    o, cx - hx, cx + hx, cy - hy, cy + hy, x0, x1, y0, y1, P);
+                    "%sdomain.cell_size_m",
+                    o, cx - hx, cx + hx, cy - hy, cy + hy, x0, x1, y0, y1, P, P);
         }
     }
     if (d.visual_flakes < 0 || d.visual_flakes > 2000000)

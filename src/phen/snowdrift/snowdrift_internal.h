@@ -202,7 +202,8 @@ struct sq_snowdrift {
     bool have_camera;
     sq_vec3 cam_pos;
     float cam_tan_half_fov;
-    float *air_kgm3;               /* nx*ny*nz, built only for fields() */
+    float *air_kgm3;               /* nx*ny*nz, kg m-3 at the real snowfall rate (speedup
+                                      divided out), built only for fields() */
     double *tally_part;            /* ny*5 per-row partial sums of the budget tally */
     bool derived_dirty, air_dirty;
     uint64_t version;
@@ -218,5 +219,9 @@ void sq__snowdrift_observe(sq_snowdrift *s, const sq_camera *camera);
 int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max);
 int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max);
 int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);
+
+/* checkpoint hooks (snowdrift_state.c) */
+sq_result sq__snowdrift_save_state(const void *self, sq_state_writer *w);
+sq_result sq__snowdrift_load_state(void *self, sq_state_reader *r);
 
 #endif

@@ -87,6 +87,10 @@ static const sq_param params[] = {
       "of view): distant flakes stay visible as soft dots."),
 };
 
+#undef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE sq__snowdrift_save_state
+#undef SQ__PHEN_STATE_LOAD
+#define SQ__PHEN_STATE_LOAD sq__snowdrift_load_state
 SQ__PHEN_PLUGIN_OBSERVING(snowdrift,
     "wind-driven snowfall and drifts: D3Q15 lattice-Boltzmann wind, snow on the lattice with "
     "deposition and erosion (S1)",

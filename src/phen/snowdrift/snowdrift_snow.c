@@ -28,7 +28,7 @@ static sq_result validate(sq_context *ctx, sq_dims n, const sq__snow_params *p)
 {
     if (n.nx < 1 || n.ny < 1 || n.nz < 1)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
-                        "cells = %dx%dx%d; every axis needs at least 1 cell", n.nx, n.ny, n.nz);
+                        "lattice %dx%dx%d; every axis needs at least 1 cell", n.nx, n.ny, n.nz);
     const struct {
         const char *name;
         double v;
@@ -47,13 +47,13 @@ static sq_result validate(sq_context *ctx, sq_dims n, const sq__snow_params *p)
                             pos[i].name, pos[i].v);
     if (!(isfinite(p->snowfall_mmh) && p->snowfall_mmh >= 0))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
-                        "snowfall_mmh = %g; must be >= 0 (water equivalent)", p->snowfall_mmh);
+                        "snow.snowfall_mmh = %g; must be >= 0 (water equivalent)", p->snowfall_mmh);
     if (p->threshold < 1 || p->threshold > 1000000)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
-                        "threshold = %d; must be in 1..1000000 flakes", p->threshold);
+                        "snow.threshold = %d; must be in 1..1000000 flakes", p->threshold);
     if (p->erosion_efficiency > 1)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowdrift",
-                        "erosion_efficiency = %g; must be in (0, 1]", p->erosion_efficiency);
+                        "snow.erosion_efficiency = %g; must be in (0, 1]", p->erosion_efficiency);
     return SQ_OK;
 }
 

@@ -667,7 +667,7 @@ static sq_result volume_prepare(sq_context *ctx, const sq_drawable *dr, int inde
                         index, name);
     if (vv->nx < 1 || vv->ny < 1 || vv->nz < 1)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MODULE,
-                        "drawable %d ('%s'): grid = %dx%dx%d; every axis needs at least 1 cell",
+                        "drawable %d ('%s'): nx x ny x nz = %dx%dx%d; every axis needs at least 1 cell",
                         index, name, vv->nx, vv->ny, vv->nz);
     if (!finite3(vv->origin_m) || !finite3(vv->size_m) || !(vv->size_m.x > 0.0f) ||
         !(vv->size_m.y > 0.0f) || !(vv->size_m.z > 0.0f))

@@ -478,7 +478,7 @@ sq_result sq_grid_set_scalar_inflow(sq_grid *g, int idx, double value)
         return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_set_scalar_inflow: grid is NULL");
     if (idx < 0 || idx >= g->d.scalar_count)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "scalar index = %d; must be in 0..%d (scalar_count = %d)", idx,
+                        "scalar idx = %d; must be in 0..%d (scalar_count = %d)", idx,
                         g->d.scalar_count - 1, g->d.scalar_count);
     if (!isfinite(value))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD, "scalar %d inflow value = %g; must be "

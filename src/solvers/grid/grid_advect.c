@@ -89,9 +89,6 @@ static inline float trilerp(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t
     return c0 + fz * (c1 - c0);
 }
 
-static inline float mn2(float a, float b) { return a < b ? a : b; }
-static inline float mx2(float a, float b) { return a > b ? a : b; }
-
 float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
                       float X, float Y, float Z)
 {
@@ -214,6 +211,9 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
     *mx = _mm_cvtss_f32(c);
 }
 #else
+static inline float mn2(float a, float b) { return a < b ? a : b; }
+static inline float mx2(float a, float b) { return a > b ? a : b; }
+
 static inline float tri8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
                          float fy, float fz)
 {
@@ -586,7 +586,7 @@ sq_result sq_grid_advect_scalar_drift(sq_grid *g, int idx, double dt_s, double d
     if (r != SQ_OK) return r;
     if (idx < 0 || idx >= g->d.scalar_count)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, "grid",
-                        "scalar index = %d; must be in 0..%d (scalar_count = %d)", idx,
+                        "scalar idx = %d; must be in 0..%d (scalar_count = %d)", idx,
                         g->d.scalar_count - 1, g->d.scalar_count);
     if (!isfinite(drift_w_mps))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, "grid", "drift_w_mps = %g; must be finite",

@@ -292,7 +292,7 @@ sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double d
                         "be > 0", dt_s);
     if (!(nu_mol >= 0.0) || !isfinite(nu_mol))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "nu_mol = %g m^2/s; must be >= 0 (air: 1.5e-5)", nu_mol);
+                        "nu_mol_m2ps = %g; must be >= 0 (air: 1.5e-5)", nu_mol);
     if (!(kappa >= 0.0 && kappa <= 2.0))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
                         "kappa = %g; must be in [0, 2] (von Karman: 0.4; 0 = molecular only)",

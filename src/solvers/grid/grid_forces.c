@@ -30,7 +30,7 @@ sq_result sq_grid_add_acceleration(sq_grid *g, double ax, double ay, double az, 
     if (r != SQ_OK) return r;
     if (!isfinite(ax) || !isfinite(ay) || !isfinite(az))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "acceleration = (%g, %g, %g) m/s^2; must be finite", ax, ay, az);
+                        "(ax_mps2, ay_mps2, az_mps2) = (%g, %g, %g); must be finite", ax, ay, az);
     double t0 = sq_time_now();
     const float dv[3] = {(float)(ax * dt_s), (float)(ay * dt_s), (float)(az * dt_s)};
     const uint8_t *fl = g->flags;
@@ -161,7 +161,7 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
                         g->d.scalar_count - 1, g->d.scalar_count);
     if (!isfinite(beta) || !isfinite(gravity_mps2))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "buoyancy beta = %g, gravity = %g m/s^2; both must be finite", beta,
+                        "buoyancy beta = %g, gravity_mps2 = %g; both must be finite", beta,
                         gravity_mps2);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     const sq_field3 *T = &g->scalar[tidx];

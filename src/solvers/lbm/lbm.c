@@ -364,10 +364,10 @@ sq_result sq_lbm_set_wind(sq_lbm *l, double speed_mps, double heading_deg)
 {
     if (!l) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_set_wind: lbm is NULL");
     if (!(isfinite(speed_mps) && speed_mps >= 0))
-        return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm", "wind speed = %g m/s; must be >= 0",
+        return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm", "speed_mps = %g m/s; must be >= 0",
                         speed_mps);
     if (!isfinite(heading_deg))
-        return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm", "wind heading = %g; must be finite",
+        return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm", "heading_deg = %g; must be finite",
                         heading_deg);
     sq_lbm_desc d = l->desc;
     d.wind.speed_mps = speed_mps;
@@ -461,9 +461,11 @@ static sq_result check_stability(sq_lbm *l)
     return sq__fail(l->ctx, SQ_ERR_UNSTABLE, "lbm",
                     "step %lld: density %g, velocity (%g, %g, %g) l.u. at cell (%d, %d, %d): the "
                     "flow blew up (density must stay positive, speed below c_s = 0.577 l.u.); "
-                    "lower dt_s (now %g s), the wind or the forcing, raise the viscosity, or use "
-                    "collision = smagorinsky",
-                    (long long)l->step, rho, u[0], u[1], u[2], x, y, z, l->units.dt);
+                    "lower dt_s (now %g s), the wind or the forcing, or raise the viscosity%s",
+                    (long long)l->step, rho, u[0], u[1], u[2], x, y, z, l->units.dt,
+                    l->collision == SQ_LBM_COLLISION_SMAGORINSKY
+                        ? ""
+                        : " (viscosity_m2s), or use collision = smagorinsky");
 }
 
 static void kernel_params(const sq_lbm *l, sq__lbm_kparams *p)
@@ -785,7 +787,7 @@ sq_result sq_lbm_get_friction_velocity_at(sq_lbm *l, int64_t count, const int64_
         const int64_t c = cells[q];
         if (c < 0 || c >= n)
             return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
-                            "friction_velocity_at: cell index %lld is outside the lattice "
+                            "get_friction_velocity_at: cell index %lld is outside the lattice "
                             "(0..%lld)",
                             (long long)c, (long long)(n - 1));
         const int z = (int)(c / sxy), y = (int)((c % sxy) / l->nx), x = (int)(c % l->nx);

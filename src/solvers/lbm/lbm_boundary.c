@@ -255,7 +255,7 @@ void sq__lbm_boundaries(sq_lbm *l)
     for (int64_t k = 0; k < l->ninflow; k++) {
         const int64_t c = l->inflow_cells[k];
         if (solid[c]) continue;
-        const double s = l->inflow_shape[k];
+        const double s = (double)l->inflow_shape[k];
         const double u[3] = {s * l->inflow_u[0], s * l->inflow_u[1], s * l->inflow_u[2]};
         float h[SQ_LBM_Q];
         feq_shifted(0.0, u, h);
@@ -284,7 +284,7 @@ void sq__lbm_boundaries(sq_lbm *l)
             }
         } else {
             /* the equilibrium the inflow cell was just reset to, entering from outside */
-            const double s = l->inflow_shape[lk.src];
+            const double s = (double)l->inflow_shape[lk.src];
             const double u[3] = {s * l->inflow_u[0], s * l->inflow_u[1], s * l->inflow_u[2]};
             const double usq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
             const double cu =

@@ -34,7 +34,7 @@ static double complex ada_k(double complex w)
 
 void sq__ada_eval(double x, double n_real, double n_imag, double *qext, double *qabs)
 {
-    const double complex we = CMPLX(2.0 * x * n_imag, 2.0 * x * (n_real - 1.0));
+    const double complex we = sq__cmplx(2.0 * x * n_imag, 2.0 * x * (n_real - 1.0));
     *qext = 4.0 * creal(ada_k(we));
     *qabs = n_imag > 0.0 ? 2.0 * creal(ada_k(4.0 * x * n_imag)) : 0.0;
     if (*qabs < 0.0) *qabs = 0.0;

@@ -118,8 +118,8 @@ static void mie_series(double x, double complex m, bool pec, sq_mie_result *out)
                 psi = (2.0 * fn - 1.0) * xinv * psi0 - psi_m1;
                 chi = (2.0 * fn - 1.0) * xinv * chi0 - chi_m1;
             }
-            const double complex xi = CMPLX(psi, -chi);
-            const double complex xi0 = CMPLX(psi0, -chi0);
+            const double complex xi = sq__cmplx(psi, -chi);
+            const double complex xi0 = sq__cmplx(psi0, -chi0);
             double complex an, bn;
             if (pec) {
                 const double t = fn * xinv;
@@ -176,7 +176,7 @@ sq_result sq_mie_sphere(double x, double n_real, double n_imag, sq_mie_result *o
     sq_result r = check_x(x);
     if (r == SQ_OK) r = sq__optics_check_index("n_real", "n_imag", n_real, n_imag);
     if (r != SQ_OK) return r;
-    mie_series(x, CMPLX(n_real, n_imag), false, out);
+    mie_series(x, sq__cmplx(n_real, n_imag), false, out);
     return SQ_OK;
 }
 

@@ -3,6 +3,7 @@
 #ifndef SQ_OPTICS_INTERNAL_H
 #define SQ_OPTICS_INTERNAL_H
 
+#include <complex.h>
 #include <math.h>
 
 #include "core/core_internal.h"
@@ -13,6 +14,20 @@ sq_result sq__optics_check_positive(const char *what, double v);      /* finite,
 sq_result sq__optics_check_nonnegative(const char *what, double v);   /* finite, >= 0 */
 sq_result sq__optics_check_index(const char *what_real, const char *what_imag, double n_real,
                                  double n_imag);                       /* n > 0, k >= 0 */
+
+/* re + i*im built exactly (no multiplication by I, so infinities and signed zeros survive).
+ * C11's CMPLX is missing from glibc's <complex.h> under clang, so it is not used; C11 6.2.5
+ * lays a double complex out as double[2] (real part first), which this relies on. */
+static inline double complex sq__cmplx(double re, double im)
+{
+    union {
+        double complex z;
+        double part[2];
+    } u;
+    u.part[0] = re;
+    u.part[1] = im;
+    return u.z;
+}
 
 /* ADA efficiencies without argument checks (x > 0, m != 1 assumed). */
 void sq__ada_eval(double x, double n_real, double n_imag, double *qext, double *qabs);
