@@ -302,6 +302,24 @@ SQ_API sq_result sq_sph_add_box_obstacle(sq_sph *sph, const sq_sph_box_desc *box
 SQ_API sq_result sq_sph_move_box_obstacle(sq_sph *sph, int index, const double min_m[3],
                                           const double max_m[3]);
 
+/* A voxelised solid (e.g. meshes voxelised with sq_world_voxelise): solid[i + n[0] (j + n[1] k)]
+ * != 0 for the cell centred at origin_m + (i + 1/2, j + 1/2, k + 1/2) cell_m. The solver keeps
+ * its signed distance at the cell centres (exact Euclidean distance transform; the surface lies
+ * halfway between a solid and an empty centre; negative inside) and collides particles with its
+ * 0-level: the distance is trilinear, the normal is its gradient. Outside the box nothing is
+ * solid. The mask is COPIED (borrowed for the call); each call adds one collider. */
+typedef struct sq_sph_solid_grid_desc {
+    double origin_m[3];
+    double cell_m;        /* > 0 */
+    int n[3];             /* cells >= 2 each */
+    const uint8_t *solid;
+    sq_sph_collider_desc contact;
+} sq_sph_solid_grid_desc;
+SQ_API sq_result sq_sph_add_solid_grid(sq_sph *sph, const sq_sph_solid_grid_desc *grid);
+/* Signed distance (m) to the solid grids' surface at p (the smallest over the grids; +INFINITY
+ * outside every grid) and its unit normal (may be NULL). */
+SQ_API double sq_sph_solid_distance(const sq_sph *sph, const double p_m[3], double normal[3]);
+
 /* Replaces the body acceleration (m/s², e.g. to ramp gravity up smoothly when settling a
  * column, or to tilt a slope). */
 SQ_API sq_result sq_sph_set_gravity(sq_sph *sph, const double gravity_mps2[3]);

@@ -250,6 +250,15 @@ SQ_API sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y);
 SQ_API float sq_world_surface_at(const sq_world *w, float x, float y);
 /* True if the point is inside the terrain, an obstacle or a closed mesh instance. */
 SQ_API bool sq_world_solid_at(const sq_world *w, sq_vec3 p);
+/* What sq_world_voxelise includes (bits; SQ_SOLID_ALL = what sq_world_solid_at answers). */
+enum { SQ_SOLID_TERRAIN = 1, SQ_SOLID_OBSTACLES = 2, SQ_SOLID_MESHES = 4, SQ_SOLID_ALL = 7 };
+/* Voxelises the world's solids on cells of size h_m: cell (i, j, k) is centred at origin_m +
+ * (i + 1/2, j + 1/2, k + 1/2) h_m (each coordinate rounded to float) and solid[i + n[0] (j + n[1]
+ * k)] gets 1 where it is inside one of the parts (SQ_SOLID_* bits), else 0. With SQ_SOLID_ALL
+ * these are sq_world_solid_at's answers, from one pass along each column's vertical line
+ * instead of one query per cell. */
+SQ_API sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double h_m,
+                                   const int n[3], int parts, uint8_t *solid);
 /* World bounds of the terrain: min/max x, y and heights. */
 SQ_API void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out);
 /* The area of that name (NULL if none). */

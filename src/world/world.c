@@ -6,6 +6,7 @@
  * PNG), grid (float heights given by the caller: DEMs, WRF terrain). */
 #include <float.h>
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "core/core_internal.h"
@@ -621,6 +622,48 @@ bool sq_world_solid_at(const sq_world *w, sq_vec3 p)
         if (!isnan(top) && l.z >= 0.0f && l.z <= top) return true;
     }
     return sq__world_mesh_solid_at(w, p);
+}
+
+sq_result sq_world_voxelise(const sq_world *w, const double origin_m[3], double h_m, const int n[3],
+                            int parts, uint8_t *solid)
+{
+    if (!w || !origin_m || !solid || !n || !(h_m > 0.0) || n[0] <= 0 || n[1] <= 0 || n[2] <= 0 ||
+        (parts & ~SQ_SOLID_ALL) != 0)
+        return sq__fail(NULL, SQ_ERR_INVALID_ARG, "world",
+                        "sq_world_voxelise: needs a world, an origin, h > 0, n > 0, SQ_SOLID_* parts and a mask");
+    const int nx = n[0], ny = n[1], nz = n[2];
+    float *zc = (float *)malloc((size_t)nz * sizeof *zc);
+    uint8_t *col = (uint8_t *)malloc((size_t)nz);
+    if (!zc || !col) {
+        free(zc);
+        free(col);
+        return sq__fail(NULL, SQ_ERR_OUT_OF_MEMORY, "world", "sq_world_voxelise: %d cells per column",
+                        nz);
+    }
+    for (int k = 0; k < nz; k++) zc[k] = (float)(origin_m[2] + (k + 0.5) * h_m);
+    const size_t plane = (size_t)nx * (size_t)ny;
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            const float x = (float)(origin_m[0] + (i + 0.5) * h_m);
+            const float y = (float)(origin_m[1] + (j + 0.5) * h_m);
+            const float ht = parts & SQ_SOLID_TERRAIN ? sq_world_height_at(w, x, y) : -INFINITY;
+            for (int k = 0; k < nz; k++) col[k] = zc[k] <= ht;
+            for (int o = 0; (parts & SQ_SOLID_OBSTACLES) && o < w->obstacle_count; o++) {
+                const sq_obstacle *ob = &w->obstacles[o];
+                const sq_vec3 l = to_local(ob, sq_v3(x, y, 0.0f));
+                const float top = obstacle_top_local(ob, l.x, l.y);
+                if (isnan(top)) continue;
+                for (int k = 0; k < nz; k++) {
+                    const float lz = zc[k] - ob->center_m.z;
+                    col[k] |= lz >= 0.0f && lz <= top;
+                }
+            }
+            if (parts & SQ_SOLID_MESHES) sq__world_mesh_solid_column(w, x, y, zc, nz, col);
+            for (int k = 0; k < nz; k++) solid[(size_t)i + (size_t)nx * j + plane * k] = col[k];
+        }
+    free(zc);
+    free(col);
+    return SQ_OK;
 }
 
 void sq_world_bounds(const sq_world *w, sq_vec3 *min_out, sq_vec3 *max_out)

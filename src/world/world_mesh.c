@@ -497,6 +497,86 @@ bool sq__world_mesh_solid_at(const sq_world *w, sq_vec3 p)
     return false;
 }
 
+/* Every crossing of the vertical line through local (px, py) with mesh ma: its height and sign
+ * (as mesh_column counts them). Returns the number of crossings, or -1 when more than cap. */
+static int mesh_crossings(const mesh_accel *ma, double px, double py, double *z, int8_t *sign,
+                          int cap)
+{
+    if (ma->tri_count == 0) return 0;
+    int32_t stack[64];
+    int sp = 0, n = 0;
+    stack[sp++] = 0;
+    const float fx = (float)px, fy = (float)py;
+    while (sp > 0) {
+        const bvh_node *nd = &ma->tree.nodes[stack[--sp]];
+        if (fx < nd->lo[0] || fx > nd->hi[0] || fy < nd->lo[1] || fy > nd->hi[1]) continue;
+        if (nd->count == 0) {
+            if (sp < 62) {
+                stack[sp++] = nd->first;
+                stack[sp++] = nd->first + 1;
+            }
+            continue;
+        }
+        for (int32_t s = nd->first; s < nd->first + nd->count; s++) {
+            double zc;
+            int sg;
+            if (!vertical_cross(&ma->tri[9 * s], px, py, &zc, &sg)) continue;
+            if (n == cap) return -1;
+            z[n] = zc;
+            sign[n++] = (int8_t)sg;
+        }
+    }
+    return n;
+}
+
+#define COLUMN_CROSSINGS 512
+
+void sq__world_mesh_solid_column(const sq_world *w, float x, float y, const float *zc, int nz,
+                                 uint8_t *out)
+{
+    const sq__mesh_accel *a = w->mesh_accel;
+    if (!a || a->top.node_count == 0 || nz <= 0) return;
+    double cz[COLUMN_CROSSINGS];
+    int8_t cs[COLUMN_CROSSINGS];
+    int32_t stack[64];
+    int sp = 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        const bvh_node *n = &a->top.nodes[stack[--sp]];
+        if (x < n->lo[0] || x > n->hi[0] || y < n->lo[1] || y > n->hi[1]) continue;
+        if (n->count == 0) {
+            if (sp < 62) {
+                stack[sp++] = n->first;
+                stack[sp++] = n->first + 1;
+            }
+            continue;
+        }
+        for (int32_t s = n->first; s < n->first + n->count; s++) {
+            const int32_t i = a->top.order[s];
+            const float *b = &a->inst_box[6 * i];
+            if (x < b[0] || x > b[3] || y < b[1] || y > b[4]) continue;
+            const mesh_accel *ma = &a->mesh[w->mesh_instances[i].mesh];
+            if (!ma->solid) continue;
+            double lx, ly, lz0;
+            to_local(a, i, x, y, 0.0, &lx, &ly, &lz0);
+            const int nc = mesh_crossings(ma, lx, ly, cz, cs, COLUMN_CROSSINGS);
+            for (int k = 0; k < nz; k++) {
+                const float zk = zc[k];
+                if (out[k] || zk < b[2] || zk > b[5]) continue;
+                if (nc < 0) { /* too many crossings for the buffer: one query per cell */
+                    out[k] = sq__world_mesh_solid_at(w, sq_v3(x, y, zk));
+                    continue;
+                }
+                double lz;
+                to_local(a, i, x, y, zk, &lx, &ly, &lz);
+                int wn = 0;
+                for (int c = 0; c < nc; c++) wn += cz[c] > lz ? cs[c] : 0;
+                out[k] = wn > 0;
+            }
+        }
+    }
+}
+
 bool sq__world_mesh_top_at(const sq_world *w, float x, float y, float *z_out)
 {
     const sq__mesh_accel *a = w->mesh_accel;

@@ -404,3 +404,62 @@ SQ_TEST(places_reach_their_face_counts)
     sq_place_destroy(ctx, t);
     sq_context_destroy(ctx);
 }
+
+/* sq_world_voxelise (one vertical line per column, as the sandstorm grid and the snowdrift
+ * lattice voxelise the world) gives sq_world_solid_at's answer at every cell centre: a 300 m
+ * town on hills with an obstacle house, on cells of 0.7 m not aligned with anything. */
+SQ_TEST(voxelise_equals_point_queries_over_a_town)
+{
+    sq_context *ctx = make_ctx();
+    sq_obstacle ob;
+    memset(&ob, 0, sizeof ob);
+    ob.kind = SQ_OBSTACLE_HOUSE;
+    ob.center_m = sq_v3(-20.0f, 35.0f, NAN);
+    ob.size_m = sq_v3(9.0f, 7.0f, 4.0f);
+    ob.roof_m = 2.5f;
+    ob.yaw_deg = 20.0f;
+    sq_world_desc wd;
+    memset(&wd, 0, sizeof wd);
+    wd.terrain.kind = SQ_TERRAIN_HILLS;
+    wd.terrain.size_m[0] = wd.terrain.size_m[1] = 400.0f;
+    wd.terrain.resolution[0] = wd.terrain.resolution[1] = 101;
+    wd.terrain.relief_m = 6.0f;
+    wd.obstacles = &ob;
+    wd.obstacle_count = 1;
+    sq_world *w = NULL;
+    SQ_CHECK(sq_world_create(ctx, &wd, &w) == SQ_OK);
+    sq_place *pl = make_place(ctx, SQ_PLACE_TOWN, 300.0f, 7);
+    SQ_CHECK(sq_world_set_meshes(ctx, w, (const sq_mesh *const *)pl->meshes, pl->mesh_count,
+                                 pl->instances, pl->instance_count) == SQ_OK);
+    const int n[3] = {150, 150, 40};
+    const double h = 0.7, origin[3] = {-60.03, -40.011, (double)w->height_min - 1.13};
+    const size_t cells = (size_t)n[0] * n[1] * n[2];
+    uint8_t *m = (uint8_t *)malloc(cells);
+    SQ_CHECK(m != NULL);
+    if (!m) return;
+    SQ_CHECK(sq_world_voxelise(w, origin, h, n, SQ_SOLID_ALL, m) == SQ_OK);
+    size_t mismatch = 0, solid = 0, mesh_solid = 0;
+    for (int k = 0; k < n[2]; k++)
+        for (int j = 0; j < n[1]; j++)
+            for (int i = 0; i < n[0]; i++) {
+                const sq_vec3 p = sq_v3((float)(origin[0] + (i + 0.5) * h),
+                                        (float)(origin[1] + (j + 0.5) * h),
+                                        (float)(origin[2] + (k + 0.5) * h));
+                const bool s = sq_world_solid_at(w, p);
+                const uint8_t v = m[(size_t)i + (size_t)n[0] * ((size_t)j + (size_t)n[1] * k)];
+                mismatch += (v != 0) != s;
+                solid += s;
+                mesh_solid += s && p.z > sq_world_height_at(w, p.x, p.y);
+            }
+    printf("%zu cells, %zu solid (%zu above the terrain), %zu differ\n", cells, solid, mesh_solid,
+           mismatch);
+    SQ_CHECK(mismatch == 0);
+    SQ_CHECK(mesh_solid > 10000); /* buildings and the obstacle were really in the box */
+    const double bad_o[3] = {0, 0, 0};
+    const int bad_n[3] = {4, 0, 4};
+    SQ_CHECK(sq_world_voxelise(w, bad_o, h, bad_n, SQ_SOLID_ALL, m) == SQ_ERR_INVALID_ARG);
+    free(m);
+    sq_world_destroy(ctx, w);
+    sq_place_destroy(ctx, pl);
+    sq_context_destroy(ctx);
+}

@@ -150,6 +150,7 @@ sq_result sq_avalanche_create(sq_context *ctx, const sq_avalanche_desc *desc, co
         r = sq_sph_set_terrain(a->sph, &t);
     }
     if (r == SQ_OK) r = add_obstacles(a);
+    if (r == SQ_OK) r = sq__avalanche_add_meshes(a);
     if (r == SQ_OK) r = sq_context_poll_interrupt(ctx, MOD, "the particle release");
     if (r == SQ_OK) r = sq_sph_add_particles(a->sph, a->plan.count, a->pos, NULL);
     if (r == SQ_OK) r = sq__aval_hazard_alloc(a);

@@ -123,6 +123,8 @@ void sq__aval_hazard_summary(sq_avalanche *a, const sq_sph_view *v, sq_avalanche
 int sq__aval_hazard_fields(sq_avalanche *a, sq_named_field *out, int max);
 
 /* ---- used by the plug-in (avalanche_plugin.c) and tests ----------------------------------- */
+/* The world's closed meshes inside the SPH domain as one voxelised collider (avalanche_meshes.c). */
+sq_result sq__avalanche_add_meshes(sq_avalanche *a);
 sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, const sq_world *w,
                              sq__aval_plan *out);
 

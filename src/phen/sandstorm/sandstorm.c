@@ -218,7 +218,7 @@ static sq_result create_grid(sq_sandstorm *s)
     s->temp_idx = s->nbins;
     sq_result r = sq_grid_create(s->ctx, &g, &s->grid);
     if (r != SQ_OK) return r;
-    /* solid cells: terrain and obstacles at cell centres */
+    /* solid cells: terrain, obstacles and closed meshes at cell centres */
     size_t n = (size_t)s->nx * s->ny * s->nz, cols = (size_t)s->nx * s->ny;
     uint8_t *mask = (uint8_t *)sq_alloc_zero(s->ctx, n);
     bool ok = mask != NULL;
@@ -235,16 +235,18 @@ static sq_result create_grid(sq_sandstorm *s)
         sq_free(s->ctx, mask);
         return SQ_ERR_OUT_OF_MEMORY;
     }
+    const int dims[3] = {s->nx, s->ny, s->nz};
+    r = sq_world_voxelise(s->world, s->origin, s->h, dims, SQ_SOLID_ALL, mask);
+    if (r != SQ_OK) {
+        sq_free(s->ctx, mask);
+        return r;
+    }
     for (int j = 0; j < s->ny; j++)
         for (int i = 0; i < s->nx; i++) {
             double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
             int k0 = -1;
-            for (int k = 0; k < s->nz; k++) {
-                double z = s->origin[2] + (k + 0.5) * s->h;
-                bool solid = sq_world_solid_at(s->world, sq_v3((float)x, (float)y, (float)z));
-                mask[((size_t)k * s->ny + j) * s->nx + i] = solid;
-                if (!solid && k0 < 0) k0 = k;
-            }
+            for (int k = 0; k < s->nz && k0 < 0; k++)
+                if (!mask[((size_t)k * s->ny + j) * s->nx + i]) k0 = k;
             s->ground_k[(size_t)j * s->nx + i] = k0;
             float zt = sq_world_surface_at(s->world, (float)x, (float)y);
             float z1 = k0 >= 0 ? (float)(s->origin[2] + (k0 + 0.5) * s->h) - zt : 0.0f;

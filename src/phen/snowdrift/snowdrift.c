@@ -280,18 +280,22 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
         sq_snowdrift_destroy(s);
         return SQ_ERR_OUT_OF_MEMORY;
     }
-    /* terrain and obstacles at cell centres become solid cells for wind and snow */
+    /* terrain, obstacles and closed meshes at cell centres become solid cells for wind and
+     * snow (the bottom layer always) */
     if (world) {
+        const int dims[3] = {s->nx, s->ny, s->nz};
+        r = sq_world_voxelise(world, s->origin, s->h, dims, SQ_SOLID_ALL, mask);
+        if (r != SQ_OK) {
+            sq_free(ctx, mask);
+            sq_snowdrift_destroy(s);
+            return r;
+        }
         for (int k = 0; k < s->nz; k++)
             for (int j = 0; j < s->ny; j++)
                 for (int i = 0; i < s->nx; i++) {
-                    const sq_vec3 p = sq_v3((float)(s->origin[0] + (i + 0.5) * s->h),
-                                            (float)(s->origin[1] + (j + 0.5) * s->h),
-                                            (float)(s->origin[2] + (k + 0.5) * s->h));
-                    if (k == 0 || sq_world_solid_at(world, p)) {
-                        mask[(size_t)i + cols * k + (size_t)s->nx * j] = 1;
-                        sq__snow_set_static(s->snow, i, j, k, true);
-                    }
+                    uint8_t *m = &mask[(size_t)i + cols * k + (size_t)s->nx * j];
+                    if (k == 0) *m = 1;
+                    if (*m) sq__snow_set_static(s->snow, i, j, k, true);
                 }
     } else {
         for (size_t c = 0; c < cols; c++) {

@@ -37,6 +37,8 @@ static void free_arrays(sq_sph *s)
     sq_free(ctx, s->red);
     sq_free(ctx, s->terrain.h);
     sq_free(ctx, s->boxes);
+    for (int g = 0; g < s->sdf_count; g++) sq_free(ctx, s->sdfs[g].d);
+    sq_free(ctx, s->sdfs);
 }
 
 void sq_sph_destroy(sq_sph *s)
@@ -333,6 +335,12 @@ sq_result sq_sph_add_block(sq_sph *s, const double min_m[3], const double max_m[
 
 static sq_result contact_init(sq_sph *s, const sq_sph_collider_desc *c, const char *what,
                               sq__sph_contact *out)
+{
+    return sq__sph_contact_from_desc(s, c, what, out);
+}
+
+sq_result sq__sph_contact_from_desc(sq_sph *s, const sq_sph_collider_desc *c, const char *what,
+                                    sq__sph_contact *out)
 {
     if (!(c->restitution >= 0.0 && c->restitution <= 1.0))
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, MOD,
@@ -663,7 +671,7 @@ static sq_result final_kick(sq_sph *s, float dt)
     const float vlim2 = vlim * vlim;
     float v2max = 0.0f;
     int64_t bad = INT64_MAX;
-    const int contacts = s->has_terrain || s->box_count > 0 || s->any_wall;
+    const int contacts = s->has_terrain || s->box_count > 0 || s->sdf_count > 0 || s->any_wall;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : v2max) reduction(min : bad))
     for (int64_t ii = 0; ii < (int64_t)N; ii++) {
         const size_t i = (size_t)ii;

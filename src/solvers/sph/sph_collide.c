@@ -1,5 +1,6 @@
 /* sph_collide.c — particle colliders (SPEC §7.7): the heightfield terrain (bilinear height and
- * normal), axis-aligned box obstacles, and the safety clamp inside the domain walls.
+ * normal), axis-aligned box obstacles, voxelised solids (signed distance, sph_sdf.c) and the
+ * safety clamp inside the domain walls.
  * A penetrating particle is projected to the surface plus the collision radius; if it moves
  * into the surface, the normal velocity is reversed and scaled by the restitution e and the
  * tangential velocity is reduced by Coulomb friction v_t ← v_t max(0, 1 − μ_k |Δv_n| / |v_t|).
@@ -116,6 +117,19 @@ static int contact(const sq_sph *s, float p[3], float v[3], int project)
             n[a] = -1.0f;
         }
         respond(v, n, &bx->c);
+        touched = 1;
+    }
+    /* voxelised solids: the signed distance's 0-level, normal along its gradient */
+    for (int g = 0; g < s->sdf_count; g++) {
+        float d, n[3];
+        if (!sq__sph_sdf_eval(&s->sdfs[g], p, &d, n) || !(d < r + tol)) continue;
+        if (project && d < r) {
+            const float push = r - d;
+            p[0] += push * n[0];
+            p[1] += push * n[1];
+            p[2] += push * n[2];
+        }
+        respond(v, n, &s->sdfs[g].c);
         touched = 1;
     }
     /* domain walls: the mirror images repel; this clamp only catches violent impacts */

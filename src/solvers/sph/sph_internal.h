@@ -5,6 +5,7 @@
 #define SQ_SPH_INTERNAL_H
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "core/core_internal.h"
@@ -167,7 +168,23 @@ typedef struct sq__sph_box {
     sq__sph_contact c;
 } sq__sph_box;
 
+/* A voxelised solid: signed distance (m) at the cell centres, (i, j, k) at
+ * o + (i + 1/2, j + 1/2, k + 1/2) h, stored at i + nx (j + ny k). */
+typedef struct sq__sph_sdf {
+    int nx, ny, nz;
+    float o[3], h, inv_h;
+    float lo[3], hi[3];       /* the box of the centres */
+    float *d;                 /* owned */
+    sq__sph_contact c;
+} sq__sph_sdf;
+
 void sq__sph_terrain_eval(const sq__sph_terrain *t, float x, float y, float *h, float n[3]);
+/* Checks a collider's contact description (restitution, friction) naming `what`. */
+sq_result sq__sph_contact_from_desc(sq_sph *s, const sq_sph_collider_desc *c, const char *what,
+                                    sq__sph_contact *out);
+/* Trilinear signed distance at p and its gradient (normalised; zero where flat); false outside
+ * the box of the centres. */
+bool sq__sph_sdf_eval(const sq__sph_sdf *g, const float p[3], float *d, float n[3]);
 
 /* ---- the solver ------------------------------------------------------------------------ */
 struct sq_sph {
@@ -246,6 +263,8 @@ struct sq_sph {
     int has_terrain;
     sq__sph_box *boxes;
     int box_count, box_cap;
+    sq__sph_sdf *sdfs;
+    int sdf_count;
 
     /* reductions (per thread) */
     double *red;              /* nt * 8 doubles */
