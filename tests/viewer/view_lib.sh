@@ -9,8 +9,11 @@ view() {
     if [ -n "${DISPLAY:-}" ] || [ -n "${WAYLAND_DISPLAY:-}" ]; then
         "$SQ" view "$@"
     else
-        # a display number of this test's own (xvfb-run -a races when tests run in parallel)
-        xvfb-run -n $((200 + $$ % 5000)) -s "-screen 0 1280x800x24" "$SQ" view "$@"
+        # a display number of this call's own: a block of 8 per test process (parallel tests do
+        # not share), a new number for each call of the test (the previous server's lock may
+        # still be there), and -a moves on past a number still in use
+        SQ_VIEW_CALLS=$(( ${SQ_VIEW_CALLS:-0} + 1 ))
+        xvfb-run -a -n $((200 + ($$ % 4000) * 8 + SQ_VIEW_CALLS % 8)) -s "-screen 0 1280x800x24" "$SQ" view "$@"
     fi
 }
 
