@@ -1,17 +1,22 @@
 # Squall — the two commands of the README:
 #   make demo   install missing Debian packages, build (Release), render the default scene to MP4
 #   make test   install missing packages, build and run the whole suite (Release, then ASan+UBSan,
-#               then every fuzz harness for FUZZ_CI_SECONDS under libFuzzer + ASan+UBSan)
+#               then the simulation-only build without OpenGL/FFmpeg, then every fuzz harness
+#               for FUZZ_CI_SECONDS under libFuzzer + ASan+UBSan)
 #   make fuzz   run every fuzz harness for FUZZ_SECONDS each (clang, libFuzzer, ASan+UBSan)
+#   make install  build a portable library (no -march=native) and install it under PREFIX
 JOBS ?= $(shell nproc)
 BUILD ?= build/release
 ASAN_BUILD ?= build/asan
 FUZZ_BUILD ?= build/fuzz
+NOGL_BUILD ?= build/nogl
+INSTALL_BUILD ?= build/install
+PREFIX ?= /usr/local
 DEMO_OUT ?= out/demo.mp4
 FUZZ_SECONDS ?= 300
 FUZZ_CI_SECONDS ?= 10
 
-.PHONY: all deps build demo test test-release test-asan test-fuzz fuzz fuzz-build bench clean
+.PHONY: all deps build demo test test-release test-asan test-nogl test-fuzz fuzz fuzz-build install bench clean
 
 all: build
 
@@ -36,6 +41,19 @@ test-asan: deps
 	@cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	    ctest --output-on-failure -j$(JOBS) -LE perf
 
+# The simulation-only library: no OpenGL (EGL, libepoxy) and no FFmpeg; the tests that need them
+# are not registered there (SQ_REQUIRES(gl) / "# requires: gl mp4").
+test-nogl: deps
+	@cmake -S . -B $(NOGL_BUILD) -DCMAKE_BUILD_TYPE=Release -DSQ_WERROR=ON -DSQ_WITH_GL=OFF -DSQ_WITH_MP4=OFF >/dev/null
+	@cmake --build $(NOGL_BUILD) -j$(JOBS)
+	@cd $(NOGL_BUILD) && ctest --output-on-failure -j$(JOBS) -LE perf
+
+# A portable install (SQ_NATIVE=OFF: no -march=native in the installed library): docs/api.md.
+install: deps
+	@cmake -S . -B $(INSTALL_BUILD) -DCMAKE_BUILD_TYPE=Release -DSQ_NATIVE=OFF -DSQ_BUILD_TESTS=OFF -DCMAKE_INSTALL_PREFIX=$(PREFIX) >/dev/null
+	@cmake --build $(INSTALL_BUILD) -j$(JOBS)
+	@cmake --install $(INSTALL_BUILD)
+
 # The fuzz harnesses (tests/fuzz) with libFuzzer: clang, the whole library instrumented (no
 # -Werror here: warnings are enforced by the gcc builds; clang-only ones must not stop fuzzing).
 fuzz-build: deps
@@ -50,7 +68,7 @@ fuzz: fuzz-build
 	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_SECONDS) ctest --output-on-failure -L fuzz
 	@echo "fuzz log: $(abspath $(FUZZ_BUILD))/fuzz-work/fuzz-log.tsv"
 
-test: test-release test-asan test-fuzz
+test: test-release test-asan test-nogl test-fuzz
 
 clean:
 	rm -rf build

@@ -1,5 +1,6 @@
 #!/bin/bash
 # label: unit
+# requires: gl
 # Interruption is consistent (issue 17 parts 2 and 3): SIGINT or SIGTERM, during the scene's
 # set-up (a large terrain being generated) or during the frames, stops the run (exit 1,
 # "interrupted"), and leaves nothing but the metrics rows so far, as NAME.partial.csv: no

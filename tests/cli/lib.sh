@@ -65,3 +65,6 @@ finish() {
     if [ "$fails" != 0 ]; then echo "$fails check(s) failed" >&2; exit 1; fi
     echo ok
 }
+
+# has_feature NAME: the squall under test was built with NAME (as `squall info` lists features)
+has_feature() { "$SQ" info 2>/dev/null | grep -Eq "^features:.* $1( |$)"; }
