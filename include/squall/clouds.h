@@ -127,7 +127,11 @@ typedef struct sq_clouds_stats {
     double ms_cluster;    /* of which clustering */
 } sq_clouds_stats;
 
+/* Copies in to out with every zero field replaced by its default (see each field). Never
+ * validates; SQ_ERR_INVALID_ARG only for NULL pointers. */
 SQ_API sq_result sq_clouds_desc_resolve(const sq_clouds_desc *in, sq_clouds_desc *out);
+/* Checks every rule of desc against world before anything is allocated: SQ_ERR_INVALID_ARG
+ * naming sq_clouds_desc.<key>, the value and the rule; SQ_ERR_IO for an unreadable WRF file. */
 SQ_API sq_result sq_clouds_validate(sq_context *ctx, const sq_clouds_desc *desc,
                                     const sq_world *world);
 /* Bytes of the particle system and grids (the file's size is read at create). */

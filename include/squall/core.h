@@ -47,6 +47,8 @@ typedef enum sq_result {
     SQ_ERR_NO_SPACE = -13    /* an output could not be written: the disk or quota is full */
 } sq_result;
 
+/* The enumerator name of r ("SQ_ERR_INVALID_ARG"); "SQ_ERR_UNKNOWN" for another value.
+ * Static storage. */
 SQ_API const char *sq_result_name(sq_result r);
 
 /* The reason for the last failure on this thread ("" if none). Valid until the next failure. */
@@ -84,10 +86,18 @@ typedef struct sq_context_desc {
 
 typedef struct sq_context sq_context;
 
+/* Creates a context from desc (NULL = all defaults): threads, logger, memory limit, seed.
+ * Everything else in libsquall takes one; it must outlive every object made with it.
+ * SQ_ERR_INVALID_ARG for a negative thread count. *out is NULL on failure. */
 SQ_API sq_result sq_context_create(const sq_context_desc *desc, sq_context **out);
+/* Destroys the context (NULL accepted). Objects made with it must be destroyed before. */
 SQ_API void sq_context_destroy(sq_context *ctx);
+/* Worker threads the kernels use (desc.threads, or the core count for 0). */
 SQ_API int sq_context_threads(const sq_context *ctx);
+/* The context's default seed (desc.seed). */
 SQ_API uint64_t sq_context_seed(const sq_context *ctx);
+/* The memory limit in bytes requests are checked against (desc.memory_limit_bytes, or 80 %
+ * of physical memory for 0). */
 SQ_API uint64_t sq_context_memory_limit(const sq_context *ctx);
 
 /* 64-byte aligned allocation through the context. NULL on failure (error text set).
@@ -121,7 +131,12 @@ SQ_API const char *sq_context_input_what(const sq_context *ctx, int i);
  * sq_state_get refuses a record whose tag or size differs from the one asked for, naming both. */
 typedef struct sq_state_writer sq_state_writer;
 typedef struct sq_state_reader sq_state_reader;
+/* Appends a record: tag (a short name, copied) and bytes of data. SQ_ERR_INVALID_ARG for an
+ * empty or too long tag; once a write of the stream failed, that error (SQ_ERR_IO,
+ * SQ_ERR_NO_SPACE) is returned by every later put. */
 SQ_API sq_result sq_state_put(sq_state_writer *w, const char *tag, const void *data, size_t bytes);
+/* Reads the next record into data, which must have this tag and exactly this size:
+ * SQ_ERR_INVALID_ARG naming both records otherwise (a checkpoint of another scene or build). */
 SQ_API sq_result sq_state_get(sq_state_reader *r, const char *tag, void *data, size_t bytes);
 /* The next record's tag and size without consuming it (for variable-size records). */
 SQ_API sq_result sq_state_peek(sq_state_reader *r, const char **tag, uint64_t *bytes);
@@ -134,6 +149,8 @@ SQ_API sq_result sq_context_check_memory(sq_context *ctx, uint64_t bytes, const 
  * interrupt callback asks to stop, else SQ_OK. ctx may be NULL (never interrupted). */
 SQ_API sq_result sq_context_poll_interrupt(sq_context *ctx, const char *module, const char *what);
 
+/* Logs one line through the context's log callback if level passes its log_level (ctx may be
+ * NULL: dropped). module is a short tag ("lbm", "scene"). */
 SQ_API void sq_log(sq_context *ctx, sq_log_level level, const char *module, const char *fmt, ...)
     SQ_PRINTF(4, 5);
 

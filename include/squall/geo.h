@@ -130,6 +130,9 @@ typedef struct sq_raster_desc {
     bool overwrite;
 } sq_raster_desc;
 
+/* Writes desc->data as a single-band raster (GeoTIFF or ESRI ASCII grid through GDAL) under
+ * the output rules of squall/io.h: temporary + rename, never over an input, SQ_ERR_EXISTS
+ * without overwrite. SQ_ERR_UNSUPPORTED without GDAL; SQ_ERR_INVALID_ARG for a bad size or cell. */
 SQ_API sq_result sq_raster_write(sq_context *ctx, const sq_raster_desc *desc);
 
 #ifdef __cplusplus

@@ -175,8 +175,11 @@ SQ_API sq_grid_desc sq_grid_desc_resolve(const sq_grid_desc *desc);
 /* Bytes sq_grid_create would allocate for this desc (0 if the dims are not positive). */
 SQ_API uint64_t sq_grid_memory_bytes(const sq_grid_desc *desc);
 
+/* Creates the grid (fields zeroed, no solids) after checking desc and its memory against the
+ * context's limit (SQ_ERR_INVALID_ARG naming sq_grid_desc.<field>, SQ_ERR_TOO_LARGE). */
 SQ_API sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **out);
 SQ_API void sq_grid_destroy(sq_grid *g); /* accepts NULL */
+/* Sizes, spacing and the pressure solver's set-up of the grid. */
 SQ_API sq_grid_info sq_grid_get_info(const sq_grid *g);
 SQ_API sq_grid_desc sq_grid_get_desc(const sq_grid *g); /* the resolved desc */
 
@@ -193,6 +196,7 @@ SQ_API sq_field_view sq_grid_pressure_view(const sq_grid *g);
 /* Solid flags, nx*ny*nz bytes, x fastest, 1 = solid. */
 SQ_API const uint8_t *sq_grid_solid(const sq_grid *g);
 
+/* Marks cell (i, j, k) solid or fluid (SQ_ERR_INVALID_ARG outside the grid). */
 SQ_API sq_result sq_grid_set_solid(sq_grid *g, int i, int j, int k, bool solid);
 /* mask: nx*ny*nz bytes, x fastest, non-zero = solid; NULL clears all solids. */
 SQ_API sq_result sq_grid_set_solid_mask(sq_grid *g, const uint8_t *mask);
@@ -202,8 +206,11 @@ SQ_API bool sq_grid_is_solid(const sq_grid *g, int i, int j, int k); /* outside:
  * once, now, at the centre of every boundary cell face (world coordinates, metres). */
 typedef void (*sq_grid_inflow_fn)(void *user, double x_m, double y_m, double z_m,
                                   float vel_mps[3]);
+/* Sets the inflow of face from fn (see above); SQ_ERR_INVALID_ARG if that face is not an
+ * inflow boundary. */
 SQ_API sq_result sq_grid_set_inflow(sq_grid *g, sq_grid_face face, sq_grid_inflow_fn fn,
                                     void *user);
+/* The same with one velocity (m/s) for the whole face. */
 SQ_API sq_result sq_grid_set_inflow_uniform(sq_grid *g, sq_grid_face face, double vx_mps,
                                             double vy_mps, double vz_mps);
 /* Mutable inflow array of a face: na*nb entries of 3 floats (vx, vy, vz), a fastest, where
@@ -277,6 +284,7 @@ SQ_API float sq_grid_sample_scalar(const sq_grid *g, int idx, sq_vec3 p_m);
 /* Velocity at the centre of cell (i,j,k): the mean of its two faces per component. */
 SQ_API sq_vec3 sq_grid_cell_velocity(const sq_grid *g, int i, int j, int k);
 
+/* Counters and timings of the stages since creation or the last sq_grid_stats_reset. */
 SQ_API void sq_grid_get_stats(const sq_grid *g, sq_grid_stats *out);
 SQ_API void sq_grid_stats_reset(sq_grid *g);
 

@@ -75,6 +75,9 @@ typedef struct sq_video_desc {
 
 typedef struct sq_video_writer sq_video_writer;
 
+/* Opens an H.264 MP4 writer (FFmpeg's libraries) under the output rules above: frames go to a
+ * temporary file renamed by sq_video_close. SQ_ERR_UNSUPPORTED without MP4 support;
+ * SQ_ERR_INVALID_ARG for odd sizes or a bad fps/crf; SQ_ERR_EXISTS without overwrite. */
 SQ_API sq_result sq_video_open(sq_context *ctx, const sq_video_desc *desc, sq_video_writer **out);
 /* Adds one frame: 8-bit RGBA, top row first. */
 SQ_API sq_result sq_video_add_rgba8(sq_video_writer *w, const uint8_t *rgba);

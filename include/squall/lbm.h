@@ -177,6 +177,7 @@ SQ_API void sq_lbm_destroy(sq_lbm *lbm);
  * non-positive density or a supersonic velocity returns SQ_ERR_UNSTABLE naming step and cell. */
 SQ_API sq_result sq_lbm_step(sq_lbm *lbm, int steps);
 
+/* Sizes, resolved relaxation time, lattice units and memory of the lattice. */
 SQ_API sq_lbm_info sq_lbm_get_info(const sq_lbm *lbm);
 
 /* Changes the mean wind (Mach-checked). With wind.ramp_mps2 = 0 the change is injected at once
@@ -216,6 +217,7 @@ SQ_API sq_result sq_lbm_get_friction_velocity_at(sq_lbm *lbm, int64_t count,
                                                  const int64_t *cells, float *out);
 SQ_API sq_result sq_lbm_get_totals(sq_lbm *lbm, sq_lbm_totals *out);
 
+/* Names of the enumerators as the parameter tables spell them ("bgk", "zou-he"); static. */
 SQ_API const char *sq_lbm_collision_name(sq_lbm_collision c);
 SQ_API const char *sq_lbm_bc_name(sq_lbm_bc bc);
 

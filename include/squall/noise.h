@@ -16,7 +16,9 @@ typedef struct sq_noise {
     uint8_t perm[512]; /* permutation table repeated twice */
 } sq_noise;
 
+/* Fills the permutation table from seed (same seed, same noise on every machine). */
 SQ_API void sq_noise_init(sq_noise *n, uint64_t seed);
+/* Gradient noise at (x, y, z), about in [-1, 1], 0 at integer lattice points. */
 SQ_API float sq_noise3(const sq_noise *n, float x, float y, float z);
 /* Sum over octaves o = 0..octaves-1 of gain^o * noise(lacunarity^o * p), divided by
  * the sum of gain^o. Typical lacunarity 2, gain 0.5. */

@@ -211,6 +211,8 @@ typedef struct sq_optics_table {
     sq_optics_method method;
 } sq_optics_table;
 
+/* Copies desc to out with zero fields replaced by their defaults and checks the ranges:
+ * SQ_ERR_INVALID_ARG naming sq_optics_table_desc.<field>. */
 SQ_API sq_result sq_optics_table_desc_resolve(const sq_optics_table_desc *desc,
                                               sq_optics_table_desc *out);
 /* Builds the table once (scene creation): four bulk-optics evaluations. */

@@ -63,6 +63,8 @@ SQ_API sq_result sq_phenomenon_create(sq_context *ctx, const sq_phenomenon_desc 
  * borrowed from a scene. */
 SQ_API void sq_phenomenon_destroy(sq_phenomenon *p);
 
+/* The plug-in name ("sandstorm"), the instance name (desc.name or the type) and the plug-in
+ * table; all valid as long as the handle. */
 SQ_API const char *sq_phenomenon_type(const sq_phenomenon *p);
 SQ_API const char *sq_phenomenon_name(const sq_phenomenon *p);
 SQ_API const sq_phen_plugin *sq_phenomenon_plugin(const sq_phenomenon *p);

@@ -108,6 +108,8 @@ typedef struct sq_phen_plugin {
     sq_result (*load_state)(void *self, sq_state_reader *r);
 } sq_phen_plugin;
 
+/* The phenomena compiled into this library, in a fixed order (sq_plugin_at(0 .. count-1)),
+ * and one by name (NULL if there is none of that name). The tables are static. */
 SQ_API int sq_plugin_count(void);
 SQ_API const sq_phen_plugin *sq_plugin_at(int i);
 SQ_API const sq_phen_plugin *sq_plugin_find(const char *name);

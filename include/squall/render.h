@@ -59,9 +59,16 @@ typedef struct sq_render_info {
 
 typedef struct sq_renderer sq_renderer;
 
+/* Creates a renderer: opens its own headless EGL context (or takes the caller's current one,
+ * use_current_context), compiles the shaders and allocates the frame. SQ_ERR_UNSUPPORTED in a
+ * build without GL; SQ_ERR_GL when no OpenGL 4.5 core context can be had (the message lists
+ * what was tried); SQ_ERR_INVALID_ARG for a bad desc (the message names the field). */
 SQ_API sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc,
                                     sq_renderer **out);
+/* Frees the GL objects (in the caller's context with use_current_context: make it current
+ * first) and the renderer's own context. NULL accepted. */
 SQ_API void sq_renderer_destroy(sq_renderer *r);
+/* Strings and limits of the renderer's GL context. */
 SQ_API sq_result sq_renderer_info(const sq_renderer *r, sq_render_info *out);
 /* Opens a headless GL context only to report its strings and limits (for `squall info`). */
 SQ_API sq_result sq_gl_probe(sq_context *ctx, sq_render_info *out);

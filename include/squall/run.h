@@ -170,6 +170,8 @@ typedef struct sq_run_metric_stats {
     int count;          /* finite values */
     double min, median, max, mean, last;
 } sq_run_metric_stats;
+/* The metrics of the run (every layer's, in the scene's order), and the statistics of metric
+ * i in [0, count): SQ_ERR_NOT_FOUND outside. */
 SQ_API int sq_run_metric_count(const sq_run *run);
 SQ_API sq_result sq_run_metric_stats_get(const sq_run *run, int i, sq_run_metric_stats *out);
 

@@ -131,9 +131,15 @@ typedef struct sq_sandstorm_stats {
     uint64_t memory_bytes;
 } sq_sandstorm_stats;
 
+/* Copies in to out with zero fields replaced by their defaults (the table of `squall params
+ * sandstorm`); never validates. */
 SQ_API sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_desc *out);
+/* Every rule of desc (and against world: the domain over the terrain) before anything is
+ * allocated: SQ_ERR_INVALID_ARG naming sq_sandstorm_desc.<key>, the value and the rule. */
 SQ_API sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *desc,
                                        const sq_world *world);
+/* Bytes sq_sandstorm_create will allocate for a resolved desc (checked against the
+ * context's limit before allocating). */
 SQ_API uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *desc);
 /* world: terrain and obstacles become solid cells; borrowed, must outlive the sandstorm. */
 SQ_API sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc,

@@ -37,6 +37,9 @@ typedef struct sq_cfg {
     char base_dir[512];  /* directory relative paths in the file are resolved against */
 } sq_cfg;
 
+/* The configuration tree: an empty tree (root = an empty map), freed with sq_cfg_destroy
+ * (NULL accepted). Nodes are made with sq_cfg_node_new (key and value copied; NULL on out of
+ * memory) and freed with sq_cfg_node_free (with their children and following siblings). */
 SQ_API sq_result sq_cfg_create(sq_cfg **out);
 SQ_API void sq_cfg_destroy(sq_cfg *cfg);
 SQ_API sq_cfg_node *sq_cfg_node_new(sq_cfg_kind kind, const char *key, const char *value,
@@ -126,9 +129,16 @@ typedef struct sq_scene_desc {
     sq_wrf_world_loader load_wrf_world; /* NULL: terrain kind wrf is refused */
 } sq_scene_desc;
 
+/* Builds the scene of desc->cfg: every section and layer key checked through the tables
+ * (type, range, unknown keys with a suggestion; messages "file:line:col: key = value: rule"),
+ * the world created and every layer validated before any is created. Errors as the tables and
+ * phenomena report them (SQ_ERR_INVALID_ARG, SQ_ERR_NOT_FOUND, SQ_ERR_IO, SQ_ERR_TOO_LARGE). */
 SQ_API sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene **out);
+/* Destroys the layers, the world and the scene (NULL accepted). */
 SQ_API void sq_scene_destroy(sq_scene *s);
 
+/* Read-only parts of the scene, valid until sq_scene_destroy: the output section, the world,
+ * the name, the seed, the simulated time (s) and the number of frames of the output section. */
 SQ_API const sq_scene_output *sq_scene_output_settings(const sq_scene *s);
 SQ_API const sq_world *sq_scene_world(const sq_scene *s);
 SQ_API const char *sq_scene_name(const sq_scene *s);

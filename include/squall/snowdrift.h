@@ -109,9 +109,15 @@ typedef struct sq_snowdrift_stats {
     double ms_budget;       /* budget / metrics */
 } sq_snowdrift_stats;
 
+/* Copies in to out with zero fields replaced by their defaults (the table of `squall params
+ * snowdrift`); never validates. */
 SQ_API sq_result sq_snowdrift_desc_resolve(const sq_snowdrift_desc *in, sq_snowdrift_desc *out);
+/* Every rule of desc (the lattice's own rules, tau and Mach, through sq_lbm_desc_validate;
+ * obstacles inside the lattice) before anything is allocated: SQ_ERR_INVALID_ARG naming
+ * sq_snowdrift_desc.<key>, the value and the rule. */
 SQ_API sq_result sq_snowdrift_validate(sq_context *ctx, const sq_snowdrift_desc *desc,
                                        const sq_world *world);
+/* Bytes sq_snowdrift_create will allocate for a resolved desc. */
 SQ_API uint64_t sq_snowdrift_memory_bytes(const sq_snowdrift_desc *desc);
 /* world: terrain and obstacles become solid cells; borrowed, must outlive the snowdrift. */
 SQ_API sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,

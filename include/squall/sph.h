@@ -285,6 +285,8 @@ typedef struct sq_sph_terrain_desc {
     const float *heights_m;
     sq_sph_collider_desc contact;
 } sq_sph_terrain_desc;
+/* Sets (or replaces) the terrain; heights_m is borrowed for the call. SQ_ERR_INVALID_ARG (the
+ * message names the field) for a bad size or spacing, non-finite values or contact law. */
 SQ_API sq_result sq_sph_set_terrain(sq_sph *sph, const sq_sph_terrain_desc *terrain);
 /* Terrain height (m) and unit normal at (x, y). SQ_ERR_NOT_FOUND without a terrain. */
 SQ_API sq_result sq_sph_terrain_sample(const sq_sph *sph, double x_m, double y_m,
@@ -295,6 +297,8 @@ typedef struct sq_sph_box_desc {
     double min_m[3], max_m[3];
     sq_sph_collider_desc contact;
 } sq_sph_box_desc;
+/* Adds a box obstacle (index = the number added before). SQ_ERR_INVALID_ARG for min > max or a
+ * bad contact law. */
 SQ_API sq_result sq_sph_add_box_obstacle(sq_sph *sph, const sq_sph_box_desc *box);
 /* Moves box obstacle `index` (0-based, in the order added) to [min_m, max_m] between steps: a
  * gate that is lifted, a moving wall (its contact law is kept; the box has no velocity of its
@@ -315,6 +319,8 @@ typedef struct sq_sph_solid_grid_desc {
     const uint8_t *solid;
     sq_sph_collider_desc contact;
 } sq_sph_solid_grid_desc;
+/* Adds a voxel solid (solid is borrowed for the call; its signed distance field is built now).
+ * SQ_ERR_INVALID_ARG (naming the field) for a bad size or cell; SQ_ERR_TOO_LARGE for memory. */
 SQ_API sq_result sq_sph_add_solid_grid(sq_sph *sph, const sq_sph_solid_grid_desc *grid);
 /* Signed distance (m) to the solid grids' surface at p (the smallest over the grids; +INFINITY
  * outside every grid) and its unit normal (may be NULL). */
@@ -343,6 +349,7 @@ typedef struct sq_sph_view {
     const float *viscosity;       /* effective μ (Pa·s) */
     const uint32_t *id;
 } sq_sph_view;
+/* Borrowed arrays of the current particles, valid until the next step, add or remove. */
 SQ_API sq_sph_view sq_sph_particles(const sq_sph *sph);
 
 typedef struct sq_sph_info {
@@ -356,6 +363,7 @@ typedef struct sq_sph_info {
     size_t max_particles;
     uint64_t bytes;               /* allocated */
 } sq_sph_info;
+/* Constants and sizes of the solver. */
 SQ_API sq_sph_info sq_sph_get_info(const sq_sph *sph);
 
 typedef struct sq_sph_stats {
@@ -375,6 +383,7 @@ typedef struct sq_sph_stats {
     /* wall-clock ms spent in each stage during the last sq_sph_step call */
     double ms_sort, ms_density, ms_strain, ms_forces, ms_integrate;
 } sq_sph_stats;
+/* Counters and timings, the last sq_sph_step call's where so marked. */
 SQ_API sq_sph_stats sq_sph_get_stats(const sq_sph *sph);
 
 /* Checkpoints (squall/core.h records): the complete particle state, to restore into a solver

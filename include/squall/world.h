@@ -222,8 +222,14 @@ typedef struct sq_world {
     uint64_t generation;   /* changes when terrain, obstacles or meshes change */
 } sq_world;
 
+/* Copies in to out with zero fields replaced by their defaults; never validates. */
 SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);
+/* Creates the world: terrain generated or copied (the desc's arrays are borrowed for the call),
+ * obstacles and areas copied, sun and sky computed. SQ_ERR_INVALID_ARG naming
+ * sq_world_desc.<field> (sizes, non-finite heights, more than SQ_MAX_OBSTACLES obstacles ...);
+ * SQ_ERR_TOO_LARGE for memory. *out is NULL on failure. */
 SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
+/* Frees the world (NULL accepted); nothing made on it may be used afterwards. */
 SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
 
 /* Places meshes in the world (replacing any placed before): validates every instance (mesh

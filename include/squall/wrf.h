@@ -161,6 +161,7 @@ SQ_API sq_result sq_wrf_open(sq_context *ctx, const char *const *paths, int coun
 /* Closes the files and frees everything (accepts NULL). */
 SQ_API void sq_wrf_close(sq_wrf *w);
 
+/* Grid, projection, times and species of the open files. */
 SQ_API void sq_wrf_get_info(const sq_wrf *w, sq_wrf_info *out);
 
 /* Bytes an open sq_wrf uses for its caches once it has read a time (3 sets of fields). */

@@ -1,7 +1,8 @@
 #!/bin/bash
 # label: unit
 # Every public header compiles alone as C11 and as C++17 (strict warnings, -Werror), and the
-# umbrella header squall/squall.h includes every header of include/squall/.
+# umbrella header squall/squall.h includes every header of include/squall/, and every public
+# function has a comment (ownership, units, errors: docs/api.md).
 set -u
 SRC="${SQ_SOURCE_DIR:?}"
 CC="${SQ_CC:-cc}"
@@ -21,6 +22,20 @@ for h in "$SRC"/include/squall/*.h; do
         echo "FAIL: squall/squall.h does not include squall/$n"; fails=$((fails + 1))
     fi
 done
+# Every public function is documented: a comment on its line, or a comment ending right above
+# it or above the run of declarations it belongs to (a group documented together).
+undoc=$(awk '
+    FNR == 1 { prev_doc = 0; in_group = 0 }
+    /^SQ_API/ {
+        if (!(prev_doc || in_group_doc || index($0, "/*"))) print FILENAME ":" FNR ": " $0
+        in_group = 1; in_group_doc = (prev_doc || in_group_doc || index($0, "/*")); prev_doc = 0; next
+    }
+    in_group && /^ / && !/^ *(\/\*|\*)/ { next }   # continuation of a declaration
+    { in_group = 0; in_group_doc = 0; prev_doc = ($0 ~ /\*\/ *$/) }
+' "$SRC"/include/squall/*.h)
+if [ -n "$undoc" ]; then
+    echo "FAIL: public functions without documentation:"; echo "$undoc"; fails=$((fails + 1))
+fi
 rm -f err.txt
 [ "$fails" = 0 ] && echo "ok: $(ls "$SRC"/include/squall/*.h | wc -l) headers"
 exit $((fails > 0))
