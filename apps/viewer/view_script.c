@@ -1,6 +1,7 @@
 /* view_script.c — `squall view --script FILE`: timed actions for tests and demos, one per line
  * (# starts a comment), run in order by the window's frame callback:
- *   wait N                  until N more frames have been advanced and drawn
+ *   wait N                  until N more frames have been advanced and drawn (0: until the
+ *                           next draw, e.g. of a frame a live change republished)
  *   wait-end                until the run's last frame is drawn (with --frames N)
  *   set KEY VALUE           as the panel does (no confirmation): KEY = section.key, e.g.
  *                           layers.dust.urban.concentration_kg_m3 or output.exposure
@@ -40,6 +41,7 @@ struct view_script {
     int count, next;
     bool waiting;   /* the current action has started and waits for frames or a draw */
     int target;     /* A_WAIT: drawn frame index to reach */
+    int draws0;     /* A_WAIT 0: draws when it started */
 };
 
 static void script_fail(viewer *v, const view_script *s, int line, int code, const char *msg)
@@ -80,9 +82,9 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
         char extra[8] = "";
         if (strcmp(cmd, "wait") == 0) {
             a.kind = A_WAIT;
-            if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 1 || a.n > 1000000)
+            if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 0 || a.n > 1000000)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: wait N: N must be a frame count in "
-                                 "1..1000000", path, no);
+                                 "0..1000000", path, no);
         } else if (strcmp(cmd, "set") == 0) {
             a.kind = A_SET;
             int k = 0;
@@ -174,6 +176,12 @@ void view_script_tick(viewer *v, view_script *s)
             if (!s->waiting) {
                 s->waiting = true;
                 s->target = v->drawn_frames + a->n;
+                s->draws0 = v->draw_count;
+                v->redraw = true;
+            }
+            if (a->n == 0) {
+                if (v->draw_count == s->draws0) return;
+                break;
             }
             if (v->drawn_frames < s->target) {
                 if (st.done && v->drawn_frames >= st.frames) script_fail(v, s, a->line, SQ_EXIT_USAGE, "wait: the run has no more frames");
