@@ -167,7 +167,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         dv.view_proj = sky_matrix(&s->geom);
         dv.ortho = true;
         dv.px_per_m = (float)(1.0 / s->geom.texel_m);
-        dv.lod_pixels = 1.0f;
+        /* fine levels: a coarse level's surface above the camera's finer one would shade the
+         * true surface as occluded; the map's level error stays within the depth bias */
+        dv.lod_pixels = fmaxf(0.05f, (float)((double)v->depth_bias_m / s->geom.texel_m));
         dv.min_pixels = 0.5f;
         sq__world_depth_draw(r, &dv);
         glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
@@ -202,6 +204,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         b.look[0] = v->sparkle;
         b.look[1] = v->shininess;
         b.look[2] = v->noise_scale_m > 0.0f ? v->noise_scale_m : 1.0f;
+        /* metres per pixel at 1 m from the camera: the camera's level of detail may put a
+         * surface up to a pixel below the map's finer one (added to the bias with distance) */
+        b.look[3] = 2.0f / ((float)r->height * r->proj.m[5]);
     }
     glNamedBufferSubData(s->ubo, 0, sizeof b, &b);
     glBindBufferBase(GL_UNIFORM_BUFFER, 4, s->ubo);

@@ -86,15 +86,23 @@ float sq__snow_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3
     if (m == 0) return 1.0f;
     const double u = ((double)p.x - g->origin[0]) / g->texel_m, v = ((double)p.y - g->origin[1]) / g->texel_m;
     if (u < 0.0 || v < 0.0 || u >= g->size || v >= g->size) return 1.0f;
-    int exposed = 0;
+    double exposed = 0.0;
     for (int k = 0; k < m; k++) {
-        /* nearest texel, as texelFetch in the shader; taps off the map read its edge */
-        const int i = sq_clampi((int)floor(u + (double)off[k][0]), 0, g->size - 1);
-        const int j = sq_clampi((int)floor(v + (double)off[k][1]), 0, g->size - 1);
-        const float occ = height[(size_t)j * (size_t)g->size + (size_t)i];
-        exposed += occ <= p.z + bias_m; /* D_occ - D_act >= -b, depth measured downward */
+        /* each tap compares the four texels around it and blends the answers bilinearly
+         * (percentage-closer filtering, as the shader): the grid is the world's, so the answer
+         * depends on the point alone; taps off the map read its edge */
+        const double a = u + (double)off[k][0] - 0.5, b = v + (double)off[k][1] - 0.5;
+        const double fa = floor(a), fb = floor(b);
+        const double wx = a - fa, wy = b - fb;
+        for (int q = 0; q < 4; q++) {
+            const int i = sq_clampi((int)fa + (q & 1), 0, g->size - 1);
+            const int j = sq_clampi((int)fb + (q >> 1), 0, g->size - 1);
+            const float occ = height[(size_t)j * (size_t)g->size + (size_t)i];
+            const double wq = ((q & 1) ? wx : 1.0 - wx) * ((q >> 1) ? wy : 1.0 - wy);
+            if (occ <= p.z + bias_m) exposed += wq; /* D_occ - D_act >= -b, depth downward */
+        }
     }
-    return (float)exposed / (float)m;
+    return (float)(exposed / m);
 }
 
 /* ---- eq 2.3: inclination with noise --------------------------------------------------------- */

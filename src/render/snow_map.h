@@ -55,7 +55,8 @@ float sq__snow_slope_bias(const sq__snow_map_geom *g, float nz, float radius_tex
 
 /* Exposure f_e (eq 2.2) of point p (surface normal z component nz) from the map of heights: the
  * fraction of the M taps whose occluder height is at most p.z + the slope bias (D_occ - D_act
- * >= -b); 1 outside the map. */
+ * >= -b), each tap's answer blended bilinearly from the four texels around it (percentage-
+ * closer filtering: smooth edges, still a function of the point alone); 1 outside the map. */
 float sq__snow_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3 p, float nz,
                         int taps, float radius_texels, float bias_m);
 

@@ -109,6 +109,7 @@ void sq_snowcover_observe(sq_snowcover *s, const sq_camera *camera)
     if (!s || !camera) return;
     s->camera = sq_camera_resolve(*camera);
     s->have_camera = true;
+    if (s->nflakes > 0 && !s->seeded) sq__snowcover_flakes_seed(s);
 }
 
 /* ---- drawables, metrics, fields ------------------------------------------------------------ */

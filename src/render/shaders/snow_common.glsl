@@ -13,7 +13,7 @@ layout(std140, binding = 4) uniform Snow {
     vec4 u_snow_depth_org;  // origin x, y of the depth grid (m), nx, ny
     vec4 u_snow_taps;       // M, tap radius (texels), depth bias (m), noise amplitude
     vec4 u_snow_albedo;     // snow albedo (linear rgb), brdf (0 physical, 1 Blinn-Phong)
-    vec4 u_snow_look;       // sparkle, Blinn-Phong exponent, noise scale (m), -
+    vec4 u_snow_look;       // sparkle, Blinn-Phong exponent, noise scale (m), camera m/px at 1 m
 };
 layout(binding = 11) uniform sampler2D u_snow_occ;
 layout(binding = 12) uniform sampler2D u_snow_depth;
@@ -75,9 +75,10 @@ float sq_snow_near_weight(vec3 p)
     return w * smoothstep(0.0, 4.0, min(edge.x, edge.y));
 }
 
-// Exposure f_e (eq 2.2): the fraction of the M taps around p's texel whose occluder is not
+// Exposure f_e (eq 2.2): the fraction of the M taps around p whose occluder is not
 // above p by more than the bias, slope-scaled by the surface's normal z nz
-// (sq__snow_slope_bias: + (radius + 1/2) texels x tan(slope), tan at most 3).
+// (sq__snow_slope_bias: + (radius + 1/2) texels x tan(slope), tan at most 3), plus the camera's
+// level-of-detail error (a pixel at p's distance; the map is drawn at finer levels).
 float sq_snow_exposure_map(vec3 p, float nz)
 {
     vec2 uv = (p.xy - u_snow_map.xy) / u_snow_map.z;
@@ -85,7 +86,9 @@ float sq_snow_exposure_map(vec3 p, float nz)
     float span = u_snow_range.x - u_snow_range.y;
     float d_act = (u_snow_range.x - p.z) / span;
     float c = clamp(nz, 0.3162, 1.0);
-    float bias = (u_snow_taps.z + (u_snow_taps.y + 0.5) * u_snow_map.z * sqrt(1.0 - c * c) / c) / span;
+    // + the camera's level-of-detail error: up to a pixel at p's distance
+    float lod = length(p - u_cam_pos.xyz) * u_snow_look.w;
+    float bias = (u_snow_taps.z + lod + (u_snow_taps.y + 0.5) * u_snow_map.z * sqrt(1.0 - c * c) / c) / span;
     int m = int(u_snow_taps.x);
     float r = u_snow_taps.y;
     vec2 off[9];
@@ -103,9 +106,16 @@ float sq_snow_exposure_map(vec3 p, float nz)
     if (n == 0) return 1.0;
     float exposed = 0.0;
     for (int k = 0; k < n; k++) {
-        ivec2 t = clamp(ivec2(floor(uv + off[k])), ivec2(0), ivec2(size - 1));
-        float d_occ = texelFetch(u_snow_occ, t, 0).r;
-        exposed += d_occ - d_act >= -bias ? 1.0 : 0.0;
+        // the four texels around the tap, their answers blended bilinearly (as sq__snow_exposure)
+        vec2 a = uv + off[k] - 0.5;
+        vec2 fa = floor(a), w = a - fa;
+        ivec2 t0 = ivec2(fa);
+        vec4 e;
+        for (int q = 0; q < 4; q++) {
+            ivec2 t = clamp(t0 + ivec2(q & 1, q >> 1), ivec2(0), ivec2(size - 1));
+            e[q] = texelFetch(u_snow_occ, t, 0).r - d_act >= -bias ? 1.0 : 0.0;
+        }
+        exposed += mix(mix(e.x, e.y, w.x), mix(e.z, e.w, w.x), w.y);
     }
     return exposed / float(n);
 }
