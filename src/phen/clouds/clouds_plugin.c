@@ -127,5 +127,9 @@ static const sq_param params[] = {
     I("volume.nz", volume_cells[2], "1", 48, 4, 1024, "Volume mode: voxels along z."),
 };
 
+#undef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE sq__clouds_save_state
+#undef SQ__PHEN_STATE_LOAD
+#define SQ__PHEN_STATE_LOAD sq__clouds_load_state
 SQ__PHEN_PLUGIN(clouds, "clouds from WRF output: structured particles, MFS lighting, impostors (S4)",
                 0);
