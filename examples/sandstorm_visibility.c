@@ -44,7 +44,7 @@ int main(int argc, char **argv)
     /* A small storm: 24 x 24 x 12 cells of 60 m, dust blown in from the west edge. */
     const char *settings[] = {
         "domain.nx=24", "domain.ny=24", "domain.nz=12", "domain.cell_size_m=60",
-        "dust.bins=2", "dust.inflow_kg_m3=0.002", "wind.bernoulli_pa=200",
+        "dust.bins=2", "dust.inflow_kg_m3=0.002", "wind.speed_mps=18",
     };
     sq_phenomenon_desc pd = {0};
     pd.type = "sandstorm";
