@@ -204,6 +204,7 @@ sq_result view_param_apply(viewer *v, const char *full_key, const char *value, v
         v->live_pending = true;
         v->live_outcome = VIEW_LIVE_NONE;
         snprintf(v->live_assignment, sizeof v->live_assignment, "%s", assignment);
+        v->live_is_cfg = false;
         *how = VIEW_CHANGE_PENDING;
         return SQ_OK;
     }
@@ -257,7 +258,7 @@ void view_param_poll(viewer *v, bool in_draw)
         v->live_held = false;
         v->live_pending = false;
         v->live_outcome = VIEW_LIVE_APPLIED;
-        sq_cfg_set(v->cfg, v->live_assignment); /* checked: it is the user's scene now */
+        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment); /* the user's scene now */
         snprintf(v->live_message, sizeof v->live_message,
                  "applied to frame %d, %.1f ms after the change", lr->frame - 1,
                  (lr->t_applied_s - lr->t_request_s) * 1e3);
@@ -277,7 +278,7 @@ void view_param_poll(viewer *v, bool in_draw)
     } else {
         v->live_outcome = VIEW_LIVE_REBUILT;
         snprintf(v->live_message, sizeof v->live_message, "%s", lr->res.reason);
-        sq_cfg_set(v->cfg, v->live_assignment);
+        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment);
         view_rebuild(v);
         v->lat_frame0 = -1;
         v->lat_armed = true;
