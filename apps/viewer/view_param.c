@@ -144,9 +144,8 @@ static sq_result check_assignment(viewer *v, const char *assignment)
     snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
     r = sq_cfg_set(copy, assignment);
     if (r == SQ_OK) {
-        sq_scene_desc sd = {.cfg = copy, .load_heightmap = sq_scene_heightmap_loader,
-                            .load_dem = sq_dem_load, .load_area = sq_area_load,
-                            .validate_only = true};
+        sq_scene_desc sd = view_scene_desc(copy);
+        sd.validate_only = true;
         sq_scene *s = NULL;
         r = sq_scene_create(v->ctx, &sd, &s);
         sq_scene_destroy(s);
