@@ -325,6 +325,7 @@ void sq__lbm_fold_periodic(sq_lbm *l, int parity)
 {
     for (int s = 0; s < 3; s++) {
         const int a = parity == 0 ? 2 - s : s;
+        if (a == 2 && l->zdist) continue; /* slab faces: sq__lbm_boundaries, lbm_dist.c */
         if (l->periodic[a]) fold_axis(l, a, parity);
     }
 }
