@@ -76,23 +76,47 @@ static int fail(sq_result r)
 
 /* The run's scene: a copy of the user's cfg with the frame count of the viewer (the user's cfg
  * stays as the user wrote it, for saving). */
-static sq_result scene_from_cfg(viewer *v, sq_scene **out)
+sq_cfg *view_run_cfg(viewer *v, const char *assignment, sq_result *res)
 {
+    *res = SQ_OK;
     char *yaml = sq_cfg_to_yaml(v->cfg);
-    if (!yaml) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: cannot copy the scene");
+    if (!yaml) {
+        *res = sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: cannot copy the scene");
+        return NULL;
+    }
     sq_cfg *copy = NULL;
     sq_result r = sq_cfg_parse(v->ctx, yaml, strlen(yaml), v->cfg->source, &copy);
     free(yaml);
-    if (r != SQ_OK) return r;
-    snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
-    char set[64];
-    snprintf(set, sizeof set, "output.frames=%d", v->frames > 0 ? v->frames : VIEW_INTERACTIVE_FRAMES);
-    r = sq_cfg_set(copy, set);
     if (r == SQ_OK) {
-        sq_scene_desc sd = {.cfg = copy, .load_heightmap = sq_scene_heightmap_loader,
-                            .load_dem = sq_dem_load, .load_area = sq_area_load};
-        r = sq_scene_create(v->ctx, &sd, out);
+        snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
+        char set[64];
+        snprintf(set, sizeof set, "output.frames=%d",
+                 v->frames > 0 ? v->frames : VIEW_INTERACTIVE_FRAMES);
+        r = sq_cfg_set(copy, set);
     }
+    if (r == SQ_OK && assignment) r = sq_cfg_set(copy, assignment);
+    if (r != SQ_OK) {
+        sq_cfg_destroy(copy);
+        *res = r;
+        return NULL;
+    }
+    return copy;
+}
+
+sq_scene_desc view_scene_desc(const sq_cfg *cfg)
+{
+    sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
+                        .load_dem = sq_dem_load, .load_area = sq_area_load};
+    return sd;
+}
+
+static sq_result scene_from_cfg(viewer *v, sq_scene **out)
+{
+    sq_result r;
+    sq_cfg *copy = view_run_cfg(v, NULL, &r);
+    if (!copy) return r;
+    const sq_scene_desc sd = view_scene_desc(copy);
+    r = sq_scene_create(v->ctx, &sd, out);
     sq_cfg_destroy(copy);
     return r;
 }
@@ -167,6 +191,8 @@ static void stop_run(viewer *v)
 sq_result view_rebuild(viewer *v)
 {
     stop_run(v);
+    v->live_pending = false; /* a live change not yet applied went with the old run */
+    v->live_held = false;
     const sq_result r = start_run(v);
     if (r != SQ_OK) {
         const char *e = sq_last_error();
@@ -209,6 +235,7 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
 {
     (void)context;
     viewer *v = (viewer *)user;
+    view_param_poll(v, true); /* a live change applied since the last tick is drawn now */
     const int frames = v->run ? sq_run_frame_index(v->run) : 0;
     if (v->gl_error[0] || !v->run || frames == 0 || v->fb_width < 1 || v->fb_height < 1) {
         glClearColor(0.18f, 0.18f, 0.2f, 1.0f); /* before the warm-up frame, or after an error */
@@ -247,10 +274,12 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
     const double t1 = sq_time_now(), ms = (t1 - t0) * 1e3;
     if (v->draw_count++ == 0) v->t_first_draw_s = t1;
     v->draw_ms_sum += ms;
-    if (v->lat_pending) {
+    if (v->lat_pending && v->lat_armed) {
         v->lat_pending = false;
-        printf("shown %s after %.1f ms (%d frames advanced in between)\n", v->lat_key,
-               (t1 - v->lat_t0_s) * 1e3, v->lat_frame0 < 0 ? frames : frames - v->lat_frame0);
+        printf("shown %s after %.1f ms: draw %d after the change (%d simulation frames advanced "
+               "in between)\n",
+               v->lat_key, (t1 - v->lat_t0_s) * 1e3, v->draw_count - v->lat_draws0,
+               v->lat_frame0 < 0 ? frames : frames - v->lat_frame0);
         fflush(stdout);
     }
     v->draw_ms = v->draw_ms > 0 ? 0.8 * v->draw_ms + 0.2 * ms : ms;
@@ -267,6 +296,7 @@ static gboolean on_tick(GtkWidget *w, GdkFrameClock *clock, gpointer user)
     (void)clock;
     viewer *v = (viewer *)user;
     const double now = sq_time_now();
+    view_param_poll(v, false); /* a live change's outcome: panel, refusal, rebuild */
     view_input_tick(v, now);
     if (v->run && (v->redraw || sq_run_frame_index(v->run) != v->drawn_frames)) {
         v->redraw = false;

@@ -11,12 +11,20 @@
 #include "squall/run.h"
 #include "squall/scene.h"
 #include "view_camera.h"
+#include "view_param.h"
 #include "view_sim.h"
 
 #define VIEW_PATH_MAX 1024
 #define VIEW_MAX_ROWS 1024
 
 typedef struct view_script view_script;
+
+typedef enum view_live_outcome {
+    VIEW_LIVE_NONE = 0,
+    VIEW_LIVE_APPLIED,  /* applied to the running scene (no restart) */
+    VIEW_LIVE_REFUSED,  /* a rule refused it: live_message, nothing changed */
+    VIEW_LIVE_REBUILT   /* it needed a rebuild: the scene restarted */
+} view_live_outcome;
 
 typedef struct viewer {
     /* options */
@@ -63,10 +71,20 @@ typedef struct viewer {
     double t_first_draw_s;
     bool json;
     /* latency of a change (script `set`): from applying it to the first draw that shows it */
-    bool lat_pending;
+    bool lat_pending;      /* a change waits to be shown */
+    bool lat_armed;        /* it is applied: the next draw shows it */
     double lat_t0_s;
     int lat_frame0;        /* sq_run_frame_index when applied (-1: the scene restarted) */
+    int lat_draws0;        /* draw_count when the change was made */
     char lat_key[200];
+    /* a live change sent to the simulation thread (view_param.c), and how it ended */
+    bool live_pending;
+    char live_assignment[1400];
+    view_live_outcome live_outcome;
+    char live_message[800];
+    view_live_result live_result; /* taken from the simulation thread */
+    bool live_held;        /* live_result waits for the next tick (refusal, rebuild) */
+    bool live_show;        /* the panel's status waits for the next tick */
     char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
 
     /* screenshot: written by the next draw showing frame >= shot_frame */
@@ -110,7 +128,7 @@ void view_panel_free(viewer *v);
 /* The keys the panel lists for section (e.g. "layers.storm"), one per line; returns the count. */
 int view_panel_keys(const viewer *v, const char *section, char *buf, size_t size);
 /* Sets a key as the panel's widget would, without asking (scripts). */
-sq_result view_panel_set(viewer *v, const char *full_key, const char *value, bool *rebuilt);
+sq_result view_panel_set(viewer *v, const char *full_key, const char *value, view_change *how);
 
 /* view_script.c: --script FILE (see the file for the actions), checked before the window opens. */
 sq_result view_script_load(viewer *v, const char *path, view_script **out);
@@ -132,5 +150,17 @@ bool view_param_known(const viewer *v, const char *full_key);
 
 /* cmd_view.c: rebuild the scene from v->cfg (reset), keeping the camera. */
 sq_result view_rebuild(viewer *v);
+/* A copy of v->cfg as the run was built from it (output.frames of the viewer), with one more
+ * "key=value" (NULL: none); NULL with *res on failure. */
+sq_cfg *view_run_cfg(viewer *v, const char *assignment, sq_result *res);
+/* A scene desc with the io loaders of the CLI for cfg. */
+sq_scene_desc view_scene_desc(const sq_cfg *cfg);
+
+/* view_param.c: the outcome of a live change, every display frame (in_draw = false: panel
+ * status, refusal, rebuild) and at the start of every draw (in_draw = true: an applied change
+ * is in the frame drawn, for the latency). */
+void view_param_poll(viewer *v, bool in_draw);
+/* view_panel.c: the panel's status line. */
+void view_panel_status(viewer *v, const char *msg, bool error);
 
 #endif

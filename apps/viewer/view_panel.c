@@ -35,8 +35,8 @@ static void set_status(viewer *v, const char *msg, bool error)
 /* Applies now (live keys, scripts) or after the user confirms (rebuild keys). */
 static void apply_value(panel_row *r, const char *value)
 {
-    bool rebuilt = false;
-    const sq_result res = view_param_apply(r->v, r->full_key, value, &rebuilt);
+    view_change how = VIEW_CHANGE_LIVE;
+    const sq_result res = view_param_apply(r->v, r->full_key, value, &how);
     char msg[800];
     if (res != SQ_OK) {
         const char *e = sq_last_error();
@@ -45,11 +45,14 @@ static void apply_value(panel_row *r, const char *value)
         row_show_value(r); /* refused: the widget shows the scene's value again */
         return;
     }
+    if (how == VIEW_CHANGE_PENDING) return; /* view_param_poll shows the outcome */
     snprintf(msg, sizeof msg, "%s = %s%s", r->full_key, value,
-             rebuilt ? " (scene restarted)" : " (live)");
+             how == VIEW_CHANGE_REBUILT ? " (scene restarted)" : " (live)");
     set_status(r->v, msg, false);
     view_panel_refresh(r->v);
 }
+
+void view_panel_status(viewer *v, const char *msg, bool error) { set_status(v, msg, error); }
 
 static void on_confirm(GtkDialog *d, int response, gpointer user)
 {
@@ -285,12 +288,12 @@ int view_panel_keys(const viewer *v, const char *section, char *buf, size_t size
     return n;
 }
 
-sq_result view_panel_set(viewer *v, const char *full_key, const char *value, bool *rebuilt)
+sq_result view_panel_set(viewer *v, const char *full_key, const char *value, view_change *how)
 {
     for (int i = 0; i < v->panel_row_count; i++) {
         panel_row *r = (panel_row *)v->panel_rows[i];
         if (strcmp(r->full_key, full_key) != 0) continue;
-        const sq_result res = view_param_apply(v, full_key, value, rebuilt);
+        const sq_result res = view_param_apply(v, full_key, value, how);
         if (res == SQ_OK) view_panel_refresh(v);
         return res;
     }

@@ -184,22 +184,103 @@ static void apply_camera_key(viewer *v, const char *key, const char *value)
     v->redraw = true;
 }
 
-sq_result view_param_apply(viewer *v, const char *full_key, const char *value, bool *rebuilt)
+sq_result view_param_apply(viewer *v, const char *full_key, const char *value, view_change *how)
 {
-    *rebuilt = false;
+    *how = VIEW_CHANGE_LIVE;
     char assignment[1400];
     snprintf(assignment, sizeof assignment, "%s=%s", full_key, value);
-    sq_result r = check_assignment(v, assignment);
+    view_group g;
+    const sq_param *p = view_param_find(v, full_key, &g);
+    const bool live = p && (p->flags & SQ_PARAM_LIVE) && v->run && v->sim &&
+                      sq_run_frame_index(v->run) > 0;
+    sq_result r;
+    if (live && strcmp(g.section, "camera") != 0) {
+        /* to the simulation thread: checked there as the scene loader checks it (the CLI's
+         * message), applied between two steps; view_param_poll takes the outcome */
+        sq_cfg *c = view_run_cfg(v, assignment, &r);
+        if (!c) return r;
+        const sq_scene_desc sd = view_scene_desc(c);
+        view_sim_request_live(v->sim, &sd);
+        v->live_pending = true;
+        v->live_outcome = VIEW_LIVE_NONE;
+        snprintf(v->live_assignment, sizeof v->live_assignment, "%s", assignment);
+        *how = VIEW_CHANGE_PENDING;
+        return SQ_OK;
+    }
+    r = check_assignment(v, assignment);
     if (r != SQ_OK) return r;
     r = sq_cfg_set(v->cfg, assignment);
     if (r != SQ_OK) return r;
-    view_group g;
-    const sq_param *p = view_param_find(v, full_key, &g);
-    if (p && (p->flags & SQ_PARAM_LIVE) && strcmp(g.section, "camera") == 0 && v->run &&
-        sq_run_frame_index(v->run) > 0) {
+    if (live) { /* camera.*: the viewer's camera at once */
         apply_camera_key(v, p->key, value);
         return SQ_OK;
     }
-    *rebuilt = true;
+    *how = VIEW_CHANGE_REBUILT;
     return view_rebuild(v);
+}
+
+/* The widgets' side of an outcome (never during a draw: GTK is snapshotting then). */
+static void show_outcome(viewer *v)
+{
+    char msg[1000];
+    const char *eq = strchr(v->live_assignment, '=');
+    const int klen = (int)(eq ? eq - v->live_assignment : 0);
+    if (v->live_outcome == VIEW_LIVE_REFUSED)
+        snprintf(msg, sizeof msg, "%s", v->live_message);
+    else if (v->live_outcome == VIEW_LIVE_REBUILT)
+        snprintf(msg, sizeof msg, "%.*s = %s (scene restarted: %s)", klen, v->live_assignment,
+                 eq ? eq + 1 : "", v->live_message);
+    else
+        snprintf(msg, sizeof msg, "%.*s = %s (live)", klen, v->live_assignment, eq ? eq + 1 : "");
+    view_panel_status(v, v->gl_error[0] && v->live_outcome == VIEW_LIVE_REBUILT ? v->gl_error : msg,
+                      v->live_outcome == VIEW_LIVE_REFUSED || v->gl_error[0]);
+    view_panel_refresh(v); /* a refused value: the widget shows the scene's value again */
+}
+
+void view_param_poll(viewer *v, bool in_draw)
+{
+    if (v->live_held) {
+        if (in_draw) return;
+    } else {
+        if (!v->live_pending || !v->sim || !view_sim_live_result(v->sim, &v->live_result)) {
+            if (!in_draw && v->live_show) {
+                v->live_show = false;
+                show_outcome(v);
+            }
+            return;
+        }
+        v->live_held = true;
+    }
+    const view_live_result *lr = &v->live_result;
+    if (lr->r == SQ_OK && !lr->res.rebuild) {
+        /* applied: the frame drawn now shows it */
+        v->live_held = false;
+        v->live_pending = false;
+        v->live_outcome = VIEW_LIVE_APPLIED;
+        sq_cfg_set(v->cfg, v->live_assignment); /* checked: it is the user's scene now */
+        snprintf(v->live_message, sizeof v->live_message,
+                 "applied to frame %d, %.1f ms after the change", lr->frame - 1,
+                 (lr->t_applied_s - lr->t_request_s) * 1e3);
+        v->lat_armed = true;
+        v->redraw = true;
+        if (in_draw) v->live_show = true;
+        else show_outcome(v);
+        return;
+    }
+    if (in_draw) return; /* a refusal or a rebuild is handled by the next tick */
+    v->live_held = false;
+    v->live_pending = false;
+    if (lr->r != SQ_OK) {
+        v->live_outcome = VIEW_LIVE_REFUSED;
+        snprintf(v->live_message, sizeof v->live_message, "%s", lr->error);
+        v->lat_pending = false;
+    } else {
+        v->live_outcome = VIEW_LIVE_REBUILT;
+        snprintf(v->live_message, sizeof v->live_message, "%s", lr->res.reason);
+        sq_cfg_set(v->cfg, v->live_assignment);
+        view_rebuild(v);
+        v->lat_frame0 = -1;
+        v->lat_armed = true;
+    }
+    show_outcome(v);
 }

@@ -31,10 +31,20 @@ void view_param_current(const struct viewer *v, const char *section, const char 
 void view_param_default(const sq_param *p, char *buf, size_t size);
 /* The table entry of a full key "section.key" (NULL if none). */
 const sq_param *view_param_find(const struct viewer *v, const char *full_key, view_group *group);
-/* Checks "full_key=value" as --set does on a copy of the scene (SQ_ERR_* with the CLI's message);
- * then applies it to the user's scene: a camera key at once to the viewer's camera; other keys
- * by restarting the scene (*rebuilt = true). */
+typedef enum view_change {
+    VIEW_CHANGE_LIVE = 0,    /* applied now (camera keys: the viewer's camera) */
+    VIEW_CHANGE_PENDING = 1, /* a live key sent to the simulation thread: view_param_poll
+                                takes the outcome (viewer.live_outcome) a display frame later */
+    VIEW_CHANGE_REBUILT = 2  /* the scene was rebuilt (restarted from t = 0) */
+} view_change;
+
+/* Applies "full_key=value" to the user's scene. A live key (SQ_PARAM_LIVE) goes to the
+ * simulation thread, which checks it exactly as the scene loader (and so `--set`) does and
+ * applies it between two steps without restarting (sq_run_apply_live); a refusal comes back with
+ * the CLI's message, a change that still needs a rebuild (a phenomenon without live changes)
+ * restarts the scene. A camera key goes to the viewer's camera at once. Any other key is checked
+ * on a copy of the scene (SQ_ERR_* with the CLI's message) and rebuilds the scene. */
 sq_result view_param_apply(struct viewer *v, const char *full_key, const char *value,
-                           bool *rebuilt);
+                           view_change *how);
 
 #endif

@@ -1,6 +1,7 @@
 /* view_script.c — `squall view --script FILE`: timed actions for tests and demos, one per line
  * (# starts a comment), run in order by the window's frame callback:
- *   wait N                  until N more frames have been advanced and drawn
+ *   wait N                  until N more frames have been advanced and drawn (0: until the
+ *                           next draw, e.g. of a frame a live change republished)
  *   wait-end                until the run's last frame is drawn (with --frames N)
  *   set KEY VALUE           as the panel does (no confirmation): KEY = section.key, e.g.
  *                           layers.dust.urban.concentration_kg_m3 or output.exposure
@@ -9,6 +10,7 @@
  *   panel-keys SECTION FILE the keys the panel lists for SECTION (e.g. layers.storm), one a line
  *   record FILE.mp4         start recording every new frame shown (H.264, output.fps)
  *   record-stop             finish the video (also done at the end)
+ *   print-time              prints "time: frame N, simulated T s" (the latest frame advanced)
  *   pause | run | step      the simulation thread
  *   quit                    exit 0 (also at the end of the script)
  * Outputs follow the safe-output rules: checked before the window opens (absent unless
@@ -22,7 +24,8 @@
 #include "view.h"
 
 typedef enum act_kind {
-    A_WAIT, A_WAIT_END, A_SET, A_SHOT, A_SAVE, A_KEYS, A_PAUSE, A_RUN, A_STEP, A_QUIT, A_REC, A_REC_STOP
+    A_WAIT, A_WAIT_END, A_SET, A_SHOT, A_SAVE, A_KEYS, A_PAUSE, A_RUN, A_STEP, A_QUIT, A_REC,
+    A_REC_STOP, A_TIME
 } act_kind;
 
 typedef struct action {
@@ -38,6 +41,7 @@ struct view_script {
     int count, next;
     bool waiting;   /* the current action has started and waits for frames or a draw */
     int target;     /* A_WAIT: drawn frame index to reach */
+    int draws0;     /* A_WAIT 0: draws when it started */
 };
 
 static void script_fail(viewer *v, const view_script *s, int line, int code, const char *msg)
@@ -78,9 +82,9 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
         char extra[8] = "";
         if (strcmp(cmd, "wait") == 0) {
             a.kind = A_WAIT;
-            if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 1 || a.n > 1000000)
+            if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 0 || a.n > 1000000)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: wait N: N must be a frame count in "
-                                 "1..1000000", path, no);
+                                 "0..1000000", path, no);
         } else if (strcmp(cmd, "set") == 0) {
             a.kind = A_SET;
             int k = 0;
@@ -121,13 +125,14 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: wait-end needs --frames N (the run's "
                                  "end)", path, no);
         }
+        else if (strcmp(cmd, "print-time") == 0) a.kind = A_TIME;
         else if (strcmp(cmd, "pause") == 0) a.kind = A_PAUSE;
         else if (strcmp(cmd, "run") == 0) a.kind = A_RUN;
         else if (strcmp(cmd, "step") == 0) a.kind = A_STEP;
         else if (strcmp(cmd, "quit") == 0) a.kind = A_QUIT;
         else
             r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, "
-                             "screenshot, save, panel-keys, record, record-stop, pause, run, step, quit)", path, no, cmd);
+                             "screenshot, save, panel-keys, record, record-stop, print-time, pause, run, step, quit)", path, no, cmd);
         if (r != SQ_OK) break;
         if (s->count == cap) {
             cap = cap ? 2 * cap : 16;
@@ -171,6 +176,12 @@ void view_script_tick(viewer *v, view_script *s)
             if (!s->waiting) {
                 s->waiting = true;
                 s->target = v->drawn_frames + a->n;
+                s->draws0 = v->draw_count;
+                v->redraw = true;
+            }
+            if (a->n == 0) {
+                if (v->draw_count == s->draws0) return;
+                break;
             }
             if (v->drawn_frames < s->target) {
                 if (st.done && v->drawn_frames >= st.frames) script_fail(v, s, a->line, SQ_EXIT_USAGE, "wait: the run has no more frames");
@@ -181,21 +192,41 @@ void view_script_tick(viewer *v, view_script *s)
             if (!st.done || v->drawn_frames < st.frames) return;
             break;
         case A_SET: {
-            bool rebuilt = false;
-            const double t0 = sq_time_now();
-            const int f0 = v->run ? sq_run_frame_index(v->run) : 0;
-            const sq_result r = view_panel_set(v, a->a, a->b, &rebuilt);
-            if (r != SQ_OK) {
-                script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
+            if (!s->waiting) {
+                view_change how = VIEW_CHANGE_LIVE;
+                const double t0 = sq_time_now();
+                const int f0 = v->run ? sq_run_frame_index(v->run) : 0;
+                const int d0 = v->draw_count;
+                const sq_result r = view_panel_set(v, a->a, a->b, &how);
+                if (r != SQ_OK) {
+                    script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
+                    return;
+                }
+                v->lat_pending = true;
+                v->lat_armed = how != VIEW_CHANGE_PENDING;
+                v->lat_t0_s = t0;
+                v->lat_frame0 = how == VIEW_CHANGE_REBUILT ? -1 : f0;
+                v->lat_draws0 = d0;
+                v->redraw = true;
+                snprintf(v->lat_key, sizeof v->lat_key, "%.199s", a->a);
+                if (how == VIEW_CHANGE_PENDING) {
+                    s->waiting = true; /* the simulation thread applies it between two steps */
+                    return;
+                }
+                printf("set %s = %s: %s\n", a->a, a->b,
+                       how == VIEW_CHANGE_REBUILT ? "scene restarted" : "live");
+                fflush(stdout);
+                break;
+            }
+            if (v->live_pending) return;
+            if (v->live_outcome == VIEW_LIVE_REFUSED) {
+                script_fail(v, s, a->line, SQ_EXIT_USAGE, v->live_message);
                 return;
             }
-            printf("set %s = %s: %s\n", a->a, a->b, rebuilt ? "scene restarted" : "live");
+            printf("set %s = %s: %s (%s)\n", a->a, a->b,
+                   v->live_outcome == VIEW_LIVE_REBUILT ? "scene restarted" : "live",
+                   v->live_message);
             fflush(stdout);
-            v->lat_pending = true;
-            v->lat_t0_s = t0;
-            v->lat_frame0 = rebuilt ? -1 : f0;
-            v->redraw = true;
-            snprintf(v->lat_key, sizeof v->lat_key, "%.199s", a->a);
             break;
         }
         case A_SHOT:
@@ -241,6 +272,10 @@ void view_script_tick(viewer *v, view_script *s)
             }
             break;
         }
+        case A_TIME:
+            printf("time: frame %d, simulated %.6g s\n", st.frames - 1, st.sim_time_s);
+            fflush(stdout);
+            break;
         case A_PAUSE: view_sim_set_paused(v->sim, true); break;
         case A_RUN: view_sim_set_paused(v->sim, false); break;
         case A_STEP: view_sim_single_step(v->sim); break;

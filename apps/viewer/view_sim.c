@@ -20,6 +20,12 @@ struct view_sim {
     /* steps/s over a sliding window: frames and wall time at the window's start */
     double window_t0;
     int window_f0;
+    /* live change: the request waiting for the thread, and the result for the UI */
+    bool live_req;
+    sq_scene_desc live_desc;   /* cfg owned */
+    double live_t_request;
+    bool live_done;
+    view_live_result live;
 };
 
 static double clampd(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
@@ -88,6 +94,30 @@ static void wait_until(view_sim *s, double t)
     cnd_timedwait(&s->wake, &s->lock, &ts);
 }
 
+/* Applies the waiting live request (lock held on entry and exit, released while applying). */
+static void apply_live(view_sim *s)
+{
+    sq_scene_desc d = s->live_desc;
+    const double t_req = s->live_t_request;
+    s->live_req = false;
+    memset(&s->live_desc, 0, sizeof s->live_desc);
+    mtx_unlock(&s->lock);
+    view_live_result out;
+    memset(&out, 0, sizeof out);
+    out.r = sq_run_apply_live(s->run, &d, &out.res);
+    if (out.r != SQ_OK) {
+        const char *e = sq_last_error(); /* thread-local: read it on this thread */
+        snprintf(out.error, sizeof out.error, "%s", e && *e ? e : sq_result_name(out.r));
+    }
+    out.frame = sq_run_frame_index(s->run);
+    out.t_request_s = t_req;
+    out.t_applied_s = sq_time_now();
+    sq_cfg_destroy((sq_cfg *)d.cfg);
+    mtx_lock(&s->lock);
+    s->live = out;
+    s->live_done = true;
+}
+
 static int sim_main(void *arg)
 {
     view_sim *s = (view_sim *)arg;
@@ -95,6 +125,10 @@ static int sim_main(void *arg)
     mtx_lock(&s->lock);
     for (;;) {
         if (s->quit) break;
+        if (s->live_req && s->st.frames > 0) {
+            apply_live(s); /* between two advances, before the next is due */
+            continue;
+        }
         const bool can = !s->st.done && !s->st.error[0];
         const bool first = s->st.frames == 0;
         const bool go = can && (first || !s->st.paused || s->steps_requested > 0);
@@ -172,9 +206,34 @@ void view_sim_destroy(view_sim *s)
         mtx_unlock(&s->lock);
         thrd_join(s->thread, NULL);
     }
+    sq_cfg_destroy((sq_cfg *)s->live_desc.cfg);
     cnd_destroy(&s->wake);
     mtx_destroy(&s->lock);
     free(s);
+}
+
+void view_sim_request_live(view_sim *s, const sq_scene_desc *desc)
+{
+    mtx_lock(&s->lock);
+    sq_cfg_destroy((sq_cfg *)s->live_desc.cfg); /* a request not yet taken is replaced */
+    s->live_desc = *desc;
+    s->live_req = true;
+    s->live_done = false;
+    s->live_t_request = sq_time_now();
+    cnd_broadcast(&s->wake);
+    mtx_unlock(&s->lock);
+}
+
+bool view_sim_live_result(view_sim *s, view_live_result *out)
+{
+    mtx_lock(&s->lock);
+    const bool done = s->live_done;
+    if (done) {
+        *out = s->live;
+        s->live_done = false;
+    }
+    mtx_unlock(&s->lock);
+    return done;
 }
 
 void view_sim_set_paused(view_sim *s, bool paused)

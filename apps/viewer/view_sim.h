@@ -53,4 +53,19 @@ void view_sim_single_step(view_sim *s);   /* pauses and advances one frame */
 void view_sim_set_speed(view_sim *s, double speed); /* clamped to [1/64, 64] */
 double view_sim_speed(view_sim *s);
 void view_sim_stats_get(view_sim *s, view_sim_stats *out);
+
+/* Live changes: the thread applies the request with sq_run_apply_live between two advances (at
+ * once when it waits: paused, or between frames), never during a step; the drawing thread is not
+ * held. desc->cfg passes to the request (destroyed by it); a newer request replaces one not yet
+ * taken. The result is read once with view_sim_live_result. */
+typedef struct view_live_result {
+    sq_result r;              /* SQ_OK, or the refusal (message in error) */
+    sq_live_result res;       /* applied (res.changed) or needs a rebuild (res.rebuild) */
+    char error[800];
+    int frame;                /* sq_run_frame_index when applied */
+    double t_request_s, t_applied_s; /* wall clock (sq_time_now) */
+} view_live_result;
+void view_sim_request_live(view_sim *s, const sq_scene_desc *desc);
+/* true (once) when the result of the latest request is there. */
+bool view_sim_live_result(view_sim *s, view_live_result *out);
 #endif

@@ -87,6 +87,26 @@ SQ_API sq_result sq_phenomenon_step(sq_phenomenon *p, double dt_s);
  * others ignore it). Invalidates the drawables. */
 SQ_API void sq_phenomenon_observe(sq_phenomenon *p, const sq_camera *camera);
 
+/* ---- live changes (interactive front ends) -------------------------------------------------- */
+/* What a live change did: applied (changed > 0), nothing to do (changed == 0), or refused because
+ * it needs a rebuild (rebuild, with the key in reason); nothing is applied when rebuild is set. */
+typedef struct sq_live_result {
+    bool rebuild;      /* a key without SQ_PARAM_LIVE changed, or the phenomenon takes no live
+                          change (no apply_live hook): rebuild the layer (restart from t = 0) */
+    char reason[320];  /* with rebuild: which key, e.g. "sq_sandstorm_desc.domain.nx changed: ..." */
+    int changed;       /* live entries that changed and were applied */
+} sq_live_result;
+
+/* Applies a changed desc to the running phenomenon between two steps: desc is a complete
+ * sq_<type>_desc of desc_size bytes (zero fields take their defaults), checked exactly as at
+ * create (table ranges, the phenomenon's rules against the world: the same messages). Only the
+ * entries flagged SQ_PARAM_LIVE may differ from the current desc (sq_phenomenon_desc_get); they
+ * go to the phenomenon's apply_live hook, which keeps the simulated state and time. res (cleared
+ * by the caller) says what happened. Errors: SQ_ERR_INVALID_ARG (a refused value: nothing
+ * applied), or the hook's. Not thread-safe against a step of the same handle. */
+SQ_API sq_result sq_phenomenon_apply_live(sq_phenomenon *p, const void *desc, size_t desc_size,
+                                          sq_live_result *res);
+
 /* ---- what it publishes (views valid until the next step / observe / destroy) -------------- */
 /* Fields for export and analysis: a named 3D grid (or a 2D map with nz = 1) of floats, x
  * fastest, with units (UDUNITS), CF names where they exist, the centre of cell (0,0,0) and the

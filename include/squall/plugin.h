@@ -73,6 +73,12 @@ SQ_API sq_result sq_params_validate(const sq_param *table, size_t n, const void 
                                     const char *section);
 /* Closest key by edit distance (NULL if nothing is close). */
 SQ_API const char *sq_params_suggest(const sq_param *table, size_t n, const char *key);
+/* Live changes: the first entry whose value differs between descs a and b among the entries with
+ * SQ_PARAM_LIVE (live = true) or among those without it (live = false); NULL when none. */
+SQ_API const sq_param *sq_params_first_change(const sq_param *table, size_t n, const void *a,
+                                              const void *b, bool live);
+/* Copies the value of every SQ_PARAM_LIVE entry from src to dst (descs of the same table). */
+SQ_API void sq_params_copy_live(const sq_param *table, size_t n, void *dst, const void *src);
 
 /* ---- the phenomenon vtable ------------------------------------------------------------- */
 typedef struct sq_phen_plugin {
@@ -106,6 +112,13 @@ typedef struct sq_phen_plugin {
      * be checkpointed (a checkpoint of a scene with it is refused, naming the layer). */
     sq_result (*save_state)(const void *self, sq_state_writer *w);
     sq_result (*load_state)(void *self, sq_state_reader *r);
+    /* Optional (interactive front ends): applies the SQ_PARAM_LIVE entries of desc — a complete
+     * desc of the same layer, resolved and validated (table ranges and validate), differing from
+     * the instance's only in live entries — to the running instance between two steps, and
+     * re-derives what depends on them (inflow, thresholds, optics of the drawables), without
+     * touching the simulated state or time. On failure the instance is unchanged. NULL: the
+     * phenomenon takes no live change; a change of any of its keys rebuilds the layer. */
+    sq_result (*apply_live)(void *self, const void *desc);
 } sq_phen_plugin;
 
 SQ_API int sq_plugin_count(void);

@@ -63,6 +63,11 @@ SQ_API sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc,
                                     sq_renderer **out);
 SQ_API void sq_renderer_destroy(sq_renderer *r);
 SQ_API sq_result sq_renderer_info(const sq_renderer *r, sq_render_info *out);
+/* Changes the look of later draws as sq_render_desc sets it at create: exposure (finite, > 0),
+ * volume_slices (1..4096; 0 keeps either number) and volume_noise. Call it on the drawing
+ * thread. The light buffer size is fixed at create. */
+SQ_API sq_result sq_renderer_set_look(sq_renderer *r, float exposure, int volume_slices,
+                                      bool volume_noise);
 /* Opens a headless GL context only to report its strings and limits (for `squall info`). */
 SQ_API sq_result sq_gl_probe(sq_context *ctx, sq_render_info *out);
 

@@ -150,6 +150,13 @@ SQ_API sq_result sq_run_execute(sq_run *run);
  * frame (or earlier to keep a shorter run). */
 SQ_API sq_result sq_run_finish(sq_run *run);
 
+/* A live change (squall/scene.h, sq_scene_apply_live) on the advance thread, between two
+ * advances: checked and applied as sq_scene_apply_live does; when something was applied, the
+ * latest frame is published again (same index and simulated time, the new drawables, camera
+ * and rendering settings), so that the next draw shows the change without waiting for a step.
+ * Every later frame carries it. res->rebuild: nothing applied; rebuild the scene and the run. */
+SQ_API sq_result sq_run_apply_live(sq_run *run, const sq_scene_desc *desc, sq_live_result *res);
+
 /* Camera override for the following advances (thread-safe); NULL returns to the scene's path. */
 SQ_API void sq_run_set_camera(sq_run *run, const sq_camera *camera);
 SQ_API bool sq_run_done(const sq_run *run);

@@ -160,6 +160,17 @@ SQ_API const char *sq_scene_layer_type(const sq_scene *s, int i);
  * sizes (SQ_ERR_INVALID_ARG). The file around them: squall/io.h, sq_checkpoint_*. */
 SQ_API sq_result sq_scene_save_state(const sq_scene *s, sq_state_writer *w);
 SQ_API sq_result sq_scene_load_state(sq_scene *s, sq_state_reader *r);
+/* Live changes (an interactive front end: a slider moved): desc->cfg is the scene's configuration
+ * as edited (e.g. by sq_cfg_set on a copy of the one the scene was built from), with the same
+ * loaders. Every section is checked exactly as sq_scene_create checks it (same rules, same
+ * messages naming file:line or "(--set)", key, value and rule: SQ_ERR_INVALID_ARG / NOT_FOUND,
+ * nothing applied). When only SQ_PARAM_LIVE entries changed — output rendering keys, the camera
+ * and its path, the live keys of each layer whose phenomenon has an apply_live hook — they are
+ * applied to the running scene, keeping its simulated time and state (res->changed counts them);
+ * else nothing is applied and res->rebuild names the first key that needs a rebuild (the world,
+ * the seed, the layer list, a non-live key). Call it on the thread that steps the scene, between
+ * two steps (sq_run_apply_live does so for a run and republishes the current frame). */
+SQ_API sq_result sq_scene_apply_live(sq_scene *s, const sq_scene_desc *desc, sq_live_result *res);
 /* Layer i as a generic phenomenon handle (squall/phenomenon.h), owned by the scene: valid until
  * sq_scene_destroy; never destroy it yourself. NULL outside [0, layer count). Stepping it alone
  * puts it ahead of the scene's clock; read it, or step the scene. */

@@ -36,6 +36,17 @@ static void invalidate(sq_phenomenon *p)
     p->have_metrics = false;
 }
 
+/* The rules of a desc, in one place for create and live changes: resolve (defaults for zero
+ * fields), the table's ranges, the phenomenon's own validate against the world. */
+static sq_result check_desc(sq_context *ctx, const sq_phen_plugin *pl, const char *desc_type,
+                            void *desc, const sq_world *world)
+{
+    sq_result r = pl->desc_resolve ? pl->desc_resolve(desc) : SQ_OK;
+    if (r == SQ_OK) r = sq_params_validate(pl->params, pl->param_count, desc, desc_type);
+    if (r == SQ_OK && pl->validate) r = pl->validate(ctx, desc, world);
+    return r;
+}
+
 sq_result sq__phenomenon_make(sq_context *ctx, const sq__phen_make *m, sq_phenomenon **out,
                               sq__phen_stage *stage)
 {
@@ -55,9 +66,7 @@ sq_result sq__phenomenon_make(sq_context *ctx, const sq__phen_make *m, sq_phenom
         return SQ_ERR_OUT_OF_MEMORY;
     }
     memcpy(p->desc, m->desc, pl->desc_size);
-    sq_result r = pl->desc_resolve ? pl->desc_resolve(p->desc) : SQ_OK;
-    if (r == SQ_OK) r = sq_params_validate(pl->params, pl->param_count, p->desc, p->desc_type);
-    if (r == SQ_OK && pl->validate) r = pl->validate(ctx, p->desc, m->world);
+    sq_result r = check_desc(ctx, pl, p->desc_type, p->desc, m->world);
     if (r == SQ_OK && pl->memory_bytes) {
         *stage = SQ__PHEN_MEMORY;
         r = pl->memory_bytes(p->desc, m->world, &p->memory_bytes);
@@ -151,6 +160,52 @@ void sq_phenomenon_destroy(sq_phenomenon *p)
     if (p->self && p->plugin->destroy) p->plugin->destroy(p->self);
     sq_free(p->ctx, p->desc);
     sq_free(p->ctx, p);
+}
+
+sq_result sq_phenomenon_apply_live(sq_phenomenon *p, const void *desc, size_t desc_size,
+                                   sq_live_result *res)
+{
+    if (!p || !desc || !res)
+        return sq__fail(p ? p->ctx : NULL, SQ_ERR_INVALID_ARG, "phenomenon",
+                        "sq_phenomenon_apply_live: %s is NULL", !p ? "p" : !desc ? "desc" : "res");
+    const sq_phen_plugin *pl = p->plugin;
+    if (desc_size != pl->desc_size)
+        return sq__fail(p->ctx, SQ_ERR_INVALID_ARG, "phenomenon",
+                        "sq_phenomenon_apply_live: desc_size = %zu; a %s has %zu bytes",
+                        desc_size, p->desc_type, pl->desc_size);
+    void *d = sq_alloc_zero(p->ctx, pl->desc_size);
+    if (!d) return SQ_ERR_OUT_OF_MEMORY;
+    memcpy(d, desc, pl->desc_size);
+    sq_result r = check_desc(p->ctx, pl, p->desc_type, d, p->world);
+    if (r == SQ_OK) {
+        const sq_param *fixed = sq_params_first_change(pl->params, pl->param_count, p->desc, d, false);
+        const sq_param *live = sq_params_first_change(pl->params, pl->param_count, p->desc, d, true);
+        if (fixed || (live && !pl->apply_live)) {
+            res->rebuild = true;
+            if (fixed)
+                snprintf(res->reason, sizeof res->reason,
+                         "%s.%s changed: it is not a live key, the layer must be rebuilt",
+                         p->desc_type, fixed->key);
+            else
+                snprintf(res->reason, sizeof res->reason,
+                         "%s.%s changed: %s takes no live change, the layer must be rebuilt",
+                         p->desc_type, live->key, pl->name);
+        } else if (live && p->self) {
+            r = pl->apply_live(p->self, d);
+            if (r == SQ_OK) {
+                for (size_t i = 0; i < pl->param_count; i++)
+                    if ((pl->params[i].flags & SQ_PARAM_LIVE) &&
+                        sq_params_first_change(&pl->params[i], 1, p->desc, d, true))
+                        res->changed++;
+                memcpy(p->desc, d, pl->desc_size);
+                invalidate(p);
+            }
+        } else if (live) {
+            memcpy(p->desc, d, pl->desc_size); /* validate-only handle: the desc is all there is */
+        }
+    }
+    sq_free(p->ctx, d);
+    return r;
 }
 
 const char *sq_phenomenon_type(const sq_phenomenon *p) { return p ? p->plugin->name : NULL; }

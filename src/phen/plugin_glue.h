@@ -120,6 +120,7 @@
         .fields = n##_p_fields,                                                                    \
         .save_state = SQ__PHEN_STATE_SAVE,                                                         \
         .load_state = SQ__PHEN_STATE_LOAD,                                                         \
+        .apply_live = SQ__PHEN_APPLY_LIVE,                                                         \
     }
 
 /* Checkpoint hooks: a plug-in that can be checkpointed says, after including this file,
@@ -131,6 +132,14 @@
 #ifndef SQ__PHEN_STATE_SAVE
 #define SQ__PHEN_STATE_SAVE NULL
 #define SQ__PHEN_STATE_LOAD NULL
+#endif
+
+/* Live changes: a plug-in that applies its SQ_PARAM_LIVE keys to a running instance says
+ *   #undef SQ__PHEN_APPLY_LIVE
+ *   #define SQ__PHEN_APPLY_LIVE sq__<n>_apply_live   (sq_result (void *self, const void *desc))
+ * before its SQ__PHEN_PLUGIN line; without it every change rebuilds the layer. */
+#ifndef SQ__PHEN_APPLY_LIVE
+#define SQ__PHEN_APPLY_LIVE NULL
 #endif
 
 /* Without a camera hook. */

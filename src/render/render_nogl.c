@@ -19,6 +19,17 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
 
 void sq_renderer_destroy(sq_renderer *r) { (void)r; }
 
+sq_result sq_renderer_set_look(sq_renderer *r, float exposure, int volume_slices,
+                               bool volume_noise)
+{
+    (void)r;
+    (void)exposure;
+    (void)volume_slices;
+    (void)volume_noise;
+    sq_context *ctx = NULL;
+    return NO_GL("sq_renderer_set_look");
+}
+
 sq_result sq_renderer_info(const sq_renderer *r, sq_render_info *out)
 {
     (void)r;

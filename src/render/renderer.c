@@ -1290,6 +1290,24 @@ void sq_renderer_destroy(sq_renderer *r)
     sq_free(ctx, r);
 }
 
+sq_result sq_renderer_set_look(sq_renderer *r, float exposure, int volume_slices,
+                               bool volume_noise)
+{
+    if (!r) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_set_look: renderer is NULL");
+    if (exposure == 0.0f) exposure = r->desc.exposure;
+    if (volume_slices == 0) volume_slices = r->desc.volume_slices;
+    if (!(exposure > 0.0f) || !isfinite(exposure))
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "exposure = %g; must be finite and > 0", (double)exposure);
+    if (volume_slices < 1 || volume_slices > 4096)
+        return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume_slices = %d; must be in 1..4096", volume_slices);
+    r->desc.exposure = exposure;
+    r->desc.volume_slices = volume_slices;
+    r->desc.volume_noise = volume_noise;
+    return SQ_OK;
+}
+
 sq_result sq_renderer_info(const sq_renderer *r, sq_render_info *out)
 {
     if (!r || !out)

@@ -46,20 +46,45 @@ static void report(sq_run *run, int done, double within, const char *stage)
 static bool renders(const sq_run *run) { return run->desc.render != SQ_RUN_SIMULATE; }
 
 /* ---- lifecycle ------------------------------------------------------------------------------- */
-static sq_result create_renderer(sq_run *run)
+static sq__run_look look_of(const sq_scene_output *o)
 {
-    if (run->renderer || run->desc.render == SQ_RUN_REFERENCE || !renders(run)) return SQ_OK;
+    sq__run_look l = {o->exposure, o->volume_slices, o->light_buffer, o->volume_noise};
+    return l;
+}
+
+/* The renderer with the look of the frame drawn (made on first use; a live change of the light
+ * buffer size makes it again, the other settings are set on it). */
+static sq_result create_renderer(sq_run *run, const sq__run_look *look)
+{
+    if (run->desc.render == SQ_RUN_REFERENCE || !renders(run)) return SQ_OK;
+    if (run->renderer && look && look->light_buffer != run->renderer_look.light_buffer) {
+        sq_renderer_destroy(run->renderer);
+        run->renderer = NULL;
+    }
+    if (run->renderer) {
+        const sq__run_look *c = &run->renderer_look;
+        if (!look || (look->exposure == c->exposure && look->volume_slices == c->volume_slices &&
+                      look->volume_noise == c->volume_noise))
+            return SQ_OK;
+        const sq_result r = sq_renderer_set_look(run->renderer, look->exposure,
+                                                 look->volume_slices, look->volume_noise);
+        if (r == SQ_OK) run->renderer_look = *look;
+        return r;
+    }
+    const sq__run_look l = look ? *look : look_of(run->out);
     sq_render_desc rd;
     memset(&rd, 0, sizeof rd);
     rd.width = run->out->width;
     rd.height = run->out->height;
-    rd.exposure = run->out->exposure;
-    rd.volume_slices = run->out->volume_slices;
-    rd.light_buffer_size = run->out->light_buffer;
-    rd.volume_noise = run->out->volume_noise;
+    rd.exposure = l.exposure;
+    rd.volume_slices = l.volume_slices;
+    rd.light_buffer_size = l.light_buffer;
+    rd.volume_noise = l.volume_noise;
     rd.seed = sq_scene_seed(run->scene);
     rd.use_current_context = run->desc.render == SQ_RUN_GL_CURRENT_CONTEXT;
-    return sq_renderer_create(run->ctx, &rd, &run->renderer);
+    const sq_result r = sq_renderer_create(run->ctx, &rd, &run->renderer);
+    if (r == SQ_OK) run->renderer_look = l;
+    return r;
 }
 
 sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
@@ -156,9 +181,9 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
             r = SQ_ERR_OUT_OF_MEMORY;
     }
     /* the renderer's own context fails here, before any simulation work */
-    if (r == SQ_OK && desc->render == SQ_RUN_GL) r = create_renderer(run);
+    if (r == SQ_OK && desc->render == SQ_RUN_GL) r = create_renderer(run, NULL);
     if (r == SQ_OK && desc->render == SQ_RUN_GL_CURRENT_CONTEXT && !SQ_HAVE_GL)
-        r = create_renderer(run); /* refuses at once */
+        r = create_renderer(run, NULL); /* refuses at once */
     if (r == SQ_OK) r = sq__run_outputs_open(o);
     if (r != SQ_OK) {
         sq_log(ctx, SQ_LOG_DEBUG, "run", "not started: %s", sq_last_error());
@@ -238,6 +263,41 @@ static sq_result step_to_frame(sq_run *run)
     return r;
 }
 
+/* The drawables, camera and look of the scene as it is now become the frame drawn next. */
+static sq_result publish_frame(sq_run *run, int frame, double t, const sq_camera *cam)
+{
+    const int w = claim_slot(run);
+    sq__run_frame_slot *slot = &run->slots[w];
+    sq_drawable ds[SQ_RUN_MAX_DRAWABLES];
+    const int n = sq_scene_drawables(run->scene, ds, SQ_RUN_MAX_DRAWABLES);
+    if (run->desc.snapshot) {
+        const sq_result r = sq__run_snapshot(run->ctx, slot, ds, n);
+        if (r != SQ_OK) return r;
+    } else {
+        memcpy(slot->drawables, ds, sizeof(sq_drawable) * (size_t)n);
+        slot->count = n;
+    }
+    slot->index = frame;
+    slot->time_s = t;
+    slot->camera = *cam;
+    slot->look = look_of(run->out);
+    mtx_lock(&run->lock);
+    run->front = w;
+    mtx_unlock(&run->lock);
+    return SQ_OK;
+}
+
+sq_result sq_run_apply_live(sq_run *run, const sq_scene_desc *desc, sq_live_result *res)
+{
+    if (!run) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "run", "sq_run_apply_live: run is NULL");
+    sq_result r = sq_scene_apply_live(run->scene, desc, res);
+    if (r != SQ_OK || res->rebuild || res->changed == 0 || run->next == 0 || !renders(run))
+        return r;
+    /* the latest frame again, with the change: drawn next even while the simulation waits */
+    const sq_camera cam = frame_camera(run);
+    return publish_frame(run, run->next - 1, sq_scene_time(run->scene), &cam);
+}
+
 sq_result sq_run_advance(sq_run *run)
 {
     if (!run) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "run", "sq_run_advance: run is NULL");
@@ -251,23 +311,8 @@ sq_result sq_run_advance(sq_run *run)
     const double t = sq_scene_time(run->scene);
     const sq_camera cam = frame_camera(run);
     if (renders(run)) {
-        const int w = claim_slot(run);
-        sq__run_frame_slot *slot = &run->slots[w];
-        sq_drawable ds[SQ_RUN_MAX_DRAWABLES];
-        const int n = sq_scene_drawables(run->scene, ds, SQ_RUN_MAX_DRAWABLES);
-        if (run->desc.snapshot) {
-            r = sq__run_snapshot(run->ctx, slot, ds, n);
-            if (r != SQ_OK) return r;
-        } else {
-            memcpy(slot->drawables, ds, sizeof(sq_drawable) * (size_t)n);
-            slot->count = n;
-        }
-        slot->index = frame;
-        slot->time_s = t;
-        slot->camera = cam;
-        mtx_lock(&run->lock);
-        run->front = w;
-        mtx_unlock(&run->lock);
+        r = publish_frame(run, frame, t, &cam);
+        if (r != SQ_OK) return r;
     }
     sq_metric mv[SQ_RUN_MAX_METRICS];
     const int nm = sq_scene_metrics(run->scene, mv, SQ_RUN_MAX_METRICS);
@@ -346,7 +391,7 @@ static sq_result draw_slot(sq_run *run, const sq__run_frame_slot *s)
         rd.width = so->width;
         rd.height = so->height;
         rd.samples = run->desc.reference_samples;
-        rd.exposure = so->exposure;
+        rd.exposure = s->look.exposure;
         rd.seed = sq_scene_seed(run->scene) + (uint64_t)s->index;
         ref_progress rp = {run, s->index};
         rd.progress = reference_progress;
@@ -354,10 +399,10 @@ static sq_result draw_slot(sq_run *run, const sq__run_frame_slot *s)
         sq_result r = sq_reference_render(run->ctx, &rd, world, &s->camera, s->drawables,
                                           s->count, run->linear);
         if (r == SQ_ERR_CANCELLED) return interrupted(run);
-        if (r == SQ_OK) sq_tonemap_rgba8(run->linear, so->width, so->height, so->exposure, run->rgba);
+        if (r == SQ_OK) sq_tonemap_rgba8(run->linear, so->width, so->height, s->look.exposure, run->rgba);
         return r;
     }
-    sq_result r = create_renderer(run);
+    sq_result r = create_renderer(run, &s->look);
     if (r == SQ_OK)
         r = sq_renderer_draw(run->renderer, world, &s->camera, s->drawables, s->count, s->time_s);
     if (r == SQ_OK) r = sq_renderer_read_rgba8(run->renderer, run->rgba);
@@ -406,7 +451,7 @@ sq_result sq_run_draw_to(sq_run *run, const sq_render_target *target)
     mtx_lock(&run->lock);
     const sq_camera cam = run->camera_override ? run->camera : s->camera;
     mtx_unlock(&run->lock);
-    r = create_renderer(run);
+    r = create_renderer(run, &s->look);
     if (r == SQ_OK)
         r = sq_renderer_draw_to(run->renderer, target, sq_scene_world(run->scene), &cam,
                                 s->drawables, s->count, s->time_s);

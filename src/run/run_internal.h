@@ -15,11 +15,20 @@
 #define SQ_RUN_MAX_FIELDS 64
 
 /* ---- run_snapshot.c ------------------------------------------------------------------------ */
+/* The rendering settings of a frame (output's live keys, read by advance on the simulation side
+ * so that a live change reaches the drawing thread with the frame that shows it). */
+typedef struct sq__run_look {
+    float exposure;
+    int volume_slices, light_buffer;
+    bool volume_noise;
+} sq__run_look;
+
 /* The drawables of one frame: views, and with copies the arrays they point to (owned here). */
 typedef struct sq__run_frame_slot {
     int index;          /* frame shown; -1 when empty */
     double time_s;
     sq_camera camera;
+    sq__run_look look;
     sq_drawable drawables[SQ_RUN_MAX_DRAWABLES];
     int count;
     /* owned copies (snapshot mode): one growing buffer per drawable */
@@ -118,6 +127,7 @@ struct sq_run {
     sq_camera camera;    /* the override */
     /* drawing side */
     sq_renderer *renderer;
+    sq__run_look renderer_look; /* the settings the renderer draws with now */
     uint8_t *rgba;
     float *linear;
 };

@@ -392,3 +392,67 @@ sq_result sq_params_validate(const sq_param *table, size_t n, const void *desc,
     }
     return SQ_OK;
 }
+
+/* ---- live changes ---------------------------------------------------------------------------- */
+/* Whether an entry holds the same value in a and b (a FLOATS list: its count and the elements
+ * in use; a STRING: up to its NUL). */
+static bool entry_equal(const sq_param *p, const void *a, const void *b)
+{
+    switch (p->type) {
+    case SQ_PARAM_FLOAT: return memcmp(CFIELD(a, p, float), CFIELD(b, p, float), sizeof(float)) == 0;
+    case SQ_PARAM_DOUBLE:
+        return memcmp(CFIELD(a, p, double), CFIELD(b, p, double), sizeof(double)) == 0;
+    case SQ_PARAM_INT:
+    case SQ_PARAM_ENUM: return *CFIELD(a, p, int) == *CFIELD(b, p, int);
+    case SQ_PARAM_BOOL: return *CFIELD(a, p, bool) == *CFIELD(b, p, bool);
+    case SQ_PARAM_U64: return *CFIELD(a, p, uint64_t) == *CFIELD(b, p, uint64_t);
+    case SQ_PARAM_VEC3: return memcmp(CFIELD(a, p, float), CFIELD(b, p, float), 3 * sizeof(float)) == 0;
+    case SQ_PARAM_STRING:
+        return strncmp(CFIELD(a, p, char), CFIELD(b, p, char), SQ_PARAM_STRING_MAX) == 0;
+    case SQ_PARAM_FLOATS: {
+        const int na = *(const int *)((const char *)a + p->count_offset);
+        const int nb = *(const int *)((const char *)b + p->count_offset);
+        if (na != nb) return false;
+        const int n = na < 0 ? 0 : na > p->max_count ? p->max_count : na;
+        return memcmp(CFIELD(a, p, float), CFIELD(b, p, float), (size_t)n * sizeof(float)) == 0;
+    }
+    default: return true;
+    }
+}
+
+static void entry_copy(const sq_param *p, void *dst, const void *src)
+{
+    size_t bytes = 0;
+    switch (p->type) {
+    case SQ_PARAM_FLOAT: bytes = sizeof(float); break;
+    case SQ_PARAM_DOUBLE: bytes = sizeof(double); break;
+    case SQ_PARAM_INT:
+    case SQ_PARAM_ENUM: bytes = sizeof(int); break;
+    case SQ_PARAM_BOOL: bytes = sizeof(bool); break;
+    case SQ_PARAM_U64: bytes = sizeof(uint64_t); break;
+    case SQ_PARAM_VEC3: bytes = 3 * sizeof(float); break;
+    case SQ_PARAM_STRING: bytes = SQ_PARAM_STRING_MAX; break;
+    case SQ_PARAM_FLOATS:
+        bytes = (size_t)p->max_count * sizeof(float);
+        memcpy((char *)dst + p->count_offset, (const char *)src + p->count_offset, sizeof(int));
+        break;
+    default: return;
+    }
+    memcpy((char *)dst + p->offset, (const char *)src + p->offset, bytes);
+}
+
+const sq_param *sq_params_first_change(const sq_param *table, size_t n, const void *a,
+                                       const void *b, bool live)
+{
+    for (size_t i = 0; i < n; i++) {
+        const sq_param *p = &table[i];
+        if (((p->flags & SQ_PARAM_LIVE) != 0) == live && !entry_equal(p, a, b)) return p;
+    }
+    return NULL;
+}
+
+void sq_params_copy_live(const sq_param *table, size_t n, void *dst, const void *src)
+{
+    for (size_t i = 0; i < n; i++)
+        if (table[i].flags & SQ_PARAM_LIVE) entry_copy(&table[i], dst, src);
+}

@@ -3,6 +3,7 @@
  * everything on one clock, sub-cycling each layer to its stable time step. */
 #include <ctype.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,6 +45,8 @@ struct sq_scene {
     sq_place *place;
     sq_mesh **file_meshes;
     int file_mesh_count;
+    /* the world section it was built from, for live changes (sq_scene_apply_live) */
+    sq_cfg_node *world_cfg;
 };
 
 /* Logs the error already set (by the parameter tables) and returns r. */
@@ -900,6 +903,39 @@ sq_result sq_scene_check_camera(const sq_scene *s)
     return SQ_OK;
 }
 
+/* ---- configuration subtrees: copies and comparison (live changes) ----------------------------- */
+static sq_cfg_node *clone_node(const sq_cfg_node *n)
+{
+    sq_cfg_node *c = sq_cfg_node_new(n->kind, n->key, n->value, n->line, n->col);
+    if (!c) return NULL;
+    for (const sq_cfg_node *k = n->child; k; k = k->next) {
+        sq_cfg_node *kc = clone_node(k);
+        if (!kc) {
+            sq_cfg_node_free(c);
+            return NULL;
+        }
+        sq_cfg_node_append(c, kc);
+    }
+    return c;
+}
+
+static bool same_text(const char *a, const char *b)
+{
+    return (!a && !b) || (a && b && strcmp(a, b) == 0);
+}
+
+/* The same content (kinds, keys, values, order), wherever it was written. */
+static bool same_node(const sq_cfg_node *a, const sq_cfg_node *b)
+{
+    if (!a || !b) return a == b;
+    if (a->kind != b->kind || !same_text(a->key, b->key) || !same_text(a->value, b->value))
+        return false;
+    const sq_cfg_node *x = a->child, *y = b->child;
+    for (; x && y; x = x->next, y = y->next)
+        if (!same_node(x, y)) return false;
+    return !x && !y;
+}
+
 static const char *const top_keys[] = {"name", "description", "seed", "world",
                                        "camera", "layers", "output", NULL};
 
@@ -962,6 +998,9 @@ sq_result sq_scene_create(sq_context *ctx, const sq_scene_desc *desc, sq_scene *
     if (r == SQ_OK) r = build_meshes(s, desc, sq_cfg_get(cfg->root, "world"), &ws);
     if (r == SQ_OK) note_camera_places(s, cfg);
     if (r == SQ_OK) r = build_layers(s, desc, sq_cfg_get(cfg->root, "layers"));
+    const sq_cfg_node *wn = sq_cfg_get(cfg->root, "world");
+    if (r == SQ_OK && wn && !(s->world_cfg = clone_node(wn)))
+        r = sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
     if (r == SQ_OK && !desc->validate_only)
         for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
             if (sq__cancelled(ctx)) {
@@ -990,6 +1029,7 @@ void sq_scene_destroy(sq_scene *s)
     sq_place_destroy(s->ctx, s->place);
     for (int i = 0; i < s->file_mesh_count; i++) sq_mesh_destroy(s->ctx, s->file_meshes[i]);
     free(s->file_meshes);
+    sq_cfg_node_free(s->world_cfg);
     free(s);
 }
 
@@ -1092,4 +1132,139 @@ int sq_scene_fields(sq_scene *s, sq_named_field *out, int max)
         for (int j = 0; j < k && n < max; j++) sq_phenomenon_field(p, j, &out[n++]);
     }
     return n;
+}
+
+/* ---- live changes ------------------------------------------------------------------------------ */
+/* A scratch scene for the sections of the new configuration, on the running scene's world. */
+static void scratch_free(sq_scene *t)
+{
+    if (!t) return;
+    t->world = NULL; /* borrowed */
+    sq_scene_destroy(t);
+}
+
+static void set_rebuild(sq_live_result *res, const char *fmt, ...)
+{
+    res->rebuild = true;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(res->reason, sizeof res->reason, fmt, ap);
+    va_end(ap);
+}
+
+/* The world section: any change to its content needs a rebuild (terrain, meshes, sun and sky
+ * are built once with the world); the first changed key is named. */
+static sq_result check_world(const sq_scene *s, const sq_cfg *cfg, sq_live_result *res)
+{
+    const sq_cfg_node *wn = sq_cfg_get(cfg->root, "world");
+    if (same_node(s->world_cfg, wn)) return SQ_OK;
+    sq__world_section a, b;
+    sq_params_defaults(sq__world_params, sq__world_param_count, &a);
+    sq_params_defaults(sq__world_params, sq__world_param_count, &b);
+    static const char *const skip[] = {"obstacles", "areas", "meshes", NULL};
+    apply_ctx ac = {cfg, "world"};
+    sq_result r = SQ_OK;
+    if (wn) r = expect_kind(&ac, wn, SQ_CFG_MAP, "world");
+    if (r == SQ_OK && wn)
+        r = apply_map(&ac, wn, "", sq__world_params, sq__world_param_count, &b, skip);
+    if (r != SQ_OK) return relog(s->ctx, r);
+    if (s->world_cfg)
+        (void)apply_map(&ac, s->world_cfg, "", sq__world_params, sq__world_param_count, &a, skip);
+    const sq_param *p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, &b, false);
+    if (!p) p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, &b, true);
+    set_rebuild(res, "world.%s changed: the world is built once, the scene must be rebuilt",
+                p ? p->key : "obstacles, areas or meshes");
+    return SQ_OK;
+}
+
+sq_result sq_scene_apply_live(sq_scene *s, const sq_scene_desc *desc, sq_live_result *res)
+{
+    if (!s || !desc || !desc->cfg || !desc->cfg->root || !res)
+        return sq__fail(s ? s->ctx : NULL, SQ_ERR_INVALID_ARG, "scene",
+                        "sq_scene_apply_live: missing scene, desc, cfg or result");
+    memset(res, 0, sizeof *res);
+    const sq_cfg *cfg = desc->cfg;
+    /* the seed and the world: fixed for the scene's life */
+    const sq_cfg_node *seed = sq_cfg_get(cfg->root, "seed");
+    uint64_t sv = 0;
+    if (seed && seed->value && sq__parse_u64(seed->value, &sv) && sv != s->seed)
+        set_rebuild(res, "seed changed: the scene must be rebuilt");
+    if (!res->rebuild) {
+        const sq_result r = check_world(s, cfg, res);
+        if (r != SQ_OK || res->rebuild) return r;
+    } else {
+        return SQ_OK;
+    }
+    /* every other section, built exactly as sq_scene_create builds it (the same rules and
+     * messages), into a scratch scene on this scene's world */
+    sq_scene *t = (sq_scene *)calloc(1, sizeof *t);
+    if (!t) return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+    t->ctx = s->ctx;
+    t->world = s->world;
+    t->seed = s->seed;
+    sq_result r = build_output(t, cfg, sq_cfg_get(cfg->root, "output"));
+    if (r == SQ_OK) r = build_camera(t, cfg, sq_cfg_get(cfg->root, "camera"));
+    if (r == SQ_OK) r = build_layers(t, desc, sq_cfg_get(cfg->root, "layers"));
+    if (r != SQ_OK) {
+        scratch_free(t);
+        return r;
+    }
+    /* what needs a rebuild: a non-live output key, other layers, a non-live layer key, a live
+     * key of a phenomenon without the apply_live hook */
+    const sq_param *p = sq_params_first_change(sq__output_params, sq__output_param_count, &s->out,
+                                               &t->out, false);
+    if (p) set_rebuild(res, "output.%s changed: it is not a live key, the scene must be rebuilt",
+                       p->key);
+    if (!res->rebuild && t->layer_count != s->layer_count)
+        set_rebuild(res, "the layers changed (%s): the scene must be rebuilt",
+                    t->layer_count > s->layer_count ? "one added or enabled" : "one removed or disabled");
+    for (int i = 0; i < s->layer_count && !res->rebuild; i++) {
+        const layer *a = &s->layers[i], *b = &t->layers[i];
+        if (a->plugin != b->plugin || strcmp(a->name, b->name) != 0) {
+            set_rebuild(res, "layer '%s' is now '%s': the scene must be rebuilt", a->name, b->name);
+            break;
+        }
+        const sq_phen_plugin *pl = a->plugin;
+        const void *da = sq_phenomenon_desc_get(a->ph), *db = sq_phenomenon_desc_get(b->ph);
+        const sq_param *q = sq_params_first_change(pl->params, pl->param_count, da, db, false);
+        const sq_param *l = sq_params_first_change(pl->params, pl->param_count, da, db, true);
+        char key[200];
+        if (q || (l && !pl->apply_live)) {
+            snprintf(key, sizeof key, "layers.%s.%s", a->name, q ? q->key : l->key);
+            set_rebuild(res, q ? "%s changed: it is not a live key, the scene must be rebuilt"
+                               : "%s changed: this phenomenon takes no live change, the scene "
+                                 "must be rebuilt",
+                        key);
+        }
+    }
+    if (res->rebuild) {
+        scratch_free(t);
+        return SQ_OK;
+    }
+    /* apply: output rendering keys, the camera, then each layer through its hook */
+    for (size_t i = 0; i < sq__output_param_count; i++)
+        if ((sq__output_params[i].flags & SQ_PARAM_LIVE) &&
+            sq_params_first_change(&sq__output_params[i], 1, &s->out, &t->out, true))
+            res->changed++;
+    sq_params_copy_live(sq__output_params, sq__output_param_count, &s->out, &t->out);
+    if (memcmp(&s->camera, &t->camera, sizeof s->camera) != 0 || s->key_count != t->key_count ||
+        memcmp(s->keys, t->keys, sizeof s->keys) != 0) {
+        s->camera = t->camera;
+        memcpy(s->keys, t->keys, sizeof s->keys);
+        s->key_count = t->key_count;
+        note_camera_places(s, cfg);
+        res->changed++;
+    }
+    for (int i = 0; i < s->layer_count && r == SQ_OK; i++) {
+        const sq_phen_plugin *pl = s->layers[i].plugin;
+        sq_live_result lr;
+        memset(&lr, 0, sizeof lr);
+        r = sq_phenomenon_apply_live(s->layers[i].ph, sq_phenomenon_desc_get(t->layers[i].ph),
+                                     pl->desc_size, &lr);
+        if (r != SQ_OK)
+            r = sq__scene_translate_error(pl->params, pl->param_count, s->layers[i].name, r);
+        res->changed += lr.changed;
+    }
+    scratch_free(t);
+    return r;
 }

@@ -2,8 +2,8 @@
 # label: smoke
 # The parameter panel and --script in a real window: the panel lists every key of
 # `squall params <layer>` and of `squall params output` (it is generated from the same tables);
-# a value the CLI refuses is refused with the CLI's message; a rebuild key restarts the scene and
-# a live camera key does not; more dust (urban.concentration_kg_m3 from 6.4e-6 to 6e-5 kg/m3,
+# a value the CLI refuses is refused with the CLI's message; a rebuild key restarts the scene, a
+# live key (the camera, the urban dust concentration) does not; more dust (urban.concentration_kg_m3 from 6.4e-6 to 6e-5 kg/m3,
 # visibility ~600 m -> ~60 m) lowers the picture's contrast as Koschmieder's law says it must
 # (the apparent contrast of an object at distance d falls as exp(-beta_ext d)): the standard
 # deviation of the luma drops to less than 60 % of the light-dust picture's.
@@ -29,18 +29,34 @@ rc=$?
 grep -qF -- "bad.txt:2: $cli_msg" err.txt || fail "bad value: '$(cat err.txt)' does not carry the CLI's message '$cli_msg'"
 [ -e never.png ] && fail "a screenshot was written after the refused value"
 
-# rebuild vs live, and more dust -> lower contrast
+# live vs rebuild, and more dust -> lower contrast: the dust concentration is live (applied
+# between two steps, the clock goes on), the number of size bins rebuilds (the clock restarts)
 cat > dust.txt <<'S'
-wait 1
+wait 2
 screenshot light.png
+print-time
 set camera.fov_deg 55
 set layers.dust.urban.concentration_kg_m3 [6e-5]
+print-time
 wait 1
 screenshot heavy.png
+print-time
+set layers.dust.dust.bins 3
+print-time
 S
 view urban-dust --size 320x180 --script dust.txt > out.txt 2> err.txt || fail "dust script exited $?: $(cat err.txt)"
 grep -q "set camera.fov_deg = 55: live" out.txt || fail "camera.fov_deg not applied live: $(cat out.txt)"
-grep -q "set layers.dust.urban.concentration_kg_m3 = \[6e-5\]: scene restarted" out.txt || fail "concentration not a rebuild: $(cat out.txt)"
+grep -q "set layers.dust.urban.concentration_kg_m3 = \[6e-5\]: live (applied to frame" out.txt || fail "concentration not applied live: $(cat out.txt)"
+grep -q "set layers.dust.dust.bins = 3: scene restarted" out.txt || fail "dust.bins not a rebuild: $(cat out.txt)"
+grep -q "^shown layers.dust.urban.concentration_kg_m3 after" out.txt || fail "no draw showed the live change: $(cat out.txt)"
+# the simulated time: on through the live change, back to the start after the rebuild
+awk '/^time: / {print $5}' out.txt > times.txt
+[ "$(wc -l < times.txt)" = 4 ] || fail "expected 4 times: $(cat out.txt)"
+python3 - times.txt <<'PY' || fail "simulated time: $(cat out.txt)"
+import sys
+t = [float(x) for x in open(sys.argv[1])]
+sys.exit(0 if t[0] > 0 and t[1] >= t[0] and t[2] > t[1] and t[3] < t[2] else 1)
+PY
 "$CMP" light.png heavy.png > cmp.json || fail "compare exited $?"
 json cmp.json 'd["a"]["sd"] > 3.0 and d["b"]["black"] < 0.01'
 json cmp.json 'd["b"]["sd"] < 0.6 * d["a"]["sd"]'

@@ -1,7 +1,7 @@
 #!/bin/bash
 # label: smoke
-# Save and record in a real window: a scene edited in the viewer (a rebuild key, a live camera
-# key) and saved as YAML renders with `squall render` to the frame the viewer showed (SSIM >= 0.98,
+# Save and record in a real window: a scene edited in the viewer (live keys: the exposure, applied
+# to the frame shown while paused, and the camera) and saved as YAML renders with `squall render` to the frame the viewer showed (SSIM >= 0.98,
 # mean luma within 1 %); a recording holds one H.264 frame per simulation frame shown, at the
 # window's size rounded to even (3 frames, stepped one by one while paused), with the picture's brightness. Outputs are safe: no temporary
 # left, existing files kept without --overwrite.
@@ -9,9 +9,8 @@
 
 cat > edit.txt <<'S'
 set output.exposure 1.5
-pause
 record clip.mp4
-wait 1
+wait 0
 set camera.fov_deg 45
 step
 wait 1
@@ -21,7 +20,7 @@ screenshot viewer.png
 save saved.yaml
 record-stop
 S
-view urban-dust --size 322x182 --frames 3 --script edit.txt > out.txt 2> err.txt || fail "script exited $?: $(cat err.txt)"
+view urban-dust --size 322x182 --frames 3 --paused --script edit.txt > out.txt 2> err.txt || fail "script exited $?: $(cat err.txt)"
 [ -s saved.yaml ] || fail "no saved scene"
 grep -q "exposure: 1.5" saved.yaml || fail "saved scene lacks the edited exposure: $(grep -n exposure saved.yaml)"
 "$SQ" render saved.yaml --frames 3 --size 322x182 -o ref --quiet || fail "render of the saved scene exited $?"

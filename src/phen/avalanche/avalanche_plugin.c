@@ -158,6 +158,18 @@ static const sq_param params[] = {
 #define SQ__PHEN_STATE_SAVE sq__avalanche_save_state
 #undef SQ__PHEN_STATE_LOAD
 #define SQ__PHEN_STATE_LOAD sq__avalanche_load_state
+/* Live changes: the rendering keys (render.*) are read by every frame's drawables; the flow and
+ * its deposit stay. */
+static sq_result avalanche_apply_live(void *self, const void *desc)
+{
+    sq_avalanche *a = (sq_avalanche *)self;
+    sq_params_copy_live(params, sizeof params / sizeof params[0], &a->plan.d, desc);
+    a->version++;
+    return SQ_OK;
+}
+
+#undef SQ__PHEN_APPLY_LIVE
+#define SQ__PHEN_APPLY_LIVE avalanche_apply_live
 SQ__PHEN_PLUGIN(avalanche,
     "dense snow avalanche: SPH slab release on the terrain, Cross rheology, Coulomb friction, "
     "run-out and deposit (S2 ch. 3)",

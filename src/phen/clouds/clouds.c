@@ -583,3 +583,14 @@ int sq__clouds_fields(sq_clouds *c, sq_named_field *out, int max)
     }
     return n;
 }
+
+/* ---- live changes (the plug-in's apply_live, clouds_plugin.c) ---------------------------------
+ * Lighting and impostor settings: every frame's drawable carries them; the new version makes the
+ * renderer light the particles again (and a volume be voxelised again). */
+sq_result sq__clouds_apply_live(sq_clouds *c, const sq_param *table, size_t n,
+                                const sq_clouds_desc *desc)
+{
+    sq_params_copy_live(table, n, &c->d, desc);
+    c->version++;
+    return SQ_OK;
+}

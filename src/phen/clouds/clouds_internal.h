@@ -13,6 +13,7 @@
 #include "squall/drawable.h"
 #include "squall/noise.h"
 #include "squall/optics.h"
+#include "squall/plugin.h"
 
 /* ==== structured particles: similarity and leader clustering (clouds_cluster.c) ============= */
 
@@ -287,5 +288,8 @@ void sq__particles_advance(sq__particles *p, const sq__cloud_field *f,
 int sq__clouds_drawables(sq_clouds *c, sq_drawable *out, int max);
 int sq__clouds_metrics(sq_clouds *c, sq_metric *out, int max);
 int sq__clouds_fields(sq_clouds *c, sq_named_field *out, int max);
+/* Live changes (end of clouds.c): the live entries of table taken from desc. */
+sq_result sq__clouds_apply_live(sq_clouds *c, const sq_param *table, size_t n,
+                                const sq_clouds_desc *desc);
 
 #endif

@@ -12,6 +12,10 @@
 #define PATH(key, field, deftext, doc)                                                         \
     {key, SQ_PARAM_STRING, "", offsetof(S, field), 0, 0, 0, deftext, NULL, 0, 0, SQ_PARAM_PATH, doc}
 
+/* a bool that applies live (drawing and lighting settings) */
+#define BL(key, field, doc)                                                                        \
+    {key, SQ_PARAM_BOOL, "", offsetof(S, field), 0, 0, 1, NULL, NULL, 0, 0, L, doc}
+
 static const sq_param params[] = {
     E("source", source, "wrf|cumulus|stratocumulus",
       "Where the clouds come from: a WRF output file (wrf.file), or an analytic field of fair-"
@@ -93,39 +97,49 @@ static const sq_param params[] = {
     E("mode", mode, "particles|volume",
       "particles: MFS-lit billboards and impostors (S4); volume: the same extinction field drawn "
       "by half-angle slicing (for comparison)."),
-    B("lighting.splat_opacity", splat_opacity,
+    BL("lighting.splat_opacity", splat_opacity,
       "Harris/S4 opacity from the splat alpha, (1 - e^-tau_splat) eta(t) with tau = 80, instead "
       "of the physical 1 - exp(-tau eta(t)) (seed reproduction)."),
-    D("lighting.eta1", eta1, "1", 0.4, 0.01, 1, 0, "Splat peak eta_1 (S4 eq. 5: 0.4)."),
-    D("lighting.tau_splat", tau_splat, "1", 80, 0.01, 1e3, 0,
+    D("lighting.eta1", eta1, "1", 0.4, 0.01, 1, L, "Splat peak eta_1 (S4 eq. 5: 0.4)."),
+    D("lighting.tau_splat", tau_splat, "1", 80, 0.01, 1e3, L,
       "S4's particle optical depth tau_k = 80 (Harris's SkyWorks extinction); only with "
       "splat_opacity."),
-    D("lighting.splat_noise", splat_noise, "1", 0.5, 1e-3, 1, 0,
+    D("lighting.splat_noise", splat_noise, "1", 0.5, 1e-3, 1, L,
       "Texture of the splat: its radius scaled by a mean-one value noise of this amplitude fixed "
       "to each particle, so overlapping opaque splats do not read as discs."),
-    B("lighting.smooth_splat", smooth_splat,
+    BL("lighting.smooth_splat", smooth_splat,
       "S4's smooth splat (no texture noise), for reproducing the seed."),
-    D("lighting.albedo", albedo, "1", 0.999, 0, 1, 0,
+    D("lighting.albedo", albedo, "1", 0.999, 0, 1, L,
       "Single-scattering albedo (cloud droplets ~0.9999 in the visible; Harris used 0.9)."),
-    D("lighting.gamma_sr", gamma_sr, "sr", 0.09, 1e-4, 12.57, 0,
+    D("lighting.gamma_sr", gamma_sr, "sr", 0.09, 1e-4, 12.57, L,
       "Forward solid angle kept in the light (Harris's 0.09 sr read-back)."),
     I("lighting.buffer", light_buffer, "1", 512, 8, 4096, "Light-buffer texels per side."),
-    B("lighting.harris_only", harris_only,
+    BL("lighting.harris_only", harris_only,
       "Harris's forward-scattered light only; false: the diffuse light of a two-stream slab is "
       "added (clouds stay bright away from the sun)."),
-    B("lighting.no_shadows", no_shadows, "The clouds do not shadow the terrain."),
-    D("impostor.dist_3d_m", dist_3d_m, "m", 60000, 1, 1e8, 0,
+    BL("lighting.no_shadows", no_shadows, "The clouds do not shadow the terrain."),
+    D("impostor.dist_3d_m", dist_3d_m, "m", 60000, 1, 1e8, L,
       "Clouds nearer than this are drawn as particles (S4's dist_3D)."),
-    D("impostor.dist_m", dist_impostor_m, "m", 90000, 1, 1e8, 0,
+    D("impostor.dist_m", dist_impostor_m, "m", 90000, 1, 1e8, L,
       "Clouds farther than this are drawn as impostors (S4's dist_impostor); between the two "
       "both, cross-faded."),
-    D("impostor.angle_deg", impostor_angle_deg, "deg", 2, 0.01, 90, 0,
+    D("impostor.angle_deg", impostor_angle_deg, "deg", 2, 0.01, 90, L,
       "An impostor is re-rendered when the view direction to its cloud turns by more."),
-    B("impostor.off", no_impostors, "No impostors: particles at every distance."),
+    BL("impostor.off", no_impostors, "No impostors: particles at every distance."),
     I("volume.nx", volume_cells[0], "1", 128, 4, 1024, "Volume mode: voxels along x."),
     I("volume.ny", volume_cells[1], "1", 128, 4, 1024, "Volume mode: voxels along y."),
     I("volume.nz", volume_cells[2], "1", 48, 4, 1024, "Volume mode: voxels along z."),
 };
 
+/* Live changes: the live entries of desc (lighting and impostor settings) onto the running
+ * clouds (clouds.c). */
+static sq_result clouds_apply_live(void *self, const void *desc)
+{
+    return sq__clouds_apply_live((sq_clouds *)self, params, sizeof params / sizeof params[0],
+                                 (const sq_clouds_desc *)desc);
+}
+
+#undef SQ__PHEN_APPLY_LIVE
+#define SQ__PHEN_APPLY_LIVE clouds_apply_live
 SQ__PHEN_PLUGIN(clouds, "clouds from WRF output: structured particles, MFS lighting, impostors (S4)",
                 0);

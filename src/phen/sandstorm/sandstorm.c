@@ -1074,3 +1074,35 @@ const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int
     *ny = s->ny;
     return s->vis[v];
 }
+
+/* ---- live changes (the plug-in's apply_live, sandstorm_plugin.c) ------------------------------
+ * d differs from s->d only in live keys: the wind forcing (inflow face), the emission threshold
+ * u*_t = R H M u*_t0 (S0 eq. 2.32), the inflow dust, the visibility contrast and the urban dust.
+ * The air, dust and clock stay; the inflow face takes the new wind at once and the interior
+ * follows as the flow carries it. */
+sq_result sq__sandstorm_apply_live(sq_sandstorm *s, const sq_sandstorm_desc *d)
+{
+    const sq_sandstorm_desc old = s->d;
+    s->d = *d;
+    s->u_star_t = (double)d->u_star_t0_mps * d->roughness_factor * d->moisture_factor *
+                  d->compactness_factor;
+    sq_result r = SQ_OK;
+    if (s->grid) r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s);
+    if (r != SQ_OK) {
+        s->d = old;
+        s->u_star_t = (double)old.u_star_t0_mps * old.roughness_factor * old.moisture_factor *
+                      old.compactness_factor;
+        return r;
+    }
+    if (d->mode == SQ_SANDSTORM_URBAN) {
+        int stage = (int)(s->time_s / d->urban_stage_s);
+        if (stage >= d->urban_conc_count) stage = d->urban_conc_count - 1;
+        s->urban_conc = d->urban_conc_kg_m3[stage < 0 ? 0 : stage];
+        sq_vec3 lo, hi;
+        sq_world_bounds(s->world, &lo, &hi);
+        s->urban_size.z = (hi.z - lo.z) + (float)d->urban_height_m + 1.0f;
+    }
+    s->derived_dirty = true; /* visibility planes (contrast) and the drawables */
+    s->version++;
+    return SQ_OK;
+}

@@ -109,4 +109,7 @@ const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int
 sq_result sq__sandstorm_save_state(const void *self, sq_state_writer *w);
 sq_result sq__sandstorm_load_state(void *self, sq_state_reader *r);
 
+/* live changes (end of sandstorm.c): d differs from the running desc only in live keys */
+sq_result sq__sandstorm_apply_live(sq_sandstorm *s, const sq_sandstorm_desc *d);
+
 #endif

@@ -84,19 +84,19 @@ static const sq_param params[] = {
       "Imaginary refractive index (absorption, >= 0); used when dust.n_real is set."),
     D("dust.inflow_kg_m3", inflow_dust_kg_m3, "kg/m3", 0, 0, 1, Z | L,
       "Dust concentration entering with the inflow at the ground (a storm formed upwind)."),
-    D("dust.inflow_height_m", inflow_dust_height_m, "m", 300, 1, 1e5, 0,
+    D("dust.inflow_height_m", inflow_dust_height_m, "m", 300, 1, 1e5, L,
       "E-folding height of the inflow dust profile."),
-    D("dust.inflow_width_m", inflow_dust_width_m, "m", 0, 0, 1e6, Z,
+    D("dust.inflow_width_m", inflow_dust_width_m, "m", 0, 0, 1e6, Z | L,
       "Standard deviation across the inflow face of the inflow dust (a storm cell of finite "
       "width, centred on the domain); 0 = uniform across the face."),
     B("dust.no_mass_fix", no_mass_fix,
       "Skip the global rescaling that makes the dust budget close after advection."),
-    D("surface.u_star_t0_mps", u_star_t0_mps, "m/s", 0.25, 0.01, 5, 0,
+    D("surface.u_star_t0_mps", u_star_t0_mps, "m/s", 0.25, 0.01, 5, L,
       "Single-grain threshold friction velocity u*_t0 (fine sand 0.2-0.3, Bagnold; SPEC §1.9)."),
-    D("surface.roughness_factor", roughness_factor, "1", 1, 1, 100, 0,
+    D("surface.roughness_factor", roughness_factor, "1", 1, 1, 100, L,
       "R >= 1 in u*_t = R H M u*_t0 (S0 eq. 2.32): non-erodible roughness raises the threshold."),
-    D("surface.moisture_factor", moisture_factor, "1", 1, 1, 100, 0, "H >= 1: soil moisture."),
-    D("surface.compactness_factor", compactness_factor, "1", 1, 1, 100, 0,
+    D("surface.moisture_factor", moisture_factor, "1", 1, 1, 100, L, "H >= 1: soil moisture."),
+    D("surface.compactness_factor", compactness_factor, "1", 1, 1, 100, L,
       "M >= 1: crusting / compactness."),
     D("surface.emission_coeff", emission_coeff, "kg s2/m5", 0, 0, 1, Z | L,
       "C in F = C u*^3 (1 - u*_t^2/u*^2) (S0 eq. 2.33, smooth form); 0 = non-erodible surface."),
@@ -104,10 +104,11 @@ static const sq_param params[] = {
        "Heights above the ground of the visibility planes (metrics and fields)."),
     D("visibility.contrast", contrast, "1", 0.05, 1e-4, 0.5, L,
       "Koschmieder contrast threshold: 0.05 (S0, WMO MOR) or 0.02 (UM/UPP)."),
-    FL("urban.concentration_kg_m3", urban_conc_kg_m3, urban_conc_count, "kg/m3", "0.005", 8, 0, 1,
-       "Urban mode: dust mass concentration; several values are shown one after another."),
-    D("urban.stage_s", urban_stage_s, "s", 4, 0.01, 1e6, 0, "Urban mode: time per severity."),
-    D("urban.height_m", urban_height_m, "m", 400, 1, 1e5, 0, "Urban mode: depth of the dust layer."),
+    {"urban.concentration_kg_m3", SQ_PARAM_FLOATS, "kg/m3", offsetof(S, urban_conc_kg_m3), 0, 0, 1,
+     "0.005", NULL, 8, offsetof(S, urban_conc_count), L,
+     "Urban mode: dust mass concentration; several values are shown one after another."},
+    D("urban.stage_s", urban_stage_s, "s", 4, 0.01, 1e6, L, "Urban mode: time per severity."),
+    D("urban.height_m", urban_height_m, "m", 400, 1, 1e5, L, "Urban mode: depth of the dust layer."),
     B("near.enabled", near_field, "Soft-particle near field around the camera (S3)."),
     I("near.particles", near_particles, "1", 4000, 1, 1000000, "Near-field particle count."),
     D("near.radius_m", near_radius_m, "m", 80, 1, 1e4, 0, "Radius of the region around the camera."),
@@ -117,6 +118,17 @@ static const sq_param params[] = {
       "Share of the local extinction drawn by the near-field particles."),
 };
 
+/* Live changes: the live entries of desc onto the running desc (sandstorm.c re-derives). */
+static sq_result sandstorm_apply_live(void *self, const void *desc)
+{
+    sq_sandstorm *s = (sq_sandstorm *)self;
+    sq_sandstorm_desc d = s->d;
+    sq_params_copy_live(params, sizeof params / sizeof params[0], &d, desc);
+    return sq__sandstorm_apply_live(s, &d);
+}
+
+#undef SQ__PHEN_APPLY_LIVE
+#define SQ__PHEN_APPLY_LIVE sandstorm_apply_live
 #undef SQ__PHEN_STATE_SAVE
 #define SQ__PHEN_STATE_SAVE sq__sandstorm_save_state
 #undef SQ__PHEN_STATE_LOAD

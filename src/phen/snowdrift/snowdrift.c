@@ -732,3 +732,21 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max)
                                 sq_v3(o.x, o.y, 0.0f), sp, NULL, SQ_FIELD_LEVEL_SURFACE};
     return n;
 }
+
+/* ---- live changes (the plug-in's apply_live, snowdrift_plugin.c) ------------------------------
+ * d differs from s->d only in live keys: the wind (speed and direction, through the lattice's
+ * wind forcing, which checks the Mach limit of the lattice made at create), the snowfall rate
+ * (the flakes injected per top cell and snow step from now on) and the drawing of flakes. The
+ * drawn flakes exist only when the scene started with snowfall. */
+sq_result sq__snowdrift_apply_live(sq_snowdrift *s, const sq_snowdrift_desc *d)
+{
+    if (d->wind_speed_mps != s->d.wind_speed_mps || d->wind_dir_deg != s->d.wind_dir_deg) {
+        const sq_result r = sq_lbm_set_wind(s->lbm, d->wind_speed_mps, d->wind_dir_deg);
+        if (r != SQ_OK) return r;
+    }
+    s->snow->p.snowfall_mmh = d->snowfall_mmh;
+    s->d = *d;
+    s->derived_dirty = true;
+    s->version++;
+    return SQ_OK;
+}

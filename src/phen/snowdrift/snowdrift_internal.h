@@ -224,4 +224,7 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);
 sq_result sq__snowdrift_save_state(const void *self, sq_state_writer *w);
 sq_result sq__snowdrift_load_state(void *self, sq_state_reader *r);
 
+/* live changes (end of snowdrift.c): d differs from the running desc only in live keys */
+sq_result sq__snowdrift_apply_live(sq_snowdrift *s, const sq_snowdrift_desc *d);
+
 #endif

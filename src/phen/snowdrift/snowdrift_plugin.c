@@ -87,6 +87,17 @@ static const sq_param params[] = {
       "of view): distant flakes stay visible as soft dots."),
 };
 
+/* Live changes: the live entries of desc onto the running desc (snowdrift.c applies them). */
+static sq_result snowdrift_apply_live(void *self, const void *desc)
+{
+    sq_snowdrift *s = (sq_snowdrift *)self;
+    sq_snowdrift_desc d = s->d;
+    sq_params_copy_live(params, sizeof params / sizeof params[0], &d, desc);
+    return sq__snowdrift_apply_live(s, &d);
+}
+
+#undef SQ__PHEN_APPLY_LIVE
+#define SQ__PHEN_APPLY_LIVE snowdrift_apply_live
 #undef SQ__PHEN_STATE_SAVE
 #define SQ__PHEN_STATE_SAVE sq__snowdrift_save_state
 #undef SQ__PHEN_STATE_LOAD
