@@ -21,7 +21,8 @@ typedef enum sq_drawable_kind {
     SQ_DRAWABLE_VOLUME = 1,
     SQ_DRAWABLE_PARTICLES = 2,
     SQ_DRAWABLE_SURFACE = 3,
-    SQ_DRAWABLE_CLOUDS = 4
+    SQ_DRAWABLE_CLOUDS = 4,
+    SQ_DRAWABLE_SNOW_COVER = 5
 } sq_drawable_kind;
 
 /* Participating medium on a regular grid inside an axis-aligned box.
@@ -134,6 +135,39 @@ typedef struct sq_clouds_view {
     uint64_t version;          /* changes whenever the particles change */
 } sq_clouds_view;
 
+typedef enum sq_snow_brdf {
+    SQ_SNOW_BRDF_PHYSICAL = 0,   /* high albedo, forward-scattering sparkle, bluish subsurface */
+    SQ_SNOW_BRDF_BLINN_PHONG = 1 /* S2 eqs 2.7-2.8 with a noise-perturbed normal */
+} sq_snow_brdf;
+
+/* Snow lying on every opaque surface the renderer draws (terrain, obstacles, meshes; S2 ch. 2,
+ * SPEC §6): each frame the renderer draws an orthographic top-down depth map of the world over
+ * the view's footprint nearer than detail_distance_m (texel grid snapped to the world), takes
+ * the exposure f_e of each point from `taps` samples of it, the inclination f_inc = max(0,
+ * N.up) with noise, f_p = f_e f_inc, displaces the surface by f_p-weighted depth along its
+ * smoothed normal blended with up (a watertight shell) and blends the snow shading by f_p.
+ * Beyond detail_distance_m, S2's far-field texture blend. depth_m: the snow depth (m) on the
+ * highest surface of each column, at cell centres origin + (i + 1/2, j + 1/2) (dx, dy). */
+typedef struct sq_snow_cover_view {
+    int nx, ny;
+    sq_vec3 origin_m;          /* corner of cell (0, 0); z unused */
+    float dx_m, dy_m;
+    const float *depth_m;      /* nx*ny; outside the grid the nearest edge cell */
+    float detail_distance_m;   /* D_snow: the occlusion map's reach */
+    int map_size;              /* occlusion map texels per side */
+    int taps;                  /* M of eq 2.2: 1, 4, 5 or 9 */
+    float tap_radius_texels;
+    float depth_bias_m;        /* b: exposed when D_occ - D_act >= -b */
+    float noise_amplitude;     /* of the inclination and normal perturbation (0 = none) */
+    float noise_scale_m;       /* wavelength of the first octave */
+    float shell_blend;         /* displacement direction: 0 smoothed normal .. 1 up */
+    sq_snow_brdf brdf;
+    sq_vec3 albedo;            /* snow albedo (linear) */
+    float sparkle;             /* 0..1 glints of the physical BRDF */
+    float shininess;           /* Blinn-Phong exponent n */
+    uint64_t version;          /* changes whenever depth_m changes */
+} sq_snow_cover_view;
+
 typedef struct sq_drawable {
     sq_drawable_kind kind;
     const char *name; /* e.g. "dust", "snowfall", "snow-cover" */
@@ -142,6 +176,7 @@ typedef struct sq_drawable {
         sq_particles_view particles;
         sq_surface_view surface;
         sq_clouds_view clouds;
+        sq_snow_cover_view snow_cover;
     } u;
 } sq_drawable;
 

@@ -21,6 +21,7 @@
 /* the world and its meshes, phenomena (generic handle, plug-ins and the typed APIs), scenes */
 #include "squall/avalanche.h"
 #include "squall/clouds.h"
+#include "squall/snowcover.h"
 #include "squall/drawable.h"
 #include "squall/mesh.h"
 #include "squall/phenomenon.h"

@@ -16,6 +16,9 @@ extern const sq_phen_plugin sq__avalanche_plugin;
 #if SQ_HAVE_CLOUDS
 extern const sq_phen_plugin sq__clouds_plugin;
 #endif
+#if SQ_HAVE_SNOWCOVER
+extern const sq_phen_plugin sq__snowcover_plugin;
+#endif
 
 static const sq_phen_plugin *const plugins[] = {
 #if SQ_HAVE_SANDSTORM
@@ -29,6 +32,9 @@ static const sq_phen_plugin *const plugins[] = {
 #endif
 #if SQ_HAVE_CLOUDS
     &sq__clouds_plugin,
+#endif
+#if SQ_HAVE_SNOWCOVER
+    &sq__snowcover_plugin,
 #endif
     NULL};
 

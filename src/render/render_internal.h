@@ -17,6 +17,7 @@ typedef struct sq__particle_pass sq__particle_pass; /* render_particles.c */
 typedef struct sq__clouds_pass sq__clouds_pass;     /* render_clouds.c */
 typedef struct sq__mesh_pass sq__mesh_pass;         /* render_meshes.c */
 typedef struct sq__shadow_pass sq__shadow_pass;     /* render_shadow.c */
+typedef struct sq__snow_pass sq__snow_pass;         /* render_snowcover.c */
 
 struct sq_renderer {
     sq_context *ctx;
@@ -68,6 +69,7 @@ struct sq_renderer {
     sq__clouds_pass *clouds;
     sq__mesh_pass *meshes;
     sq__shadow_pass *shadow;
+    sq__snow_pass *snow;
 
     /* Frame constants (renderer.c): a uniform buffer bound at binding 0 for the whole frame,
      * the `Frame` block of shaders/frame_common.glsl (camera, sun, sky, near/far, viewport,
@@ -247,5 +249,15 @@ void sq__shadow_bind(sq_renderer *r);
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
 double sq__shadow_pass_ms(const sq_renderer *r);
+
+/* ---- render_snowcover.c: snow lying on the opaque surfaces --------------------------------- */
+sq_result sq__snow_pass_create(sq_renderer *r);
+void sq__snow_pass_destroy(sq_renderer *r);
+/* With a snow-cover view (else NULL: the Snow block says off): the occlusion map for the
+ * camera, the snow depth texture, the Snow block (UBO 4) and textures (units 11, 12) bound for
+ * the opaque shaders. Call after the camera is set and the world caches are up to date. */
+sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow_cover_view *v);
+/* Time of the last occlusion map, GL finished (ms; 0 without snow). */
+double sq__snow_pass_ms(const sq_renderer *r);
 
 #endif

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "render/snow_map.h"
 
 #define RING_VIEWS 8 /* views per frame before the ring wraps (camera + cascades + snow) */
 
@@ -40,6 +41,7 @@ struct sq__mesh_pass {
     uint64_t generation;
     int mesh_count, instance_count;
     GLuint vao, vbo, ibo, inst_buf, inst_tex, ring;
+    GLuint sbo; /* per vertex: smoothed normal (welded over coincident vertices), 2_10_10_10 */
     gpu_mesh *mesh;
     gpu_material *mat;
     int mat_count;
@@ -70,11 +72,11 @@ static void release(sq_renderer *r)
     sq__mesh_pass *m = r->meshes;
     for (int i = 0; i < m->mat_count; i++)
         if (m->mat[i].texture) glDeleteTextures(1, &m->mat[i].texture);
-    const GLuint bufs[4] = {m->vbo, m->ibo, m->inst_buf, m->ring};
-    glDeleteBuffers(4, bufs);
+    const GLuint bufs[5] = {m->vbo, m->ibo, m->inst_buf, m->ring, m->sbo};
+    glDeleteBuffers(5, bufs);
     glDeleteTextures(1, &m->inst_tex);
     glDeleteVertexArrays(1, &m->vao);
-    m->vbo = m->ibo = m->inst_buf = m->ring = m->inst_tex = m->vao = 0;
+    m->vbo = m->ibo = m->inst_buf = m->ring = m->inst_tex = m->vao = m->sbo = 0;
     sq_free(r->ctx, m->mesh);
     sq_free(r->ctx, m->mat);
     sq_free(r->ctx, m->sphere);
@@ -121,6 +123,29 @@ static GLuint upload_texture(const sq_mesh_material *mt)
     return t;
 }
 
+/* Signed normalised 10-bit component. */
+static uint32_t snorm10(float v)
+{
+    const int q = (int)lrintf(sq_clampf(v, -1.0f, 1.0f) * 511.0f);
+    return (uint32_t)q & 0x3ffu;
+}
+
+/* The LOD's smoothed normals (sq__snow_smooth_normals) packed as GL_INT_2_10_10_10_REV: the snow
+ * shell moves coincident vertices of split-normal creases together. */
+static bool smooth_normals(sq_context *ctx, const sq_mesh_lod *L, uint32_t *out)
+{
+    const size_t n = (size_t)L->vertex_count;
+    float *sm = sq_alloc(ctx, (n > 0 ? n : 1) * 3 * sizeof(float));
+    if (!sm || !sq__snow_smooth_normals(ctx, L->positions, L->normals, L->vertex_count, sm)) {
+        sq_free(ctx, sm);
+        return false;
+    }
+    for (size_t v = 0; v < n; v++)
+        out[v] = snorm10(sm[3 * v]) | snorm10(sm[3 * v + 1]) << 10 | snorm10(sm[3 * v + 2]) << 20;
+    sq_free(ctx, sm);
+    return true;
+}
+
 static sq_result upload(sq_renderer *r, const sq_world *w)
 {
     sq_context *ctx = r->ctx;
@@ -151,8 +176,10 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     float *vb = sq_alloc(ctx, (nv > 0 ? nv : 1) * 8 * sizeof(float));
     uint32_t *ib = sq_alloc(ctx, (nidx > 0 ? nidx : 1) * sizeof(uint32_t));
     float *inst = sq_alloc(ctx, (size_t)ni * 16 * sizeof(float));
+    uint32_t *sb = sq_alloc(ctx, (nv > 0 ? nv : 1) * sizeof(uint32_t));
     if (!m->mesh || !m->mat || !m->sphere || !m->err_scale || !m->visible || !m->lod_of ||
-        !m->bucket || !vb || !ib || !inst) {
+        !m->bucket || !vb || !ib || !inst || !sb) {
+        sq_free(ctx, sb);
         sq_free(ctx, vb);
         sq_free(ctx, ib);
         sq_free(ctx, inst);
@@ -190,6 +217,15 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
                 o[7] = L->uvs ? 1.0f - L->uvs[2 * v + 1] : 0.0f; /* rows top first in memory */
             }
             memcpy(&ib[i0], L->indices, (size_t)L->index_count * sizeof(uint32_t));
+            if (!smooth_normals(ctx, L, &sb[v0])) {
+                sq_free(ctx, sb);
+                sq_free(ctx, vb);
+                sq_free(ctx, ib);
+                sq_free(ctx, inst);
+                release(r);
+                return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                                "out of memory smoothing the normals of mesh %d", i);
+            }
             v0 += (size_t)L->vertex_count;
             i0 += (size_t)L->index_count;
         }
@@ -244,6 +280,9 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     glCreateBuffers(1, &m->ring);
     glNamedBufferStorage(m->ring, (GLsizeiptr)(m->ring_cap * sizeof(uint32_t)), NULL,
                          GL_DYNAMIC_STORAGE_BIT);
+    glCreateBuffers(1, &m->sbo);
+    glNamedBufferStorage(m->sbo, (GLsizeiptr)((nv > 0 ? nv : 1) * sizeof(uint32_t)), sb, 0);
+    sq_free(ctx, sb);
     sq_free(ctx, vb);
     sq_free(ctx, ib);
     sq_free(ctx, inst);
@@ -262,6 +301,10 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     glVertexArrayAttribBinding(m->vao, 3, 1);
     glVertexArrayVertexBuffer(m->vao, 1, m->ring, 0, sizeof(uint32_t));
     glVertexArrayBindingDivisor(m->vao, 1, 1);
+    glVertexArrayVertexBuffer(m->vao, 2, m->sbo, 0, sizeof(uint32_t));
+    glEnableVertexArrayAttrib(m->vao, 4);
+    glVertexArrayAttribFormat(m->vao, 4, 4, GL_INT_2_10_10_10_REV, GL_TRUE, 0);
+    glVertexArrayAttribBinding(m->vao, 4, 2);
     sq_log(ctx, SQ_LOG_DEBUG, "render", "meshes: %d meshes (%zu vertices, %zu indices), %d instances",
            nm, nv, nidx, ni);
     return sq__gl_check(ctx, "mesh upload");

@@ -204,6 +204,22 @@ static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int coun
             break;
         }
         case SQ_DRAWABLE_CLOUDS: break; /* checked by the cloud pass */
+        case SQ_DRAWABLE_SNOW_COVER: {
+            const sq_snow_cover_view *s = &d->u.snow_cover;
+            const int t = s->taps;
+            if (!s->depth_m || s->nx < 1 || s->ny < 1 || !(s->dx_m > 0.0f) || !(s->dy_m > 0.0f) ||
+                s->map_size < 16 || s->map_size > 16384 || !(t == 1 || t == 4 || t == 5 || t == 9) ||
+                !(s->detail_distance_m > 0.0f))
+                return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
+                                "snow-cover drawable \"%s\": %dx%d cells of %g x %g m, depth %s, "
+                                "map %d texels, %d taps, detail distance %g m; need cells >= 1, "
+                                "spacing > 0, depths, a map of 16..16384 texels, 1, 4, 5 or 9 "
+                                "taps and a distance > 0",
+                                drawable_name(d), s->nx, s->ny, (double)s->dx_m, (double)s->dy_m,
+                                s->depth_m ? "set" : "NULL", s->map_size, t,
+                                (double)s->detail_distance_m);
+            break;
+        }
         case SQ_DRAWABLE_NONE: break;
         default:
             return sq__fail(r->ctx, SQ_ERR_INVALID_ARG, "render",
@@ -688,6 +704,11 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     /* opaque sun shadows of the world's geometry (none when only drawables are added over the
      * caller's picture: its geometry is not known) */
     if ((res = sq__shadow_pass_prepare(r, world, world_geometry)) != SQ_OK) return res;
+    /* snow lying on the world's surfaces: the occlusion map for this view */
+    const sq_snow_cover_view *snow = NULL;
+    for (int i = 0; i < count && world_geometry; i++)
+        if (drawables[i].kind == SQ_DRAWABLE_SNOW_COVER && !snow) snow = &drawables[i].u.snow_cover;
+    if ((res = sq__snow_pass_prepare(r, world, snow)) != SQ_OK) return res;
 
     bind_scene_state(r);
     glDepthMask(GL_TRUE);
@@ -1246,6 +1267,7 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
         if (res == SQ_OK) res = sq__clouds_pass_create(r);
         if (res == SQ_OK) res = sq__mesh_pass_create(r);
         if (res == SQ_OK) res = sq__shadow_pass_create(r);
+        if (res == SQ_OK) res = sq__snow_pass_create(r);
         if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
         gl_leave(r, &saved);
     }
@@ -1267,6 +1289,7 @@ void sq_renderer_destroy(sq_renderer *r)
     if ((r->gl || r->external) && gl_enter(r, &saved) == SQ_OK) {
         sq__clouds_pass_destroy(r);
         sq__shadow_pass_destroy(r);
+        sq__snow_pass_destroy(r);
         sq__mesh_pass_destroy(r);
         sq__particle_pass_destroy(r);
         sq__volume_pass_destroy(r);

@@ -69,6 +69,14 @@ sq_result sq__run_snapshot(sq_context *ctx, sq__run_frame_slot *slot, const sq_d
             d.u.surface.coverage = put(b, &at, s->coverage, c);
             break;
         }
+        case SQ_DRAWABLE_SNOW_COVER: {
+            const sq_snow_cover_view *s = &d.u.snow_cover;
+            need = s->depth_m ? (size_t)(s->nx > 0 ? s->nx : 0) * (size_t)(s->ny > 0 ? s->ny : 0) : 0;
+            float *b = reserve(ctx, slot, k, need);
+            if (need && !b) return SQ_ERR_OUT_OF_MEMORY;
+            d.u.snow_cover.depth_m = put(b, &at, s->depth_m, need);
+            break;
+        }
         default: break;
         }
         slot->drawables[slot->count++] = d;

@@ -25,6 +25,20 @@ layers:
 output: {fps: 4, frames: 8}
 YAML
 AVALANCHE=("$SRC/tests/cli/data/slope-avalanche.yaml" --threads 1)  # procedural: no GDAL needed
+cat > cover.yaml <<'YAML'
+seed: 4
+world:
+  terrain: {kind: hills, size_m: [300, 300], resolution: [33, 33], relief_m: 5}
+  obstacles:
+    - {kind: house, center: [0, 0], size: [10, 8, 5], roof_m: 2}
+camera: {position: [30, -40, 8], target: [0, 0, 2]}
+layers:
+  - type: snowcover
+    name: cover
+    snowfall: {rate_mmh: 3, speedup: 600}
+    flakes: {count: 3000, turbulence_mps: 0.5, spin_rad_s: 2}
+output: {fps: 4, frames: 8}
+YAML
 
 # same_tail REF RESUMED: the rows of RESUMED equal the rows of REF with the same frame numbers
 same_tail() {
@@ -67,6 +81,7 @@ check() {
 check sandstorm 6 1.0 "${SANDSTORM[@]}"
 check snowdrift 8 0.75 snow.yaml
 check avalanche 6 0.15 "${AVALANCHE[@]}"
+check snowcover 8 0.75 cover.yaml
 
 # killed with SIGKILL right after a checkpoint: the checkpoint is whole (written atomically) and
 # resumes to the same result

@@ -1,13 +1,15 @@
 #version 450 core
 // mesh.frag — flat Lambert shading of obstacles with the sun (through the volume light buffer)
 // and sky ambient, then aerial haze. Fences (kind 2) are porous: 10 cm boards with 5 cm gaps
-// between a bottom and a top rail.
+// between a bottom and a top rail. Snow is blended over them by f_p (snow_common.glsl).
 #include "frame_common.glsl"
+#include "snow_common.glsl"
 
 in vec3 v_pos;
 flat in vec3 v_normal;
 flat in vec3 v_albedo;
 in vec3 v_aux;
+in vec3 v_base;
 layout(location = 0) out vec4 o_color;
 
 void main()
@@ -19,5 +21,7 @@ void main()
     vec3 n = normalize(v_normal);
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = v_albedo * (E * max(dot(n, u_sun_dir.xyz), 0.0) + sq_ambient(n));
+    float fp = sq_snow_cover(v_base, n);
+    if (fp > 0.0) L = mix(L, sq_snow_radiance(v_pos, n, normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);
 }

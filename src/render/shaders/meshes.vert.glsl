@@ -1,14 +1,17 @@
 #version 450 core
 // meshes.vert — world mesh instances for the camera: world position, normal, texture
-// coordinates and the albedo after the instance's tint (material uniforms of render_meshes.c).
+// coordinates and the albedo after the instance's tint (material uniforms of render_meshes.c);
+// the position raised by the snow shell along the smoothed normal (snow_common.glsl).
 #include "frame_common.glsl"
 #include "mesh_common.glsl"
+#include "snow_common.glsl"
 
 layout(location = 0) uniform vec3 u_base_color; // material albedo (linear)
 layout(location = 1) uniform int u_tint;        // 0 none, 1 primary, 2 secondary
 
 out vec3 v_pos;
 out vec3 v_normal;
+out vec3 v_base; // before the snow shell
 out vec2 v_uv;
 flat out vec3 v_albedo;
 
@@ -22,6 +25,8 @@ void main()
     if (u_tint == 1 && max(t0.r, max(t0.g, t0.b)) > 0.0) a = t0;
     if (u_tint == 2 && max(t1.r, max(t1.g, t1.b)) > 0.0) a = t1;
     v_albedo = a;
+    v_base = p;
+    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_smooth_normal());
     v_pos = p;
     v_normal = n;
     v_uv = a_uv;

@@ -2,11 +2,14 @@
 // terrain.frag — Lambertian ground: albedo/pi * sun * cos(incidence) * volume transmittance +
 // albedo * sky ambient, then aerial haze. The albedo blends the terrain kind's colour (sand on
 // dunes, grass/soil elsewhere) with rock on steep slopes, modulated by a mean-one value-noise
-// detail so that flat ground is not a uniform colour.
+// detail so that flat ground is not a uniform colour. Snow (snow_common.glsl) is blended over
+// it by f_p (S2 eq 2.8).
 #include "frame_common.glsl"
+#include "snow_common.glsl"
 
 in vec3 v_pos;
 in vec3 v_normal;
+in vec3 v_base;
 layout(location = 0) out vec4 o_color;
 layout(location = 0) uniform vec3 u_albedo_flat;  // kind colour on gentle slopes
 layout(location = 1) uniform vec3 u_albedo_steep; // rock on slopes steeper than ~40 degrees
@@ -23,5 +26,7 @@ void main()
     vec3 s = u_sun_dir.xyz;
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
+    float fp = sq_snow_cover(v_base, n);
+    if (fp > 0.0) L = mix(L, sq_snow_radiance(v_pos, n, normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);
 }

@@ -1,0 +1,206 @@
+/* snowcover.c — the snow-cover phenomenon (squall/snowcover.h, SPEC §6): the depth accumulated
+ * over simulated time in a top-down grid, the falling-snow pool (snowcover_flakes.c), and what
+ * the renderer draws: the snow-cover view (occlusion map, shell, BRDF: render_snowcover.c) and
+ * the flakes as particles. */
+#include <math.h>
+#include <string.h>
+
+#include "snowcover_internal.h"
+
+sq_result sq_snowcover_create(sq_context *ctx, const sq_snowcover_desc *desc,
+                              const sq_world *world, sq_snowcover **out)
+{
+    if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "snowcover", "sq_snowcover_create: out is NULL");
+    *out = NULL;
+    sq_result res = sq_snowcover_validate(ctx, desc, world);
+    if (res != SQ_OK) return res;
+    sq_snowcover *s = sq_alloc_zero(ctx, sizeof *s);
+    if (!s) return SQ_ERR_OUT_OF_MEMORY;
+    s->ctx = ctx;
+    s->world = world;
+    sq_snowcover_desc_resolve(desc, &s->d);
+    sq__snowcover_grid(&s->d, world, &s->nx, &s->ny, s->origin, &s->cell_m);
+    const size_t cells = (size_t)s->nx * (size_t)s->ny;
+    s->depth = sq_alloc(ctx, cells * sizeof(float));
+    s->nflakes = s->d.flakes;
+    const size_t nf = (size_t)(s->nflakes > 0 ? s->nflakes : 1);
+    s->pos = sq_alloc(ctx, 3 * nf * sizeof(float));
+    s->vel = sq_alloc(ctx, 3 * nf * sizeof(float));
+    s->birth = sq_alloc(ctx, 2 * nf * sizeof(float));
+    s->rot = sq_alloc(ctx, nf * sizeof(float));
+    s->spin = sq_alloc(ctx, nf * sizeof(float));
+    s->radius = sq_alloc(ctx, nf * sizeof(float));
+    s->fade = sq_alloc(ctx, nf * sizeof(float));
+    if (!s->depth || !s->pos || !s->vel || !s->birth || !s->rot || !s->spin || !s->radius ||
+        !s->fade) {
+        sq_snowcover_destroy(s);
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "snowcover",
+                        "out of memory for a %dx%d snow grid and %d flakes", s->nx, s->ny,
+                        s->nflakes);
+    }
+    s->water_m = s->d.snowfall_mmh * 1e-3 * s->d.prior_h;
+    const float d0 = (float)sq_snowcover_depth_m(s);
+    for (size_t i = 0; i < cells; i++) s->depth[i] = d0;
+    s->version = 1;
+    s->box_m = s->d.reach_m;
+    *out = s;
+    return SQ_OK;
+}
+
+void sq_snowcover_destroy(sq_snowcover *s)
+{
+    if (!s) return;
+    sq_context *ctx = s->ctx;
+    sq_free(ctx, s->depth);
+    sq_free(ctx, s->pos);
+    sq_free(ctx, s->vel);
+    sq_free(ctx, s->birth);
+    sq_free(ctx, s->rot);
+    sq_free(ctx, s->spin);
+    sq_free(ctx, s->radius);
+    sq_free(ctx, s->fade);
+    sq_free(ctx, s);
+}
+
+double sq_snowcover_max_stable_dt(const sq_snowcover *s)
+{
+    (void)s;
+    return 0.0;
+}
+
+double sq_snowcover_depth_m(const sq_snowcover *s)
+{
+    return s->water_m * SQ_SNOWCOVER_RHO_WATER / s->d.density_kgm3;
+}
+
+/* Depth where f_p > 0: every column's highest surface is exposed to the sky (the occlusion map
+ * decides, per point, what lies below it), so the snowfall adds rate × Δt × ρ_water / ρ_snow of
+ * depth to every cell of the grid; the renderer scales it by f_e per point. */
+static void accumulate(sq_snowcover *s, double dt_s)
+{
+    const double dw = s->d.snowfall_mmh * 1e-3 / 3600.0 * dt_s * s->d.speedup;
+    if (dw <= 0.0) return;
+    s->water_m += dw;
+    const float d = (float)sq_snowcover_depth_m(s);
+    const size_t cells = (size_t)s->nx * (size_t)s->ny;
+    for (size_t i = 0; i < cells; i++) s->depth[i] = d;
+    s->version++;
+}
+
+sq_result sq_snowcover_step(sq_snowcover *s, double dt_s)
+{
+    if (!s) return sq__fail(NULL, SQ_ERR_INVALID_ARG, "snowcover", "sq_snowcover_step: s is NULL");
+    if (!(isfinite(dt_s) && dt_s >= 0.0))
+        return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "snowcover", "step dt = %g s; must be >= 0",
+                        dt_s);
+    accumulate(s, dt_s);
+    if (s->nflakes > 0 && s->have_camera) {
+        const double t0 = sq_time_now();
+        if (!s->seeded) sq__snowcover_flakes_seed(s);
+        sq__snowcover_flakes_step(s, dt_s);
+        s->ms_flakes = 1e3 * (sq_time_now() - t0);
+    }
+    s->time_s += dt_s;
+    return SQ_OK;
+}
+
+void sq_snowcover_observe(sq_snowcover *s, const sq_camera *camera)
+{
+    if (!s || !camera) return;
+    s->camera = sq_camera_resolve(*camera);
+    s->have_camera = true;
+    if (s->nflakes > 0 && !s->seeded) sq__snowcover_flakes_seed(s);
+}
+
+/* ---- drawables, metrics, fields ------------------------------------------------------------ */
+int sq__snowcover_drawables(sq_snowcover *s, sq_drawable *out, int max)
+{
+    int n = 0;
+    const sq_snowcover_desc *d = &s->d;
+    if (n < max && sq_snowcover_depth_m(s) > 0.0) {
+        sq_drawable *dr = &out[n++];
+        memset(dr, 0, sizeof *dr);
+        dr->kind = SQ_DRAWABLE_SNOW_COVER;
+        dr->name = "snow-cover";
+        sq_snow_cover_view *v = &dr->u.snow_cover;
+        v->nx = s->nx;
+        v->ny = s->ny;
+        v->origin_m = sq_v3((float)s->origin[0], (float)s->origin[1], 0.0f);
+        v->dx_m = v->dy_m = (float)s->cell_m;
+        v->depth_m = s->depth;
+        v->detail_distance_m = (float)d->detail_m;
+        v->map_size = d->map_size;
+        v->taps = d->taps;
+        v->tap_radius_texels = (float)d->tap_radius;
+        v->depth_bias_m = (float)d->bias_m;
+        v->noise_amplitude = (float)d->noise;
+        v->noise_scale_m = (float)d->noise_scale_m;
+        v->shell_blend = (float)d->shell_blend;
+        v->brdf = d->brdf == 1 ? SQ_SNOW_BRDF_BLINN_PHONG : SQ_SNOW_BRDF_PHYSICAL;
+        const float a = (float)d->albedo;
+        /* clean snow: a little less red than blue (ice absorbs red) */
+        v->albedo = sq_v3(a * 0.96f, a, fminf(1.0f, a * 1.02f));
+        v->sparkle = (float)d->sparkle;
+        v->shininess = (float)d->shininess;
+        v->version = s->version;
+    }
+    if (s->nflakes > 0 && s->seeded && n < max) {
+        const double t0 = sq_time_now();
+        sq__snowcover_flakes_size(s);
+        s->ms_flakes += 1e3 * (sq_time_now() - t0);
+        sq_drawable *dr = &out[n++];
+        memset(dr, 0, sizeof *dr);
+        dr->kind = SQ_DRAWABLE_PARTICLES;
+        dr->name = "snowfall";
+        sq_particles_view *p = &dr->u.particles;
+        p->count = s->nflakes;
+        p->position = s->pos;
+        p->rotation_rad = s->rot;
+        p->radius_m = s->radius;
+        p->fade = s->fade;
+        p->radius_default_m = 0.005f;
+        p->tau_default = 2.0f;
+        for (int c = 0; c < 3; c++) {
+            p->sigma_rel[c] = 1.0f;
+            p->albedo[c] = 0.95f;
+        }
+        p->g = 0.5f;
+        p->sprite = SQ_SPRITE_FLAKE6;
+        p->softness_m = 0.1f;
+        p->version = s->flake_step;
+    }
+    return n;
+}
+
+int sq__snowcover_metrics(sq_snowcover *s, sq_metric *out, int max)
+{
+    const sq_metric m[] = {
+        {"snow_depth_m", sq_snowcover_depth_m(s), "m"},
+        {"snow_water_mm", s->water_m * 1e3, "mm"},
+        {"flakes", (double)s->nflakes, "1"},
+        {"flakes_visible", (double)s->visible, "1"},
+    };
+    int n = 0;
+    for (size_t k = 0; k < sizeof m / sizeof m[0] && n < max; k++) out[n++] = m[k];
+    return n;
+}
+
+int sq__snowcover_fields(sq_snowcover *s, sq_named_field *out, int max)
+{
+    if (max < 1) return 0;
+    sq_named_field *f = &out[0];
+    memset(f, 0, sizeof *f);
+    f->name = "surface_snow_thickness";
+    f->units = "m";
+    f->long_name = "snow depth on the highest surface of each column";
+    f->standard_name = "surface_snow_thickness";
+    f->data = s->depth;
+    f->nx = s->nx;
+    f->ny = s->ny;
+    f->nz = 1;
+    f->origin_m = sq_v3((float)(s->origin[0] + 0.5 * s->cell_m),
+                        (float)(s->origin[1] + 0.5 * s->cell_m), 0.0f);
+    f->spacing_m = sq_v3((float)s->cell_m, (float)s->cell_m, 1.0f);
+    f->level = SQ_FIELD_LEVEL_SURFACE;
+    return 1;
+}

@@ -1,0 +1,58 @@
+/* snowcover_internal.h — the snow-cover phenomenon's state (squall/snowcover.h): the
+ * accumulation grid, the falling-snow pool and the camera the emitter follows. */
+#ifndef SQ_SNOWCOVER_INTERNAL_H
+#define SQ_SNOWCOVER_INTERNAL_H
+
+#include "core/core_internal.h"
+#include "squall/snowcover.h"
+#include "squall/field.h"
+
+#define SQ_SNOWCOVER_G 9.80665 /* m/s², standard gravity */
+#define SQ_SNOWCOVER_RHO_WATER 1000.0 /* kg/m³ */
+
+struct sq_snowcover {
+    sq_context *ctx;
+    sq_snowcover_desc d; /* resolved */
+    const sq_world *world;
+    double time_s;
+    double water_m;      /* water equivalent fallen on exposed ground (prior + accumulated) */
+    /* accumulation grid: depth (m) on the highest surface of each column, cell centres at
+     * origin + (i + 1/2) cell */
+    int nx, ny;
+    double origin[2], cell_m;
+    float *depth;
+    uint64_t version;
+    /* falling snow: pool of flakes */
+    int nflakes;
+    float *pos, *vel;    /* 3 per flake, world metres, m/s */
+    float *birth;        /* 2 per flake: horizontal offset from the emitter centre at birth */
+    float *rot, *spin;   /* rad, rad/s */
+    float *radius, *fade; /* per frame, from the camera (layers, eq 2.4) */
+    uint64_t flake_step; /* counter of the noise draws */
+    bool have_camera, seeded;
+    sq_camera camera;    /* resolved */
+    double centre[3];    /* emitter box centre (x, y) and its top z */
+    double box_m;        /* emitter side */
+    int visible;         /* flakes drawn in the last frame's view */
+    double ms_flakes;    /* time of the last flake step + sizing */
+    sq_metric metrics[6];
+};
+
+/* The accumulation grid over the world's terrain (snowcover_desc.c). */
+void sq__snowcover_grid(const sq_snowcover_desc *d, const sq_world *w, int *nx, int *ny,
+                        double origin[2], double *cell);
+
+/* falling snow (snowcover_flakes.c) */
+void sq__snowcover_flakes_seed(sq_snowcover *s);
+void sq__snowcover_flakes_step(sq_snowcover *s, double dt_s);
+void sq__snowcover_flakes_size(sq_snowcover *s);
+
+/* checkpoints (snowcover_state.c) */
+sq_result sq__snowcover_save_state(const void *self, sq_state_writer *w);
+sq_result sq__snowcover_load_state(void *self, sq_state_reader *r);
+
+int sq__snowcover_drawables(sq_snowcover *s, sq_drawable *out, int max);
+int sq__snowcover_metrics(sq_snowcover *s, sq_metric *out, int max);
+int sq__snowcover_fields(sq_snowcover *s, sq_named_field *out, int max);
+
+#endif

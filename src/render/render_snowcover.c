@@ -1,0 +1,218 @@
+/* render_snowcover.c — the snow-cover drawable in the GL renderer (S2 §2.2, SPEC §6.2–6.5):
+ * each frame with a snow-cover view, step 1 of S2 §2.2.2 — the region from the camera frustum
+ * clipped at the snow-detail distance (sq__snow_map_region: footprint bounding box, power-of-two
+ * texel, origin snapped to whole texels) and an orthographic top-down depth render of all opaque
+ * world geometry over it (sq__world_depth_draw), from above the highest object — then the Snow
+ * block (binding 4) and the map (unit 11) and snow depth (unit 12) for the opaque shaders, whose
+ * vertex stage displaces the snow shell and whose fragment stage blends the snow shading
+ * (steps 2–3, shaders/snow_common.glsl). Without a snow-cover view the block says "off". */
+#include <math.h>
+#include <string.h>
+
+#include "render/render_internal.h"
+#include "render/snow_map.h"
+
+/* std140 mirror of the Snow block in shaders/snow_common.glsl. */
+typedef struct snow_block {
+    float map[4], range[4], depth_grid[4], depth_org[4], taps[4], albedo[4], look[4];
+} snow_block;
+
+struct sq__snow_pass {
+    GLuint ubo, fbo, occ_tex, depth_tex, dummy_occ, dummy_depth;
+    int occ_size, depth_nx, depth_ny;
+    uint64_t depth_version;
+    const float *depth_ptr;
+    sq__snow_map_geom geom;
+    double ms_map; /* last occlusion map (CPU + GL, finished) */
+};
+
+static GLuint make_tex(GLenum format, int w, int h, GLenum filter)
+{
+    GLuint t = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, format, w, h);
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, filter);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, filter);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
+sq_result sq__snow_pass_create(sq_renderer *r)
+{
+    sq__snow_pass *s = sq_alloc_zero(r->ctx, sizeof *s);
+    if (!s) return SQ_ERR_OUT_OF_MEMORY;
+    r->snow = s;
+    glCreateBuffers(1, &s->ubo);
+    snow_block zero;
+    memset(&zero, 0, sizeof zero);
+    glNamedBufferStorage(s->ubo, sizeof zero, &zero, GL_DYNAMIC_STORAGE_BIT);
+    const float far = 1.0f, none = 0.0f;
+    s->dummy_occ = make_tex(GL_R32F, 1, 1, GL_NEAREST);
+    glTextureSubImage2D(s->dummy_occ, 0, 0, 0, 1, 1, GL_RED, GL_FLOAT, &far);
+    s->dummy_depth = make_tex(GL_R32F, 1, 1, GL_NEAREST);
+    glTextureSubImage2D(s->dummy_depth, 0, 0, 0, 1, 1, GL_RED, GL_FLOAT, &none);
+    return sq__gl_check(r->ctx, "snow pass creation");
+}
+
+void sq__snow_pass_destroy(sq_renderer *r)
+{
+    sq__snow_pass *s = r->snow;
+    if (!s) return;
+    glDeleteBuffers(1, &s->ubo);
+    const GLuint tex[4] = {s->occ_tex, s->depth_tex, s->dummy_occ, s->dummy_depth};
+    glDeleteTextures(4, tex);
+    if (s->fbo) glDeleteFramebuffers(1, &s->fbo);
+    sq_free(r->ctx, s);
+    r->snow = NULL;
+}
+
+static sq_result ensure_map(sq_renderer *r, int size)
+{
+    sq__snow_pass *s = r->snow;
+    if (s->occ_tex && s->occ_size == size) return SQ_OK;
+    glDeleteTextures(1, &s->occ_tex);
+    if (s->fbo) glDeleteFramebuffers(1, &s->fbo);
+    s->occ_tex = make_tex(GL_DEPTH_COMPONENT32F, size, size, GL_NEAREST);
+    glTextureParameteri(s->occ_tex, GL_TEXTURE_COMPARE_MODE, GL_NONE);
+    glCreateFramebuffers(1, &s->fbo);
+    glNamedFramebufferTexture(s->fbo, GL_DEPTH_ATTACHMENT, s->occ_tex, 0);
+    glNamedFramebufferDrawBuffer(s->fbo, GL_NONE);
+    glNamedFramebufferReadBuffer(s->fbo, GL_NONE);
+    s->occ_size = size;
+    return sq__gl_check_framebuffer(r->ctx, s->fbo, "snow occlusion map");
+}
+
+static void upload_depth(sq_renderer *r, const sq_snow_cover_view *v)
+{
+    sq__snow_pass *s = r->snow;
+    if (s->depth_tex && s->depth_nx == v->nx && s->depth_ny == v->ny &&
+        s->depth_version == v->version && s->depth_ptr == v->depth_m)
+        return;
+    if (!s->depth_tex || s->depth_nx != v->nx || s->depth_ny != v->ny) {
+        glDeleteTextures(1, &s->depth_tex);
+        s->depth_tex = make_tex(GL_R32F, v->nx, v->ny, GL_LINEAR);
+        s->depth_nx = v->nx;
+        s->depth_ny = v->ny;
+    }
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTextureSubImage2D(s->depth_tex, 0, 0, 0, v->nx, v->ny, GL_RED, GL_FLOAT, v->depth_m);
+    s->depth_version = v->version;
+    s->depth_ptr = v->depth_m;
+}
+
+/* The world's top (highest object) and bottom for the sky camera. */
+static void vertical_range(const sq_renderer *r, const sq_world *w, float *top, float *bottom)
+{
+    sq_vec3 wmin, wmax, mmin, mmax;
+    bool any;
+    sq_world_bounds(w, &wmin, &wmax);
+    sq__mesh_pass_bounds(r, &mmin, &mmax, &any);
+    float t = wmax.z;
+    if (any) t = fmaxf(t, mmax.z);
+    for (int i = 0; i < w->obstacle_count; i++)
+        t = fmaxf(t, w->obstacles[i].center_m.z + w->obstacles[i].size_m.z + w->obstacles[i].roof_m);
+    *top = t + 1.0f;
+    *bottom = wmin.z - 1.0f;
+}
+
+/* World -> clip of the sky camera: x, y of the map to [-1, 1], depth 0 at top .. 1 at bottom. */
+static sq_mat4 sky_matrix(const sq__snow_map_geom *g)
+{
+    const float ext = (float)(g->size * g->texel_m);
+    const float span = g->top_z - g->bottom_z;
+    sq_mat4 m = sq_m4_identity();
+    m.m[0] = 2.0f / ext;
+    m.m[12] = (float)(-2.0 * g->origin[0] / (double)ext) - 1.0f;
+    m.m[5] = 2.0f / ext;
+    m.m[13] = (float)(-2.0 * g->origin[1] / (double)ext) - 1.0f;
+    m.m[10] = -2.0f / span;  /* clip z = 2 (top - z) / span - 1 */
+    m.m[14] = 2.0f * g->top_z / span - 1.0f;
+    return m;
+}
+
+sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow_cover_view *v)
+{
+    sq__snow_pass *s = r->snow;
+    snow_block b;
+    memset(&b, 0, sizeof b);
+    GLuint occ = s->dummy_occ, depth = s->dummy_depth;
+    s->ms_map = 0.0;
+    if (v && v->depth_m && v->nx > 0 && v->ny > 0) {
+        const double t0 = sq_time_now();
+        sq_result res = ensure_map(r, v->map_size);
+        if (res != SQ_OK) return res;
+        upload_depth(r, v);
+        float top, bottom;
+        vertical_range(r, w, &top, &bottom);
+        sq_camera cam;
+        memset(&cam, 0, sizeof cam);
+        cam.position_m = r->cam_pos;
+        cam.target_m = sq_v3_add(r->cam_pos, r->cam_forward);
+        cam.up = r->cam_up;
+        cam.fov_y_deg = 2.0f * atanf(1.0f / r->proj.m[5]) * 180.0f / SQ_PI_F;
+        cam.near_m = r->near_m;
+        cam.far_m = r->far_m;
+        s->geom = sq__snow_map_region(&cam, (float)r->width / (float)r->height,
+                                      v->detail_distance_m, v->map_size, 4, top, bottom);
+        /* the map must not stay bound for sampling while it is rendered into */
+        glBindTextureUnit(11, s->dummy_occ);
+        glBindFramebuffer(GL_FRAMEBUFFER, s->fbo);
+        glViewport(0, 0, v->map_size, v->map_size);
+        glDepthMask(GL_TRUE);
+        const float one = 1.0f;
+        glClearNamedFramebufferfv(s->fbo, GL_DEPTH, 0, &one);
+        sq__depth_view dv;
+        memset(&dv, 0, sizeof dv);
+        dv.view_proj = sky_matrix(&s->geom);
+        dv.ortho = true;
+        dv.px_per_m = (float)(1.0 / s->geom.texel_m);
+        /* fine levels: a coarse level's surface above the camera's finer one would shade the
+         * true surface as occluded; the map's level error stays within the depth bias */
+        dv.lod_pixels = fmaxf(0.05f, (float)((double)v->depth_bias_m / s->geom.texel_m));
+        dv.min_pixels = 0.5f;
+        sq__world_depth_draw(r, &dv);
+        glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
+        s->ms_map = (sq_time_now() - t0) * 1e3;
+        occ = s->occ_tex;
+        depth = s->depth_tex;
+        const sq__snow_map_geom *g = &s->geom;
+        b.map[0] = (float)g->origin[0];
+        b.map[1] = (float)g->origin[1];
+        b.map[2] = (float)g->texel_m;
+        b.map[3] = (float)g->size;
+        b.range[0] = g->top_z;
+        b.range[1] = g->bottom_z;
+        b.range[2] = v->detail_distance_m;
+        b.range[3] = 0.8f * v->detail_distance_m;
+        b.depth_grid[0] = 1.0f / v->dx_m;
+        b.depth_grid[1] = 1.0f / v->dy_m;
+        b.depth_grid[2] = 1.0f;
+        b.depth_grid[3] = v->shell_blend;
+        b.depth_org[0] = v->origin_m.x;
+        b.depth_org[1] = v->origin_m.y;
+        b.depth_org[2] = (float)v->nx;
+        b.depth_org[3] = (float)v->ny;
+        b.taps[0] = (float)v->taps;
+        b.taps[1] = v->tap_radius_texels;
+        b.taps[2] = v->depth_bias_m;
+        b.taps[3] = v->noise_amplitude;
+        b.albedo[0] = v->albedo.x;
+        b.albedo[1] = v->albedo.y;
+        b.albedo[2] = v->albedo.z;
+        b.albedo[3] = v->brdf == SQ_SNOW_BRDF_BLINN_PHONG ? 1.0f : 0.0f;
+        b.look[0] = v->sparkle;
+        b.look[1] = v->shininess;
+        b.look[2] = v->noise_scale_m > 0.0f ? v->noise_scale_m : 1.0f;
+        /* metres per pixel at 1 m from the camera: the camera's level of detail may put a
+         * surface up to a pixel below the map's finer one (added to the bias with distance) */
+        b.look[3] = 2.0f / ((float)r->height * r->proj.m[5]);
+    }
+    glNamedBufferSubData(s->ubo, 0, sizeof b, &b);
+    glBindBufferBase(GL_UNIFORM_BUFFER, 4, s->ubo);
+    glBindTextureUnit(11, occ);
+    glBindTextureUnit(12, depth);
+    return sq__gl_check(r->ctx, "snow occlusion map");
+}
+
+double sq__snow_pass_ms(const sq_renderer *r) { return r->snow ? r->snow->ms_map : 0.0; }

@@ -1,0 +1,82 @@
+/* render/snow_map.h — the CPU side of the snow-cover model (S2 §2.2, SPEC §6.2–6.3), free of
+ * OpenGL so that it is built and tested without it (-DSQ_WITH_GL=OFF):
+ *   - the adaptive occlusion map's region: the camera frustum clipped at the snow-detail
+ *     distance D_snow, its ground footprint's bounding box, a power-of-two texel size and an
+ *     origin snapped to whole texels (a world-aligned grid: a point's texel, and so its exposure,
+ *     never changes while the camera moves and the texel size stays);
+ *   - the snow prediction function f_p = f_e · f_inc (eqs 2.1–2.3): exposure from M taps of the
+ *     map with a depth bias, inclination max(0, N·up) perturbed by a multi-octave 3D noise;
+ *   - the snow shell: a displacement along the blend of the position-welded smoothed normal and
+ *     up, by depth × f_e × a weight of the smoothed normal; a function of the position alone, so
+ *     coincident vertices of a mesh with split normals move together (no cracks at creases);
+ *   - a CPU occlusion map (the top surface per texel from sq_world_surface_at), the reference
+ *     the GL pass (render_snowcover.c, shaders/snow_common.glsl) mirrors.
+ * The GLSL in shaders/snow_common.glsl implements the same formulas; keep them in step. */
+#ifndef SQ_RENDER_SNOW_MAP_H
+#define SQ_RENDER_SNOW_MAP_H
+
+#include <stdbool.h>
+
+#include "squall/core.h"
+#include "squall/sqmath.h"
+#include "squall/world.h"
+
+/* The map's placement: texel (i, j) covers x in origin.x + [i, i+1) texel, y likewise; its
+ * value is the height of the highest surface at the texel centre (the GL map stores the depth
+ * (top - z) / (top - bottom) of an orthographic camera at top_z looking down). */
+typedef struct sq__snow_map_geom {
+    double origin[2];
+    double texel_m;
+    int size;            /* texels per side */
+    float top_z, bottom_z;
+} sq__snow_map_geom;
+
+/* Step 1 of S2 §2.2.2. The camera's frustum (resolved camera, aspect = width / height) with its
+ * far plane at detail_m, its 8 corners projected on the ground plane, their bounding box grown
+ * by margin_texels on each side; the texel is the smallest power of two (in metres, 2^k for
+ * any integer k) with which size texels cover it, and the origin the box's corner rounded down
+ * to whole texels. top_z / bottom_z: the vertical range of the ortho camera. */
+sq__snow_map_geom sq__snow_map_region(const sq_camera *camera, float aspect, float detail_m,
+                                      int size, int margin_texels, float top_z, float bottom_z);
+
+/* Height of the highest surface at every texel centre of g (size² floats, row j = y index):
+ * the CPU occlusion map. */
+void sq__snow_map_fill(const sq_world *w, const sq__snow_map_geom *g, float *height);
+
+/* Tap offsets (in texels, x then y) of the M-tap exposure: M = 1 (centre), 4 (S2's four
+ * neighbours at the tap radius), 5 (centre and four), 9 (3 × 3 grid of spacing radius).
+ * Returns M, or 0 for an unsupported M. */
+int sq__snow_taps(int m, float radius_texels, float offsets[][2]);
+
+/* Depth bias of a surface whose normal has z component nz: bias_m plus the rise of the surface
+ * over the taps' reach, (radius + 1/2) texels x tan(slope) (tan at most 3), so that a tap up a
+ * sloped roof does not count the roof itself as its occluder (slope-scaled, as for shadow maps). */
+float sq__snow_slope_bias(const sq__snow_map_geom *g, float nz, float radius_texels, float bias_m);
+
+/* Exposure f_e (eq 2.2) of point p (surface normal z component nz) from the map of heights: the
+ * fraction of the M taps whose occluder height is at most p.z + the slope bias (D_occ - D_act
+ * >= -b), each tap's answer blended bilinearly from the four texels around it (percentage-
+ * closer filtering: smooth edges, still a function of the point alone); 1 outside the map. */
+float sq__snow_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3 p, float nz,
+                        int taps, float radius_texels, float bias_m);
+
+/* 3D value noise in [0, 1] (integer hash, smooth-step interpolation) and its octave sum
+ * (frequency x2, amplitude x1/2 per octave; mean about 1/2), as in snow_common.glsl. */
+float sq__snow_noise3(sq_vec3 x);
+float sq__snow_fbm3(sq_vec3 x, int octaves);
+
+/* Inclination f_inc (eq 2.3) of unit normal n at p: max(0, n.z) times a mean-one noise factor
+ * 1 + amplitude (2 fbm(p / scale_m) - 1), clamped to [0, 1]; amplitude 0 gives max(0, n.z). */
+float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m);
+
+/* Displacement of a vertex at p with position-welded smoothed normal ns (unit): along
+ * normalize(ns + blend (up - ns)) by depth_m × f_e × min(1, 2 max(0, ns.z)). */
+sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend);
+
+/* Smoothed normals: per vertex, the normalised sum of the normals of all vertices at exactly the
+ * same position (n vertices, positions and normals 3 floats each); out may not alias.
+ * Returns false when out of memory (out then holds the input normals). */
+bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const float *normals,
+                             int n, float *out);
+
+#endif

@@ -1,0 +1,300 @@
+/* test_snow_map.c — the snow-cover model's CPU side (src/render/snow_map.c, SPEC §6.2–6.3):
+ *   - exposure of a plane under a box: 0 below the box, 1 outside it, the transition within the
+ *     map's texel plus the tap radius of the box's edge (the map is the world's top surface);
+ *   - no shimmer: a point's exposure is the same for camera moves smaller than a snapped texel
+ *     (and the map's texel grid is the same world-aligned grid);
+ *   - the frustum footprint: the region holds every ground point of the view nearer than D_snow;
+ *   - inclination: max(0, N·up) without noise, mean-preserving with noise;
+ *   - the snow shell on a closed cube with split (sharp-crease) normals stays watertight, where
+ *     S2's per-vertex normal displacement cracks it. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "render/snow_map.h"
+#include "sq_test.h"
+#include "squall/world.h"
+
+SQ_LABEL(physics)
+
+static sq_context *make_ctx(void)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd;
+    memset(&cd, 0, sizeof cd);
+    cd.threads = 1;
+    if (sq_context_create(&cd, &ctx) != SQ_OK) exit(1);
+    return ctx;
+}
+
+/* Flat ground at z = 0 with one box obstacle 10 x 6 m, 4 m high, centred at (0, 0). */
+static sq_world *box_world(sq_context *ctx)
+{
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 200.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 17;
+    sq_obstacle box;
+    memset(&box, 0, sizeof box);
+    box.kind = SQ_OBSTACLE_BOX;
+    box.center_m = sq_v3(0.0f, 0.0f, 0.0f);
+    box.size_m = sq_v3(10.0f, 6.0f, 4.0f);
+    d.obstacles = &box;
+    d.obstacle_count = 1;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
+        fprintf(stderr, "world: %s\n", sq_last_error());
+        exit(1);
+    }
+    return w;
+}
+
+static sq_camera looking_at_box(float x, float y)
+{
+    sq_camera c;
+    memset(&c, 0, sizeof c);
+    c.position_m = sq_v3(x - 30.0f, y - 30.0f, 12.0f);
+    c.target_m = sq_v3(x, y, 0.0f);
+    c.fov_y_deg = 50.0f;
+    c.near_m = 0.5f;
+    return sq_camera_resolve(c);
+}
+
+SQ_TEST(plane_under_box)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = box_world(ctx);
+    const sq_camera cam = looking_at_box(0.0f, 0.0f);
+    const int size = 256;
+    const sq__snow_map_geom g = sq__snow_map_region(&cam, 16.0f / 9.0f, 80.0f, size, 2, 10.0f, -1.0f);
+    SQ_CHECK(g.texel_m > 0.0 && g.texel_m < 1.0);
+    float *h = malloc((size_t)size * size * sizeof(float));
+    sq__snow_map_fill(w, &g, h);
+    const float radius = 1.0f, bias = 0.05f;
+    const double band = g.texel_m * (1.0 + radius); /* texel + tap radius */
+    int below = 0, outside = 0, checked_below = 0, checked_outside = 0;
+    /* points of the ground plane on lines across the box's +x edge (x = 5) and -y edge (y = -3) */
+    for (int k = 0; k <= 400; k++) {
+        const double s = -4.0 + 8.0 * k / 400.0; /* signed distance outside the edge */
+        const sq_vec3 px = sq_v3((float)(5.0 + s), 1.0f, 0.0f);
+        const sq_vec3 py = sq_v3(-2.0f, (float)(-3.0 - s), 0.0f);
+        const float ex = sq__snow_exposure(h, &g, px, 1.0f, 4, radius, bias);
+        const float ey = sq__snow_exposure(h, &g, py, 1.0f, 4, radius, bias);
+        if (s < -band) {
+            checked_below += 2;
+            below += (ex == 0.0f) + (ey == 0.0f);
+        } else if (s > band) {
+            checked_outside += 2;
+            outside += (ex == 1.0f) + (ey == 1.0f);
+        }
+    }
+    SQ_CHECK_MSG(below == checked_below, "%d of %d ground points under the box have f_e = 0",
+                 below, checked_below);
+    SQ_CHECK_MSG(outside == checked_outside, "%d of %d ground points outside have f_e = 1", outside,
+                 checked_outside);
+    SQ_CHECK(checked_below > 100 && checked_outside > 100);
+    /* the box's top is exposed, its centre on the ground is not */
+    SQ_CHECK(sq__snow_exposure(h, &g, sq_v3(0.0f, 0.0f, 4.0f), 1.0f, 4, radius, bias) == 1.0f);
+    SQ_CHECK(sq__snow_exposure(h, &g, sq_v3(0.0f, 0.0f, 0.0f), 1.0f, 9, radius, bias) == 0.0f);
+    /* the transition is no wider: at the edge itself the taps disagree (partial exposure) */
+    const float mid = sq__snow_exposure(h, &g, sq_v3(5.0f + 0.5f * (float)g.texel_m, 1.0f, 0.0f),
+                                        1.0f, 4, 2.0f, bias);
+    SQ_CHECK_MSG(mid > 0.0f && mid < 1.0f, "f_e at the edge = %g", (double)mid);
+    free(h);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(no_shimmer)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = box_world(ctx);
+    const int size = 256;
+    const sq_camera c0 = looking_at_box(0.0f, 0.0f);
+    const sq__snow_map_geom g0 = sq__snow_map_region(&c0, 1.5f, 80.0f, size, 2, 10.0f, -1.0f);
+    float *h0 = malloc((size_t)size * size * sizeof(float));
+    float *h1 = malloc((size_t)size * size * sizeof(float));
+    sq__snow_map_fill(w, &g0, h0);
+    /* points near the box's edges, on the ground and the roof */
+    sq_vec3 pts[64];
+    for (int k = 0; k < 64; k++)
+        pts[k] = sq_v3(-6.0f + 12.0f * (float)(k % 8) / 7.0f, -4.0f + 8.0f * (float)(k / 8) / 7.0f,
+                       (k & 1) ? 0.0f : 4.0f);
+    int moves = 0, same_texel = 0;
+    for (int m = 1; m <= 20; m++) {
+        /* moves of a fraction of a texel, along and across the view */
+        const float d = (float)(g0.texel_m * 0.045 * m);
+        const sq_camera c1 = looking_at_box(d, -0.5f * d);
+        const sq__snow_map_geom g1 = sq__snow_map_region(&c1, 1.5f, 80.0f, size, 2, 10.0f, -1.0f);
+        moves++;
+        SQ_CHECK_MSG(g1.texel_m == g0.texel_m, "move %d: texel %g m -> %g m", m, g0.texel_m,
+                     g1.texel_m);
+        /* the origin is on the same world-aligned grid: whole texels apart */
+        const double di = (g1.origin[0] - g0.origin[0]) / g0.texel_m;
+        SQ_CHECK_MSG(fabs(di - floor(di + 0.5)) < 1e-9, "origin moved by %g texels", di);
+        same_texel++;
+        sq__snow_map_fill(w, &g1, h1);
+        for (int k = 0; k < 64; k++) {
+            const float e0 = sq__snow_exposure(h0, &g0, pts[k], 1.0f, 4, 1.0f, 0.05f);
+            const float e1 = sq__snow_exposure(h1, &g1, pts[k], 1.0f, 4, 1.0f, 0.05f);
+            SQ_CHECK_MSG(e0 == e1, "move %d, point (%g, %g, %g): f_e %g -> %g", m,
+                         (double)pts[k].x, (double)pts[k].y, (double)pts[k].z, (double)e0,
+                         (double)e1);
+        }
+    }
+    SQ_CHECK(moves == same_texel);
+    /* a map placed with its origin not on whole texels (no snapping) changes exposures: the
+     * check above can fail */
+    sq__snow_map_geom gs = g0;
+    gs.origin[0] += 0.5 * g0.texel_m;
+    sq__snow_map_fill(w, &gs, h1);
+    int changed = 0;
+    for (int k = 0; k <= 200; k++) {
+        const sq_vec3 p = sq_v3(5.0f + (float)(k - 100) * 0.01f, 0.0f, 0.0f);
+        changed += sq__snow_exposure(h0, &g0, p, 1.0f, 4, 1.0f, 0.05f) !=
+                   sq__snow_exposure(h1, &gs, p, 1.0f, 4, 1.0f, 0.05f);
+    }
+    SQ_CHECK_MSG(changed > 0, "an unsnapped half-texel shift changed no exposure");
+    free(h0);
+    free(h1);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(region_covers_the_view)
+{
+    /* every ground point seen by the camera nearer than D_snow lies inside the region */
+    const float detail = 120.0f, aspect = 16.0f / 9.0f;
+    const sq_camera cams[3] = {looking_at_box(0.0f, 0.0f), looking_at_box(300.0f, -50.0f),
+                               looking_at_box(-20.0f, 40.0f)};
+    for (int c = 0; c < 3; c++) {
+        const sq_camera cam = cams[c];
+        const sq__snow_map_geom g = sq__snow_map_region(&cam, aspect, detail, 512, 2, 10.0f, 0.0f);
+        const sq_vec3 f = sq_v3_norm(sq_v3_sub(cam.target_m, cam.position_m));
+        const sq_vec3 r = sq_v3_norm(sq_v3_cross(f, cam.up));
+        const sq_vec3 u = sq_v3_cross(r, f);
+        const float ty = tanf(0.5f * cam.fov_y_deg * SQ_PI_F / 180.0f), tx = ty * aspect;
+        int inside = 0, seen = 0;
+        for (int j = 0; j <= 20; j++)
+            for (int i = 0; i <= 20; i++) {
+                const sq_vec3 d = sq_v3_add(f, sq_v3_add(sq_v3_scale(r, tx * (i / 10.0f - 1.0f)),
+                                                         sq_v3_scale(u, ty * (j / 10.0f - 1.0f))));
+                if (d.z >= 0.0f) continue;
+                const float t = -cam.position_m.z / d.z; /* hits z = 0 */
+                if (t > detail) continue;                 /* beyond D_snow along the view axis */
+                const sq_vec3 p = sq_v3_add(cam.position_m, sq_v3_scale(d, t));
+                seen++;
+                inside += p.x >= g.origin[0] && p.x <= g.origin[0] + g.size * g.texel_m &&
+                          p.y >= g.origin[1] && p.y <= g.origin[1] + g.size * g.texel_m;
+            }
+        SQ_CHECK(seen > 50);
+        SQ_CHECK_MSG(inside == seen, "camera %d: %d of %d ground points in the region", c, inside,
+                     seen);
+    }
+}
+
+SQ_TEST(inclination)
+{
+    const sq_vec3 p = sq_v3(3.0f, 4.0f, 5.0f);
+    SQ_CHECK(sq__snow_inclination(sq_v3(0, 0, 1), p, 0.0f, 1.0f) == 1.0f);
+    SQ_CHECK(sq__snow_inclination(sq_v3(1, 0, 0), p, 0.5f, 1.0f) == 0.0f);
+    SQ_CHECK(sq__snow_inclination(sq_v3(0, 0, -1), p, 0.5f, 1.0f) == 0.0f);
+    const sq_vec3 n45 = sq_v3_norm(sq_v3(1, 0, 1));
+    SQ_CHECK(fabsf(sq__snow_inclination(n45, p, 0.0f, 1.0f) - 0.70710678f) < 1e-6f);
+    /* noise: mean-one factor (mean of f_inc over many points within 3 % of cos 45), varies */
+    double sum = 0.0, lo = 1.0, hi = 0.0;
+    const int n = 20000;
+    for (int k = 0; k < n; k++) {
+        const sq_vec3 q = sq_v3(0.37f * (float)k, 0.11f * (float)(k % 97), 0.05f * (float)(k % 13));
+        const double f = sq__snow_inclination(n45, q, 0.3f, 1.0f);
+        sum += f;
+        lo = fmin(lo, f);
+        hi = fmax(hi, f);
+    }
+    SQ_CHECK_MSG(fabs(sum / n - 0.70710678) < 0.03 * 0.70710678, "mean f_inc %g", sum / n);
+    SQ_CHECK(hi - lo > 0.1);
+    /* octaves: fbm stays in [0, 1] */
+    for (int k = 0; k < 1000; k++) {
+        const float v = sq__snow_fbm3(sq_v3(0.7f * (float)k, -1.3f * (float)k, 0.1f * (float)k), 4);
+        SQ_CHECK(v >= 0.0f && v <= 1.0f);
+    }
+}
+
+/* Cube [-1, 1]^3 with split normals: 24 vertices, 4 per face, 12 triangles. */
+static void split_cube(float pos[72], float nrm[72], unsigned idx[36])
+{
+    static const int axes[6][3] = {{0, 1, 2}, {0, 1, 2}, {1, 2, 0}, {1, 2, 0}, {2, 0, 1}, {2, 0, 1}};
+    int v = 0, t = 0;
+    for (int f = 0; f < 6; f++) {
+        const float s = (f & 1) ? -1.0f : 1.0f;
+        const int a = axes[f][0], b = axes[f][1], c = axes[f][2];
+        const float uv[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+        for (int k = 0; k < 4; k++) {
+            float *p = &pos[3 * (v + k)], *n = &nrm[3 * (v + k)];
+            p[c] = s;
+            p[a] = uv[k][0];
+            p[b] = uv[k][1] * s; /* keeps the winding outward on both sides */
+            n[0] = n[1] = n[2] = 0.0f;
+            n[c] = s;
+        }
+        const unsigned q[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++) idx[t++] = (unsigned)v + q[k];
+        v += 4;
+    }
+}
+
+/* Watertight: every edge between displaced positions is used by exactly two triangles. */
+static int open_edges(const float *p, const unsigned *idx, int tris)
+{
+    int open = 0;
+    for (int t = 0; t < tris; t++)
+        for (int e = 0; e < 3; e++) {
+            const float *a = &p[3 * idx[3 * t + e]], *b = &p[3 * idx[3 * t + (e + 1) % 3]];
+            int uses = 0;
+            for (int u = 0; u < tris; u++)
+                for (int f = 0; f < 3; f++) {
+                    const float *c = &p[3 * idx[3 * u + f]], *d = &p[3 * idx[3 * u + (f + 1) % 3]];
+                    const bool same = !memcmp(a, c, 12) && !memcmp(b, d, 12);
+                    const bool flip = !memcmp(a, d, 12) && !memcmp(b, c, 12);
+                    uses += same || flip;
+                }
+            open += uses != 2;
+        }
+    return open;
+}
+
+SQ_TEST(shell_watertight)
+{
+    sq_context *ctx = make_ctx();
+    float pos[72], nrm[72], sm[72], moved[72], naive[72];
+    unsigned idx[36];
+    split_cube(pos, nrm, idx);
+    SQ_CHECK(open_edges(pos, idx, 12) == 0); /* closed to begin with */
+    SQ_CHECK(sq__snow_smooth_normals(ctx, pos, nrm, 24, sm));
+    /* exposure varies over the cube (a position-only function, as the map gives), depth 0.3 m */
+    for (int v = 0; v < 24; v++) {
+        const sq_vec3 p = sq_v3(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
+        const float fe = p.x > 0.0f ? 1.0f : 0.5f;
+        const sq_vec3 o = sq__snow_shell_offset(sq_v3(sm[3 * v], sm[3 * v + 1], sm[3 * v + 2]),
+                                                0.3f, fe, 0.5f);
+        moved[3 * v] = p.x + o.x, moved[3 * v + 1] = p.y + o.y, moved[3 * v + 2] = p.z + o.z;
+        /* S2: each vertex along its own (split) normal's blend: cracks at the creases */
+        const sq_vec3 on = sq__snow_shell_offset(sq_v3(nrm[3 * v], nrm[3 * v + 1], nrm[3 * v + 2]),
+                                                 0.3f, fe, 0.5f);
+        naive[3 * v] = p.x + on.x, naive[3 * v + 1] = p.y + on.y, naive[3 * v + 2] = p.z + on.z;
+    }
+    /* the top corners moved (there is a shell), the bottom ones did not */
+    int up = 0;
+    for (int v = 0; v < 24; v++) up += pos[3 * v + 2] > 0.0f && moved[3 * v + 2] > pos[3 * v + 2] + 0.05f;
+    SQ_CHECK_MSG(up == 12, "%d of 12 top-corner vertices raised", up);
+    const int open = open_edges(moved, idx, 12);
+    SQ_CHECK_MSG(open == 0, "%d open edges in the displaced shell", open);
+    const int cracked = open_edges(naive, idx, 12);
+    SQ_CHECK_MSG(cracked > 0, "per-vertex normals should crack the cube (%d open edges)", cracked);
+    /* ground-level displacement: flat exposed ground moves up by the depth */
+    const sq_vec3 g = sq__snow_shell_offset(sq_v3(0, 0, 1), 0.25f, 1.0f, 0.5f);
+    SQ_CHECK(fabsf(g.z - 0.25f) < 1e-6f && g.x == 0.0f && g.y == 0.0f);
+    sq_context_destroy(ctx);
+}

@@ -1,0 +1,199 @@
+/* test_snowcover.c — the snow-cover phenomenon (squall/snowcover.h, SPEC §6):
+ *   - depth on exposed flat ground after t of snowfall = rate t ρ_water / ρ_snow within 1 %,
+ *     in the accumulation grid too, and the named levels' depths (2, 10, 30 cm);
+ *   - falling snow: terminal speed and drag relaxation against the analytic solution of
+ *     dv/dt = k (w + v_t - v), k = g / v_t, for any step length; the noise's stationary
+ *     standard deviation is the requested one for two different steps (scaled by √Δt);
+ *   - the pool recycles: flakes never end below the ground, the count stays;
+ *   - the drawn layers: hidden nearer than near_m, sizes from S2 eq 2.4. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "phen/snowcover/snowcover_internal.h"
+#include "sq_test.h"
+#include "squall/snowcover.h"
+#include "squall/world.h"
+
+SQ_LABEL(physics)
+
+static sq_context *make_ctx(void)
+{
+    sq_context *ctx = NULL;
+    sq_context_desc cd;
+    memset(&cd, 0, sizeof cd);
+    cd.threads = 1;
+    if (sq_context_create(&cd, &ctx) != SQ_OK) exit(1);
+    return ctx;
+}
+
+static sq_world *flat_world(sq_context *ctx)
+{
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 400.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 17;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) exit(1);
+    return w;
+}
+
+SQ_TEST(depth_flat_ground)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = flat_world(ctx);
+    sq_snowcover_desc d;
+    memset(&d, 0, sizeof d);
+    d.snowfall_mmh = 2.0;
+    d.density_kgm3 = 150.0;
+    sq_snowcover *s = NULL;
+    SQ_CHECK(sq_snowcover_create(ctx, &d, w, &s) == SQ_OK);
+    SQ_CHECK(sq_snowcover_depth_m(s) == 0.0);
+    /* 3 h in uneven steps */
+    double t = 0.0;
+    for (int k = 0; t < 3 * 3600.0 - 1e-9; k++) {
+        const double dt = fmin(37.0 + (k % 5) * 11.0, 3 * 3600.0 - t);
+        SQ_CHECK(sq_snowcover_step(s, dt) == SQ_OK);
+        t += dt;
+    }
+    const double expect = 2.0e-3 * 3.0 * 1000.0 / 150.0; /* rate x t x rho_w / rho_s = 4 cm */
+    SQ_CHECK_MSG(fabs(sq_snowcover_depth_m(s) - expect) < 0.01 * expect, "depth %g m, expected %g",
+                 sq_snowcover_depth_m(s), expect);
+    /* the grid the renderer reads holds it everywhere */
+    sq_named_field f;
+    SQ_CHECK(sq__snowcover_fields(s, &f, 1) == 1);
+    int bad = 0;
+    for (int i = 0; i < f.nx * f.ny; i++) bad += fabs((double)f.data[i] - expect) > 0.01 * expect;
+    SQ_CHECK_MSG(bad == 0, "%d of %d grid cells off", bad, f.nx * f.ny);
+    sq_snowcover_destroy(s);
+    /* levels: presets of the same model at 100 kg/m3 */
+    const double level_depth[5] = {0, 0, 0.02, 0.10, 0.30};
+    for (int l = SQ_SNOWCOVER_NONE; l <= SQ_SNOWCOVER_HEAVY; l++) {
+        memset(&d, 0, sizeof d);
+        d.level = l;
+        SQ_CHECK(sq_snowcover_create(ctx, &d, w, &s) == SQ_OK);
+        SQ_CHECK_MSG(fabs(sq_snowcover_depth_m(s) - level_depth[l]) < 1e-9, "level %d: %g m", l,
+                     sq_snowcover_depth_m(s));
+        sq_snowcover_destroy(s);
+    }
+    /* negative rate or density: refused, naming the key */
+    memset(&d, 0, sizeof d);
+    d.snowfall_mmh = -1.0;
+    SQ_CHECK(sq_snowcover_validate(ctx, &d, w) == SQ_ERR_INVALID_ARG);
+    SQ_CHECK(strstr(sq_last_error(), "snowfall.rate_mmh") != NULL);
+    d.snowfall_mmh = 1.0;
+    d.density_kgm3 = -5.0;
+    SQ_CHECK(sq_snowcover_validate(ctx, &d, w) == SQ_ERR_INVALID_ARG);
+    SQ_CHECK(strstr(sq_last_error(), "snowfall.density_kgm3") != NULL);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(terminal_speed_and_drag)
+{
+    const double vt = 0.8, k = 9.80665 / vt;
+    const double wind[3] = {3.0, -1.0, 0.0};
+    /* from rest, steps of 1 ms and of 50 ms: the analytic v(t) = (w + v_t)(1 - e^{-kt}) */
+    const double steps[2] = {0.001, 0.05};
+    for (int c = 0; c < 2; c++) {
+        double p[3] = {0, 0, 100}, v[3] = {0, 0, 0};
+        const int n = (int)lround(0.5 / steps[c]);
+        for (int i = 0; i < n; i++) sq_snowcover_flake_update(wind, vt, steps[c], p, v);
+        const double t = n * steps[c], e = exp(-k * t);
+        const double mean[3] = {wind[0], wind[1], -vt};
+        for (int a = 0; a < 3; a++) {
+            const double va = mean[a] * (1.0 - e);
+            const double xa = (a == 2 ? 100.0 : 0.0) + mean[a] * t - mean[a] * (1.0 - e) / k;
+            SQ_CHECK_MSG(fabs(v[a] - va) < 1e-9, "dt %g axis %d: v %.12g, analytic %.12g", steps[c],
+                         a, v[a], va);
+            SQ_CHECK_MSG(fabs(p[a] - xa) < 1e-9, "dt %g axis %d: x %.12g, analytic %.12g", steps[c],
+                         a, p[a], xa);
+        }
+        /* relaxation time 1/k: after one, 1 - 1/e of the way */
+        double q[3] = {0, 0, 0}, u[3] = {0, 0, 0};
+        sq_snowcover_flake_update(wind, vt, 1.0 / k, q, u);
+        SQ_CHECK(fabs(u[2] + vt * (1.0 - exp(-1.0))) < 1e-12);
+    }
+    /* terminal: long after, falling at v_t and drifting with the wind */
+    double p[3] = {0, 0, 0}, v[3] = {0, 0, 2.0};
+    for (int i = 0; i < 1000; i++) sq_snowcover_flake_update(wind, vt, 0.02, p, v);
+    SQ_CHECK(fabs(v[2] + vt) < 1e-9 && fabs(v[0] - wind[0]) < 1e-9 && fabs(v[1] - wind[1]) < 1e-9);
+}
+
+/* Runs a pool of flakes over flat ground with camera c, returns the std of the horizontal
+ * velocity about the wind after settling. */
+static double velocity_std(sq_context *ctx, const sq_world *w, double dt, int *below, int *count)
+{
+    sq_snowcover_desc d;
+    memset(&d, 0, sizeof d);
+    d.flakes = 20000;
+    d.turbulence_mps = 0.4;
+    d.fall_speed_mps = 1.0;
+    d.wind_speed_mps = 2.0;
+    d.seed = 11;
+    sq_snowcover *s = NULL;
+    if (sq_snowcover_create(ctx, &d, w, &s) != SQ_OK) return -1.0;
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(0, -30, 10);
+    cam.target_m = sq_v3(0, 0, 2);
+    sq_snowcover_observe(s, &cam);
+    const int n = (int)lround(3.0 / dt);
+    for (int i = 0; i < n; i++) sq_snowcover_step(s, dt);
+    double sum = 0.0, sum2 = 0.0;
+    *below = 0;
+    for (int i = 0; i < s->nflakes; i++) {
+        const double u = (double)s->vel[3 * i] - 2.0;
+        sum += u;
+        sum2 += u * u;
+        *below += s->pos[3 * i + 2] < sq_world_height_at(w, s->pos[3 * i], s->pos[3 * i + 1]);
+    }
+    *count = s->nflakes;
+    /* layers: none drawn nearer than near_m, sizes from eq 2.4 with A, B, C = 0, 1, 0 */
+    sq_drawable dr[2];
+    const int nd = sq__snowcover_drawables(s, dr, 2);
+    int hidden_ok = 0, near = 0, size_ok = 0, sized = 0;
+    for (int k = 0; k < nd; k++) {
+        if (dr[k].kind != SQ_DRAWABLE_PARTICLES) continue;
+        const sq_particles_view *pv = &dr[k].u.particles;
+        const sq_vec3 f = sq_v3_norm(sq_v3_sub(cam.target_m, cam.position_m));
+        for (int i = 0; i < pv->count; i++) {
+            const sq_vec3 q = sq_v3_sub(sq_v3(pv->position[3 * i], pv->position[3 * i + 1],
+                                              pv->position[3 * i + 2]),
+                                        cam.position_m);
+            const float z = sq_v3_dot(q, f), D = sq_v3_len(q);
+            if (z < 1.5f) {
+                near++;
+                hidden_ok += pv->fade[i] == 0.0f;
+            } else if (z < 10.0f) { /* layer 0 or 1 of 4 between 1.5 and 80 m: 1.5..4.05, 4.05..11 m */
+                sized++;
+                const int l = z < 1.5f * powf(80.0f / 1.5f, 0.25f) ? 0 : 1;
+                const float expect = 8e-3f * powf(1.5f, (float)l) * sqrtf(1.0f / D) * D;
+                size_ok += fabsf(pv->radius_m[i] - expect) < 1e-4f * expect + 1e-7f;
+            }
+        }
+    }
+    SQ_CHECK(near > 0 && hidden_ok == near);
+    SQ_CHECK_MSG(sized > 0 && size_ok == sized, "%d of %d flake sizes follow eq 2.4", size_ok, sized);
+    sq_snowcover_destroy(s);
+    const double m = sum / *count;
+    return sqrt(sum2 / *count - m * m);
+}
+
+SQ_TEST(noise_and_recycling)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = flat_world(ctx);
+    int below = 0, count = 0;
+    const double s1 = velocity_std(ctx, w, 0.01, &below, &count);
+    SQ_CHECK(below == 0 && count == 20000);
+    const double s2 = velocity_std(ctx, w, 0.1, &below, &count);
+    SQ_CHECK(below == 0 && count == 20000);
+    /* stationary std = turbulence_mps for both steps (noise scaled by sqrt(dt)) */
+    SQ_CHECK_MSG(fabs(s1 - 0.4) < 0.03 * 0.4, "std at dt 0.01: %g m/s", s1);
+    SQ_CHECK_MSG(fabs(s2 - 0.4) < 0.03 * 0.4, "std at dt 0.1: %g m/s", s2);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
