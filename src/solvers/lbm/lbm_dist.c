@@ -25,10 +25,13 @@ sq_result sq__lbm_dist_setup(sq_lbm *l, const sq_lbm_desc *d)
     const int split[3] = {0, 0, 1};
     const int per[3] = {l->periodic[0], l->periodic[1], l->periodic[2]};
     sq_par_block b;
-    sq_result r = sq_par_decompose(d->cells, split, per, 2, size, rank, &b);
+    const sq_result r = sq_par_decompose(d->cells, split, per, 2, size, rank, &b);
     if (r != SQ_OK)
-        return sq__fail(l->ctx, r, "lbm", "decompose: %s (slabs along z of at least 2 planes)",
-                        sq_last_error());
+        return sq__fail(l->ctx, r, "lbm",
+                        "cells = %dx%dx%d: the lattice cannot be split over %d ranks (slabs "
+                        "along z of at least 2 planes: at most %d ranks); run with fewer ranks "
+                        "(mpirun -np)",
+                        d->cells.nx, d->cells.ny, d->cells.nz, size, d->cells.nz / 2);
     l->zdist = true;
     l->nranks = size;
     l->nzg = d->cells.nz;
