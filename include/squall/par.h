@@ -70,6 +70,17 @@ SQ_API sq_result sq_par_exchange_pair(const int nb[2], const void *const sbuf[2]
                                       const size_t bytes[2], void *const rbuf[2],
                                       const size_t rbytes[2]);
 
+/* The same in two halves, so that work can be done while the data travels: begin posts the
+ * four transfers (the buffers must stay untouched until end), end waits for them. */
+typedef struct sq_par_exchange {
+    unsigned char requests[128]; /* MPI requests (opaque) */
+    int count;
+} sq_par_exchange;
+SQ_API sq_result sq_par_exchange_begin(const int nb[2], const void *const sbuf[2],
+                                       const size_t bytes[2], void *const rbuf[2],
+                                       const size_t rbytes[2], sq_par_exchange *x);
+SQ_API void sq_par_exchange_end(sq_par_exchange *x);
+
 /* Collective reductions over all ranks (in place). Integer sums are exact; a double sum's
  * rounding may depend on the rank count (use per-block partials gathered in a fixed order
  * where results must not). */

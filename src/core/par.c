@@ -296,16 +296,18 @@ sq_result sq_par_halo_exchange(const sq_par_block *b, sq_field3 *f)
     return SQ_OK;
 }
 
-sq_result sq_par_exchange_pair(const int nb[2], const void *const sbuf[2],
-                               const size_t bytes[2], void *const rbuf[2], const size_t rbytes[2])
+sq_result sq_par_exchange_begin(const int nb[2], const void *const sbuf[2],
+                                const size_t bytes[2], void *const rbuf[2], const size_t rbytes[2],
+                                sq_par_exchange *x)
 {
+    x->count = 0;
     for (int s = 0; s < 2; s++)
         if (bytes[s] > INT_MAX || rbytes[s] > INT_MAX)
             return sq_set_error(SQ_ERR_TOO_LARGE, "exchange: a message of %zu bytes",
                                 bytes[s] > rbytes[s] ? bytes[s] : rbytes[s]);
 #if SQ_HAVE_MPI
+    _Static_assert(4 * sizeof(MPI_Request) <= sizeof x->requests, "sq_par_exchange too small");
     MPI_Request req[4];
-    int nreq = 0;
 #endif
     for (int s = 0; s < 2; s++) {
         if (nb[s] < 0) continue;
@@ -316,15 +318,37 @@ sq_result sq_par_exchange_pair(const int nb[2], const void *const sbuf[2],
         }
 #if SQ_HAVE_MPI
         /* tag: the direction of travel (1 toward plus, 0 toward minus) */
-        MPI_Irecv(rbuf[s], (int)rbytes[s], MPI_BYTE, nb[s], 1 - s, MPI_COMM_WORLD, &req[nreq++]);
-        MPI_Isend(sbuf[s], (int)bytes[s], MPI_BYTE, nb[s], s, MPI_COMM_WORLD, &req[nreq++]);
+        MPI_Irecv(rbuf[s], (int)rbytes[s], MPI_BYTE, nb[s], 1 - s, MPI_COMM_WORLD,
+                  &req[x->count++]);
+        MPI_Isend(sbuf[s], (int)bytes[s], MPI_BYTE, nb[s], s, MPI_COMM_WORLD, &req[x->count++]);
         par_sent += bytes[s];
 #endif
     }
 #if SQ_HAVE_MPI
-    if (nreq) MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE);
+    memcpy(x->requests, req, (size_t)x->count * sizeof(MPI_Request));
 #endif
     return SQ_OK;
+}
+
+void sq_par_exchange_end(sq_par_exchange *x)
+{
+#if SQ_HAVE_MPI
+    if (x->count > 0) {
+        MPI_Request req[4];
+        memcpy(req, x->requests, (size_t)x->count * sizeof(MPI_Request));
+        MPI_Waitall(x->count, req, MPI_STATUSES_IGNORE);
+    }
+#endif
+    x->count = 0;
+}
+
+sq_result sq_par_exchange_pair(const int nb[2], const void *const sbuf[2],
+                               const size_t bytes[2], void *const rbuf[2], const size_t rbytes[2])
+{
+    sq_par_exchange x;
+    const sq_result r = sq_par_exchange_begin(nb, sbuf, bytes, rbuf, rbytes, &x);
+    sq_par_exchange_end(&x);
+    return r;
 }
 
 /* ---- reductions and gathers --------------------------------------------------------------- */

@@ -496,7 +496,8 @@ static sq_result check_stability(sq_lbm *l)
     z = (int)(g / plane);
     double rho = 0, u[3] = {0, 0, 0};
     const int owner = l->zdist ? l->plane_rank[z] : 0;
-    if (!l->zdist || owner == sq_par_rank()) cell_macro(l, sq__lbm_cell(l, x, y, z - l->kz0), &rho, u);
+    if (!l->zdist || owner == sq_par_rank())
+        cell_macro(l, sq__lbm_cell(l, x, y, z - l->kz0), &rho, u);
     if (l->zdist) {
         double v[4] = {rho, u[0], u[1], u[2]};
         sq_par_broadcast(v, sizeof v, owner);
@@ -540,8 +541,10 @@ sq_result sq_lbm_step(sq_lbm *l, int steps)
         ensure_boundaries(l);           /* faces: walls, free slip, inflow, outflow, periodic */
         sq__lbm_kparams p;
         kernel_params(l, &p);
-        sq__lbm_sweep(l, (int)(l->step & 1), &p); /* fused collide + stream, AA in place */
-        if (l->zdist && (l->step & 1)) sq__lbm_z_exchange(l, SQ_LBM_Z_FOLD); /* slab faces */
+        if (l->zdist) /* the same, the slab faces' fold overlapped (lbm_dist.c) */
+            sq__lbm_dist_sweep(l, (int)(l->step & 1), &p);
+        else
+            sq__lbm_sweep(l, (int)(l->step & 1), &p); /* fused collide + stream, AA in place */
         l->step++;
         invalidate(l);
         if (l->step % l->desc.check_interval == 0) {
@@ -1015,7 +1018,8 @@ sq_result sq_lbm_get_totals(sq_lbm *l, sq_lbm_totals *out)
             sq_free(l->ctx, part);
             return SQ_ERR_OUT_OF_MEMORY;
         }
-        for (int q = 0; q < l->nranks; q++) cnt[q] = 5 * l->rank_cells[q] / ((int64_t)l->nx * l->ny);
+        for (int q = 0; q < l->nranks; q++)
+            cnt[q] = 5 * l->rank_cells[q] / ((int64_t)l->nx * l->ny); /* 5 values per plane */
         (void)sq_par_allgather_f64(part, cnt, all);
         sq_free(l->ctx, cnt);
     }

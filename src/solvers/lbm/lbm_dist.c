@@ -7,7 +7,8 @@
  * and corners travel too); right after an odd step the populations that left into the ghost
  * planes are moved onto the neighbours' edge planes (FOLD). The fold is done at once (not
  * lazily as the periodic fold) so that every interior population equals the one-rank solver's
- * between steps, whatever is asked of the lattice next. Each transfer is 5 populations of one
+ * between steps, whatever is asked of the lattice next; it travels while the slab's interior
+ * planes are updated (sq__lbm_dist_sweep). Each transfer is 5 populations of one
  * padded plane per neighbour: 20 (nx+2)(ny+2) bytes each way.
  *
  * Why z: a slab is a contiguous run of the global x-fastest arrays (the gathers need no
@@ -70,23 +71,27 @@ void sq__lbm_dist_free(sq_lbm *l)
     sq_free(l->ctx, l->zbuf);
 }
 
-void sq__lbm_z_exchange(sq_lbm *l, int mode)
+/* The slots of the populations travelling up / down: natural layout (FOLD) slot i holds f_i;
+ * swapped layout (FILL) slot i holds f*_opp(i). */
+static void travel_slots(int mode, int up[5], int dn[5])
 {
-    const int64_t P = l->sz, S = l->stride;
-    const int nz = l->nz;
-    /* the slots of the populations travelling up / down: natural layout (FOLD) slot i holds
-     * f_i; swapped layout (FILL) slot i holds f*_opp(i) */
-    int up[5], dn[5], nu = 0, nd = 0;
+    int nu = 0, nd = 0;
     for (int i = 1; i < SQ_LBM_Q; i++) {
         const int cz = mode == SQ_LBM_Z_FOLD ? sq__lbm_c[i][2] : -sq__lbm_c[i][2];
         if (cz > 0) up[nu++] = i;
         if (cz < 0) dn[nd++] = i;
     }
-    /* planes (slab-local z): what goes up / down, where what comes from below / above lands */
+}
+
+void sq__lbm_z_exchange_begin(sq_lbm *l, int mode)
+{
+    const int64_t P = l->sz, S = l->stride;
+    const int nz = l->nz;
+    int up[5], dn[5];
+    travel_slots(mode, up, dn);
+    /* planes (slab-local z) sent up / down */
     const int src_up = mode == SQ_LBM_Z_FILL ? nz - 1 : nz;
     const int src_dn = mode == SQ_LBM_Z_FILL ? 0 : -1;
-    const int dst_lo = mode == SQ_LBM_Z_FILL ? -1 : 0;
-    const int dst_hi = mode == SQ_LBM_Z_FILL ? nz : nz - 1;
     float *const sdn = l->zbuf, *const sup = l->zbuf + 5 * P;
     float *const rlo = l->zbuf + 10 * P, *const rhi = l->zbuf + 15 * P;
     const size_t bytes = (size_t)(5 * P) * sizeof(float);
@@ -101,7 +106,21 @@ void sq__lbm_z_exchange(sq_lbm *l, int mode)
     const void *sb[2] = {sdn, sup};
     void *rb[2] = {rlo, rhi};
     const size_t nb[2] = {bytes, bytes};
-    (void)sq_par_exchange_pair(l->znb, sb, nb, rb, nb);
+    l->zx_mode = mode;
+    (void)sq_par_exchange_begin(l->znb, sb, nb, rb, nb, &l->zx);
+}
+
+void sq__lbm_z_exchange_end(sq_lbm *l)
+{
+    sq_par_exchange_end(&l->zx);
+    const int64_t P = l->sz, S = l->stride;
+    const int nz = l->nz, mode = l->zx_mode;
+    int up[5], dn[5];
+    travel_slots(mode, up, dn);
+    /* where what comes from below / above lands */
+    const int dst_lo = mode == SQ_LBM_Z_FILL ? -1 : 0;
+    const int dst_hi = mode == SQ_LBM_Z_FILL ? nz : nz - 1;
+    const float *const rlo = l->zbuf + 10 * P, *const rhi = l->zbuf + 15 * P;
     for (int q = 0; q < 5; q++) {
         if (l->znb[0] >= 0)
             memcpy(l->f + up[q] * S + (int64_t)(dst_lo + 1) * P, rlo + q * P,
@@ -110,6 +129,32 @@ void sq__lbm_z_exchange(sq_lbm *l, int mode)
             memcpy(l->f + dn[q] * S + (int64_t)(dst_hi + 1) * P, rhi + q * P,
                    (size_t)P * sizeof(float));
     }
+}
+
+void sq__lbm_z_exchange(sq_lbm *l, int mode)
+{
+    sq__lbm_z_exchange_begin(l, mode);
+    sq__lbm_z_exchange_end(l);
+}
+
+/* An odd step writes into the ghost planes only from the edge planes, and what arrives from
+ * the neighbours lands in slots of the edge planes that no cell of this slab touches in this
+ * step: the edge planes are updated first, their fold travels while the interior is updated.
+ * (Before an odd step the fill waits for the inflow layer's reset, see sq__lbm_boundaries: not
+ * overlapped.) */
+void sq__lbm_dist_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
+{
+    const int nz = l->nz;
+    if (parity == 0 || nz < 3) {
+        sq__lbm_sweep(l, parity, p);
+        if (parity == 1) sq__lbm_z_exchange(l, SQ_LBM_Z_FOLD);
+        return;
+    }
+    sq__lbm_sweep_planes(l, parity, p, 0, 1);
+    sq__lbm_sweep_planes(l, parity, p, nz - 1, nz);
+    sq__lbm_z_exchange_begin(l, SQ_LBM_Z_FOLD);
+    sq__lbm_sweep_planes(l, parity, p, 1, nz - 1);
+    sq__lbm_z_exchange_end(l);
 }
 
 void sq__lbm_dist_gather_macro(sq_lbm *l)

@@ -22,6 +22,7 @@
 
 #include "core/core_internal.h"
 #include "squall/lbm.h"
+#include "squall/par.h"
 
 #define SQ_LBM_Q 15
 
@@ -128,6 +129,8 @@ struct sq_lbm {
                                 * planes beyond the slab's lower and upper faces */
     bool nbr_valid;
     float *zbuf;               /* exchange buffers: 4 x 5 populations x one padded plane */
+    sq_par_exchange zx;        /* transfers in flight (sq__lbm_z_exchange_begin) */
+    int zx_mode;
 };
 
 /* ---- desc / units (lbm_desc.c) ---- */
@@ -147,6 +150,8 @@ double sq__lbm_log_shape(double h_m, double z0_m, double zref_m);
 /* ---- kernels (lbm_kernels.c) ---- */
 /* One fused collide-and-stream sweep over all interior rows (parity 0 = even, 1 = odd). */
 void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p);
+/* The same over the rows of planes [z0, z1) only. */
+void sq__lbm_sweep_planes(sq_lbm *l, int parity, const sq__lbm_kparams *p, int z0, int z1);
 /* Periodic ghost exchange for the given layout parity (0 natural, 1 swapped). */
 void sq__lbm_fold_periodic(sq_lbm *l, int parity);
 /* Reads the 15 populations of padded cell c as f_i(c) (pre-collision for parity 0,
@@ -181,6 +186,13 @@ void sq__lbm_dist_free(sq_lbm *l);
  * it (what left into the ghost planes onto the neighbours' edge planes). */
 enum { SQ_LBM_Z_FILL = 0, SQ_LBM_Z_FOLD = 1 };
 void sq__lbm_z_exchange(sq_lbm *l, int mode);
+/* The same in two halves: begin packs and posts the transfers, end waits and unpacks; the
+ * planes 1..nz-2 may be updated in between (the transfers touch the ghost and edge planes). */
+void sq__lbm_z_exchange_begin(sq_lbm *l, int mode);
+void sq__lbm_z_exchange_end(sq_lbm *l);
+/* One step's sweep on a slab: for an odd step the edge planes first, then the fold of what
+ * they sent across the slab faces overlapped with the interior planes' update. */
+void sq__lbm_dist_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p);
 /* Density and velocity of the planes beyond the slab faces (for cells turning fluid). */
 void sq__lbm_dist_neighbour_planes(sq_lbm *l);
 /* Gathers this slab's views (lmacro) into the global views (macro) on every rank. */
