@@ -266,3 +266,56 @@ SQ_TEST(live_out_of_range_refused_as_cli)
     sq_cfg_destroy(cfg);
     sq_context_destroy(ctx);
 }
+
+/* A phenomenon without the apply_live hook (NULL: "no live change") has its live keys applied by
+ * a rebuild: the scene reports it, naming the key, and applies nothing. Checked on every such
+ * plug-in of the build that can run on a small flat world with its defaults (snowcover today);
+ * a plug-in with the hook applies the same change live. */
+SQ_TEST(live_without_hook_needs_rebuild)
+{
+    sq_context *ctx = mkctx();
+    const sq_phen_plugin *pl = sq_plugin_find("snowcover");
+    if (!pl) { /* not in this build */
+        sq_context_destroy(ctx);
+        return;
+    }
+    static const char *const text =
+        "name: cover\n"
+        "world:\n"
+        "  terrain: {kind: flat, size_m: [400, 400], resolution: [21, 21]}\n"
+        "layers:\n"
+        "  - type: snowcover\n"
+        "    name: snow\n"
+        "    flakes: {count: 100}\n"
+        "output: {width: 64, height: 36, video: \"\"}\n";
+    sq_cfg *cfg = parse(ctx, text);
+    sq_scene *s = cfg ? make_scene(ctx, cfg) : NULL;
+    SQ_CHECK(s != NULL);
+    if (!s) {
+        fprintf(stderr, "%s\n", sq_last_error());
+        sq_cfg_destroy(cfg);
+        sq_context_destroy(ctx);
+        return;
+    }
+    SQ_CHECK_OK(sq_scene_step(s, 0.5));
+    sq_cfg *c = parse(ctx, text);
+    SQ_CHECK(c && sq_cfg_set(c, "layers.snow.look.albedo=0.5") == SQ_OK);
+    sq_scene_desc d = {.cfg = c};
+    sq_live_result res;
+    SQ_CHECK_OK(sq_scene_apply_live(s, &d, &res));
+    const sq_param *albedo = sq_params_find(pl->params, pl->param_count, "look.albedo");
+    SQ_CHECK(albedo && (albedo->flags & SQ_PARAM_LIVE));
+    if (!pl->apply_live) {
+        SQ_CHECK(res.rebuild && res.changed == 0);
+        SQ_CHECK_MSG(strstr(res.reason, "layers.snow.look.albedo") &&
+                         strstr(res.reason, "takes no live change"),
+                     "reason: %s", res.reason);
+    } else {
+        SQ_CHECK(!res.rebuild && res.changed == 1);
+    }
+    SQ_CHECK_NEAR(sq_scene_time(s), 0.5, 1e-12);
+    sq_cfg_destroy(c);
+    sq_scene_destroy(s);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
