@@ -66,8 +66,8 @@ typedef struct sq_snowcover_desc {
     int layers;                 /* depth layers 3..5; 0 -> 4 */
     double near_m;              /* first layer's near edge: nearer flakes hidden; 0 -> 1.5 m */
     double reach_m;             /* emitter depth ahead of the camera; 0 -> 80 m */
-    double size_mrad;           /* base angular radius of the first layer at D = 1 m; 0 -> 8 */
-    double layer_growth;        /* base size ratio between successive layers; 0 -> 1.5 */
+    double size_mrad;           /* base angular radius of the first layer at D = 1 m; 0 -> 6 */
+    double layer_growth;        /* base size ratio between successive layers; 0 -> 1.3 */
     float atten[3];             /* A, B, C of eq 2.4 (D in m); all 0 -> 0, 1, 0 */
     double fall_speed_mps;      /* terminal fall speed v_t; 0 -> 1 m/s (0.5–1.5) */
     double turbulence_mps;      /* stationary std of the velocity noise; 0 is physical */

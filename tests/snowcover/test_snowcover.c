@@ -170,7 +170,7 @@ static double velocity_std(sq_context *ctx, const sq_world *w, double dt, int *b
             } else if (z < 10.0f) { /* layer 0 or 1 of 4 between 1.5 and 80 m: 1.5..4.05, 4.05..11 m */
                 sized++;
                 const int l = z < 1.5f * powf(80.0f / 1.5f, 0.25f) ? 0 : 1;
-                const float expect = 8e-3f * powf(1.5f, (float)l) * sqrtf(1.0f / D) * D;
+                const float expect = 6e-3f * powf(1.3f, (float)l) * sqrtf(1.0f / D) * D;
                 size_ok += fabsf(pv->radius_m[i] - expect) < 1e-4f * expect + 1e-7f;
             }
         }

@@ -40,8 +40,8 @@ sq_result sq_snowcover_desc_resolve(const sq_snowcover_desc *in, sq_snowcover_de
     DEF(d.layers, 4);
     DEF(d.near_m, 1.5);
     DEF(d.reach_m, 80.0);
-    DEF(d.size_mrad, 8.0);
-    DEF(d.layer_growth, 1.5);
+    DEF(d.size_mrad, 6.0);
+    DEF(d.layer_growth, 1.3);
     if (d.atten[0] == 0 && d.atten[1] == 0 && d.atten[2] == 0) d.atten[1] = 1.0;
     DEF(d.fall_speed_mps, 1.0);
     if (out) *out = d;

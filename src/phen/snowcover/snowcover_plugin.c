@@ -58,9 +58,9 @@ static const sq_param params[] = {
       "The first layer starts here; nearer flakes are hidden (S2)."),
     D("flakes.reach_m", reach_m, "m", 80, 1, 1e4, 0,
       "Depth of the emitter ahead of the camera and of the last layer."),
-    D("flakes.size_mrad", size_mrad, "mrad", 8, 0.01, 1000, L,
+    D("flakes.size_mrad", size_mrad, "mrad", 6, 0.01, 1000, L,
       "Base angular radius S of the first layer at D = 1 m."),
-    D("flakes.layer_growth", layer_growth, "1", 1.5, 0.1, 10, L,
+    D("flakes.layer_growth", layer_growth, "1", 1.3, 0.1, 10, L,
       "Base size ratio of successive layers (farther layers larger, so they stay visible)."),
     {"flakes.attenuation", SQ_PARAM_VEC3, "", offsetof(S, atten), 0, 0, 1e6, "0 1 0", NULL, 0, 0,
      L, "A, B, C of S2 eq 2.4: angular size S sqrt(1 / (A + B D + C D^2)); 0 0 1 is the "
