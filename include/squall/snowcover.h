@@ -54,12 +54,12 @@ typedef struct sq_snowcover_desc {
     int taps;                   /* M: 1, 4, 5 or 9; 0 -> 4 (S2) */
     double tap_radius;          /* texels; 0 -> 1 */
     double bias_m;              /* depth bias b; 0 -> 0.05 m */
-    double noise;               /* noise amplitude of inclination and normal; 0 is physical */
+    double noise;               /* noise amplitude of inclination and normal; 0 -> 0.3 */
     double noise_scale_m;       /* first-octave wavelength; 0 -> 2 m */
-    double shell_blend;         /* shell direction: 0 smoothed normal .. 1 up; 0 is physical */
+    double shell_blend;         /* shell direction: toward 0 smoothed normal .. 1 up; 0 -> 0.5 */
     int brdf;                   /* sq_snow_brdf: 0 physical, 1 Blinn–Phong (S2) */
     double albedo;              /* snow albedo (green; red and blue from it); 0 -> 0.9 */
-    double sparkle;             /* 0..1; 0 is physical */
+    double sparkle;             /* glints, (0, 1]; 0 -> 0.5 */
     double shininess;           /* Blinn–Phong exponent; 0 -> 24 */
     /* falling snow */
     int flakes;                 /* pool size; 0 is physical (none) */

@@ -34,7 +34,10 @@ sq_result sq_snowcover_desc_resolve(const sq_snowcover_desc *in, sq_snowcover_de
     DEF(d.taps, 4);
     DEF(d.tap_radius, 1.0);
     DEF(d.bias_m, 0.05);
+    DEF(d.noise, 0.3);
     DEF(d.noise_scale_m, 2.0);
+    DEF(d.shell_blend, 0.5);
+    DEF(d.sparkle, 0.5);
     DEF(d.albedo, 0.9);
     DEF(d.shininess, 24.0);
     DEF(d.layers, 4);
