@@ -113,7 +113,7 @@ int sq_bench_sandstorm(const sq_bench_args *a)
     d.seed = 7;
     for (int q = 0; q < 3; q++) d.cells[q] = n[q];
     d.cell_size_m = h;
-    d.bernoulli_pa = 200.0;
+    d.wind_speed_mps = 18.26; /* C_B = rho U^2 / 2 = 200 Pa */
     d.roughness_m = 5e-4;
     d.median_radius_m = 4e-6;
     d.sigma_g = 2.0;

@@ -53,7 +53,8 @@ const sq_cli_case sq_cli_validate_cases[] = {
     {"lbm-cavity", "lid-driven cavity (D3Q15, TRT): centre-line profiles vs Ghia et al. 1982",
      "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity, NULL},
     {"dam-break", "SPH water-column collapse (n^2 = 2): surge front Z(T) vs Martin & Moyce 1952",
-     "--a 0.25 --spacing 0.01 --t-end 0.6 --alpha 0.02 --kernel cubic|muller", NULL,
+     "--particles 25 (across a = 0.05715 m) --gate-speed 0 (m/s; 0 = instantaneous) "
+     "--every 0.005 --t-end (T = 4) --a --spacing --alpha 0.02 --kernel cubic|muller", NULL,
      sq_validate_dam_break, NULL},
     /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},

@@ -22,7 +22,8 @@
  *   FREE_SLIP (default)  wall: u.n = 0, tangential velocity mirrored (no drag), dp/dn = 0
  *   NO_SLIP              wall: u = 0 at the wall, dp/dn = 0
  *   INFLOW               prescribed velocity (sq_grid_set_inflow*), dp/dn = 0; scalars take
- *                        the value from sq_grid_set_scalar_inflow (default 0)
+ *                        the value from sq_grid_set_scalar_inflow (default 0), or per sample
+ *                        from sq_grid_scalar_inflow_data
  *   OUTFLOW              zero-gradient velocity and scalars, p = 0 on the face; inflow through
  *                        the face (backflow) is clipped to 0 before each projection
  *   OPEN                 as OUTFLOW but backflow is allowed
@@ -210,8 +211,16 @@ SQ_API sq_result sq_grid_set_inflow_uniform(sq_grid *g, sq_grid_face face, doubl
  * (a, b) are the face's two tangential axes in x, y, z order (x-faces: a = y, b = z; y-faces:
  * a = x, b = z; z-faces: a = x, b = y). NULL if the face is not an inflow face. */
 SQ_API float *sq_grid_inflow_data(sq_grid *g, sq_grid_face face, int *na, int *nb);
-/* Value a scalar takes where air enters through an inflow face (default 0). */
+/* Value a scalar takes where air enters through an inflow face (default 0). It also resets
+ * any per-sample values (below) to this value. */
 SQ_API sq_result sq_grid_set_scalar_inflow(sq_grid *g, int idx, double value);
+/* Mutable per-sample inflow values of scalar idx on an inflow face (e.g. a temperature that
+ * follows the atmosphere's background profile with height): na*nb floats, a fastest, on the
+ * same tangential axes as sq_grid_inflow_data, allocated on the first call (filled with the
+ * constant value; not part of sq_grid_memory_bytes: na*nb*4 bytes) and used from then on.
+ * NULL if the face is not an inflow face, idx is out of range or out of memory. */
+SQ_API float *sq_grid_scalar_inflow_data(sq_grid *g, sq_grid_face face, int idx, int *na,
+                                         int *nb);
 
 /* Sets the velocity on solid and wall faces, the inflow faces, clips outflow backflow and fills
  * every ghost layer. Stages call it themselves; call it after editing fields directly. */

@@ -15,7 +15,7 @@
  *
  * Threads: a handle is externally synchronised — one thread at a time may call into it. Errors:
  * functions that can fail return sq_result, with the reason in sq_last_error(); messages about a
- * desc name its C type and parameter key, e.g. "sq_sandstorm_desc.wind.bernoulli_pa = -5 Pa: ...".
+ * desc name its C type and parameter key, e.g. "sq_sandstorm_desc.wind.speed_mps = -5 m/s: ...".
  * Units are SI. */
 #ifndef SQ_PHENOMENON_H
 #define SQ_PHENOMENON_H

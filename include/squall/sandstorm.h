@@ -5,13 +5,16 @@
  *     pressure-gradient direction (optionally rotated to geostrophic) over a hydrostatic
  *     background, then projected; mixing-length eddy viscosity (κ = 0.4); helicity-adaptive
  *     vorticity confinement with the dimensionless relative helicity;
- *   - temperature: T = T̄(z) + T0(z) sin(kx x + ky y − σ + σ0), advected by the air; the updraft
- *     is Boussinesq buoyancy on the air with a gain (S0's thermophoresis is ~1e-8 m/s, §1.10);
+ *   - temperature: T = T̄(z) + T0(z) sin(kx x + ky y − σ + σ0); the air carries its potential
+ *     temperature θ = T + Γ_d z (conserved by dry adiabatic motion); the inflow face takes the
+ *     same profile as the interior; the updraft is Boussinesq buoyancy g (θ − θ̄(z)) / θ̄(z)
+ *     on the air with a gain (S0's thermophoresis is ~1e-8 m/s, §1.10);
  *   - dust: a log-normal size distribution (median radius, σ_g, grain density) split into size
  *     bins, each a mass concentration (kg/m³) carried by the air and settling at its terminal
- *     speed from the drag law C_D(Re) = 24/Re + 6/(1+√Re) + 0.4 (White); grains relax to the
- *     air velocity exactly (exponential), which for τ_p ≪ Δt is the equilibrium-Eulerian limit
- *     (SPEC §1.7 (a), §1.8): no stiff explicit drag; two-way momentum exchange: the drag of
+ *     speed from the drag law C_D(Re) = 24/Re + 6/(1+√Re) + 0.4 (White); grains move with the
+ *     air plus their settling speed, the equilibrium-Eulerian limit (SPEC §1.7 (a), §1.8),
+ *     valid because the response time τ_p = w_s / g is ≤ 0.1 s for r ≤ 40 µm, far below a step
+ *     and the flow's time scale h / |u|: no inertial slip, no stiff explicit drag; two-way momentum exchange: the drag of
  *     settling grains passes their weight to the air (dust-laden air is heavier) and emitted
  *     grains take their horizontal momentum from the air;
  *   - emission: u* = κ u(z1) / ln(z1/z0) at the first cell above the ground, threshold
@@ -60,7 +63,8 @@ typedef struct sq_sandstorm_desc {
     int pressure_amp_count;
     double kx_per_m, ky_per_m;      /* horizontal wave numbers; 0 is physical */
     double phase_rad;               /* σ; 0 is physical */
-    double bernoulli_pa;            /* C_B minus the surface reference pressure; 0 -> 200 Pa */
+    double wind_speed_mps;          /* wind speed U where P' = 0; the Bernoulli constant is
+                                       C_B = rho U^2 / 2 over the surface pressure; 0 -> 18 m/s */
     bool geostrophic;              /* rotate the wind 90° to run along the isobars */
     double prevailing_dir_deg;      /* wind direction (toward, deg from east) where ∇P ≈ 0 */
     double ramp_s;                  /* wind rises from calm over this time; 0 is physical (none) */

@@ -1,72 +1,88 @@
 #!/bin/bash
 # label: physics
-# `squall validate dam-break` (the avalanche's SPH solver on the classic dam break, issue 6
-# item 6): the CSV is well formed (header, 8 numeric columns, T = t sqrt(2g/a) and Z = z/a
-# consistent with the t and front columns, T increasing, Z non-decreasing, the particle count
-# constant) and the surge front lies in a stated band around Martin & Moyce (1952).
-#
+# `squall validate dam-break` (the avalanche's SPH solver on the classic dam break): the CSV is
+# well formed (header, 8 numeric columns, T = t sqrt(2g/a) and Z = z/a consistent with the t
+# and front columns, T increasing, Z never falling by more than one spacing (a thin tip thinning below half
+# the rest density), the particle count constant, the front
+# sampled every 0.005 s) and the surge front holds the bands of issue 16 against Martin &
+# Moyce (1952), at a small resolution (10 particles across the column, 1200 particles):
+#   - position: |Z - Z_MM| / Z_MM <= 15 % at every row with 0.8 <= T <= 4 (their points end at
+#     T = 3.33), with T = 0 at the release: no time origin fitted;
+#   - front speed: the least-squares slope dZ/dT of the rows in 2 <= T <= 3.33 within 10 % of
+#     the slope of the experiment's points in that range;
+#   - the cause of the remaining lead (a test that could fail): the error is a delay, not a
+#     speed error — delaying the simulated clock by one constant dT (scanned here, 0 ... 0.6)
+#     leaves at most 5 % at every row, with dT between 0.1 and 0.3 (5-16 ms at a = 2.25 in):
+#     the experiment's release took that long (docs/validation.md: the same delay, 0.17-0.23,
+#     at 10 to 100 particles across, while the speed stays within 4 %);
+#   - Ritter's frictionless front Z <= 1 + 2T bounds every row.
 # Reference: J. C. Martin, W. J. Moyce, "An experimental study of the collapse of liquid columns
 # on a rigid horizontal plane", Phil. Trans. R. Soc. Lond. A 244 (1952) 312-324, the n^2 = 2
-# column of width a = 2.25 in (their surge-front stations every 1/2 in, i.e. steps of 0.222 in
-# Z). Points used here, (T, Z): (0.84, 1.22) (1.19, 1.44) (1.43, 1.67) (1.63, 1.89)
-# (1.83, 2.11) (1.98, 2.33) (2.20, 2.56) (2.32, 2.78) (2.51, 3.00) (2.65, 3.22) (2.83, 3.44)
-# (2.98, 3.67) — typed in here independently of the copy inside the validate command.
-# Band: the simulated front may lead the experiment by up to 0.4 in Z and lag it by at most
-# 0.1 over 1 <= T <= 3. Numerical fronts lead the measurement because the experiment's gate
-# needed time to open (the SPH/MPS literature, e.g. Koshizuka & Oka 1996, and Colagrossi &
-# Landrini 2003, show the same lead); measured here 0.17 mean, 0.23 max (a = 0.1 m, dx = 1 cm).
-# Speed: the mean front speed dZ/dT over 1.5 <= T <= 3 within 25 % of the experiment's
-# (M&M: (3.67 - 1.77) / (2.98 - 1.50) ~ 1.3; measured 1.20 vs 1.30), and the front behind the
-# frictionless shallow-water (Ritter 1892) front z = a + 2 sqrt(g h0) t, h0 = 2a, i.e.
-# Z <= 1 + 2T, also over every output interval up to T = 3 (dZ/dT <= 2; later the thin tip
-# of the surge, still above half the rest density, can jump ahead of a frictionless front).
+# column of width a = 2.25 in (their surge-front stations every 1/2 in). Points used here,
+# typed in independently of the copy inside the validate command: (T, Z) = (0.41, 1.11)
+# (0.84, 1.22) (1.19, 1.44) (1.43, 1.67) (1.63, 1.89) (1.83, 2.11) (1.98, 2.33) (2.20, 2.56)
+# (2.32, 2.78) (2.51, 3.00) (2.65, 3.22) (2.83, 3.44) (2.98, 3.67) (3.11, 3.89) (3.33, 4.11).
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
-"$SQ" validate dam-break --a 0.1 --spacing 0.01 --t-end 0.25 --every 0.01 --threads 1 \
-    > db.csv 2> err.txt || fail "validate dam-break exited $?: $(cat err.txt)"
-grep -q "^dam-break: a = 0.1 m, dx = 0.01 m, 1200 particles: |Z - Z_MM| over 1 <= T <= 3: mean" \
+"$SQ" validate dam-break --particles 10 --threads 1 > db.csv 2> err.txt \
+    || fail "validate dam-break exited $?: $(cat err.txt)"
+grep -q "^dam-break: a = 0.05715 m, dx = 0.005715 m (10 across), 1200 particles, gate 0 m/s" \
     err.txt || fail "summary line missing: $(cat err.txt)"
 [ "$(head -1 db.csv)" = "T,Z,Z_martin_moyce_1952,t_s,front_m,max_speed_mps,particles,substeps" ] \
     || fail "header: $(head -1 db.csv)"
-awk -F, -v a=0.1 '
+awk -F, -v a=0.05715 '
 function mm(T,   i, f) {
+    if (T < mt[1] || T > mt[n]) return -1
     for (i = 2; i <= n; i++) if (T <= mt[i]) { f = (T - mt[i-1]) / (mt[i] - mt[i-1]); return mz[i-1] + f * (mz[i] - mz[i-1]) }
     return -1
 }
+function slope(x, y, k,   i, sx, sy, sxx, sxy) {
+    for (i = 1; i <= k; i++) { sx += x[i]; sy += y[i]; sxx += x[i] * x[i]; sxy += x[i] * y[i] }
+    return (k * sxy - sx * sy) / (k * sxx - sx * sx)
+}
 BEGIN {
-    split("0.84 1.19 1.43 1.63 1.83 1.98 2.20 2.32 2.51 2.65 2.83 2.98", mt, " ")
-    n = split("1.22 1.44 1.67 1.89 2.11 2.33 2.56 2.78 3.00 3.22 3.44 3.67", mz, " ")
-    s = sqrt(2 * 9.81 / a); bad = 0; rows = 0; lead = 0; lag = 0
+    split("0.41 0.84 1.19 1.43 1.63 1.83 1.98 2.20 2.32 2.51 2.65 2.83 2.98 3.11 3.33", mt, " ")
+    n = split("1.11 1.22 1.44 1.67 1.89 2.11 2.33 2.56 2.78 3.00 3.22 3.44 3.67 3.89 4.11", mz, " ")
+    s = sqrt(2 * 9.81 / a); bad = 0; rows = 0; m = 0; nf = 0
 }
 NR == 1 { next }
 {
     rows++
     if (NF != 8) { print "row " NR ": " NF " columns"; bad++ }
     for (k = 1; k <= 8; k++) if (k != 3 && $k !~ /^-?[0-9]+(\.[0-9]+)?$/) { print "row " NR " column " k ": " $k; bad++ }
-    if ($3 != "" && $3 !~ /^[0-9]+\.[0-9]+$/) { print "row " NR ": Z_MM " $3; bad++ }
     if (($1 - $4 * s)^2 > 1e-6) { print "row " NR ": T " $1 " != t sqrt(2g/a) = " $4 * s; bad++ }
     if (($2 - $5 / a)^2 > 1e-6) { print "row " NR ": Z " $2 " != front/a = " $5 / a; bad++ }
     if (rows == 1 && ($1 != 0 || $2 != 1)) { print "first row is not T = 0, Z = 1"; bad++ }
+    if (rows > 1 && ($4 - pt - 0.005)^2 > 1e-10) { print "row " NR ": sampled " $4 - pt " s after the previous"; bad++ }
     if ($2 > 1 + 2 * $1 + 1e-9) { print "row " NR ": Z beyond the Ritter front 1 + 2T"; bad++ }
     if (rows == 1) np = $7
     if ($7 != np) { print "row " NR ": particle count changed"; bad++ }
     if (rows > 1 && $1 <= pT) { print "row " NR ": T not increasing"; bad++ }
-    if (rows > 1 && $2 < pZ - 1e-9) { print "row " NR ": Z decreasing"; bad++ }
-    if (rows > 1 && $1 <= 3.0 && ($2 - pZ) / ($1 - pT) > 2.0) { print "row " NR ": dZ/dT = " ($2 - pZ) / ($1 - pT) " above the Ritter bound 2"; bad++ }
-    if ($1 >= 1 && $1 <= 2.98) {
-        d = $2 - mm($1); m++
-        if (d > lead) lead = d
-        if (-d > lag) lag = -d
-        if (d > 0.4 || d < -0.1) { print "T = " $1 ": Z = " $2 " vs Martin & Moyce " mm($1) " (band -0.1 .. +0.4)"; bad++ }
+    if (rows > 1 && $2 < pZ - 0.1 - 1e-9) { print "row " NR ": Z fell by more than one spacing (0.1)"; bad++ }
+    T[rows] = $1; Z[rows] = $2
+    if ($1 >= 0.8 && (e = mm($1)) > 0) {
+        d = ($2 - e) / e; m++
+        if (d > worst) { worst = d; wT = $1 }
+        if (-d > worst) { worst = -d; wT = $1 }
+        sum += (d < 0 ? -d : d)
+        if (d > 0.15 || d < -0.15) { printf "T = %s: Z = %s vs Martin & Moyce %.3f (%+.1f %%, band 15 %%)\n", $1, $2, e, 100 * d; bad++ }
     }
-    if ($1 >= 1.5 && T0 == "") { T0 = $1; Z0 = $2 }
-    if ($1 <= 3.0) { T1 = $1; Z1 = $2 }
-    pT = $1; pZ = $2
+    if ($1 >= 2 && $1 <= 3.33) { nf++; fT[nf] = $1; fZ[nf] = $2 }
+    pT = $1; pZ = $2; pt = $4
 }
 END {
-    if (rows < 20 || m < 10) { print "too few rows: " rows " (" m " in 1 <= T <= 3)"; bad++ }
-    v = (Z1 - Z0) / (T1 - T0); vm = (mm(T1) - mm(T0)) / (T1 - T0)
-    printf "front: largest lead %.3f, largest lag %.3f over %d rows; dZ/dT %.3f vs Martin & Moyce %.3f\n", lead, lag, m, v, vm
-    if (v < 0.75 * vm || v > 1.25 * vm) { print "front speed " v " not within 25 % of " vm; bad++ }
+    if (rows < 40 || m < 20) { print "too few rows: " rows " (" m " in 0.8 <= T <= 3.33)"; bad++ }
+    for (i = 1; i <= n; i++) if (mt[i] >= 1.98 && mt[i] <= fT[nf] + 1e-9) { ne++; eT[ne] = mt[i]; eZ[ne] = mz[i] }
+    v = slope(fT, fZ, nf); vm = slope(eT, eZ, ne)
+    # the best constant delay of the simulated clock
+    bd = 0; bw = 1e9
+    for (k = 0; k <= 120; k++) {
+        dT = 0.005 * k; w = 0; c = 0
+        for (i = 1; i <= rows; i++) if (T[i] + dT >= 0.8 && (e = mm(T[i] + dT)) > 0) { c++; q = (Z[i] - e) / e; if (q < 0) q = -q; if (q > w) w = q }
+        if (c >= m / 2 && w < bw) { bw = w; bd = dT }
+    }
+    printf "front: |Z - Z_MM|/Z_MM mean %.1f %%, max %.1f %% at T = %.2f over %d rows; dZ/dT %.3f vs Martin & Moyce %.3f (%+.1f %%); best delay %.3f in T leaves max %.1f %%\n", 100 * sum / m, 100 * worst, wT, m, v, vm, 100 * (v / vm - 1), bd, 100 * bw
+    if (v < 0.9 * vm || v > 1.1 * vm) { print "front speed " v " not within 10 % of " vm; bad++ }
+    if (bd < 0.1 || bd > 0.3 || bw > 0.05) { print "the error is not a constant delay of 0.1-0.3 in T: best " bd " leaves " 100 * bw " %"; bad++ }
     exit bad > 0
 }' db.csv > check.txt || fail "dam-break CSV: $(cat check.txt)"
 cat check.txt

@@ -21,8 +21,8 @@ diff want_dust.txt dust_keys.txt > /dev/null || fail "panel keys of layers.dust 
 diff want_output.txt output_keys.txt > /dev/null || fail "panel keys of output differ from squall params output: $(diff want_output.txt output_keys.txt | head -5)"
 
 # a refused value: the CLI's message, exit 2, nothing written
-cli_msg=$("$SQ" simulate urban-dust --frames 1 --set layers.dust.wind.bernoulli_pa=-5 2>&1 >/dev/null | sed 's/^squall: //')
-printf 'wait 1\nset layers.dust.wind.bernoulli_pa -5\nscreenshot never.png\n' > bad.txt
+cli_msg=$("$SQ" simulate urban-dust --frames 1 --set layers.dust.wind.speed_mps=-5 2>&1 >/dev/null | sed 's/^squall: //')
+printf 'wait 1\nset layers.dust.wind.speed_mps -5\nscreenshot never.png\n' > bad.txt
 view urban-dust --size 160x96 --script bad.txt > /dev/null 2> err.txt
 rc=$?
 [ "$rc" = 2 ] || fail "bad value: exit $rc, expected 2 ($(cat err.txt))"

@@ -21,10 +21,6 @@ static sq_result build_optics(sq_sandstorm *s)
     for (int b = 0; b < s->nbins; b++) {
         s->w_settle[b] = sq_dust_terminal_speed(s->bins[b].radius_m, s->d.grain_density_kg_m3,
                                                 SQ_SAND_AIR_DENSITY, SQ_SAND_AIR_VISCOSITY);
-        double dd = 2.0 * s->bins[b].radius_m;
-        double re = SQ_SAND_AIR_DENSITY * s->w_settle[b] * dd / SQ_SAND_AIR_VISCOSITY;
-        s->tau_p[b] = s->d.grain_density_kg_m3 * dd * dd / (18.0 * SQ_SAND_AIR_VISCOSITY) * 24.0 /
-                      (sq_drag_coefficient(re) * (re > 0 ? re : 1e-12));
         for (int c = 0; c < 4; c++) {
             sq_bulk_optics_desc od;
             memset(&od, 0, sizeof od);
@@ -41,7 +37,6 @@ static sq_result build_optics(sq_sandstorm *s)
             if (r != SQ_OK) return sq__fail(s->ctx, r, "sandstorm", "optics: %s", sq_last_error());
             s->k_ext[b][c] = bo.mass_extinction_m2_per_kg;
             s->albedo_b[b][c] = bo.single_scattering_albedo;
-            s->g_b[b][c] = bo.asymmetry;
         }
     }
     /* drawable optics for the emitted composition (bin mass fractions) */
@@ -49,17 +44,18 @@ static sq_result build_optics(sq_sandstorm *s)
     for (int b = 0; b < s->nbins; b++) kG += s->bins[b].mass_fraction * s->k_ext[b][1];
     s->k_ext_total_550 = 0.0;
     for (int b = 0; b < s->nbins; b++) s->k_ext_total_550 += s->bins[b].mass_fraction * s->k_ext[b][3];
+    /* the phase function's asymmetry: irregular dust, not Mie spheres (see the constants) */
+    const double g_ns[3] = {SQ_SAND_G_DUST_650, SQ_SAND_G_DUST_550, SQ_SAND_G_DUST_450};
     for (int c = 0; c < 3; c++) {
-        double ke = 0, ks = 0, kg = 0;
+        double ke = 0, ks = 0;
         for (int b = 0; b < s->nbins; b++) {
             double f = s->bins[b].mass_fraction;
             ke += f * s->k_ext[b][c];
             ks += f * s->k_ext[b][c] * s->albedo_b[b][c];
-            kg += f * s->k_ext[b][c] * s->albedo_b[b][c] * s->g_b[b][c];
         }
         s->sigma_rel[c] = (float)(ke / kG);
         s->albedo[c] = (float)(ks / ke);
-        s->g[c] = (float)(kg / ks);
+        s->g[c] = (float)g_ns[c];
     }
     return SQ_OK;
 }
@@ -88,15 +84,23 @@ static double pressure_wave(const sq_sandstorm *s, double x, double y, double zf
     return a * sin(ph);
 }
 
-/* Initial wind at a point (m/s): Bernoulli speed over the hydrostatic background (the rho g z
- * term cancels against it, SPEC §1.6 ⚠1), direction -grad P (or along the isobars), and a log
- * profile in the surface layer. */
+/* The one home of the Bernoulli rule (S0 eq. 2.19 over a hydrostatic background, whose rho g z
+ * term cancels, SPEC §1.6 ⚠1): |v| = sqrt(2 (C_B - P') / rho) with the constant derived from
+ * the wind-speed key, C_B = rho U^2 / 2, so that |v| = U where P' = 0. */
+static double bernoulli_speed(const sq_sandstorm_desc *d, double p_pa)
+{
+    const double U = d->wind_speed_mps;
+    return sqrt(fmax(0.0, U * U - 2.0 * p_pa / SQ_SAND_AIR_DENSITY));
+}
+
+/* Initial wind at a point (m/s): Bernoulli speed, direction -grad P (or along the isobars),
+ * and a log profile in the surface layer. */
 static sq_vec3 initial_wind(const sq_sandstorm *s, double x, double y, double z_abs, double ramp)
 {
     double zfrac = (z_abs - s->origin[2]) / (s->nz * (double)s->h);
     double gx, gy;
     double p = pressure_wave(s, x, y, zfrac, &gx, &gy);
-    double speed = sqrt(fmax(0.0, 2.0 * (s->d.bernoulli_pa - p) / SQ_SAND_AIR_DENSITY));
+    double speed = bernoulli_speed(&s->d, p);
     double gl = sqrt(gx * gx + gy * gy);
     double dx, dy;
     if (gl > 1e-9) {
@@ -153,20 +157,50 @@ static void fill_velocity(sq_sandstorm *s, double ramp)
     }
 }
 
+/* Potential temperature theta (K) of the initial state at (x, y) and height zr above the
+ * domain base: the background theta_bar(z) = T_s + (Gamma_d - Gamma) z (T falls with the lapse
+ * rate Gamma; dry adiabatic motion conserves theta) plus the temperature wave T0(z) sin(kx x +
+ * ky y - sigma + sigma0) (S0 eq. 2.35). The interior and the inflow face both take it. */
+static double theta_background(const sq_sandstorm *s, double zr)
+{
+    return s->d.surface_temperature_k + (SQ_SAND_DRY_LAPSE - s->d.lapse_k_per_m) * zr;
+}
+
+static double theta_initial(const sq_sandstorm *s, double x, double y, double zr)
+{
+    double zfrac = zr / (s->nz * (double)s->h);
+    double a = level_value(s->d.temperature_amp_k, s->d.temperature_amp_count, zfrac);
+    double tp = a * sin(s->d.kx_per_m * x + s->d.ky_per_m * y - s->d.phase_rad +
+                        s->d.temperature_lag_rad);
+    return theta_background(s, zr) + tp;
+}
+
 static void fill_temperature(sq_sandstorm *s)
 {
     sq_field3 *T = sq_grid_scalar_field(s->grid, s->temp_idx);
-    for (int k = 0; k < s->nz; k++)
+    for (int k = 0; k < s->nz; k++) {
+        s->theta_ref[k] = (float)theta_background(s, (k + 0.5) * s->h);
         for (int j = 0; j < s->ny; j++)
             for (int i = 0; i < s->nx; i++) {
                 double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
-                double zr = (k + 0.5) * s->h, zfrac = zr / (s->nz * (double)s->h);
-                double a = level_value(s->d.temperature_amp_k, s->d.temperature_amp_count, zfrac);
-                double tp = a * sin(s->d.kx_per_m * x + s->d.ky_per_m * y - s->d.phase_rad +
-                                    s->d.temperature_lag_rad);
-                *sq_field3_at(T, i, j, k) =
-                    (float)(s->d.surface_temperature_k - s->d.lapse_k_per_m * zr + tp);
+                *sq_field3_at(T, i, j, k) = (float)theta_initial(s, x, y, (k + 0.5) * s->h);
             }
+    }
+}
+
+/* The air entering through the west face has the interior's temperature profile (the ghost
+ * cells just outside the face, x = origin - h/2). */
+static sq_result set_temperature_inflow(sq_sandstorm *s)
+{
+    int na = 0, nb = 0;
+    float *t = sq_grid_scalar_inflow_data(s->grid, SQ_FACE_XMIN, s->temp_idx, &na, &nb);
+    if (!t) return SQ_ERR_OUT_OF_MEMORY;
+    const double x = s->origin[0] - 0.5 * s->h;
+    for (int k = 0; k < nb; k++)
+        for (int j = 0; j < na; j++)
+            t[(size_t)k * na + j] =
+                (float)theta_initial(s, x, s->origin[1] + (j + 0.5) * s->h, (k + 0.5) * s->h);
+    return SQ_OK;
 }
 
 /* ---- create / destroy --------------------------------------------------------------------- */
@@ -225,6 +259,7 @@ static sq_result create_grid(sq_sandstorm *s)
     s->ground_k = (int *)xalloc(s, cols * sizeof(int), &ok);
     s->ground_z1 = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->accel_z = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->theta_ref = (float *)xalloc(s, (size_t)s->nz * sizeof(float), &ok);
     s->keep = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->row_acc = (double *)xalloc(s, (size_t)s->ny * 4 * sizeof(double), &ok);
     s->plane_mass = (double *)xalloc(s, (size_t)s->nz * SQ_SANDSTORM_MAX_BINS * sizeof(double), &ok);
@@ -259,7 +294,8 @@ static sq_result create_grid(sq_sandstorm *s)
     fill_temperature(s);
     r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s);
     if (r != SQ_OK) return r;
-    sq_grid_set_scalar_inflow(s->grid, s->temp_idx, s->d.surface_temperature_k);
+    r = set_temperature_inflow(s);
+    if (r != SQ_OK) return r;
     sq_grid_apply_boundary(s->grid);
     /* SPEC §1.6 ⚠3: the initial field is not divergence-free: project once */
     sq_grid_project_stats ps;
@@ -337,6 +373,7 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
+    sq_free(ctx, s->theta_ref);
     sq_free(ctx, s->keep);
     sq_free(ctx, s->row_acc);
     sq_free(ctx, s->plane_mass);
@@ -623,7 +660,8 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     double t1 = sq_time_now();
     if (r == SQ_OK) r = add_dust_loading(s, dt, before);                   /* dust weight on air */
     if (r == SQ_OK && s->d.buoyancy_gain > 0.0)                            /* thermal updraft */
-        r = sq_grid_add_buoyancy(s->grid, s->temp_idx, NULL, s->d.buoyancy_gain, SQ_SAND_GRAVITY, dt);
+        r = sq_grid_add_buoyancy(s->grid, s->temp_idx, s->theta_ref, s->d.buoyancy_gain,
+                                 SQ_SAND_GRAVITY, dt);
     if (r == SQ_OK && s->d.confinement > 0.0)                              /* helicity confinement */
         r = sq_grid_confine_vorticity(s->grid, s->d.confinement, !s->d.plain_confinement, dt);
     double t2 = sq_time_now();
@@ -680,7 +718,7 @@ static sq_vec3 local_wind(const sq_sandstorm *s, sq_vec3 p)
 {
     if (s->grid) return sq_grid_sample_velocity(s->grid, p);
     double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
-    double v = sqrt(2.0 * s->d.bernoulli_pa / SQ_SAND_AIR_DENSITY) * 0.3;
+    double v = bernoulli_speed(&s->d, 0.0) * 0.3;
     return sq_v3((float)(v * cos(a)), (float)(v * sin(a)), 0.0f);
 }
 
@@ -1032,7 +1070,7 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
                 u[id] = c.x;
                 v[id] = c.y;
                 w[id] = c.z;
-                T[id] = sq_view_get(&tv, i, j, k);
+                T[id] = sq_view_get(&tv, i, j, k) - (float)(SQ_SAND_DRY_LAPSE * (k + 0.5) * s->h);
             }
     sq_vec3 o = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),
                       (float)(s->origin[2] + 0.5 * s->h));

@@ -25,7 +25,7 @@ sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_de
         d.pressure_amp_pa[2] = 150.0f;
         d.pressure_amp_count = 3;
     }
-    DEF(d.bernoulli_pa, 200.0);
+    DEF(d.wind_speed_mps, 18.0);
     DEF(d.roughness_m, 5e-4);
     DEF(d.log_layer_m, 100.0);
     DEF(d.surface_temperature_k, 305.0);
@@ -83,6 +83,12 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
             "cells of %g m and would alias on the grid; use |k| <= %.3g 1/m or a smaller cell size",
             P, P, (double)d.kx_per_m, (double)d.ky_per_m, 2.0 * SQ_PI / (kh / d.cell_size_m),
             (double)d.cell_size_m, SQ_PI / 2.0 / d.cell_size_m);
+    if (!(d.wind_speed_mps >= 0.0) || !isfinite(d.wind_speed_mps))
+        BAD("%swind.speed_mps = %g; must be a finite speed >= 0 m/s", P, (double)d.wind_speed_mps);
+    if (d.lapse_k_per_m > SQ_SAND_DRY_LAPSE)
+        BAD("%stemperature.lapse_k_per_m = %g K/m; above the dry adiabatic %g K/m the air is "
+            "statically unstable (potential temperature falls with height)", P,
+            (double)d.lapse_k_per_m, SQ_SAND_DRY_LAPSE);
     if (!(d.median_radius_m > 0.0) || !isfinite(d.median_radius_m))
         BAD("%sdust.median_radius_m = %g; must be a finite radius > 0 m", P, (double)d.median_radius_m);
     if (!(d.sigma_g > 1.0) || !isfinite(d.sigma_g))
@@ -131,7 +137,9 @@ uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *in)
     uint64_t n = (uint64_t)d.cells[0] * d.cells[1] * d.cells[2];
     uint64_t cols = (uint64_t)d.cells[0] * d.cells[1];
     /* accel_z, density, 6 export buffers; ground_k, ground_z1, keep; row and plane sums */
-    return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 12u +
+    /* theta_ref per level; the temperature inflow values of the west face */
+    return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 12u + (uint64_t)d.cells[2] * 4u +
+           (uint64_t)d.cells[1] * d.cells[2] * 4u +
            cols * 4u * (uint64_t)d.vis_height_count + (uint64_t)d.near_particles * 40u +
            (uint64_t)d.cells[1] * 32u + (uint64_t)d.cells[2] * 8u * SQ_SANDSTORM_MAX_BINS;
 }

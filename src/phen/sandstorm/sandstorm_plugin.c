@@ -31,9 +31,10 @@ static const sq_param params[] = {
       "Horizontal wave number k_x (S0 eq. 2.18); must resolve on the grid (|k| h <= pi/2)."),
     D("wave.ky_per_m", ky_per_m, "1/m", 0, -1, 1, Z, "Horizontal wave number k_y."),
     D("wave.phase_rad", phase_rad, "rad", 0, -100, 100, Z, "Time phase sigma of the wave."),
-    D("wind.bernoulli_pa", bernoulli_pa, "Pa", 200, 0.01, 1e5, L,
-      "Bernoulli constant C_B relative to the surface pressure: |v| = sqrt(2 (C_B - P') / rho) "
-      "(S0 eq. 2.19 over a hydrostatic background). 200 Pa gives 18 m/s where P' = 0."),
+    D("wind.speed_mps", wind_speed_mps, "m/s", 18, 0.01, 100, L,
+      "Wind speed U where the pressure wave P' = 0. The Bernoulli constant is derived from it, "
+      "C_B = rho U^2 / 2 over the surface pressure, and |v| = sqrt(U^2 - 2 P' / rho) elsewhere "
+      "(S0 eq. 2.19 over a hydrostatic background). Chosen: 18 m/s, a strong dust-raising wind."),
     B("wind.geostrophic", geostrophic,
       "Rotate the wind 90 deg to run along the isobars (SPEC §1.6 ⚠4); false: down-gradient (S0)."),
     D("wind.prevailing_dir_deg", prevailing_dir_deg, "deg", 0, -360, 360, Z | L,
@@ -47,7 +48,8 @@ static const sq_param params[] = {
     D("temperature.surface_k", surface_temperature_k, "K", 305, 150, 400, 0,
       "Mean air temperature at the ground."),
     D("temperature.lapse_k_per_m", lapse_k_per_m, "K/m", 0, -0.1, 0.1, Z,
-      "Mean temperature decrease with height (0.0065 standard, 0.0098 dry adiabatic)."),
+      "Mean temperature decrease with height (0.0065 standard, 0.0098 dry adiabatic, the "
+      "largest allowed: more is statically unstable)."),
     FL("temperature.amp_k", temperature_amp_k, temperature_amp_count, "K", "", 16, -100, 100,
        "Temperature wave amplitude T0 per level (S0 eq. 2.35)."),
     D("temperature.lag_rad", temperature_lag_rad, "rad", 0, -100, 100, Z,
@@ -83,7 +85,9 @@ static const sq_param params[] = {
     D("dust.n_imag", n_imag, "1", 0, 0, 10, Z,
       "Imaginary refractive index (absorption, >= 0); used when dust.n_real is set."),
     D("dust.inflow_kg_m3", inflow_dust_kg_m3, "kg/m3", 0, 0, 1, Z | L,
-      "Dust concentration entering with the inflow at the ground (a storm formed upwind)."),
+      "Prescribed dust inflow, an option (off: 0): dust concentration entering through the west "
+      "face at the ground, a storm that formed outside the domain. Off in the haboob and "
+      "frontal presets, whose dust comes only from emission."),
     D("dust.inflow_height_m", inflow_dust_height_m, "m", 300, 1, 1e5, L,
       "E-folding height of the inflow dust profile."),
     D("dust.inflow_width_m", inflow_dust_width_m, "m", 0, 0, 1e6, Z | L,

@@ -186,7 +186,10 @@ void sq_grid_destroy(sq_grid *g)
     sq_free(ctx, g->plane_sum);
     for (int s = 4; s < SQ__SCRATCH; s++) sq_free(ctx, g->scratch[s]);
     sq_free(ctx, g->scratch_block);
-    for (int f = 0; f < 6; f++) sq_free(ctx, g->inflow[f]);
+    for (int f = 0; f < 6; f++) {
+        sq_free(ctx, g->inflow[f]);
+        for (int i = 0; i < SQ_GRID_MAX_SCALARS; i++) sq_free(ctx, g->scalar_inflow_data[f][i]);
+    }
     sq__grid_free_multigrid(g);
     sq_free(ctx, g);
 }
@@ -484,7 +487,31 @@ sq_result sq_grid_set_scalar_inflow(sq_grid *g, int idx, double value)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD, "scalar %d inflow value = %g; must be "
                         "finite", idx, value);
     g->scalar_inflow[idx] = (float)value;
+    for (int f = 0; f < 6; f++)
+        if (g->scalar_inflow_data[f][idx]) {
+            const size_t m = (size_t)g->inflow_n[f][0] * (size_t)g->inflow_n[f][1];
+            for (size_t c = 0; c < m; c++) g->scalar_inflow_data[f][idx][c] = (float)value;
+        }
     return SQ_OK;
+}
+
+float *sq_grid_scalar_inflow_data(sq_grid *g, sq_grid_face face, int idx, int *na, int *nb)
+{
+    if (na) *na = 0;
+    if (nb) *nb = 0;
+    if (!g || (int)face < 0 || (int)face > 5 || !g->inflow[face] || idx < 0 ||
+        idx >= g->d.scalar_count)
+        return NULL;
+    const size_t m = (size_t)g->inflow_n[face][0] * (size_t)g->inflow_n[face][1];
+    if (!g->scalar_inflow_data[face][idx]) {
+        float *a = (float *)sq_alloc(g->ctx, m * sizeof(float));
+        if (!a) return NULL;
+        for (size_t c = 0; c < m; c++) a[c] = g->scalar_inflow[idx];
+        g->scalar_inflow_data[face][idx] = a;
+    }
+    if (na) *na = g->inflow_n[face][0];
+    if (nb) *nb = g->inflow_n[face][1];
+    return g->scalar_inflow_data[face][idx];
 }
 
 /* ---- ghosts ------------------------------------------------------------------------------ */
@@ -500,6 +527,7 @@ typedef struct ghost_face {
     int f, a, ta, tb, mode;
     ptrdiff_t gi, bi, ii, src;
     float cv;
+    const float *cva; /* GH_CONST: per-sample values (na*nb, a fastest) or NULL: cv */
 } ghost_face;
 
 /* Fills the ghosts of rows q of one face (q over the second tangential axis). */
@@ -522,7 +550,13 @@ static void fill_face_row(const sq_grid *g, float *o, const ptrdiff_t st[3], con
         for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = 2.0f * row[p * sp + bi] - row[p * sp + ii];
         break;
     case GH_CONST:
-        for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = gf->cv;
+        if (gf->cva) { /* the face sample nearest to the ghost (edges take the edge value) */
+            const int na = g->inflow_n[f][0], nb = g->inflow_n[f][1];
+            const float *src_row = gf->cva + (size_t)na * (size_t)sq_clampi(q, 0, nb - 1);
+            for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = src_row[sq_clampi(p, 0, na - 1)];
+        } else {
+            for (int p = -1; p <= m[ta]; p++) row[p * sp + gi] = gf->cv;
+        }
         break;
     default: { /* tangential velocity against an inflow face: the inflow value at the ghost
                 * sample (tangential lattice indices (p, q) clamped to the face; a component's
@@ -567,6 +601,7 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
             e->ii = (side ? m[a] - 2 : 1) * st[a]; /* next inward */
             e->src = e->bi;
             e->cv = 0.0f;
+            e->cva = NULL;
             if (bc == SQ_BOUNDARY_PERIODIC) {
                 e->mode = GH_PERIODIC;
                 e->src = (normal ? (side ? 1 : m[a] - 2) : (side ? 0 : m[a] - 1)) * st[a];
@@ -574,7 +609,10 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
                 e->mode = is_wall(bc) ? GH_EXTRAP : GH_COPY;
             } else if (L == SQ__L_CELL) {
                 e->mode = (bc == SQ_BOUNDARY_INFLOW && scalar >= 0) ? GH_CONST : GH_COPY;
-                if (e->mode == GH_CONST) e->cv = g->scalar_inflow[scalar];
+                if (e->mode == GH_CONST) {
+                    e->cv = g->scalar_inflow[scalar];
+                    e->cva = g->scalar_inflow_data[f][scalar];
+                }
             } else {
                 e->mode = bc == SQ_BOUNDARY_NO_SLIP ? GH_NEG
                           : bc == SQ_BOUNDARY_INFLOW ? GH_INFLOW

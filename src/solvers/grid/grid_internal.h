@@ -62,6 +62,7 @@ struct sq_grid {
     sq_field3 vel[3];
     sq_field3 *scalar;
     float scalar_inflow[SQ_GRID_MAX_SCALARS];
+    float *scalar_inflow_data[6][SQ_GRID_MAX_SCALARS]; /* per-sample values (NULL: constant) */
     sq_field3 p; /* kinematic pressure p/rho, m^2/s^2 */
     /* padded cell lattice (same layout as p) */
     ptrdiff_t sy, sz;

@@ -1,6 +1,6 @@
 /* grid_state.c — the grid solver's part of a checkpoint (issue 17 part 4): velocity, scalars and
  * pressure (whole allocations, ghost layers included; the pressure is the next projection's
- * starting guess), the inflow profiles and scalar inflow values, the solid flags and the last
+ * starting guess), the inflow profiles and scalar inflow values (constant and per sample), the solid flags and the last
  * projection's dt. The cached trace displacements are dropped: they are a function of the
  * velocity and are recomputed bit-identically; the solid topology is rebuilt from the flags. */
 #include <string.h>
@@ -25,6 +25,11 @@ sq_result sq_grid_save_state(const sq_grid *g, sq_state_writer *w)
     sq_state_put(w, "grid/scalar_inflow", g->scalar_inflow, sizeof g->scalar_inflow);
     for (int f = 0; f < 6; f++)
         if (g->inflow[f]) sq_state_put(w, "grid/inflow", g->inflow[f], inflow_floats(g, f) * sizeof(float));
+    for (int f = 0; f < 6; f++)
+        for (int i = 0; i < g->d.scalar_count; i++)
+            if (g->scalar_inflow_data[f][i])
+                sq_state_put(w, "grid/scalar_inflow_data", g->scalar_inflow_data[f][i],
+                             inflow_floats(g, f) / 3 * sizeof(float));
     const size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
     sq_state_put(w, "grid/solid", g->solid, n);
     sq_state_put(w, "grid/last_project_dt", &g->last_project_dt, sizeof g->last_project_dt);
@@ -51,6 +56,12 @@ sq_result sq_grid_load_state(sq_grid *g, sq_state_reader *r)
     sq_state_get(r, "grid/scalar_inflow", g->scalar_inflow, sizeof g->scalar_inflow);
     for (int f = 0; f < 6; f++)
         if (g->inflow[f]) sq_state_get(r, "grid/inflow", g->inflow[f], inflow_floats(g, f) * sizeof(float));
+    /* per-sample scalar inflow values: the owner allocates the same ones before loading */
+    for (int f = 0; f < 6; f++)
+        for (int i = 0; i < g->d.scalar_count; i++)
+            if (g->scalar_inflow_data[f][i])
+                sq_state_get(r, "grid/scalar_inflow_data", g->scalar_inflow_data[f][i],
+                             inflow_floats(g, f) / 3 * sizeof(float));
     const size_t n = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2];
     uint8_t *solid = (uint8_t *)sq_alloc(g->ctx, n);
     if (!solid) return r->status = SQ_ERR_OUT_OF_MEMORY;
