@@ -23,6 +23,7 @@
 
 #include "squall/core.h"
 #include "squall/drawable.h"
+#include "squall/field.h"
 #include "squall/world.h"
 
 #ifdef __cplusplus
@@ -91,6 +92,13 @@ SQ_API sq_result sq_snowcover_step(sq_snowcover *s, double dt_s);
 SQ_API double sq_snowcover_max_stable_dt(const sq_snowcover *s);
 /* The camera the emitter follows and the layers are measured from (also set by the scene). */
 SQ_API void sq_snowcover_observe(sq_snowcover *s, const sq_camera *camera);
+/* Inputs from another layer (the scene passes the snowdrift's, SPEC §6 with §5): its snow depth
+ * (a 2D field, level SQ_FIELD_LEVEL_SURFACE) replaces this model's depth where it covers the
+ * grid, and its wind (u, v, w on a 3D grid) is the wind the flakes relax toward inside it
+ * (no wind in its solid cells). Borrowed: valid until the source's next step; NULL clears. */
+SQ_API void sq_snowcover_set_inputs(sq_snowcover *s, const sq_named_field *depth,
+                                    const sq_named_field *u, const sq_named_field *v,
+                                    const sq_named_field *w);
 /* Depth (m) on exposed flat ground now: (prior + accumulated) water × ρ_water / ρ_snow. */
 SQ_API double sq_snowcover_depth_m(const sq_snowcover *s);
 
