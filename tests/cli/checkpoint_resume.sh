@@ -81,6 +81,7 @@ check() {
 check sandstorm 6 1.0 "${SANDSTORM[@]}"
 check snowdrift 8 0.75 snow.yaml
 check avalanche 6 0.15 "${AVALANCHE[@]}"
+check clouds 6 100 wrf-clouds --set layers.clouds.particles.count=2000
 check snowcover 8 0.75 cover.yaml
 
 # killed with SIGKILL right after a checkpoint: the checkpoint is whole (written atomically) and

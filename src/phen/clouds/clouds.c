@@ -16,40 +16,6 @@
 #define MAX_STEP_S 600.0
 #define SPLAT_AREA 0.3f
 
-struct sq_clouds {
-    sq_context *ctx;
-    sq_clouds_desc d;
-    const sq_world *world;
-    sq__cloud_source *src;
-    sq__cloud_field field;
-    sq__segmentation seg;
-    sq__particles parts;
-    sq__particle_params pp;
-    double time_s;
-    uint64_t version;
-    /* structured particles */
-    sq__clustering clus;
-    sq__symbolic_table sym;
-    sq__structured st;
-    float *st_g;
-    /* drawn elements, sorted by cloud */
-    int draw_n;
-    float *d_pos, *d_radius, *d_tau, *d_g;
-    int32_t *d_key, *d_cursor;
-    sq_cloud_group *groups;
-    int group_count;
-    /* volume of the extinction field (world units) */
-    float *vox;
-    int vn[3];
-    sq_vec3 vox_origin, vox_size;
-    float vox_max, vox_g;
-    uint64_t vox_version;
-    float *vox_phys; /* physical extinction for export (1/m) */
-    float *vox_cond; /* condensate for export (g/m³) */
-    /* 2D maps on the model grid */
-    float *map_lwp, *map_iwp, *map_tau, *map_top, *map_cover;
-    sq_clouds_stats stats;
-};
 
 /* ---- lifecycle ------------------------------------------------------------------------------ */
 static sq_result alloc_draw(sq_clouds *c)
@@ -104,7 +70,10 @@ void sq_clouds_destroy(sq_clouds *c)
     sq_free(ctx, c);
 }
 
-static sq_result update(sq_clouds *c, double dt_s, bool first);
+/* What update does with the particles: seed them (creation), advance them by dt (a step), or
+ * keep them as they are (after a checkpoint load). */
+typedef enum { PARTICLES_SEED, PARTICLES_ADVANCE, PARTICLES_KEEP } particles_action;
+static sq_result update(sq_clouds *c, double dt_s, particles_action act);
 
 /* particles.per_km3: the count from the clouds' volume at time 0, refused before allocating
  * when the particles would not fit the memory limit (the message names count and bytes). */
@@ -171,7 +140,7 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
         c->pp.radius_m = (float)d.radius_m;
         c->pp.lifetime_s = (float)d.lifetime_s;
         c->pp.seed = d.seed;
-        r = update(c, 0.0, true);
+        r = update(c, 0.0, PARTICLES_SEED);
     }
     if (r != SQ_OK) {
         sq_clouds_destroy(c);
@@ -314,7 +283,7 @@ static void build_draw(sq_clouds *c)
     c->draw_n = n;
 }
 
-static sq_result update(sq_clouds *c, double dt_s, bool first)
+static sq_result update(sq_clouds *c, double dt_s, particles_action act)
 {
     const double t0 = sq_time_now();
     sq__cloud_frame fr;
@@ -325,8 +294,8 @@ static sq_result update(sq_clouds *c, double dt_s, bool first)
     sq__cloud_field_mask_to_clouds(&c->field);
     compute_maps(c);
     sq__particles_prepare(&c->parts, &c->field, &c->pp);
-    if (first) sq__particles_seed(&c->parts, &c->field, &c->pp);
-    else sq__particles_advance(&c->parts, &c->field, &c->pp, dt_s);
+    if (act == PARTICLES_SEED) sq__particles_seed(&c->parts, &c->field, &c->pp);
+    else if (act == PARTICLES_ADVANCE) sq__particles_advance(&c->parts, &c->field, &c->pp, dt_s);
     for (int i = 0; i < c->parts.n; i++)
         if (!isfinite(c->parts.pos[3 * i]) || !isfinite(c->parts.pos[3 * i + 2]) ||
             !isfinite(c->parts.tau[i]))
@@ -358,7 +327,12 @@ sq_result sq_clouds_step(sq_clouds *c, double dt_s)
     if (!(dt_s > 0.0) || !isfinite(dt_s))
         return sq__fail(c->ctx, SQ_ERR_INVALID_ARG, "clouds", "step dt = %g s; must be > 0", dt_s);
     c->time_s += dt_s;
-    return update(c, dt_s, false);
+    return update(c, dt_s, PARTICLES_ADVANCE);
+}
+
+sq_result sq__clouds_refresh(sq_clouds *c)
+{
+    return update(c, 0.0, PARTICLES_KEEP);
 }
 
 sq_result sq_clouds_stats_get(const sq_clouds *c, sq_clouds_stats *out)

@@ -292,4 +292,46 @@ int sq__clouds_fields(sq_clouds *c, sq_named_field *out, int max);
 sq_result sq__clouds_apply_live(sq_clouds *c, const sq_param *table, size_t n,
                                 const sq_clouds_desc *desc);
 
+/* ---- the phenomenon ------------------------------------------------------------------------ */
+struct sq_clouds {
+    sq_context *ctx;
+    sq_clouds_desc d;
+    const sq_world *world;
+    sq__cloud_source *src;
+    sq__cloud_field field;
+    sq__segmentation seg;
+    sq__particles parts;
+    sq__particle_params pp;
+    double time_s;
+    uint64_t version;
+    /* structured particles */
+    sq__clustering clus;
+    sq__symbolic_table sym;
+    sq__structured st;
+    float *st_g;
+    /* drawn elements, sorted by cloud */
+    int draw_n;
+    float *d_pos, *d_radius, *d_tau, *d_g;
+    int32_t *d_key, *d_cursor;
+    sq_cloud_group *groups;
+    int group_count;
+    /* volume of the extinction field (world units) */
+    float *vox;
+    int vn[3];
+    sq_vec3 vox_origin, vox_size;
+    float vox_max, vox_g;
+    uint64_t vox_version;
+    float *vox_phys; /* physical extinction for export (1/m) */
+    float *vox_cond; /* condensate for export (g/m³) */
+    /* 2D maps on the model grid */
+    float *map_lwp, *map_iwp, *map_tau, *map_top, *map_cover;
+    sq_clouds_stats stats;
+};
+
+/* After a checkpoint load (clouds_state.c): rebuilds the field, segmentation, maps, clusters and
+ * drawn elements at the restored clock from the restored particles; nothing advances. */
+sq_result sq__clouds_refresh(sq_clouds *c);
+sq_result sq__clouds_save_state(const void *self, sq_state_writer *w);
+sq_result sq__clouds_load_state(void *self, sq_state_reader *r);
+
 #endif

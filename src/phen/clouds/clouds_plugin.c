@@ -131,6 +131,11 @@ static const sq_param params[] = {
     I("volume.nz", volume_cells[2], "1", 48, 4, 1024, "Volume mode: voxels along z."),
 };
 
+#undef SQ__PHEN_STATE_SAVE
+#define SQ__PHEN_STATE_SAVE sq__clouds_save_state
+#undef SQ__PHEN_STATE_LOAD
+#define SQ__PHEN_STATE_LOAD sq__clouds_load_state
+
 /* Live changes: the live entries of desc (lighting and impostor settings) onto the running
  * clouds (clouds.c). */
 static sq_result clouds_apply_live(void *self, const void *desc)
