@@ -257,7 +257,12 @@ SQ_TEST(inputs_from_snowdrift)
     SQ_CHECK(sq__snowcover_input_wind(s, pin, wl) && wl[0] == 0.0 && wl[1] == -4.0);
     SQ_CHECK(!sq__snowcover_input_wind(s, pout, wl));
     SQ_CHECK(sq__snowcover_input_wind(s, psolid, wl) && wl[1] == 0.0);
-    for (int k = 0; k < 50; k++) sq_snowcover_step(s, 0.05);
+    /* a fresh pool (the minute above brought every flake down and back to the top of the box) */
+    sq_snowcover_destroy(s);
+    SQ_CHECK(sq_snowcover_create(ctx, &d, w, &s) == SQ_OK);
+    sq_snowcover_set_inputs(s, &fd, &fu, &fv, &fw);
+    sq_snowcover_observe(s, &cam);
+    for (int k = 0; k < 20; k++) sq_snowcover_step(s, 0.05);
     int in_lattice = 0, relaxed = 0;
     for (int i = 0; i < s->nflakes; i++) {
         const float *p = &s->pos[3 * i];
