@@ -93,6 +93,10 @@ typedef struct sq_terrain_desc {
     /* heights (base included) are multiplied by this, for every kind: a vertical exaggeration of
      * real terrain (WRF domains are hundreds of km wide and a few km high); 0 -> 1 */
     float vertical_exaggeration;
+    /* snow material: the snow line (m above sea level, after the exaggeration): snow-covered
+     * above it, alpine meadow and scree below, over a ~100 m band roughened by noise; rock on
+     * faces steeper than ~45 deg either way. 0 = snow at every altitude. */
+    float snow_line_m;
 } sq_terrain_desc;
 
 typedef enum sq_obstacle_kind {
@@ -184,6 +188,7 @@ typedef struct sq_world {
     float height_min, height_max;
     sq_terrain_kind terrain_kind;
     sq_terrain_material terrain_material;
+    float snow_line_m; /* sq_terrain_desc.snow_line_m; 0 = none */
     /* obstacles */
     sq_obstacle obstacles[SQ_MAX_OBSTACLES];
     int obstacle_count;

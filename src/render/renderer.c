@@ -621,6 +621,12 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         sq__terrain_albedo(w, &flat, &steep);
         glProgramUniform3f(r->prog_terrain, 0, flat.x, flat.y, flat.z);
         glProgramUniform3f(r->prog_terrain, 1, steep.x, steep.y, steep.z);
+        /* snow cover: rock from ~45-55 deg (snow holds on the 30-45 deg avalanche slopes), an
+         * altitude snow line with meadow/scree below; other covers: rock from ~32-44 deg */
+        const bool snow = w->terrain_material == SQ_GROUND_SNOW;
+        glProgramUniform3f(r->prog_terrain, 2, 0.20f, 0.22f, 0.13f);
+        glProgramUniform1f(r->prog_terrain, 3, snow ? w->snow_line_m : 0.0f);
+        glProgramUniform2f(r->prog_terrain, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
         glUseProgram(r->prog_terrain);
         glBindVertexArray(r->terrain_vao);
         glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);

@@ -355,6 +355,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     wd.terrain.kind = wrf_terrain ? SQ_TERRAIN_GRID : (sq_terrain_kind)ws.terrain_kind;
     wd.terrain.vertical_exaggeration = ws.vertical_exaggeration;
     wd.terrain.material = (sq_terrain_material)ws.terrain_material;
+    wd.terrain.snow_line_m = ws.snow_line_m;
     if (ws.size_count == 2) {
         wd.terrain.size_m[0] = ws.size_m[0];
         wd.terrain.size_m[1] = ws.size_m[1];

@@ -33,6 +33,7 @@ typedef struct sq__world_section {
     int crs_origin_count;
     char wrf[SQ_PARAM_STRING_MAX];
     float vertical_exaggeration;
+    float snow_line_m;
     float sun_direction[3];
     int day_of_year;
     float hour, latitude_deg, irradiance;

@@ -73,6 +73,10 @@ const sq_param sq__world_params[] = {
         "of its first time on the model grid (x east, y north along the map projection, origin "
         "at the domain centre); the sun follows the file's times over the domain centre unless "
         "sun.direction or sun.date is given. docs/wrf.md."),
+    F("terrain.snow_line_m", snow_line_m, "m", 0, 0, 9000,
+      "With terrain.material snow: the snow line (m above sea level): snow above it, alpine "
+      "meadow and scree below (a ~100 m band roughened by noise); rock on faces steeper than "
+      "~45 deg at every altitude. 0 = snow everywhere (rock on the steep faces)."),
     F("terrain.vertical_exaggeration", vertical_exaggeration, "1", 1, 0.1, 100,
       "Multiplies every terrain height (for real terrain: a WRF domain is hundreds of km wide "
       "and a few km high); phenomena placed by height above sea level use the same factor."),

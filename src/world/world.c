@@ -443,6 +443,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->origin = sq_v3(-0.5f * ex, -0.5f * ey, 0.0f);
     w->terrain_kind = t->kind;
     w->terrain_material = t->material;
+    w->snow_line_m = t->snow_line_m;
     if (d.crs_wkt && d.crs_wkt[0]) {
         size_t len = strlen(d.crs_wkt) + 1;
         w->crs_wkt = (char *)sq_alloc(ctx, len);

@@ -547,8 +547,13 @@ SQ_TEST(plugin_metrics_fields_drawables)
     sq_drawable dr[4];
     int nd = pl->drawables(self, dr, 4);
     SQ_CHECK(nd == 3);
+    size_t alive = 0;
+    for (int i = 0; i < nm; i++)
+        if (strcmp(m[i].name, "particles") == 0) alive = (size_t)m[i].value;
+    SQ_CHECK(alive > 100);
+    /* default: the snow surface over all the snow, spheres only for spray above it */
     SQ_CHECK(dr[0].kind == SQ_DRAWABLE_PARTICLES && dr[0].u.particles.sprite == SQ_SPRITE_SPHERE);
-    SQ_CHECK(dr[0].u.particles.count > 100 && dr[0].u.particles.radius_default_m > 0.5f);
+    SQ_CHECK((size_t)dr[0].u.particles.count < alive / 10 && dr[0].u.particles.radius_default_m > 0.5f);
     SQ_CHECK_NEAR(dr[0].u.particles.albedo[1], 0.9, 1e-6);
     SQ_CHECK(dr[1].kind == SQ_DRAWABLE_SURFACE && dr[1].u.surface.material == SQ_MATERIAL_SNOW);
     SQ_CHECK(dr[2].kind == SQ_DRAWABLE_VOLUME && dr[2].u.volume.nz >= 2);
@@ -557,6 +562,34 @@ SQ_TEST(plugin_metrics_fields_drawables)
             SQ_CHECK(!"non-finite particle position");
             break;
         }
+    {
+        /* the reconstructed surface holds the snow: its height above the terrain, integrated,
+         * is the particles' volume (N dx^3, the release lattice) within 3 %; fully covered
+         * somewhere; never below the terrain */
+        const sq_surface_view *sv = &dr[1].u.surface;
+        double vol = 0.0, cmax = 0.0, below = 0.0;
+        for (int j = 0; j < sv->ny; j++)
+            for (int i = 0; i < sv->nx; i++) {
+                const size_t c = (size_t)j * sv->nx + i;
+                const float x = sv->origin_m.x + i * sv->dx_m, y = sv->origin_m.y + j * sv->dy_m;
+                const double h = sv->height_m[c] - sq_world_height_at(w, x, y);
+                vol += h * sv->dx_m * sv->dy_m;
+                below = fmin(below, h);
+                cmax = fmax(cmax, sv->coverage[c]);
+            }
+        const double want_v = (double)alive * d.spacing_m * d.spacing_m * d.spacing_m;
+        printf("snow surface: %.1f m3 above the terrain vs %zu particles x dx^3 = %.1f m3; "
+               "coverage max %.2f; lowest %.3f m\n", vol, alive, want_v, cmax, below);
+        SQ_CHECK_REL(vol, want_v, 0.03);
+        SQ_CHECK(cmax == 1.0);
+        SQ_CHECK(below > -0.05);
+    }
+    pl->destroy(self);
+    /* render.spheres: every particle a sphere (the surface only over the snow at rest) */
+    d.spheres = true;
+    SQ_CHECK_OK(pl->create(ctx, &d, w, &self));
+    nd = pl->drawables(self, dr, 4);
+    SQ_CHECK(nd == 3 && (size_t)dr[0].u.particles.count == alive);
     pl->destroy(self);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
