@@ -219,6 +219,8 @@ typedef struct sq_world {
     /* the sun's clock (sq_sun_desc.utc_set): sun_dir, sun_radiance and the sky follow
      * sq_world_set_time; sun_position is the sun's place at time_s */
     bool sun_follows_clock;
+    bool sun_from_time;    /* the sun's direction comes from day, hour and latitude (no
+                              sun.direction given) */
     double sun_utc_start_unix_s, sun_clock_scale;
     float sun_latitude_deg, sun_longitude_deg, sun_north_rotation_deg, sun_irradiance_w_m2;
     double time_s;
@@ -230,6 +232,13 @@ typedef struct sq_world {
 SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);
 SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
 SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
+/* Changes the sun and the sky of a world (a live change of a running scene): turbidity and
+ * irradiance as in sq_sky_desc / sq_sun_desc; a sun following the clock takes latitude_deg and
+ * clock_scale (its place at the world's time is computed again), a sun placed by day and hour
+ * takes day_of_year, hour_solar and latitude_deg; a sun given by direction keeps it. The sky's
+ * radiances are derived again. Not synchronised with a renderer drawing the world. */
+SQ_API void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float latitude_deg,
+                             double clock_scale, float turbidity, float irradiance_w_m2);
 
 /* Places meshes in the world (replacing any placed before): validates every instance (mesh
  * index, finite position, scale > 0, footprint inside the terrain — SQ_ERR_INVALID_ARG naming

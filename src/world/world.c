@@ -498,6 +498,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
     w->sun_longitude_deg = d.sun.longitude_deg;
     w->sun_north_rotation_deg = d.sun.north_rotation_deg;
     w->sun_irradiance_w_m2 = d.sun.irradiance_w_m2;
+    w->sun_from_time = sq_v3_len(sd) == 0.0f;
     if (sq_v3_len(sd) > 0.0f)
         w->sun_dir = sq_v3_norm(sd);
     else
@@ -525,6 +526,22 @@ void sq_world_set_time(sq_world *w, double t_s)
     grid.azimuth_deg += (double)w->sun_north_rotation_deg;
     w->sun_dir = sq_sun_position_direction(&grid);
     sky_model(w, w->turbidity, w->sun_irradiance_w_m2);
+}
+
+void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float latitude_deg,
+                      double clock_scale, float turbidity, float irradiance_w_m2)
+{
+    if (!w) return;
+    w->turbidity = turbidity;
+    w->sun_irradiance_w_m2 = irradiance_w_m2;
+    if (w->sun_follows_clock) {
+        w->sun_latitude_deg = latitude_deg;
+        w->sun_clock_scale = clock_scale;
+        sq_world_set_time(w, w->time_s); /* the sun where the clock puts it, and the sky */
+        return;
+    }
+    if (w->sun_from_time) w->sun_dir = sq_sun_direction(day_of_year, hour_solar, latitude_deg);
+    sky_model(w, turbidity, irradiance_w_m2);
 }
 
 void sq_world_destroy(sq_context *ctx, sq_world *w)
