@@ -17,5 +17,6 @@ int sq_bench_sandstorm(const sq_bench_args *a);
 int sq_bench_snowdrift(const sq_bench_args *a);
 int sq_bench_wrf(const sq_bench_args *a);
 int sq_bench_clouds(const sq_bench_args *a);
+int sq_bench_snowcover(const sq_bench_args *a);
 
 #endif

@@ -43,6 +43,9 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "Table 1 rows; impostors vs particles for a distant field",
      "--particles 15000 --width 640 --height 360 --only frame|table|impostor", sq_bench_clouds,
      NULL, NULL},
+    {"snow-cover", "snow-cover preset frame (S2 ch. 2): occlusion map, snow on every surface, "
+     "falling flakes; faces, flakes, ms_occlusion_map, ms_scene, ms_flakes, ms_per_frame",
+     "--preset snowy-suburb --time 12 --width 640 --height 360", sq_bench_snowcover, NULL, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},
 };

@@ -1074,6 +1074,7 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
     if (!(dt_s > 0.0) || !isfinite(dt_s))
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "step dt = %g s; must be > 0", dt_s);
     for (int i = 0; i < s->layer_count; i++) {
+        sq__scene_couple(s, i);
         const sq_result r = sq_phenomenon_step(s->layers[i].ph, dt_s);
         if (r != SQ_OK)
             return r == SQ_ERR_CANCELLED ? r

@@ -252,6 +252,20 @@ const sq_param sq__output_params[] = {
     I_LIVE("light_buffer", light_buffer, "px", 256, 32, 4096, "Light buffer resolution for volumes."),
     B_LIVE("volume_noise", volume_noise, 1,
       "Perturb volume texture coordinates with noise for detail (S0 Fig. 3.12)."),
+    {"shadow_cascades", SQ_PARAM_INT, "1", offsetof(S, shadow_cascades), 3, 0, 4, NULL, NULL, 0,
+     0, SQ_PARAM_ZERO_IS_PHYSICAL,
+     "Cascaded sun shadow maps of opaque geometry (docs/meshes.md); 0 = no opaque shadows."},
+    I("shadow_map_size", shadow_map_size, "px", 2048, 64, 16384, "Texels per side of a cascade."),
+    F("shadow_distance_m", shadow_distance_m, "m", 1500, 1, 1e6,
+      "Opaque shadows up to this view depth, fading out over the last 15 %."),
+    F("lod_pixels", lod_pixels, "px", 1, 0.1, 100,
+      "World meshes: the coarsest level of detail whose geometric error projects below this."),
+    F("cull_pixels", cull_pixels, "px", 0.5, 0.01, 100,
+      "World meshes: instances whose bounding sphere projects below this radius are skipped."),
+    {"mesh_distance_m", SQ_PARAM_FLOAT, "m", offsetof(S, mesh_distance_m), 0, 0, 1e7, NULL, NULL,
+     0, 0, SQ_PARAM_ZERO_IS_PHYSICAL,
+     "World meshes farther than this from the camera are not drawn (haze or falling snow hides "
+     "them); 0 = no limit."},
 };
 const size_t sq__output_param_count = sizeof sq__output_params / sizeof sq__output_params[0];
 #undef S
