@@ -62,7 +62,8 @@ sq_result sq_snowcover_validate(sq_context *ctx, const sq_snowcover_desc *in, co
     sq_snowcover_desc_resolve(in, &d);
     const char *P = "sq_snowcover_desc.";
     if (d.level < SQ_SNOWCOVER_CUSTOM || d.level > SQ_SNOWCOVER_HEAVY)
-        BAD("%slevel = %d; must be custom, none, light, medium or heavy (0..4)", P, d.level);
+        BAD("%ssnowfall.level = %d; must be custom, none, light, medium or heavy (0..4)", P,
+            d.level);
     if (!nonneg(d.snowfall_mmh))
         BAD("%ssnowfall.rate_mmh = %g; must be >= 0 mm/h water equivalent", P, d.snowfall_mmh);
     if (!(isfinite(d.density_kgm3) && d.density_kgm3 >= 10 && d.density_kgm3 <= 917))
