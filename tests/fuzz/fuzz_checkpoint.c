@@ -71,6 +71,7 @@ static sq_result load_cfg(sq_context *ctx, int which, sq_cfg **cfg)
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.domain.nx=12");
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.domain.ny=12");
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.domain.nz=6");
+        if (r == SQ_OK) r = sq_cfg_set(*cfg, "world.terrain.resolution=[33, 33]");
         return r;
     case 1:
         r = sq_cfg_load_preset(ctx, "haboob", cfg);
@@ -80,6 +81,7 @@ static sq_result load_cfg(sq_context *ctx, int which, sq_cfg **cfg)
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.coldpool.depth_m=300");
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.coldpool.length_m=300");
         if (r == SQ_OK) r = sq_cfg_set(*cfg, "layers.storm.near.particles=50");
+        if (r == SQ_OK) r = sq_cfg_set(*cfg, "world.terrain.resolution=[33, 33]");
         return r;
     case 2:
         return sq_cfg_parse(ctx, snow_yaml, strlen(snow_yaml), "snowdrift.yaml", cfg);
