@@ -11,6 +11,7 @@
 #include "squall/avalanche.h"
 #include "squall/plugin.h"
 #include "squall/sph.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(physics)
 

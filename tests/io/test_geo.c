@@ -16,6 +16,7 @@
 #include "squall/io.h"
 #include "squall/scene.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(unit)
 

@@ -18,6 +18,7 @@
 
 #if SQ_HAVE_NETCDF && SQ_HAVE_PROJ
 #include "io/wrf_fixture.h"
+#include "world/world_struct.h"
 #endif
 
 SQ_LABEL(unit)

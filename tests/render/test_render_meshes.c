@@ -12,6 +12,7 @@
 #include "squall/mesh.h"
 #include "squall/render.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(render)
 SQ_REQUIRES(gl)

@@ -381,6 +381,7 @@ SQ_TEST(sph_collides_with_a_voxelised_house)
 
 /* ---- the avalanche ------------------------------------------------------------------------ */
 #include "squall/avalanche.h"
+#include "world/world_struct.h"
 
 /* A slab of snow on a 35 degree slope runs into a box mesh (2 x 3 x 3 m, in its path 8 m below
  * the release): the snow touches the box and no particle gets deeper into it than a quarter of the

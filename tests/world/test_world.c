@@ -4,6 +4,7 @@
 
 #include "sq_test.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(unit)
 
@@ -211,4 +212,76 @@ SQ_TEST(camera_path)
     SQ_CHECK_NEAR(c.fov_y_deg, 45.0, 1e-3);
     c = sq_camera_at(&base, NULL, 0, 3.0);
     SQ_CHECK(c.fov_y_deg == 50.0f && c.near_m == 0.5f);
+}
+
+/* The opaque world read through its accessors: what the desc asked for comes back (sizes,
+ * spacing, heights of a float grid, obstacles with z on the terrain, CRS and offset, areas),
+ * and the sun follows the world's time. */
+SQ_TEST(accessors_return_the_desc)
+{
+    sq_context *ctx = mkctx();
+    float h[4 * 3];
+    for (int k = 0; k < 12; k++) h[k] = 100.0f + (float)k; /* rises along x, then y */
+    const sq_obstacle ob[2] = {{SQ_OBSTACLE_BOX, {5.0f, 5.0f, NAN}, {2.0f, 2.0f, 3.0f}, 0.0f,
+                                0.0f, {0.0f, 0.0f, 0.0f}},
+                               {SQ_OBSTACLE_HOUSE, {20.0f, 5.0f, 200.0f}, {4.0f, 4.0f, 2.0f},
+                                1.0f, 30.0f, {0.5f, 0.5f, 0.5f}}};
+    const double fv[1] = {7.0}, fa[1] = {100.0}, xy[8] = {0, 0, 10, 0, 10, 10, 0, 10};
+    const int rs[2] = {0, 4}, rf[1] = {0};
+    sq_world_area area = {"zone", "test", 1, fv, fa, 1, rs, rf, xy, {0, 0, 10, 10}, 100.0};
+    sq_world_desc d = {0};
+    d.terrain.kind = SQ_TERRAIN_GRID;
+    d.terrain.grid_heights_m = h;
+    d.terrain.grid_w = 4;
+    d.terrain.grid_h = 3;
+    d.terrain.grid_dx_m = 10.0f;
+    d.terrain.grid_dy_m = 5.0f;
+    d.terrain.origin_set = true;
+    d.obstacles = ob;
+    d.obstacle_count = 2;
+    d.crs_wkt = "EPSG:32632";
+    d.crs_offset_m[0] = 644300.0;
+    d.crs_offset_m[1] = 5186300.0;
+    d.areas = &area;
+    d.area_count = 1;
+    sq_world *w = NULL;
+    SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
+    if (!w) return;
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    SQ_CHECK(t.nx == 4 && t.ny == 3 && t.kind == SQ_TERRAIN_GRID);
+    SQ_CHECK_NEAR(t.dx, 10.0, 0.0);
+    SQ_CHECK_NEAR(t.dy, 5.0, 0.0);
+    SQ_CHECK_NEAR(t.origin.x, 0.0, 0.0);
+    SQ_CHECK(t.heights != h); /* the world's copy */
+    SQ_CHECK_NEAR(t.heights[2 * 4 + 3], 111.0, 0.0);
+    SQ_CHECK_NEAR(t.height_min, 100.0, 0.0);
+    SQ_CHECK_NEAR(t.height_max, 111.0, 0.0);
+    SQ_CHECK_NEAR(t.vertical_exaggeration, 1.0, 0.0);
+    SQ_CHECK(t.normals != NULL && t.void_mask == NULL);
+    SQ_CHECK(sq_world_obstacle_count(w) == 2);
+    const sq_obstacle *o = sq_world_obstacles(w);
+    SQ_CHECK(o[1].kind == SQ_OBSTACLE_HOUSE && o[1].yaw_deg == 30.0f && o[1].roof_m == 1.0f);
+    SQ_CHECK_NEAR(o[0].center_m.z, sq_world_height_at(w, 5.0f, 5.0f), 1e-4); /* NaN: on terrain */
+    SQ_CHECK_NEAR(o[1].center_m.z, 200.0, 0.0);
+    double off[2];
+    SQ_CHECK(strcmp(sq_world_crs(w, off), "EPSG:32632") == 0);
+    SQ_CHECK(off[0] == 644300.0 && off[1] == 5186300.0);
+    SQ_CHECK(sq_world_area_count(w) == 1 && sq_world_area_at(w, 1) == NULL);
+    SQ_CHECK(strcmp(sq_world_area_at(w, 0)->name, "zone") == 0);
+    SQ_CHECK(sq_world_area_at(w, 0)->feature_value[0] == 7.0);
+    const sq_mesh *const *meshes = NULL;
+    int mesh_count = -1;
+    SQ_CHECK(sq_world_mesh_instances(w, &meshes, &mesh_count, NULL) == 0 && mesh_count == 0);
+    const uint64_t g = sq_world_generation(w);
+    sq_world_light l;
+    sq_world_get_light(w, &l);
+    SQ_CHECK_NEAR(sq_v3_len(l.sun_dir), 1.0, 1e-5);
+    SQ_CHECK(!l.sun_follows_clock && l.time_s == 0.0);
+    sq_world_set_time(w, 12.0);
+    sq_world_get_light(w, &l);
+    SQ_CHECK(l.time_s == 12.0);
+    SQ_CHECK(sq_world_generation(w) == g); /* time is not geometry */
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
 }

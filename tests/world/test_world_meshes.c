@@ -12,6 +12,7 @@
 #include "sq_test.h"
 #include "squall/mesh.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(physics)
 
