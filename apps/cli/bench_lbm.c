@@ -2,7 +2,10 @@
  * D3Q15 wind step (fused collide + stream, AA pattern in place, periodic box, a gentle
  * sheared flow so the collision does real work). One JSON line: the common keys plus mlups,
  * size, bytes_per_cell_update (memory traffic of one cell update), roofline_mlups (what the
- * measured STREAM bandwidth allows at that traffic) and roofline_fraction. */
+ * measured STREAM bandwidth allows at that traffic) and roofline_fraction (of ranks x that).
+ * Under mpirun the lattice is split in slabs along z: mlups is then the whole lattice per step
+ * of the slowest rank, per_rank lists each rank's cells, step time, throughput and bytes sent
+ * per step (comm_bytes_per_step: all ranks together), and only rank 0 prints. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,6 +13,7 @@
 
 #include "cases.h"
 #include "squall/lbm.h"
+#include "squall/par.h"
 
 typedef struct lbm_bench {
     sq_lbm *l;
@@ -70,6 +74,7 @@ int sq_bench_lbm(const sq_bench_args *a)
     d.air_density_kgm3 = 1;
     d.max_wind_mps = 0.1;
     d.collision = coll;
+    d.decompose = true; /* under mpirun: slabs along z, one per rank */
     lbm_bench b = {NULL, SQ_OK};
     sq_result r = sq_lbm_create(a->ctx, &d, &b.l);
     if (r != SQ_OK) {
@@ -102,7 +107,9 @@ int sq_bench_lbm(const sq_bench_args *a)
         sq_cli_error("%s", sq_last_error());
         return sq_cli_exit_code(r);
     }
+    const uint64_t sent0 = sq_par_bytes_sent();
     const sq_bench_stats s = sq_bench_time(step, &b, a->warmup, a->reps);
+    const double steps_done = (double)(a->warmup + s.reps);
     if (b.err != SQ_OK) {
         sq_cli_error("%s", sq_last_error());
         sq_lbm_destroy(b.l);
@@ -110,6 +117,53 @@ int sq_bench_lbm(const sq_bench_args *a)
     }
     const sq_lbm_info in = sq_lbm_get_info(b.l);
     const double mlups = s.median_ms > 0 ? (double)cells / (s.median_ms * 1e-3) / 1e6 : (double)NAN;
+    /* under mpirun: the lattice is split in z slabs; every rank reports its slab's cells and
+     * step time and the bytes it sent per step, rank 0 prints the line. Total throughput:
+     * the whole lattice per (slowest rank's) step. */
+    const int nr = sq_par_size();
+    char ranks_json[4096] = "";
+    double total_mlups = mlups, comm_bytes = 0;
+    if (nr > 1) {
+        const int me = sq_par_rank();
+        const double plane = (double)n.nx * n.ny;
+        const double mine[3] = {plane * (double)((int64_t)(me + 1) * n.nz / nr -
+                                                 (int64_t)me * n.nz / nr),
+                                s.median_ms,
+                                steps_done > 0 ? (double)(sq_par_bytes_sent() - sent0) /
+                                                     steps_done : 0.0};
+        double *all = (double *)calloc((size_t)(3 * nr), sizeof(double));
+        int64_t *cnt = (int64_t *)calloc((size_t)nr, sizeof(int64_t));
+        if (!all || !cnt) {
+            free(all);
+            free(cnt);
+            sq_lbm_destroy(b.l);
+            sq_cli_error("out of memory for the per-rank figures");
+            return SQ_EXIT_RUNTIME;
+        }
+        for (int q = 0; q < nr; q++) cnt[q] = 3;
+        (void)sq_par_allgather_f64(mine, cnt, all);
+        double slowest = 0;
+        size_t len = 0;
+        len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len, "[");
+        for (int q = 0; q < nr && len < sizeof ranks_json; q++) {
+            const double *rq = all + 3 * q;
+            if (rq[1] > slowest) slowest = rq[1];
+            comm_bytes += rq[2];
+            len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len,
+                                    "%s{\"rank\": %d, \"cells\": %.0f, \"ms_per_step\": %.6g, "
+                                    "\"mlups\": %.6g, \"bytes_sent_per_step\": %.0f}",
+                                    q ? ", " : "", q, rq[0], rq[1],
+                                    rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, rq[2]);
+        }
+        if (len < sizeof ranks_json) snprintf(ranks_json + len, sizeof ranks_json - len, "]");
+        total_mlups = slowest > 0 ? (double)cells / (slowest * 1e-3) / 1e6 : (double)NAN;
+        free(all);
+        free(cnt);
+        if (me != 0) {
+            sq_lbm_destroy(b.l);
+            return SQ_EXIT_OK;
+        }
+    }
     const double bpc = in.bytes_per_cell_update;
     const double roof = a->stream_gbps * 1e9 / bpc / 1e6;
     char sz[64];
@@ -119,10 +173,16 @@ int sq_bench_lbm(const sq_bench_args *a)
     sq_bench_json_common(&j, "lbm", a, &s);
     sq_json_str(&j, "size", sz);
     sq_json_str(&j, "collision", sq_lbm_collision_name(coll));
-    sq_json_num(&j, "mlups", mlups);
+    sq_json_num(&j, "mlups", total_mlups);
+    sq_json_int(&j, "ranks", nr);
+    if (nr > 1) {
+        sq_json_str(&j, "decomposition", "slabs along z");
+        sq_json_num(&j, "comm_bytes_per_step", comm_bytes);
+        sq_json_raw(&j, "per_rank", ranks_json);
+    }
     sq_json_num(&j, "bytes_per_cell_update", bpc);
     sq_json_num(&j, "roofline_mlups", roof);
-    sq_json_num(&j, "roofline_fraction", roof > 0 ? mlups / roof : (double)NAN);
+    sq_json_num(&j, "roofline_fraction", roof > 0 ? total_mlups / (roof * nr) : (double)NAN);
     sq_json_num(&j, "memory_mib", (double)in.memory_bytes / 1048576.0);
     sq_json_end(&j, stdout);
     sq_lbm_destroy(b.l);

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "squall/par.h"
 
 #ifdef _OPENMP
 #define CLI_OMP(x) _Pragma(#x)
@@ -37,6 +38,8 @@ void sq_cli_error(const char *fmt, ...)
     va_end(ap);
     for (char *p = buf; *p; p++)
         if (*p == '\n') *p = ' ';
+    /* a distributed run: every rank holds the same (agreed) message; rank 0 says it */
+    if (sq_par_rank() != 0) return;
     fprintf(stderr, "squall: %s\n", buf);
 }
 
@@ -93,6 +96,7 @@ static void stderr_logger(void *user, sq_log_level level, const char *module, co
     (void)user;
     /* Errors are printed once by the command itself; the logger shows warnings and info. */
     if (level == SQ_LOG_ERROR) return;
+    if (sq_par_rank() != 0 && level != SQ_LOG_DEBUG) return; /* once, not once per rank */
     const char *tag = level == SQ_LOG_WARN ? "warning: " : "";
     fprintf(stderr, "squall[%s]: %s%s\n", module, tag, msg);
 }

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "squall/par.h"
 #include "commands.h"
 #include "rasters.h"
 #include "squall/image.h"
@@ -60,7 +61,11 @@ static void render_usage(bool simulate)
            "Progress goes to stderr (a live line on a terminal, one summary line otherwise).\n"
            "Ctrl-C stops within a second and leaves nothing but the metrics rows so far\n"
            "(NAME.partial.csv); see docs/reliability.md.\n"
-           "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n");
+           "Under mpirun (mpirun -np 4 squall %s ...) the snowdrift's wind lattice is split\n"
+           "over the ranks with bit-identical results; rank 0 writes%s; other layers are\n"
+           "computed whole on every rank; no checkpoints (docs/mpi.md).\n"
+           "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n",
+           simulate ? "simulate" : "render", simulate ? "" : " and renders");
 }
 
 /* Options that take a value (so their value is not mistaken for the scene name). */
@@ -218,6 +223,12 @@ int sq_cmd_render(int argc, char **argv)
                      sq_cli_value(argc, argv, "--checkpoint-every"));
         return SQ_EXIT_USAGE;
     }
+    if (sq_par_size() > 1 && (resume || ck_every > 0.0)) {
+        sq_cli_error("%s: checkpoints of a run split over %d ranks are not supported; run "
+                     "with one rank (without mpirun) to write or resume checkpoints",
+                     resume ? "--resume" : "--checkpoint-every", sq_par_size());
+        return SQ_EXIT_USAGE;
+    }
     const char *ck_path = sq_cli_value(argc, argv, "--checkpoint");
     if (!ck_path) ck_path = "squall.ckpt";
     const bool overwrite = sq_cli_flag(argc, argv, "--overwrite");
@@ -356,6 +367,7 @@ int sq_cmd_render(int argc, char **argv)
     if (r == SQ_OK && resume) r = sq_checkpoint_restore(ctx, resume, scene, &ck_info);
     /* a checkpoint being written when its run was killed left a temporary next to it */
     if (r == SQ_OK && resume) sq_output_remove_stale(ctx, resume, false);
+    r = sq_par_agree(r); /* a distributed run: every rank stops with the first failure */
     if (r == SQ_OK && resume && ck_info.frame >= sq_scene_frame_count(scene))
         r = sq_set_error(SQ_ERR_INVALID_ARG,
                          "--resume %s: the checkpoint is at frame %d; the scene has %d frames "
@@ -373,6 +385,20 @@ int sq_cmd_render(int argc, char **argv)
     const char *frames_dir = !simulate && out->frames_dir[0] ? out->frames_dir : NULL;
     const char *metrics_path = out->metrics[0] ? out->metrics : NULL;
     sq_run *run = NULL;
+    /* a distributed run (mpirun): the snowdrift's wind lattice is split over the ranks; rank 0
+     * renders and writes from the gathered fields, the others only step (docs/mpi.md) */
+    const bool root = sq_par_rank() == 0;
+    if (sq_par_size() > 1 && root && !quiet) {
+        for (int i = 0; i < sq_scene_layer_count(scene); i++)
+            if (strcmp(sq_scene_layer_type(scene, i), "snowdrift") != 0)
+                fprintf(stderr, "squall: warning: layer '%s' (%s) is not split over the %d "
+                        "ranks: every rank computes it whole (the same answer, no speed-up)\n",
+                        sq_scene_layer_name(scene, i), sq_scene_layer_type(scene, i),
+                        sq_par_size());
+        fprintf(stderr, "squall: %d ranks; rank 0 %s the outputs\n", sq_par_size(),
+                simulate ? "writes" : "renders and writes");
+    }
+    if (rasters && !root) rasters = NULL; /* rank 0 writes them */
     if (rasters) {
         r = sq_cli_rasters_check(scene, rasters, raster_format, overwrite, &rasters_created);
         if (r != SQ_OK) {
@@ -382,13 +408,13 @@ int sq_cmd_render(int argc, char **argv)
     }
 
     /* the frame loop, its outputs and their safety rules are the library's (squall/run.h) */
-    bool tty = isatty(2) && !quiet;
+    bool tty = isatty(2) && !quiet && root;
     sq_run_desc rd;
     memset(&rd, 0, sizeof rd);
     rd.scene = scene;
-    rd.render = simulate ? SQ_RUN_SIMULATE : reference ? SQ_RUN_REFERENCE : SQ_RUN_GL;
+    rd.render = simulate || !root ? SQ_RUN_SIMULATE : reference ? SQ_RUN_REFERENCE : SQ_RUN_GL;
     rd.reference_samples = samples;
-    rd.write_outputs = true;
+    rd.write_outputs = root;
     rd.overwrite = overwrite;
     rd.cancel_flag = &sq_cli_interrupted_flag;
     rd.checkpoint_every_s = ck_every;
@@ -401,7 +427,7 @@ int sq_cmd_render(int argc, char **argv)
                                  a.st_dev == b.st_dev && a.st_ino == b.st_ino;
     }
     /* a first run in a fresh directory: the default video's directory (out/) is made */
-    if (video && !simulate) {
+    if (video && !simulate && root) {
         size_t nt = 0;
         const sq_param *vp = sq_params_find(sq_scene_section_params("output", &nt), nt, "video");
         const char *slash = strrchr(video, '/');
@@ -414,21 +440,23 @@ int sq_cmd_render(int argc, char **argv)
     }
     rd.progress = on_progress;
     rd.user = &tty;
-    r = sq_run_create(ctx, &rd, &run);
+    r = sq_par_agree(sq_run_create(ctx, &rd, &run));
     if (r == SQ_OK) r = sq_run_execute(run);
     if (tty && r != SQ_OK) fprintf(stderr, "\n");
     if (r == SQ_OK) r = sq_run_finish(run);
+    r = sq_par_agree(r);
     if (r == SQ_OK && rasters) {
         sq_metric mv[128];
         const int nm = sq_scene_metrics(scene, mv, 128);
         r = sq_cli_rasters_write(ctx, scene, rasters, raster_format, overwrite, mv, nm, &raster_s);
     }
+    r = sq_par_agree(r);
     if (r != SQ_OK) {
         rc = fail(r, NULL);
         goto done;
     }
     if (tty) fprintf(stderr, "\n");
-    {
+    if (root) {
         const double el = sq_run_elapsed_s(run);
         if (!quiet) {
             fprintf(stderr, "squall: %s %d frame%s of '%s' in %.1f s (%.2f frames/s)",

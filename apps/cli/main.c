@@ -7,6 +7,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "squall/par.h"
 
 typedef struct command {
     const char *name;
@@ -61,9 +62,37 @@ static void prefer_passive_openmp(int argc, char **argv)
     execv("/proc/self/exe", argv); /* returns only on failure: then run as we are */
 }
 
+/* Started by mpirun (Open MPI, MPICH / PMI): join the process group (docs/mpi.md). */
+static bool under_mpirun(void)
+{
+    return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
+}
+
+static int run_command(int argc, char **argv);
+
 int main(int argc, char **argv)
 {
     prefer_passive_openmp(argc, argv);
+    if (under_mpirun()) {
+        if (!sq_par_compiled()) {
+            if (getenv("OMPI_COMM_WORLD_RANK") && strcmp(getenv("OMPI_COMM_WORLD_RANK"), "0"))
+                return SQ_EXIT_USAGE;
+            sq_cli_error("started by mpirun, but this squall was built without MPI (configure "
+                         "with -DSQ_WITH_MPI=ON and libopenmpi-dev installed)");
+            return SQ_EXIT_USAGE;
+        }
+        if (sq_par_init(&argc, &argv) != SQ_OK) {
+            sq_cli_error("%s", sq_last_error());
+            return SQ_EXIT_RUNTIME;
+        }
+    }
+    const int rc = run_command(argc, argv);
+    sq_par_finalize();
+    return rc;
+}
+
+static int run_command(int argc, char **argv)
+{
     if (argc < 2) {
         usage(stderr);
         return SQ_EXIT_USAGE;

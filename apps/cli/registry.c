@@ -27,7 +27,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
      sq_bench_render_volume, NULL, render_volume_details},
     {"grid", "MAC-grid fluid step: MacCormack advection + MGPCG projection + 2 scalars",
      "--grid 64|128", sq_bench_grid, NULL, NULL},
-    {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box",
+    {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box (under mpirun: "
+            "z slabs, per-rank figures, bytes sent)",
      "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
      "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL, NULL},

@@ -14,6 +14,7 @@
 
 #include "../cli/cli.h"
 #include "../cli/commands.h"
+#include "squall/wrf.h"
 #include "view.h"
 
 #define VIEW_INTERACTIVE_FRAMES 1000000 /* output.frames' upper limit: 11.5 h at 24 fps */
@@ -105,8 +106,11 @@ sq_cfg *view_run_cfg(viewer *v, const char *assignment, sq_result *res)
 
 sq_scene_desc view_scene_desc(const sq_cfg *cfg)
 {
+    /* the loaders of `squall render`: heightmaps, DEMs and areas, WRF worlds, mesh files */
     sq_scene_desc sd = {.cfg = cfg, .load_heightmap = sq_scene_heightmap_loader,
-                        .load_dem = sq_dem_load, .load_area = sq_area_load};
+                        .load_dem = sq_dem_load, .load_area = sq_area_load,
+                        .load_wrf_world = sq_scene_wrf_world_loader,
+                        .load_mesh = sq_scene_mesh_loader};
     return sd;
 }
 
@@ -501,9 +505,8 @@ static int load_scene(viewer *v, int argc, char **argv)
     for (int i = 1; i < argc && r == SQ_OK; i++)
         if (strcmp(argv[i], "--set") == 0 && i + 1 < argc) r = sq_cfg_set(v->cfg, argv[++i]);
     if (r != SQ_OK) return fail(r);
-    sq_scene_desc sd = {.cfg = v->cfg, .load_heightmap = sq_scene_heightmap_loader,
-                        .load_dem = sq_dem_load, .load_area = sq_area_load,
-                        .validate_only = true};
+    sq_scene_desc sd = view_scene_desc(v->cfg);
+    sd.validate_only = true;
     sq_scene *check = NULL;
     r = sq_scene_create(v->ctx, &sd, &check);
     if (r != SQ_OK) return fail(r);

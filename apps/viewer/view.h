@@ -85,6 +85,8 @@ typedef struct viewer {
     view_live_result live_result; /* taken from the simulation thread */
     bool live_held;        /* live_result waits for the next tick (refusal, rebuild) */
     bool live_show;        /* the panel's status waits for the next tick */
+    bool live_is_cfg;      /* the change is already in cfg (keyframes): no assignment to set */
+    int keyframes;         /* camera keyframes recorded (view_keyframe.c): save keeps the path */
     char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
 
     /* screenshot: written by the next draw showing frame >= shot_frame */
@@ -141,6 +143,10 @@ sq_result view_record_start(viewer *v, const char *path);
 void view_record_frame(viewer *v, int frame);   /* in the GL callback, after the draw */
 sq_result view_record_stop(viewer *v);           /* closes and renames; no-op when not recording */
 void view_record_abort(viewer *v);
+
+/* view_keyframe.c: the current view as a key of camera.path at the shown frame's video time
+ * (see the file); *index and *t of the key. */
+sq_result view_keyframe_add(viewer *v, int *index, double *t);
 
 /* view_save.c: the scene as edited (and the camera as it is) to YAML, safe output. */
 sq_result view_save_scene(viewer *v, const char *path);

@@ -130,6 +130,19 @@ static gboolean on_key(GtkEventControllerKey *c, guint keyval, guint code, GdkMo
         }
         break;
     case GDK_KEY_v: toggle_record(v); break;
+    case GDK_KEY_k: {
+        int index = 0;
+        double t = 0.0;
+        char msg[700];
+        const sq_result r = view_keyframe_add(v, &index, &t);
+        if (r == SQ_OK)
+            snprintf(msg, sizeof msg, "camera.path[%d]: keyframe at t = %.3f s (video time)",
+                     index, t);
+        else
+            snprintf(msg, sizeof msg, "%s", sq_last_error());
+        view_panel_status(v, msg, r != SQ_OK);
+        break;
+    }
     case GDK_KEY_p:
         v->panel_on = !v->panel_on;
         gtk_widget_set_visible(v->panel, v->panel_on);

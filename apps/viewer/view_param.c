@@ -144,9 +144,8 @@ static sq_result check_assignment(viewer *v, const char *assignment)
     snprintf(copy->base_dir, sizeof copy->base_dir, "%s", v->cfg->base_dir);
     r = sq_cfg_set(copy, assignment);
     if (r == SQ_OK) {
-        sq_scene_desc sd = {.cfg = copy, .load_heightmap = sq_scene_heightmap_loader,
-                            .load_dem = sq_dem_load, .load_area = sq_area_load,
-                            .validate_only = true};
+        sq_scene_desc sd = view_scene_desc(copy);
+        sd.validate_only = true;
         sq_scene *s = NULL;
         r = sq_scene_create(v->ctx, &sd, &s);
         sq_scene_destroy(s);
@@ -204,6 +203,7 @@ sq_result view_param_apply(viewer *v, const char *full_key, const char *value, v
         v->live_pending = true;
         v->live_outcome = VIEW_LIVE_NONE;
         snprintf(v->live_assignment, sizeof v->live_assignment, "%s", assignment);
+        v->live_is_cfg = false;
         *how = VIEW_CHANGE_PENDING;
         return SQ_OK;
     }
@@ -257,7 +257,7 @@ void view_param_poll(viewer *v, bool in_draw)
         v->live_held = false;
         v->live_pending = false;
         v->live_outcome = VIEW_LIVE_APPLIED;
-        sq_cfg_set(v->cfg, v->live_assignment); /* checked: it is the user's scene now */
+        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment); /* the user's scene now */
         snprintf(v->live_message, sizeof v->live_message,
                  "applied to frame %d, %.1f ms after the change", lr->frame - 1,
                  (lr->t_applied_s - lr->t_request_s) * 1e3);
@@ -277,7 +277,7 @@ void view_param_poll(viewer *v, bool in_draw)
     } else {
         v->live_outcome = VIEW_LIVE_REBUILT;
         snprintf(v->live_message, sizeof v->live_message, "%s", lr->res.reason);
-        sq_cfg_set(v->cfg, v->live_assignment);
+        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment);
         view_rebuild(v);
         v->lat_frame0 = -1;
         v->lat_armed = true;

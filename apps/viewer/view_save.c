@@ -1,7 +1,8 @@
 /* view_save.c — "save scene": the user's scene as edited in the viewer (--set, panel, script)
  * written as YAML that `squall render` reads and renders to the same frames. When the user has
  * taken the camera over, the saved camera is that view (position, target, field of view, near
- * and far planes) and the scene's camera path is left out. Written through a temporary and
+ * and far planes) and the scene's camera path is left out, unless camera keyframes were recorded
+ * (view_keyframe.c): then the path with them is saved, and the render follows it. Written through a temporary and
  * renamed (sq_output_write_file); never onto the scene file that is being viewed. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,7 +38,8 @@ sq_result view_save_scene(viewer *v, const char *path)
     if (v->cam.mode != VIEW_CAM_PATH) {
         const sq_camera c = view_camera_get(&v->cam);
         char set[256];
-        remove_key(sq_cfg_get(copy->root, "camera"), "path");
+        /* the view taken over replaces the path, unless keyframes were recorded into it */
+        if (v->keyframes == 0) remove_key(sq_cfg_get(copy->root, "camera"), "path");
         snprintf(set, sizeof set, "camera.position=[%.9g, %.9g, %.9g]", (double)c.position_m.x,
                  (double)c.position_m.y, (double)c.position_m.z);
         r = sq_cfg_set(copy, set);

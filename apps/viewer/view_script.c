@@ -10,6 +10,8 @@
  *   panel-keys SECTION FILE the keys the panel lists for SECTION (e.g. layers.storm), one a line
  *   record FILE.mp4         start recording every new frame shown (H.264, output.fps)
  *   record-stop             finish the video (also done at the end)
+ *   keyframe                the current view as a key of camera.path at the frame's video
+ *                           time (as key K); prints "keyframe N at t = T s"
  *   print-time              prints "time: frame N, simulated T s" (the latest frame advanced)
  *   pause | run | step      the simulation thread
  *   quit                    exit 0 (also at the end of the script)
@@ -25,7 +27,7 @@
 
 typedef enum act_kind {
     A_WAIT, A_WAIT_END, A_SET, A_SHOT, A_SAVE, A_KEYS, A_PAUSE, A_RUN, A_STEP, A_QUIT, A_REC,
-    A_REC_STOP, A_TIME
+    A_REC_STOP, A_TIME, A_KEYFRAME
 } act_kind;
 
 typedef struct action {
@@ -126,13 +128,14 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
                                  "end)", path, no);
         }
         else if (strcmp(cmd, "print-time") == 0) a.kind = A_TIME;
+        else if (strcmp(cmd, "keyframe") == 0) a.kind = A_KEYFRAME;
         else if (strcmp(cmd, "pause") == 0) a.kind = A_PAUSE;
         else if (strcmp(cmd, "run") == 0) a.kind = A_RUN;
         else if (strcmp(cmd, "step") == 0) a.kind = A_STEP;
         else if (strcmp(cmd, "quit") == 0) a.kind = A_QUIT;
         else
             r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, "
-                             "screenshot, save, panel-keys, record, record-stop, print-time, pause, run, step, quit)", path, no, cmd);
+                             "screenshot, save, panel-keys, record, record-stop, keyframe, print-time, pause, run, step, quit)", path, no, cmd);
         if (r != SQ_OK) break;
         if (s->count == cap) {
             cap = cap ? 2 * cap : 16;
@@ -268,6 +271,26 @@ void view_script_tick(viewer *v, view_script *s)
             const sq_result r = a->kind == A_REC ? view_record_start(v, a->a) : view_record_stop(v);
             if (r != SQ_OK) {
                 script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
+                return;
+            }
+            break;
+        }
+        case A_KEYFRAME: {
+            if (!s->waiting) {
+                int index = 0;
+                double t = 0.0;
+                const sq_result r = view_keyframe_add(v, &index, &t);
+                if (r != SQ_OK) {
+                    script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
+                    return;
+                }
+                printf("keyframe %d at t = %.6g s\n", index, t);
+                fflush(stdout);
+                s->waiting = true; /* until the running scene has the path */
+            }
+            if (v->live_pending) return;
+            if (v->live_outcome == VIEW_LIVE_REFUSED) {
+                script_fail(v, s, a->line, SQ_EXIT_USAGE, v->live_message);
                 return;
             }
             break;

@@ -112,6 +112,13 @@ typedef struct sq_lbm_desc {
     double body_accel_mps2[3];      /* constant body acceleration; 0 is physical */
     sq_lbm_wind_desc wind;
     int check_interval;      /* steps between finiteness checks of the whole lattice; default 64 */
+    /* true: in a distributed run (squall/par.h, more than one rank) the lattice is split into
+     * slabs along z, one per rank (each at least 2 planes), and every call below is collective
+     * (all ranks make the same calls with the same arguments; cells are named by their global
+     * index). The views, friction velocity, totals and solid flags stay global: the
+     * density/velocity views are gathered on every rank, so results are those of one rank,
+     * bit for bit. false is physical (each rank holds the whole lattice). */
+    bool decompose;
 } sq_lbm_desc;
 
 /* Facts about a created solver (lattice ↔ SI conversion included). */

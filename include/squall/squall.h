@@ -8,6 +8,7 @@
 #include "squall/core.h"
 #include "squall/field.h"
 #include "squall/noise.h"
+#include "squall/par.h"
 #include "squall/rng.h"
 #include "squall/sqmath.h"
 

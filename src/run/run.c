@@ -10,6 +10,7 @@
 
 #include "run/run_internal.h"
 #include "sq_config.h"
+#include "squall/par.h"
 #include "squall/render.h"
 
 /* ---- small pieces ---------------------------------------------------------------------------- */
@@ -466,6 +467,9 @@ sq_result sq_run_execute(sq_run *run)
     while (r == SQ_OK && run->next < run->frames) {
         r = sq_run_advance(run);
         if (r == SQ_OK && renders(run)) r = sq_run_draw(run);
+        /* a distributed run: a rank that failed (rank 0 writing a frame, a slab's blow-up)
+         * stops every rank here with its message, instead of leaving them in the next step */
+        r = sq_par_agree(r);
     }
     if (r != SQ_OK) {
         /* the rows so far show what happened (a blow-up, where it stopped): kept, and said so

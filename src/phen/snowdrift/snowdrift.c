@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "snowdrift_internal.h"
+#include "squall/par.h"
 #include "squall/rng.h"
 
 #define SNOW_PI 3.14159265358979323846
@@ -50,6 +51,9 @@ static sq_lbm_desc lbm_desc(const sq_snowdrift_desc *d)
     l.wind.beaufort = d->beaufort;
     l.wind.gust_period_s = d->gust_period_s;
     l.wind.ramp_mps2 = d->wind_ramp_mps2;
+    /* under mpirun the wind lattice is split over the ranks (slabs along z); the snow stays
+     * whole on every rank, stepped identically from the gathered wind (docs/mpi.md) */
+    l.decompose = true;
     return l;
 }
 
@@ -351,6 +355,16 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
             }
     }
     s->derived_dirty = s->air_dirty = true;
+    /* a distributed run: the wind views are gathered now (a collective call), so that the
+     * fields, drawables and metrics asked of rank 0 alone find them ready */
+    if (sq_par_size() > 1) {
+        sq_lbm_views v;
+        r = sq_lbm_get_views(s->lbm, &v);
+        if (r != SQ_OK) {
+            sq_snowdrift_destroy(s);
+            return r;
+        }
+    }
     sq_log(ctx, SQ_LOG_INFO, "snowdrift",
            "lattice %dx%dx%d of %g m, wind step %.4g s, snow every %d wind steps, flake %.3g kg",
            s->nx, s->ny, s->nz, s->h, s->lbm_dt, s->sub, s->snow->flake_mass_kg);
@@ -436,6 +450,9 @@ sq_result sq_snowdrift_step(sq_snowdrift *s, double dt)
         if (r != SQ_OK) return r;
         move_flakes(s, dt, &v);
         s->ms_flakes += 1e3 * (sq_time_now() - t0);
+    } else if (sq_par_size() > 1) { /* the gathered views ready for rank 0 (see create) */
+        sq_result r = sq_lbm_get_views(s->lbm, &v);
+        if (r != SQ_OK) return r;
     }
     s->version++;
     return SQ_OK;

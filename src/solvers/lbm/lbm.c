@@ -9,6 +9,7 @@
 #endif
 
 #include "lbm_internal.h"
+#include "squall/par.h"
 #include "squall/rng.h"
 
 #define LBM_KAPPA 0.41                 /* von Kármán constant */
@@ -57,8 +58,12 @@ static bool want_parallel(const sq_lbm *l)
     return (int64_t)l->nx * l->ny * l->nz >= 32768;
 }
 
+/* Planes of the whole lattice (this slab's in a distributed run: l->nz). */
+static int global_nz(const sq_lbm *l) { return l->zdist ? l->nzg : l->nz; }
+
 static void invalidate(sq_lbm *l)
 {
+    l->nbr_valid = false;
     l->bc_valid = false;
     l->macro_valid = false;
     l->ustar_valid = false;
@@ -86,6 +91,7 @@ void sq_lbm_destroy(sq_lbm *l)
     sq_free(ctx, l->links);
     sq_free(ctx, l->inflow_cells);
     sq_free(ctx, l->inflow_shape);
+    sq__lbm_dist_free(l);
     sq_free(ctx, l);
 }
 
@@ -110,7 +116,10 @@ sq_result sq_lbm_create(sq_context *ctx, const sq_lbm_desc *desc, sq_lbm **out)
     double tau;
     r = sq__lbm_units_make(ctx, &d, &units, &tau);
     if (r != SQ_OK) return r;
-    const uint64_t bytes = sq_lbm_memory_bytes(&d);
+    const bool dist = d.decompose && sq_par_size() > 1;
+    sq_lbm_desc dl = d; /* one slab's share for the memory check (the views stay global) */
+    if (dist) dl.cells.nz = d.cells.nz / sq_par_size() + 1;
+    const uint64_t bytes = sq_lbm_memory_bytes(&dl);
     char what[96];
     snprintf(what, sizeof what, "lattice %dx%dx%d", d.cells.nx, d.cells.ny, d.cells.nz);
     r = sq_context_check_memory(ctx, bytes, what);
@@ -130,15 +139,22 @@ sq_result sq_lbm_create(sq_context *ctx, const sq_lbm_desc *desc, sq_lbm **out)
     l->nz = d.cells.nz;
     l->sy = l->nx + 2;
     l->sz = l->sy * (l->ny + 2);
-    l->ncell = l->sz * (l->nz + 2);
-    l->stride = (l->ncell + 15) / 16 * 16;
-    for (int i = 0; i < SQ_LBM_Q; i++)
-        l->off[i] = sq__lbm_c[i][0] + sq__lbm_c[i][1] * l->sy + sq__lbm_c[i][2] * l->sz;
     for (int a = 0; a < 3; a++) {
         const sq_lbm_bc b = d.bc[2 * a];
         l->periodic[a] = b == SQ_LBM_BC_PERIODIC || b == SQ_LBM_BC_RECYCLE;
     }
-    const int64_t cells = (int64_t)l->nx * l->ny * l->nz;
+    if (dist) { /* this rank's slab: l->nz becomes its plane count */
+        r = sq__lbm_dist_setup(l, &d);
+        if (r != SQ_OK) {
+            sq_lbm_destroy(l);
+            return r;
+        }
+    }
+    l->ncell = l->sz * (l->nz + 2);
+    l->stride = (l->ncell + 15) / 16 * 16;
+    for (int i = 0; i < SQ_LBM_Q; i++)
+        l->off[i] = sq__lbm_c[i][0] + sq__lbm_c[i][1] * l->sy + sq__lbm_c[i][2] * l->sz;
+    const int64_t cells = (int64_t)l->nx * l->ny * global_nz(l); /* the views: global */
     const int64_t rows = (int64_t)l->ny * l->nz;
     l->f = (float *)sq_alloc(ctx, (size_t)(SQ_LBM_Q * l->stride) * sizeof(float));
     l->solid = (uint8_t *)sq_alloc_zero(ctx, (size_t)l->ncell);
@@ -180,7 +196,7 @@ sq_result sq_lbm_create(sq_context *ctx, const sq_lbm_desc *desc, sq_lbm **out)
     l->beaufort = d.wind.beaufort;
     l->max_wind_lu = sq__lbm_max_wind_mps(&d) / units.u;
     int kr = (int)floor(d.wind.ref_height_m / units.dx);
-    l->k_ref = kr < 0 ? 0 : kr >= l->nz ? l->nz - 1 : kr;
+    l->k_ref = kr < 0 ? 0 : kr >= d.cells.nz ? d.cells.nz - 1 : kr;
     if (d.wind.ramp_mps2 == 0 && d.wind.speed_mps > 0) {
         double v[2];
         wind_vector(l, d.wind.speed_mps, v);
@@ -247,9 +263,20 @@ static void measure_ref_plane(const sq_lbm *l, double u[2])
     const float h = parity == 0 ? 0.5f : -0.5f;
     const float gh[3] = {h * (float)l->g_step[0], h * (float)l->g_step[1],
                          h * (float)l->g_step[2]};
-    double s[2];
+    double s[2] = {0, 0};
     int64_t n = 0;
-    sq__lbm_plane_velocity(l, parity, gh, l->k_ref, s, &n);
+    if (l->zdist) { /* the slab holding the plane measures, the others are told */
+        const int owner = l->plane_rank[l->k_ref];
+        double v[3] = {0, 0, 0};
+        if (owner == sq_par_rank()) {
+            sq__lbm_plane_velocity(l, parity, gh, l->k_ref - l->kz0, s, &n);
+            v[0] = s[0], v[1] = s[1], v[2] = (double)n;
+        }
+        sq_par_broadcast(v, sizeof v, owner);
+        s[0] = v[0], s[1] = v[1], n = (int64_t)v[2];
+    } else {
+        sq__lbm_plane_velocity(l, parity, gh, l->k_ref, s, &n);
+    }
     u[0] = n ? s[0] / (double)n : 0.0;
     u[1] = n ? s[1] / (double)n : 0.0;
 }
@@ -310,6 +337,7 @@ static void inject_lu(sq_lbm *l, const double v[3], int64_t *limited, bool equil
             sq__lbm_scatter(l, c, parity, f);
         }
     }
+    if (l->zdist) sq_par_sum_i64(&lim, 1);
     if (limited) *limited = lim;
     if (parity == 0) sq__lbm_prime_ghosts(l);
     invalidate(l);
@@ -453,11 +481,28 @@ static sq_result check_stability(sq_lbm *l)
             }
         }
     }
-    if (bad == INT64_MAX) return SQ_OK;
+    /* the first bad cell of the whole lattice (global x-fastest index) and its state */
+    const int64_t plane = (int64_t)l->nx * l->ny;
     int x, y, z;
-    cell_coords(l, bad, &x, &y, &z);
-    double rho, u[3];
-    cell_macro(l, bad, &rho, u);
+    int64_t g = INT64_MAX;
+    if (bad != INT64_MAX) {
+        cell_coords(l, bad, &x, &y, &z);
+        g = x + (int64_t)l->nx * y + plane * (z + l->kz0);
+    }
+    if (l->zdist) sq_par_min_i64(&g, 1);
+    if (g == INT64_MAX) return SQ_OK;
+    x = (int)(g % l->nx);
+    y = (int)((g / l->nx) % l->ny);
+    z = (int)(g / plane);
+    double rho = 0, u[3] = {0, 0, 0};
+    const int owner = l->zdist ? l->plane_rank[z] : 0;
+    if (!l->zdist || owner == sq_par_rank())
+        cell_macro(l, sq__lbm_cell(l, x, y, z - l->kz0), &rho, u);
+    if (l->zdist) {
+        double v[4] = {rho, u[0], u[1], u[2]};
+        sq_par_broadcast(v, sizeof v, owner);
+        rho = v[0], u[0] = v[1], u[1] = v[2], u[2] = v[3];
+    }
     return sq__fail(l->ctx, SQ_ERR_UNSTABLE, "lbm",
                     "step %lld: density %g, velocity (%g, %g, %g) l.u. at cell (%d, %d, %d): the "
                     "flow blew up (density must stay positive, speed below c_s = 0.577 l.u.); "
@@ -496,7 +541,10 @@ sq_result sq_lbm_step(sq_lbm *l, int steps)
         ensure_boundaries(l);           /* faces: walls, free slip, inflow, outflow, periodic */
         sq__lbm_kparams p;
         kernel_params(l, &p);
-        sq__lbm_sweep(l, (int)(l->step & 1), &p); /* fused collide + stream, AA in place */
+        if (l->zdist) /* the same, the slab faces' fold overlapped (lbm_dist.c) */
+            sq__lbm_dist_sweep(l, (int)(l->step & 1), &p);
+        else
+            sq__lbm_sweep(l, (int)(l->step & 1), &p); /* fused collide + stream, AA in place */
         l->step++;
         invalidate(l);
         if (l->step % l->desc.check_interval == 0) {
@@ -515,9 +563,11 @@ sq_result sq_lbm_init_fields(sq_lbm *l, const float *density, const float *ux, c
     if (!l) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_init_fields: lbm is NULL");
     const int parity = (int)(l->step & 1);
     const double inv_u = 1.0 / l->units.u, inv_rho = 1.0 / l->units.rho;
-    int64_t idx = 0;
-    for (int z = 0; z < l->nz; z++)
-        for (int y = 0; y < l->ny; y++)
+    sq_result res = SQ_OK;
+    /* the arrays are global: this slab's cells start at plane kz0 */
+    int64_t idx = (int64_t)l->kz0 * l->nx * l->ny;
+    for (int z = 0; z < l->nz && res == SQ_OK; z++)
+        for (int y = 0; y < l->ny && res == SQ_OK; y++)
             for (int x = 0; x < l->nx; x++, idx++) {
                 const int64_t c = sq__lbm_cell(l, x, y, z);
                 if (l->solid[c]) continue;
@@ -526,13 +576,15 @@ sq_result sq_lbm_init_fields(sq_lbm *l, const float *density, const float *ux, c
                                      uy ? (double)uy[idx] * inv_u : 0.0,
                                      uz ? (double)uz[idx] * inv_u : 0.0};
                 if (!(isfinite(rho) && rho > 0 && isfinite(u[0]) && isfinite(u[1]) &&
-                      isfinite(u[2])))
-                    return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
-                                    "init_fields: cell (%d, %d, %d) has density %g kg/m3 and "
-                                    "velocity (%g, %g, %g) m/s; density must be > 0 and all "
-                                    "finite",
-                                    x, y, z, rho * l->units.rho, u[0] * l->units.u,
-                                    u[1] * l->units.u, u[2] * l->units.u);
+                      isfinite(u[2]))) {
+                    res = sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
+                                   "init_fields: cell (%d, %d, %d) has density %g kg/m3 and "
+                                   "velocity (%g, %g, %g) m/s; density must be > 0 and all "
+                                   "finite",
+                                   x, y, z + l->kz0, rho * l->units.rho, u[0] * l->units.u,
+                                   u[1] * l->units.u, u[2] * l->units.u);
+                    break;
+                }
                 double feq[SQ_LBM_Q];
                 /* the stored velocity is shifted by ∓g/2 (see cell_macro) */
                 double us[3];
@@ -541,6 +593,9 @@ sq_result sq_lbm_init_fields(sq_lbm *l, const float *density, const float *ux, c
                 sq__lbm_feq(rho, us, feq);
                 sq__lbm_scatter(l, c, parity, feq);
             }
+    /* a bad value in one slab stops every rank with its message */
+    if (l->zdist) res = sq_par_agree(res);
+    if (res != SQ_OK) return res;
     if (parity == 0) sq__lbm_prime_ghosts(l);
     invalidate(l);
     return SQ_OK;
@@ -548,25 +603,77 @@ sq_result sq_lbm_init_fields(sq_lbm *l, const float *density, const float *ux, c
 
 bool sq_lbm_is_solid(const sq_lbm *l, int i, int j, int k)
 {
-    if (!l || i < 0 || j < 0 || k < 0 || i >= l->nx || j >= l->ny || k >= l->nz) return false;
-    return l->solid[sq__lbm_cell(l, i, j, k)] != 0;
+    if (!l || i < 0 || j < 0 || k < 0 || i >= l->nx || j >= l->ny || k >= global_nz(l))
+        return false;
+    return sq__lbm_gsolid(l, i, j, k) != 0;
+}
+
+/* Density and velocity of the planes beyond this slab's faces, from the neighbouring slabs
+ * (collective; see reinit_from_neighbours). */
+void sq__lbm_dist_neighbour_planes(sq_lbm *l)
+{
+    const int64_t plane = (int64_t)l->nx * l->ny;
+    double *snd = (double *)sq_alloc(l->ctx, (size_t)(8 * plane) * sizeof(double));
+    if (!snd) return; /* the buffer keeps its last values; memory is checked at create */
+    for (int s = 0; s < 2; s++) {
+        const int z = s == 0 ? 0 : l->nz - 1;
+        for (int y = 0; y < l->ny; y++)
+            for (int x = 0; x < l->nx; x++) {
+                double *m = snd + 4 * (s * plane + x + (int64_t)l->nx * y);
+                cell_macro(l, sq__lbm_cell(l, x, y, z), &m[0], m + 1);
+            }
+    }
+    const void *sb[2] = {snd, snd + 4 * plane};
+    void *rb[2] = {l->nbr, l->nbr + 4 * plane};
+    const size_t bytes[2] = {(size_t)(4 * plane) * sizeof(double),
+                             (size_t)(4 * plane) * sizeof(double)};
+    (void)sq_par_exchange_pair(l->znb, sb, bytes, rb, bytes);
+    sq_free(l->ctx, snd);
+}
+
+/* Whether global plane k touches a plane of another slab (its cells' neighbours then come
+ * from sq__lbm_dist_neighbour_planes). */
+static bool near_slab_face(const sq_lbm *l, int k)
+{
+    if (!l->zdist) return false;
+    const int n = l->nzg, me = l->plane_rank[k];
+    const bool per = l->periodic[2];
+    const int below = k > 0 ? k - 1 : per ? n - 1 : -1;
+    const int above = k < n - 1 ? k + 1 : per ? 0 : -1;
+    return (below >= 0 && l->plane_rank[below] != me) ||
+           (above >= 0 && l->plane_rank[above] != me);
+}
+
+static void ensure_neighbour_planes(sq_lbm *l)
+{
+    if (l->nbr_valid) return;
+    sq__lbm_dist_neighbour_planes(l);
+    l->nbr_valid = true;
 }
 
 /* Equilibrium from the mean ρ, u of the neighbours whose flag is 0 (fluid before the edit).
- * Returns the cell's density and velocity (lattice units, as the views report them). */
+ * Returns the cell's density and velocity (lattice units, as the views report them).
+ * (x, y, z) is a cell of this slab; neighbours in other slabs come from l->nbr. */
 static void reinit_from_neighbours(sq_lbm *l, int x, int y, int z, double *rho_out,
                                    double u_out[3])
 {
     const int parity = (int)(l->step & 1);
+    const int gnz = global_nz(l);
+    const int64_t plane = (int64_t)l->nx * l->ny;
     double rho = 0, u[3] = {0, 0, 0};
     int n = 0;
     for (int i = 1; i < SQ_LBM_Q; i++) {
         const int qx = x + sq__lbm_c[i][0], qy = y + sq__lbm_c[i][1], qz = z + sq__lbm_c[i][2];
-        if (qx < 0 || qy < 0 || qz < 0 || qx >= l->nx || qy >= l->ny || qz >= l->nz) continue;
-        const int64_t q = sq__lbm_cell(l, qx, qy, qz);
-        if (l->solid[q] != 0) continue;
+        const int qg = qz + l->kz0;
+        if (qx < 0 || qy < 0 || qg < 0 || qx >= l->nx || qy >= l->ny || qg >= gnz) continue;
+        if (sq__lbm_gsolid(l, qx, qy, qg) != 0) continue;
         double r, v[3];
-        cell_macro(l, q, &r, v);
+        if (qz >= 0 && qz < l->nz) {
+            cell_macro(l, sq__lbm_cell(l, qx, qy, qz), &r, v);
+        } else {
+            const double *m = l->nbr + 4 * ((qz < 0 ? 0 : plane) + qx + (int64_t)l->nx * qy);
+            r = m[0], v[0] = m[1], v[1] = m[2], v[2] = m[3];
+        }
         if (!(isfinite(r) && r > 0)) continue;
         rho += r;
         for (int a = 0; a < 3; a++) u[a] += v[a];
@@ -588,9 +695,10 @@ static void reinit_from_neighbours(sq_lbm *l, int x, int y, int z, double *rho_o
     sq__lbm_scatter(l, sq__lbm_cell(l, x, y, z), parity, feq);
 }
 
+/* (x, y, z): a cell of this slab. */
 static bool on_inflow_face(const sq_lbm *l, int x, int y, int z)
 {
-    const int p[3] = {x, y, z}, n[3] = {l->nx, l->ny, l->nz};
+    const int p[3] = {x, y, z + l->kz0}, n[3] = {l->nx, l->ny, global_nz(l)};
     for (int a = 0; a < 3; a++) {
         if (p[a] == 0 && l->desc.bc[2 * a] == SQ_LBM_BC_INFLOW) return true;
         if (p[a] == n[a] - 1 && l->desc.bc[2 * a + 1] == SQ_LBM_BC_INFLOW) return true;
@@ -598,34 +706,61 @@ static bool on_inflow_face(const sq_lbm *l, int x, int y, int z)
     return false;
 }
 
+/* The flag of global cell (i, j, k) in this slab's padded array (its ghost planes too). */
+static void set_local_flag(sq_lbm *l, int i, int j, int k, uint8_t v)
+{
+    const int zl = k - l->kz0;
+    if (zl >= -1 && zl <= l->nz) l->solid[sq__lbm_cell(l, i, j, zl)] = v;
+}
+
 sq_result sq_lbm_set_solid(sq_lbm *l, int i, int j, int k, bool solid)
 {
     if (!l) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_set_solid: lbm is NULL");
-    if (i < 0 || j < 0 || k < 0 || i >= l->nx || j >= l->ny || k >= l->nz)
+    const int gnz = global_nz(l);
+    if (i < 0 || j < 0 || k < 0 || i >= l->nx || j >= l->ny || k >= gnz)
         return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
                         "set_solid: cell (%d, %d, %d) is outside the lattice %dx%dx%d", i, j, k,
-                        l->nx, l->ny, l->nz);
-    const int64_t c = sq__lbm_cell(l, i, j, k);
-    const bool was = l->solid[c] != 0;
+                        l->nx, l->ny, gnz);
+    const bool was = sq__lbm_gsolid(l, i, j, k) != 0;
     if (was == solid) return SQ_OK;
-    const int64_t r = j + (int64_t)k * l->ny;
+    const int zl = k - l->kz0;
+    const bool mine = zl >= 0 && zl < l->nz;
+    /* a cell turning fluid next to another slab needs that slab's edge plane (collective:
+     * every rank makes the same call and knows the global flags) */
+    const bool near = near_slab_face(l, k);
+    if (!solid && near) ensure_neighbour_planes(l);
     double rho = 0, u[3] = {0, 0, 0};
-    if (solid) {
-        l->solid[c] = 1;
-        l->row_solids[r]++;
-    } else {
-        reinit_from_neighbours(l, i, j, k, &rho, u);
-        l->solid[c] = 0;
-        l->row_solids[r]--;
+    if (mine) {
+        const int64_t c = sq__lbm_cell(l, i, j, zl);
+        const int64_t r = j + (int64_t)zl * l->ny;
+        if (solid) {
+            l->solid[c] = 1;
+            l->row_solids[r]++;
+        } else {
+            reinit_from_neighbours(l, i, j, zl, &rho, u);
+            l->solid[c] = 0;
+            l->row_solids[r]--;
+        }
+        update_row_class(l, j, zl);
+        if (on_inflow_face(l, i, j, zl)) l->inflow_dirty = true;
     }
-    update_row_class(l, j, k);
-    if (on_inflow_face(l, i, j, k)) l->inflow_dirty = true;
+    if (l->zdist) {
+        l->gsolid[i + (int64_t)l->nx * (j + (int64_t)l->ny * k)] = solid ? 1 : 0;
+        set_local_flag(l, i, j, k, solid ? 1 : 0);
+        l->inflow_dirty = true; /* an inflow column may pass through this cell */
+        if (near) l->nbr_valid = false;
+    }
     /* the density/velocity views stay valid: only this cell changed (0 when solid, the
      * re-initialised equilibrium when fluid); boundaries and u* are redone */
     l->bc_valid = false;
     l->ustar_valid = false;
     if (l->macro_valid) {
-        const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+        if (l->zdist && !solid) { /* every rank's copy of the views learns the new state */
+            double v[4] = {rho, u[0], u[1], u[2]};
+            sq_par_broadcast(v, sizeof v, l->plane_rank[k]);
+            rho = v[0], u[0] = v[1], u[1] = v[2], u[2] = v[3];
+        }
+        const int64_t n = (int64_t)l->nx * l->ny * gnz;
         const int64_t o = i + (int64_t)l->nx * (j + (int64_t)l->ny * k);
         l->macro[o] = (float)(rho * l->units.rho);
         for (int a = 0; a < 3; a++) l->macro[(a + 1) * n + o] = (float)(u[a] * l->units.u);
@@ -638,19 +773,40 @@ sq_result sq_lbm_set_solid_mask(sq_lbm *l, const uint8_t *mask)
     if (!l || !mask)
         return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_set_solid_mask: NULL argument");
     /* pass 1: new solids set, cells turning fluid marked 2 (still not fluid for their
-     * neighbours' averages); pass 2: those re-initialised; pass 3: marks cleared */
-    int64_t idx = 0, nfree = 0;
-    for (int z = 0; z < l->nz; z++)
-        for (int y = 0; y < l->ny; y++)
-            for (int x = 0; x < l->nx; x++, idx++) {
-                const int64_t c = sq__lbm_cell(l, x, y, z);
-                const bool want = mask[idx] != 0, was = l->solid[c] != 0;
-                if (want && !was) l->solid[c] = 1;
-                if (!want && was) {
-                    l->solid[c] = 2;
-                    nfree++;
+     * neighbours' averages); pass 2: those re-initialised; pass 3: marks cleared. The mask is
+     * global; a slab applies its planes (and keeps the whole lattice's flags in gsolid). */
+    int64_t nfree = 0;
+    if (l->zdist) {
+        int64_t idx = 0;
+        for (int z = 0; z < l->nzg; z++)
+            for (int y = 0; y < l->ny; y++)
+                for (int x = 0; x < l->nx; x++, idx++) {
+                    const bool want = mask[idx] != 0, was = l->gsolid[idx] != 0;
+                    if (want && !was) l->gsolid[idx] = 1;
+                    if (!want && was) {
+                        l->gsolid[idx] = 2;
+                        nfree++;
+                    }
+                    set_local_flag(l, x, y, z, l->gsolid[idx]);
                 }
-            }
+        if (nfree > 0) {
+            l->nbr_valid = false;
+            ensure_neighbour_planes(l);
+        }
+    } else {
+        int64_t idx = 0;
+        for (int z = 0; z < l->nz; z++)
+            for (int y = 0; y < l->ny; y++)
+                for (int x = 0; x < l->nx; x++, idx++) {
+                    const int64_t c = sq__lbm_cell(l, x, y, z);
+                    const bool want = mask[idx] != 0, was = l->solid[c] != 0;
+                    if (want && !was) l->solid[c] = 1;
+                    if (!want && was) {
+                        l->solid[c] = 2;
+                        nfree++;
+                    }
+                }
+    }
     if (nfree > 0) {
         for (int z = 0; z < l->nz; z++)
             for (int y = 0; y < l->ny; y++)
@@ -659,12 +815,19 @@ sq_result sq_lbm_set_solid_mask(sq_lbm *l, const uint8_t *mask)
                         double rho, u[3];
                         reinit_from_neighbours(l, x, y, z, &rho, u);
                     }
-        for (int z = 0; z < l->nz; z++)
+        for (int z = -1; z <= l->nz; z++) {
+            if ((z < 0 || z >= l->nz) && !l->zdist) continue;
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++) {
                     uint8_t *s = &l->solid[sq__lbm_cell(l, x, y, z)];
                     if (*s == 2) *s = 0;
                 }
+        }
+        if (l->zdist) {
+            const int64_t n = (int64_t)l->nx * l->ny * l->nzg;
+            for (int64_t c = 0; c < n; c++)
+                if (l->gsolid[c] == 2) l->gsolid[c] = 0;
+        }
     }
     for (int z = 0; z < l->nz; z++)
         for (int y = 0; y < l->ny; y++) {
@@ -692,6 +855,7 @@ static sq_field_view interior_view(const sq_lbm *l, const float *data)
     return v;
 }
 
+/* The views of the whole lattice: this slab's computed, then gathered on every rank. */
 static void compute_macro(sq_lbm *l)
 {
     ensure_boundaries(l);
@@ -700,8 +864,10 @@ static void compute_macro(sq_lbm *l)
     const float h = parity == 0 ? 0.5f : -0.5f;
     const float gh[3] = {h * (float)l->g_step[0], h * (float)l->g_step[1],
                          h * (float)l->g_step[2]};
-    sq__lbm_macro(l, parity, gh, (float)l->units.rho, (float)l->units.u, l->macro,
-                  l->macro + n, l->macro + 2 * n, l->macro + 3 * n);
+    float *const m = l->zdist ? l->lmacro : l->macro;
+    sq__lbm_macro(l, parity, gh, (float)l->units.rho, (float)l->units.u, m, m + n, m + 2 * n,
+                  m + 3 * n);
+    if (l->zdist) sq__lbm_dist_gather_macro(l);
     l->macro_valid = true;
 }
 
@@ -709,15 +875,15 @@ sq_result sq_lbm_get_views(sq_lbm *l, sq_lbm_views *out)
 {
     if (!l || !out) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_get_views: NULL argument");
     if (!l->macro_valid) compute_macro(l);
-    const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+    const int64_t n = (int64_t)l->nx * l->ny * global_nz(l);
     out->density = interior_view(l, l->macro);
     for (int a = 0; a < 3; a++) out->u[a] = interior_view(l, l->macro + (a + 1) * n);
     return SQ_OK;
 }
 
-/* u* of interior cell (x, y, z) from the velocity views u (see sq_lbm_get_friction_velocity):
- * the first wall among the neighbours below, at the sides, above; 0 in solid cells and away
- * from walls. k = κ / ln((Δx/2 + z0)/z0). */
+/* u* of global cell (x, y, z) from the global velocity views u (see
+ * sq_lbm_get_friction_velocity): the first wall among the neighbours below, at the sides,
+ * above; 0 in solid cells and away from walls. k = κ / ln((Δx/2 + z0)/z0). */
 static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], float k, int x,
                                     int y, int z)
 {
@@ -726,14 +892,15 @@ static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], fl
                                  {0, -1, 0}, {0, 1, 0},  {0, 0, 1}};
     static const int face_of[6] = {SQ_LBM_FACE_ZMIN, SQ_LBM_FACE_XMIN, SQ_LBM_FACE_XMAX,
                                    SQ_LBM_FACE_YMIN, SQ_LBM_FACE_YMAX, SQ_LBM_FACE_ZMAX};
-    if (l->solid[sq__lbm_cell(l, x, y, z)]) return 0.0f;
+    if (sq__lbm_gsolid(l, x, y, z)) return 0.0f;
+    const int gnz = global_nz(l);
     const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z);
     for (int m = 0; m < 6; m++) {
         const int qx = x + nb[m][0], qy = y + nb[m][1], qz = z + nb[m][2];
         const bool outside =
-            qx < 0 || qy < 0 || qz < 0 || qx >= l->nx || qy >= l->ny || qz >= l->nz;
+            qx < 0 || qy < 0 || qz < 0 || qx >= l->nx || qy >= l->ny || qz >= gnz;
         const bool wall = outside ? l->desc.bc[face_of[m]] == SQ_LBM_BC_WALL
-                                  : l->solid[sq__lbm_cell(l, qx, qy, qz)] != 0;
+                                  : sq__lbm_gsolid(l, qx, qy, qz) != 0;
         if (!wall) continue;
         /* tangential velocity: drop the component along the normal */
         float v[3] = {u[0][o], u[1][o], u[2][o]};
@@ -756,12 +923,13 @@ sq_result sq_lbm_get_friction_velocity(sq_lbm *l, sq_field_view *out)
         return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_get_friction_velocity: NULL argument");
     if (!l->ustar_valid) {
         if (!l->macro_valid) compute_macro(l);
-        const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+        const int gnz = global_nz(l);
+        const int64_t n = (int64_t)l->nx * l->ny * gnz;
         const float *const u[3] = {l->macro + n, l->macro + 2 * n, l->macro + 3 * n};
         const float k = friction_factor(l);
         const int nt = sq_context_threads(l->ctx);
         SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
-        for (int z = 0; z < l->nz; z++)
+        for (int z = 0; z < gnz; z++)
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++)
                     l->ustar[x + (int64_t)l->nx * (y + (int64_t)l->ny * z)] =
@@ -779,7 +947,7 @@ sq_result sq_lbm_get_friction_velocity_at(sq_lbm *l, int64_t count, const int64_
         return sq__set_error(SQ_ERR_INVALID_ARG,
                              "sq_lbm_get_friction_velocity_at: NULL argument or count < 0");
     if (!l->macro_valid) compute_macro(l);
-    const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+    const int64_t n = (int64_t)l->nx * l->ny * global_nz(l);
     const float *const u[3] = {l->macro + n, l->macro + 2 * n, l->macro + 3 * n};
     const float k = friction_factor(l);
     const int64_t sxy = (int64_t)l->nx * l->ny;
@@ -801,9 +969,10 @@ sq_result sq_lbm_get_totals(sq_lbm *l, sq_lbm_totals *out)
     if (!l || !out) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_get_totals: NULL argument");
     ensure_boundaries(l);
     const int parity = (int)(l->step & 1);
-    /* per-z partial sums, added in fixed order (result independent of the thread count) */
-    const int nz = l->nz;
-    double *part = (double *)sq_alloc_zero(l->ctx, (size_t)nz * 5 * sizeof(double));
+    /* per-z partial sums, added in fixed order (result independent of the thread count and,
+     * the planes being gathered in order, of the rank count) */
+    const int nz = l->nz, gnz = global_nz(l);
+    double *part = (double *)sq_alloc_zero(l->ctx, (size_t)(nz + gnz) * 5 * sizeof(double));
     if (!part) return SQ_ERR_OUT_OF_MEMORY;
     const int nt = sq_context_threads(l->ctx);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(want_parallel(l)))
@@ -824,11 +993,11 @@ sq_result sq_lbm_get_totals(sq_lbm *l, sq_lbm_totals *out)
                     /* populations in flight into this solid cell from fluid neighbours */
                     for (int i = 1; i < SQ_LBM_Q; i++) {
                         const int qx = x - sq__lbm_c[i][0], qy = y - sq__lbm_c[i][1];
-                        const int qz = z - sq__lbm_c[i][2];
+                        const int qz = z + l->kz0 - sq__lbm_c[i][2];
                         if (qx < 0 || qy < 0 || qz < 0 || qx >= l->nx || qy >= l->ny ||
-                            qz >= l->nz)
+                            qz >= gnz)
                             continue;
-                        if (l->solid[sq__lbm_cell(l, qx, qy, qz)]) continue;
+                        if (sq__lbm_gsolid(l, qx, qy, qz)) continue;
                         const double fi = (double)l->f[(int64_t)i * l->stride + c] + sq__lbm_w[i];
                         m += fi;
                         for (int a = 0; a < 3; a++) p[a] += sq__lbm_c[i][a] * fi;
@@ -841,11 +1010,24 @@ sq_result sq_lbm_get_totals(sq_lbm *l, sq_lbm_totals *out)
         part[5 * z + 3] = p[2];
         part[5 * z + 4] = nf;
     }
+    double *all = part;
+    if (l->zdist) {
+        all = part + 5 * nz;
+        int64_t *cnt = (int64_t *)sq_alloc(l->ctx, (size_t)l->nranks * sizeof(int64_t));
+        if (!cnt) {
+            sq_free(l->ctx, part);
+            return SQ_ERR_OUT_OF_MEMORY;
+        }
+        for (int q = 0; q < l->nranks; q++)
+            cnt[q] = 5 * l->rank_cells[q] / ((int64_t)l->nx * l->ny); /* 5 values per plane */
+        (void)sq_par_allgather_f64(part, cnt, all);
+        sq_free(l->ctx, cnt);
+    }
     double m = 0, p[3] = {0, 0, 0}, nf = 0;
-    for (int z = 0; z < nz; z++) {
-        m += part[5 * z];
-        for (int a = 0; a < 3; a++) p[a] += part[5 * z + 1 + a];
-        nf += part[5 * z + 4];
+    for (int z = 0; z < gnz; z++) {
+        m += all[5 * z];
+        for (int a = 0; a < 3; a++) p[a] += all[5 * z + 1 + a];
+        nf += all[5 * z + 4];
     }
     sq_free(l->ctx, part);
     const double vol = l->units.dx * l->units.dx * l->units.dx;

@@ -64,8 +64,10 @@ static int64_t enumerate_links(sq_lbm *l, sq__lbm_link *out)
                     for (int a = 0; a < 3; a++) {
                         s[a] = p[a] - sq__lbm_c[i][a];
                         if (s[a] >= 0 && s[a] < n[a]) continue;
-                        if (l->periodic[a]) {
-                            s[a] = (s[a] + n[a]) % n[a];
+                        if (sq__lbm_face_joined(l, a, s[a] >= n[a] ? 1 : 0)) {
+                            /* a slab face: the source is in the ghost plane, filled from
+                             * the neighbouring slab */
+                            if (!(a == 2 && l->zdist)) s[a] = (s[a] + n[a]) % n[a];
                             continue;
                         }
                         crossed[a] = 2 * a + (s[a] >= n[a] ? 1 : 0);
@@ -92,8 +94,13 @@ static int64_t enumerate_links(sq_lbm *l, sq__lbm_link *out)
                                 crossed[a] >= 0 && d->bc[crossed[a]] == SQ_LBM_BC_FREE_SLIP;
                             cr[a] = mirror ? -sq__lbm_c[i][a] : sq__lbm_c[i][a];
                             q[a] = mirror ? p[a] : p[a] - sq__lbm_c[i][a];
-                            if (l->periodic[a]) q[a] = (q[a] + n[a]) % n[a];
-                            if (q[a] < 0 || q[a] >= n[a]) inside = false;
+                            if (q[a] >= 0 && q[a] < n[a]) continue;
+                            if (a == 2 && l->zdist && sq__lbm_z_joined(l, q[a] >= n[a]))
+                                continue; /* the neighbouring slab's cell (ghost plane) */
+                            if (l->periodic[a] && !(a == 2 && l->zdist))
+                                q[a] = (q[a] + n[a]) % n[a];
+                            else
+                                inside = false;
                         }
                         if (inside) {
                             lk.kind = SQ_LBM_LINK_COPY;
@@ -136,8 +143,11 @@ static int64_t enumerate_links(sq_lbm *l, sq__lbm_link *out)
                         lk.src = -1; /* set to the inflow-cell index in sq__lbm_links_build */
                     } else { /* OUTFLOW */
                         int q[3];
-                        for (int a = 0; a < 3; a++)
-                            q[a] = s[a] < 0 ? 0 : s[a] >= n[a] ? n[a] - 1 : s[a];
+                        for (int a = 0; a < 3; a++) {
+                            const bool joined = (s[a] < 0 || s[a] >= n[a]) &&
+                                                a == 2 && sq__lbm_z_joined(l, s[a] >= n[a]);
+                            q[a] = joined ? s[a] : s[a] < 0 ? 0 : s[a] >= n[a] ? n[a] - 1 : s[a];
+                        }
                         lk.kind = SQ_LBM_LINK_COPY;
                         lk.r = (uint8_t)i;
                         lk.src = (int32_t)sq__lbm_cell(l, q[0], q[1], q[2]);
@@ -149,12 +159,14 @@ static int64_t enumerate_links(sq_lbm *l, sq__lbm_link *out)
     return count;
 }
 
+/* p: a cell of this slab (z local). */
 static bool on_inflow_face(const sq_lbm *l, const int p[3])
 {
-    const int n[3] = {l->nx, l->ny, l->nz};
+    const int g[3] = {p[0], p[1], p[2] + l->kz0};
+    const int n[3] = {l->nx, l->ny, l->zdist ? l->nzg : l->nz};
     for (int a = 0; a < 3; a++) {
-        if (p[a] == 0 && l->desc.bc[2 * a] == SQ_LBM_BC_INFLOW) return true;
-        if (p[a] == n[a] - 1 && l->desc.bc[2 * a + 1] == SQ_LBM_BC_INFLOW) return true;
+        if (g[a] == 0 && l->desc.bc[2 * a] == SQ_LBM_BC_INFLOW) return true;
+        if (g[a] == n[a] - 1 && l->desc.bc[2 * a + 1] == SQ_LBM_BC_INFLOW) return true;
     }
     return false;
 }
@@ -217,10 +229,12 @@ void sq__lbm_inflow_shapes(sq_lbm *l)
     const bool wall_bottom = l->desc.bc[SQ_LBM_FACE_ZMIN] == SQ_LBM_BC_WALL;
     for (int64_t k = 0; k < l->ninflow; k++) {
         const int64_t c = l->inflow_cells[k];
-        const int z = (int)(c / l->sz) - 1;
+        /* global height: the column below may run through other slabs (global flags) */
+        const int z = (int)(c / l->sz) - 1 + l->kz0;
+        const int y = (int)((c % l->sz) / l->sy) - 1, x = (int)(c % l->sy) - 1;
         int zg = wall_bottom ? -1 : -2;
         for (int q = z - 1; q >= 0; q--) {
-            if (l->solid[c - (int64_t)(z - q) * l->sz]) {
+            if (sq__lbm_gsolid(l, x, y, q)) {
                 zg = q;
                 break;
             }
@@ -246,7 +260,14 @@ void sq__lbm_boundaries(sq_lbm *l)
 {
     const int parity = (int)(l->step & 1);
     sq__lbm_fold_periodic(l, parity);
-    if (l->nlinks == 0 && l->ninflow == 0) return;
+    /* slab faces before an odd step: filled after the inflow layer's reset (the neighbour
+     * reads those cells' new populations) and before the links (which write the corners of
+     * the ghost planes the cells of this slab read) */
+    const bool fill = l->zdist && parity == 1;
+    if (l->nlinks == 0 && l->ninflow == 0) {
+        if (fill) sq__lbm_z_exchange(l, SQ_LBM_Z_FILL);
+        return;
+    }
     if (l->inflow_dirty) sq__lbm_inflow_shapes(l);
     float *const F = l->f;
     const int64_t S = l->stride;
@@ -264,6 +285,7 @@ void sq__lbm_boundaries(sq_lbm *l)
             F[(int64_t)slot * S + c] = h[i];
         }
     }
+    if (fill) sq__lbm_z_exchange(l, SQ_LBM_Z_FILL);
     for (int64_t k = 0; k < l->nlinks; k++) {
         const sq__lbm_link lk = l->links[k];
         if (solid[lk.x]) continue;
@@ -308,7 +330,8 @@ void sq__lbm_prime_ghosts(sq_lbm *l)
     /* periodic axes first: the non-periodic slots written below include corner ghosts that
      * the unfold's padded ranges would otherwise overwrite */
     for (int a = 0; a < 3; a++) {
-        if (!l->periodic[a]) continue;
+        /* slab faces: their fold is made right after each odd step; nothing to undo */
+        if (!l->periodic[a] || (a == 2 && l->zdist)) continue;
         int lo[3], hi[3];
         for (int b = 0; b < 3; b++) {
             lo[b] = b < a ? -1 : 0;
@@ -332,6 +355,9 @@ void sq__lbm_prime_ghosts(sq_lbm *l)
                 }
         }
     }
+    /* slab faces: as a periodic axis, unfolded (the neighbours' edge planes into the ghost
+     * planes, the exchange made before an odd step) ... */
+    if (l->zdist) sq__lbm_z_exchange(l, SQ_LBM_Z_FILL);
     for (int z = 0; z < n[2]; z++)
         for (int y = 0; y < n[1]; y++)
             for (int x = 0; x < n[0]; x++) {
@@ -344,9 +370,13 @@ void sq__lbm_prime_ghosts(sq_lbm *l)
                     bool out = false;
                     for (int a = 0; a < 3; a++) {
                         const int q = p[a] + sq__lbm_c[r][a];
-                        if ((q < 0 || q >= n[a]) && !l->periodic[a]) out = true;
+                        if ((q < 0 || q >= n[a]) && !sq__lbm_face_joined(l, a, q >= n[a]))
+                            out = true;
                     }
                     if (out) F[(int64_t)r * S + c + l->off[r]] = F[(int64_t)r * S + c];
                 }
             }
+    /* ... then folded at once, which carries what the edge cells emit across the faces of
+     * other axes in the ghost planes onto the neighbours' edge planes */
+    if (l->zdist) sq__lbm_z_exchange(l, SQ_LBM_Z_FOLD);
 }

@@ -22,6 +22,7 @@
 
 #include "core/core_internal.h"
 #include "squall/lbm.h"
+#include "squall/par.h"
 
 #define SQ_LBM_Q 15
 
@@ -111,8 +112,25 @@ struct sq_lbm {
     double g_step[3];          /* body acceleration used by the last step */
     double pending[3];         /* one-shot injection pending for the next step */
     double max_wind_lu;
-    int k_ref;                 /* plane where BODY_FORCE measures the wind */
+    int k_ref;                 /* plane where BODY_FORCE measures the wind (global) */
     uint64_t seed;
+    /* distributed (desc.decompose, more than one rank; lbm_dist.c): this rank holds the
+     * planes [kz0, kz0 + nz) of the nzg planes of the lattice; nx, ny, nz, the padded arrays
+     * and the links are this slab's. */
+    bool zdist;
+    int kz0, nzg;
+    int znb[2];                /* ranks below / above (-1: the ground / the sky) */
+    int nranks;
+    int *plane_rank;           /* nzg: the rank holding each plane */
+    int64_t *rank_cells;       /* nranks: cells of each rank's slab (the gathers' counts) */
+    uint8_t *gsolid;           /* nx*ny*nzg solid flags of the whole lattice (every rank) */
+    float *lmacro;             /* 4 * this slab's cells: its views before the gather */
+    double *nbr;               /* 2 planes x nx*ny x 4: density and velocity (l.u.) of the
+                                * planes beyond the slab's lower and upper faces */
+    bool nbr_valid;
+    float *zbuf;               /* exchange buffers: 4 x 5 populations x one padded plane */
+    sq_par_exchange zx;        /* transfers in flight (sq__lbm_z_exchange_begin) */
+    int zx_mode;
 };
 
 /* ---- desc / units (lbm_desc.c) ---- */
@@ -132,6 +150,8 @@ double sq__lbm_log_shape(double h_m, double z0_m, double zref_m);
 /* ---- kernels (lbm_kernels.c) ---- */
 /* One fused collide-and-stream sweep over all interior rows (parity 0 = even, 1 = odd). */
 void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p);
+/* The same over the rows of planes [z0, z1) only. */
+void sq__lbm_sweep_planes(sq_lbm *l, int parity, const sq__lbm_kparams *p, int z0, int z1);
 /* Periodic ghost exchange for the given layout parity (0 natural, 1 swapped). */
 void sq__lbm_fold_periodic(sq_lbm *l, int parity);
 /* Reads the 15 populations of padded cell c as f_i(c) (pre-collision for parity 0,
@@ -157,9 +177,47 @@ void sq__lbm_prime_ghosts(sq_lbm *l);
 /* Fills the populations entering through the faces for the current layout. */
 void sq__lbm_boundaries(sq_lbm *l);
 
+/* ---- distributed slabs (lbm_dist.c) ---- */
+/* Splits the lattice (desc.decompose and more than one rank): slab, neighbours, buffers. */
+sq_result sq__lbm_dist_setup(sq_lbm *l, const sq_lbm_desc *d);
+void sq__lbm_dist_free(sq_lbm *l);
+/* Populations crossing the slab faces: SQ_LBM_Z_FILL before an odd step (this slab's edge
+ * planes into the neighbours' ghost planes, as the periodic fill); SQ_LBM_Z_FOLD right after
+ * it (what left into the ghost planes onto the neighbours' edge planes). */
+enum { SQ_LBM_Z_FILL = 0, SQ_LBM_Z_FOLD = 1 };
+void sq__lbm_z_exchange(sq_lbm *l, int mode);
+/* The same in two halves: begin packs and posts the transfers, end waits and unpacks; the
+ * planes 1..nz-2 may be updated in between (the transfers touch the ghost and edge planes). */
+void sq__lbm_z_exchange_begin(sq_lbm *l, int mode);
+void sq__lbm_z_exchange_end(sq_lbm *l);
+/* One step's sweep on a slab: for an odd step the edge planes first, then the fold of what
+ * they sent across the slab faces overlapped with the interior planes' update. */
+void sq__lbm_dist_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p);
+/* Density and velocity of the planes beyond the slab faces (for cells turning fluid). */
+void sq__lbm_dist_neighbour_planes(sq_lbm *l);
+/* Gathers this slab's views (lmacro) into the global views (macro) on every rank. */
+void sq__lbm_dist_gather_macro(sq_lbm *l);
+/* Whether face s (0 below, 1 above) of the z axis continues into another slab. */
+static inline bool sq__lbm_z_joined(const sq_lbm *l, int s) { return l->zdist && l->znb[s] >= 0; }
+/* Whether a population crossing face s of axis a stays in the lattice (periodic axis, or a
+ * slab face with a neighbour): no boundary link there. */
+static inline bool sq__lbm_face_joined(const sq_lbm *l, int a, int s)
+{
+    if (a == 2 && l->zdist) return l->znb[s] >= 0;
+    return l->periodic[a];
+}
+/* Solid flag of global cell (x, y, z) (inside the lattice). */
+static inline uint8_t sq__lbm_gsolid(const sq_lbm *l, int x, int y, int z);
+
 static inline int64_t sq__lbm_cell(const sq_lbm *l, int x, int y, int z)
 {
     return (int64_t)(x + 1) + (int64_t)(y + 1) * l->sy + (int64_t)(z + 1) * l->sz;
+}
+
+static inline uint8_t sq__lbm_gsolid(const sq_lbm *l, int x, int y, int z)
+{
+    if (l->zdist) return l->gsolid[x + (int64_t)l->nx * (y + (int64_t)l->ny * z)];
+    return l->solid[sq__lbm_cell(l, x, y, z)];
 }
 
 #endif

@@ -218,9 +218,14 @@ static void row_mixed_smag(float *const *q, const uint8_t *solid, int n, const s
 
 void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
 {
+    sq__lbm_sweep_planes(l, parity, p, 0, l->nz);
+}
+
+void sq__lbm_sweep_planes(sq_lbm *l, int parity, const sq__lbm_kparams *p, int z0, int z1)
+{
     const int nt = sq_context_threads(l->ctx);
     const int nx = l->nx, ny = l->ny;
-    const int64_t rows = (int64_t)ny * l->nz;
+    const int64_t rows = (int64_t)ny * z1, r0 = (int64_t)ny * z0;
     float *const f = l->f;
     const int64_t S = l->stride;
     const uint8_t *const cls = l->row_class;
@@ -241,9 +246,9 @@ void sq__lbm_sweep(sq_lbm *l, int parity, const sq__lbm_kparams *p)
         roff[i] = parity == 0 ? (int64_t)i * S : (int64_t)sq__lbm_opp[i] * S - l->off[i];
     const int smag = p->smagorinsky;
     const int force = gx != 0.0f || gy != 0.0f || gz != 0.0f;
-    const int64_t work = rows * nx;
+    const int64_t work = (rows - r0) * nx;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(work > 16384))
-    for (int64_t r = 0; r < rows; r++) {
+    for (int64_t r = r0; r < rows; r++) {
         const uint8_t c = cls[r];
         if (c == SQ_LBM_ROW_SOLID) continue;
         const int y = (int)(r % ny), z = (int)(r / ny);
@@ -325,6 +330,7 @@ void sq__lbm_fold_periodic(sq_lbm *l, int parity)
 {
     for (int s = 0; s < 3; s++) {
         const int a = parity == 0 ? 2 - s : s;
+        if (a == 2 && l->zdist) continue; /* slab faces: sq__lbm_boundaries, lbm_dist.c */
         if (l->periodic[a]) fold_axis(l, a, parity);
     }
 }

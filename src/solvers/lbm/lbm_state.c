@@ -12,6 +12,10 @@
 sq_result sq_lbm_save_state(const sq_lbm *l, sq_state_writer *w)
 {
     if (!l || !w) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_save_state: NULL argument");
+    if (l->zdist)
+        return sq__fail(l->ctx, SQ_ERR_UNSUPPORTED, "lbm",
+                        "checkpoints of a lattice split over %d ranks are not supported; run "
+                        "with one rank to write checkpoints", l->nranks);
     const int64_t n = (int64_t)l->nx * l->ny * l->nz;
     uint8_t *mask = (uint8_t *)malloc((size_t)n);
     if (!mask) return sq__fail(l->ctx, SQ_ERR_OUT_OF_MEMORY, "lbm", "out of memory (checkpoint)");
@@ -37,6 +41,10 @@ sq_result sq_lbm_save_state(const sq_lbm *l, sq_state_writer *w)
 sq_result sq_lbm_load_state(sq_lbm *l, sq_state_reader *r)
 {
     if (!l || !r) return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_load_state: NULL argument");
+    if (l->zdist)
+        return sq__fail(l->ctx, SQ_ERR_UNSUPPORTED, "lbm",
+                        "resuming a lattice split over %d ranks is not supported; resume with "
+                        "one rank", l->nranks);
     const int64_t n = (int64_t)l->nx * l->ny * l->nz;
     sq_lbm_desc d;
     if (sq_state_get(r, "lbm/desc", &d, sizeof d) != SQ_OK) return r->status;
