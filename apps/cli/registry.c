@@ -43,6 +43,9 @@ const sq_cli_case sq_cli_bench_cases[] = {
      "Table 1 rows; impostors vs particles for a distant field",
      "--particles 15000 --width 640 --height 360 --only frame|table|impostor", sq_bench_clouds,
      NULL, NULL},
+    {"snow-cover", "snow-cover preset frame (S2 ch. 2): occlusion map, snow on every surface, "
+     "falling flakes; faces, flakes, ms_occlusion_map, ms_scene, ms_flakes, ms_per_frame",
+     "--preset snowy-suburb --time 12 --width 640 --height 360", sq_bench_snowcover, NULL, NULL},
     /* helpers: add bench cases here, e.g. {"lbm", "...", "--size 128|256x128x128", sq_bench_lbm, NULL, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},
 };
@@ -54,6 +57,9 @@ const sq_cli_case sq_cli_validate_cases[] = {
      "--particles 25 (across a = 0.05715 m) --gate-speed 0 (m/s; 0 = instantaneous) "
      "--every 0.005 --t-end (T = 4) --a --spacing --alpha 0.02 --kernel cubic|muller", NULL,
      sq_validate_dam_break, NULL},
+    {"lock-exchange", "full-depth lock-exchange gravity current on the sandstorm's grid solver: "
+     "front speed and Froude number vs Benjamin 1968 / Shin, Dalziel & Linden 2004 (Fr = 1/2)",
+     "--n 32 --depth 1000 --delta-t 3 --json", NULL, sq_validate_lock_exchange, NULL},
     /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},
 };

@@ -121,10 +121,14 @@ typedef struct sq_avalanche_desc {
     /* rendering */
     double radius_factor;      /* sphere radius / dx; 0 -> 0.6 */
     double albedo;             /* snow albedo of the particles; 0 -> 0.9 */
-    bool no_deposit_surface;   /* do not publish the deposit surface drawable */
+    bool no_deposit_surface;   /* do not publish the snow surface drawable */
+    bool spheres;              /* every particle as a sphere, the surface only where the snow rests
+                                  (default: the snow surface over all snow, spheres for spray) */
     bool powder;               /* publish a powder-cloud volume from fast particles at the front */
     double powder_speed_mps;   /* particles faster than this feed the powder cloud; 0 -> 10 m/s */
     double powder_cell_m;      /* powder grid cell; 0 -> 4 m */
+    double powder_shed;        /* shed mass per s per (m/s of excess speed), as a fraction of a
+                                  particle's mass; 0 -> 2e-5 (a wet flow's veil) */
 } sq_avalanche_desc;
 
 typedef struct sq_avalanche sq_avalanche;

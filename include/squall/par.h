@@ -76,9 +76,11 @@ typedef struct sq_par_exchange {
     unsigned char requests[128]; /* MPI requests (opaque) */
     int count;
 } sq_par_exchange;
+/* Posts the transfers of sq_par_exchange_pair into x; errors as sq_par_exchange_pair. */
 SQ_API sq_result sq_par_exchange_begin(const int nb[2], const void *const sbuf[2],
                                        const size_t bytes[2], void *const rbuf[2],
                                        const size_t rbytes[2], sq_par_exchange *x);
+/* Waits until the transfers posted into x are complete (their buffers may then be used). */
 SQ_API void sq_par_exchange_end(sq_par_exchange *x);
 
 /* Collective reductions over all ranks (in place). Integer sums are exact; a double sum's

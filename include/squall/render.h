@@ -36,6 +36,11 @@ typedef struct sq_render_desc {
     int shadow_cascades;   /* 1..4; 0 -> 3 */
     float shadow_distance_m; /* shadows up to this view depth (m), fading out over the last
                                 15 %; 0 -> 1500 */
+    /* world meshes seen by the camera (docs/meshes.md): the coarsest level whose error projects
+     * below lod_pixels (0 -> 1), instances whose bounding sphere projects below cull_pixels
+     * skipped (0 -> 0.5), and those farther than mesh_distance_m (0 = no limit; the haze and
+     * falling snow hide them) */
+    float lod_pixels, cull_pixels, mesh_distance_m;
     const char *egl_device; /* NULL: surfaceless platform, else "device" platform hint */
     /* false: the renderer opens its own headless EGL context (as `squall render` does).
      * true: it uses the OpenGL 4.5 core context current on the calling thread, which the
@@ -83,6 +88,18 @@ SQ_API sq_result sq_gl_probe(sq_context *ctx, sq_render_info *out);
  * NaN density (reported, not rendered). */
 SQ_API sq_result sq_renderer_draw(sq_renderer *r, const sq_world *world, const sq_camera *camera,
                                   const sq_drawable *drawables, int count, double time_s);
+/* What the last sq_renderer_draw / sq_renderer_draw_to drew (for benchmarks such as `squall bench
+ * snow-cover`): mesh faces and instances over all its views (camera, shadow cascades, snow
+ * occlusion map), the faces of the camera view alone, and the time of the sun's shadow cascades
+ * (CPU, GL work may be queued) and of the snow occlusion map (GL finished; 0 without snow). */
+typedef struct sq_render_stats {
+    int64_t faces, instances;
+    int64_t camera_faces, camera_instances;
+    double ms_shadow, ms_occlusion_map;
+} sq_render_stats;
+/* Fills out with the statistics above for the last draw. */
+SQ_API sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out);
+
 /* ---- drawing into the caller's framebuffer --------------------------------------------------
  * With a renderer created with use_current_context, sq_renderer_draw_to draws into a framebuffer
  * object of the caller's context (or its default framebuffer, 0).

@@ -77,6 +77,14 @@ typedef struct sq_sandstorm_desc {
     int temperature_amp_count;
     double temperature_lag_rad;     /* σ0, trough phase lag; 0 is physical */
     double buoyancy_gain;           /* 1 = physical Boussinesq; 0 is physical (off) */
+    double surface_heat_flux_w_m2;  /* sensible heat flux into the lowest air (SPEC §1.10); 0 off */
+    /* haboob (issue 12): the cold outflow of a convective downdraft entering through the west
+     * face as a density current, and already out to coldpool_length_m at t = 0 */
+    double coldpool_delta_t_k;      /* temperature deficit ΔT; 0 = no cold pool */
+    double coldpool_depth_m;        /* depth H above the ground; 0 -> 1000 m */
+    double coldpool_length_m;       /* extent from the west face at t = 0; 0 is physical */
+    double coldpool_speed_mps;      /* inflow speed of the cold air; 0 -> √(g ΔT H / θ) */
+    double observer_m[2];           /* fixed observer (x, y) of the visibility metric; 0 physical */
     /* numerics */
     int pressure_solver;           /* 0 mgpcg, 1 multigrid, 2 jacobi */
     int jacobi_iterations;         /* 0 -> 40 (S0) */
@@ -132,6 +140,8 @@ typedef struct sq_sandstorm_stats {
     double pressure_residual;
     int pressure_iterations;
     double max_wind_mps, max_u_star_mps, emitting_fraction;
+    double front_m;                 /* cold-pool front: distance from the west face (m) */
+    double front_speed_mps;         /* its speed over the last ~30 s of simulated time */
     uint64_t memory_bytes;
 } sq_sandstorm_stats;
 

@@ -96,6 +96,10 @@ typedef struct sq_scene_output {
     int volume_slices;
     int light_buffer;
     bool volume_noise;
+    int shadow_cascades;      /* opaque sun shadows: cascades (0 = none), map size, distance */
+    int shadow_map_size;
+    float shadow_distance_m;
+    float lod_pixels, cull_pixels, mesh_distance_m; /* world meshes (sq_render_desc) */
 } sq_scene_output;
 
 /* ---- the scene ------------------------------------------------------------------------------- */

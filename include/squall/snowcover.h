@@ -23,6 +23,7 @@
 
 #include "squall/core.h"
 #include "squall/drawable.h"
+#include "squall/field.h"
 #include "squall/world.h"
 
 #ifdef __cplusplus
@@ -54,20 +55,20 @@ typedef struct sq_snowcover_desc {
     int taps;                   /* M: 1, 4, 5 or 9; 0 -> 4 (S2) */
     double tap_radius;          /* texels; 0 -> 1 */
     double bias_m;              /* depth bias b; 0 -> 0.05 m */
-    double noise;               /* noise amplitude of inclination and normal; 0 is physical */
+    double noise;               /* noise amplitude of inclination and normal; 0 -> 0.3 */
     double noise_scale_m;       /* first-octave wavelength; 0 -> 2 m */
-    double shell_blend;         /* shell direction: 0 smoothed normal .. 1 up; 0 is physical */
+    double shell_blend;         /* shell direction: toward 0 smoothed normal .. 1 up; 0 -> 0.5 */
     int brdf;                   /* sq_snow_brdf: 0 physical, 1 Blinn–Phong (S2) */
     double albedo;              /* snow albedo (green; red and blue from it); 0 -> 0.9 */
-    double sparkle;             /* 0..1; 0 is physical */
+    double sparkle;             /* glints, (0, 1]; 0 -> 0.5 */
     double shininess;           /* Blinn–Phong exponent; 0 -> 24 */
     /* falling snow */
     int flakes;                 /* pool size; 0 is physical (none) */
     int layers;                 /* depth layers 3..5; 0 -> 4 */
     double near_m;              /* first layer's near edge: nearer flakes hidden; 0 -> 1.5 m */
     double reach_m;             /* emitter depth ahead of the camera; 0 -> 80 m */
-    double size_mrad;           /* base angular radius of the first layer at D = 1 m; 0 -> 8 */
-    double layer_growth;        /* base size ratio between successive layers; 0 -> 1.5 */
+    double size_mrad;           /* base angular radius of the first layer at D = 1 m; 0 -> 6 */
+    double layer_growth;        /* base size ratio between successive layers; 0 -> 1.3 */
     float atten[3];             /* A, B, C of eq 2.4 (D in m); all 0 -> 0, 1, 0 */
     double fall_speed_mps;      /* terminal fall speed v_t; 0 -> 1 m/s (0.5–1.5) */
     double turbulence_mps;      /* stationary std of the velocity noise; 0 is physical */
@@ -96,6 +97,13 @@ SQ_API sq_result sq_snowcover_step(sq_snowcover *s, double dt_s);
 SQ_API double sq_snowcover_max_stable_dt(const sq_snowcover *s);
 /* The camera the emitter follows and the layers are measured from (also set by the scene). */
 SQ_API void sq_snowcover_observe(sq_snowcover *s, const sq_camera *camera);
+/* Inputs from another layer (the scene passes the snowdrift's, SPEC §6 with §5): its snow depth
+ * (a 2D field, level SQ_FIELD_LEVEL_SURFACE) replaces this model's depth where it covers the
+ * grid, and its wind (u, v, w on a 3D grid) is the wind the flakes relax toward inside it
+ * (no wind in its solid cells). Borrowed: valid until the source's next step; NULL clears. */
+SQ_API void sq_snowcover_set_inputs(sq_snowcover *s, const sq_named_field *depth,
+                                    const sq_named_field *u, const sq_named_field *v,
+                                    const sq_named_field *w);
 /* Depth (m) on exposed flat ground now: (prior + accumulated) water × ρ_water / ρ_snow. */
 SQ_API double sq_snowcover_depth_m(const sq_snowcover *s);
 

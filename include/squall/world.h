@@ -93,6 +93,10 @@ typedef struct sq_terrain_desc {
     /* heights (base included) are multiplied by this, for every kind: a vertical exaggeration of
      * real terrain (WRF domains are hundreds of km wide and a few km high); 0 -> 1 */
     float vertical_exaggeration;
+    /* snow material: the snow line (m above sea level, after the exaggeration): snow-covered
+     * above it, alpine meadow and scree below, over a ~100 m band roughened by noise; rock on
+     * faces steeper than ~45 deg either way. 0 = snow at every altitude. */
+    float snow_line_m;
 } sq_terrain_desc;
 
 typedef enum sq_obstacle_kind {
@@ -177,7 +181,8 @@ typedef struct sq_world_desc {
  * SQ_MAX_OBSTACLES obstacles and SQ_MAX_WORLD_AREAS areas inline, caches and private parts).
  * Read it through the calls below; every pointer they return is borrowed from the world: valid
  * until sq_world_destroy (mesh instances: until the next sq_world_set_meshes). Read-only for
- * phenomena and the renderer; only sq_world_set_meshes and sq_world_set_time change it. */
+ * phenomena and the renderer; only sq_world_set_meshes, sq_world_set_time and
+ * sq_world_set_sky change it. */
 typedef struct sq_world sq_world;
 
 /* The terrain heightfield. */
@@ -193,6 +198,7 @@ typedef struct sq_world_terrain {
     sq_terrain_kind kind;
     sq_terrain_material material;
     float vertical_exaggeration;   /* the factor the heights were multiplied by (1 = none) */
+    float snow_line_m;             /* SQ_GROUND_SNOW: the snow line (m a.s.l.); 0 = none */
 } sq_world_terrain;
 /* The terrain as borrowed arrays and its geometry. */
 SQ_API void sq_world_get_terrain(const sq_world *w, sq_world_terrain *out);
@@ -226,6 +232,8 @@ SQ_API const char *sq_world_crs(const sq_world *w, double offset_m[2]);
  * count, the instances (z resolved, scale 0 replaced by 1); returns the instance count. */
 SQ_API int sq_world_mesh_instances(const sq_world *w, const sq_mesh *const **meshes,
                                    int *mesh_count, const sq_mesh_instance **instances);
+/* Triangles of the placed meshes at LOD 0, summed over all instances (0 without meshes). */
+SQ_API int64_t sq_world_mesh_face_count(const sq_world *w);
 /* A number that changes whenever the terrain, obstacles or meshes change (caches key on it). */
 SQ_API uint64_t sq_world_generation(const sq_world *w);
 
@@ -238,6 +246,13 @@ SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *o
 SQ_API sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world **out);
 /* Frees the world (NULL accepted); nothing made on it may be used afterwards. */
 SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
+/* Changes the sun and the sky of a world (a live change of a running scene): turbidity and
+ * irradiance as in sq_sky_desc / sq_sun_desc; a sun following the clock takes latitude_deg and
+ * clock_scale (its place at the world's time is computed again), a sun placed by day and hour
+ * takes day_of_year, hour_solar and latitude_deg; a sun given by direction keeps it. The sky's
+ * radiances are derived again. Not synchronised with a renderer drawing the world. */
+SQ_API void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float latitude_deg,
+                             double clock_scale, float turbidity, float irradiance_w_m2);
 
 /* Places meshes in the world (replacing any placed before): validates every instance (mesh
  * index, finite position, scale > 0, footprint inside the terrain — SQ_ERR_INVALID_ARG naming

@@ -15,9 +15,9 @@ void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep)
     *steep = sq_v3(0.30f, 0.28f, 0.26f); /* weathered rock */
     switch (w->terrain_material) {
     case SQ_GROUND_SAND: *flat = *steep = sq_v3(0.58f, 0.45f, 0.30f); return;
-    case SQ_GROUND_SNOW: /* snow on the flats, wind-scoured snow/rock on steep slopes */
+    case SQ_GROUND_SNOW: /* snow on the flats, bare rock on the faces too steep to hold it */
         *flat = sq_v3(0.88f, 0.90f, 0.94f);
-        *steep = sq_v3(0.62f, 0.64f, 0.68f);
+        *steep = sq_v3(0.34f, 0.32f, 0.30f);
         return;
     case SQ_GROUND_ROCK: *flat = sq_v3(0.32f, 0.30f, 0.28f); return;
     case SQ_GROUND_GRASS: *flat = sq_v3(0.21f, 0.23f, 0.11f); return;

@@ -79,6 +79,7 @@ struct sq_renderer {
     GLuint frame_ubo;
     GLuint white_tex;           /* 1x1 white RGBA8: bound at unit 7 when no sun shadow */
     struct sq__base_cache *base; /* renderer.c: surface textures, validation cache */
+    sq_render_stats stats;      /* of the last frame (sq_renderer_stats) */
 };
 
 /* ---- gl_context.c ---------------------------------------------------------------------- */
@@ -209,6 +210,7 @@ typedef struct sq__depth_view {
     float px_per_m;     /* ortho: pixels per metre; perspective: H / (2 tan(fov_y / 2)) */
     float lod_pixels;   /* largest projected LOD error (px); 0 -> 1 */
     float min_pixels;   /* instances with a smaller projected radius are skipped; 0 -> 0.5 */
+    float max_distance_m; /* perspective: instances farther from the eye are skipped; 0 = none */
 } sq__depth_view;
 
 typedef struct sq__mesh_stats {

@@ -368,6 +368,7 @@ static int cull(sq__mesh_pass *m, const sq__depth_view *v)
             const float dx = s[0] - v->eye.x, dy = s[1] - v->eye.y, dz = s[2] - v->eye.z;
             const float d = sqrtf(dx * dx + dy * dy + dz * dz) - s[3];
             ppm = d > 0.5f ? v->px_per_m / d : v->px_per_m / 0.5f;
+            if (v->max_distance_m > 0.0f && d > v->max_distance_m) continue;
         }
         if (s[3] * ppm < min_px) continue;
         const int mi = m->world->mesh_instances[i].mesh;
@@ -465,6 +466,9 @@ sq__depth_view sq__depth_view_camera(const sq_renderer *r)
     v.view_proj = r->view_proj;
     v.eye = r->cam_pos;
     v.px_per_m = 0.5f * (float)r->height * r->proj.m[5]; /* H / (2 tan(fov/2)) */
+    v.lod_pixels = r->desc.lod_pixels;
+    v.min_pixels = r->desc.cull_pixels;
+    v.max_distance_m = r->desc.mesh_distance_m;
     return v;
 }
 

@@ -74,3 +74,10 @@ sq_result sq_renderer_read_linear(sq_renderer *r, float *rgb)
     sq_context *ctx = NULL;
     return NO_GL("sq_renderer_read_linear");
 }
+
+sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out)
+{
+    (void)r, (void)out;
+    sq_context *ctx = NULL;
+    return NO_GL("sq_renderer_stats");
+}

@@ -622,6 +622,12 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         sq__terrain_albedo(w, &flat, &steep);
         glProgramUniform3f(r->prog_terrain, 0, flat.x, flat.y, flat.z);
         glProgramUniform3f(r->prog_terrain, 1, steep.x, steep.y, steep.z);
+        /* snow cover: rock from ~45-55 deg (snow holds on the 30-45 deg avalanche slopes), an
+         * altitude snow line with meadow/scree below; other covers: rock from ~32-44 deg */
+        const bool snow = w->terrain_material == SQ_GROUND_SNOW;
+        glProgramUniform3f(r->prog_terrain, 2, 0.20f, 0.22f, 0.13f);
+        glProgramUniform1f(r->prog_terrain, 3, snow ? w->snow_line_m : 0.0f);
+        glProgramUniform2f(r->prog_terrain, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
         glUseProgram(r->prog_terrain);
         glBindVertexArray(r->terrain_vao);
         glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
@@ -687,6 +693,8 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->world = world;
     r->time_s = time_s;
 
+    (void)sq__mesh_pass_stats(r, true);
+    memset(&r->stats, 0, sizeof r->stats);
     /* volume light passes first: the opaque passes are shadowed by their light buffer */
     r->sun_shadow_tex = 0;
     r->sun_shadow_matrix = sq_m4_identity();
@@ -719,7 +727,11 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         glClearNamedFramebufferfv(r->hdr_fbo, GL_COLOR, 0, clear_color);
         glClearNamedFramebufferfv(r->hdr_fbo, GL_DEPTH, 0, &clear_depth);
         pass_sky(r);
+        const sq__mesh_stats before = sq__mesh_pass_stats(r, false);
         pass_opaque(r, world);
+        const sq__mesh_stats after = sq__mesh_pass_stats(r, false);
+        r->stats.camera_faces = after.faces - before.faces;
+        r->stats.camera_instances = after.instances - before.instances;
     }
     pass_surfaces(r, drawables, count);
     if ((res = sq__gl_check(ctx, "the opaque passes (sky, terrain, obstacles, surfaces)")) != SQ_OK)
@@ -740,6 +752,20 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         bind_scene_state(r);
         if ((res = sq__clouds_pass_draw(r, &drawables[i].u.clouds)) != SQ_OK) return res;
     }
+    const sq__mesh_stats all = sq__mesh_pass_stats(r, false);
+    r->stats.faces = all.faces;
+    r->stats.instances = all.instances;
+    r->stats.ms_shadow = sq__shadow_pass_ms(r);
+    r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
+    return SQ_OK;
+}
+
+sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out)
+{
+    if (!r || !out)
+        return sq__fail(NULL, SQ_ERR_INVALID_ARG, "render", "sq_renderer_stats: %s is NULL",
+                        r ? "out" : "renderer");
+    *out = r->stats;
     return SQ_OK;
 }
 
@@ -1082,6 +1108,14 @@ static sq_result resolve_desc(sq_context *ctx, const sq_render_desc *in, sq_rend
     if (d.shadow_map_size == 0) d.shadow_map_size = 2048;
     if (d.shadow_cascades == 0) d.shadow_cascades = 3;
     if (d.shadow_distance_m == 0.0f) d.shadow_distance_m = 1500.0f;
+    if (d.lod_pixels == 0.0f) d.lod_pixels = 1.0f;
+    if (d.cull_pixels == 0.0f) d.cull_pixels = 0.5f;
+    if (!(d.lod_pixels > 0.0f && d.lod_pixels <= 1000.0f && d.cull_pixels > 0.0f &&
+          d.cull_pixels <= 1000.0f && d.mesh_distance_m >= 0.0f && isfinite(d.mesh_distance_m)))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "sq_render_desc: lod_pixels %g, cull_pixels %g, mesh_distance_m %g; need "
+                        "0 < pixels <= 1000 and a distance >= 0",
+                        (double)d.lod_pixels, (double)d.cull_pixels, (double)d.mesh_distance_m);
     if (d.shadow_map_size < 16 || d.shadow_map_size > 16384 || d.shadow_cascades < 1 ||
         d.shadow_cascades > 4 || !(d.shadow_distance_m > 0.0f) || !isfinite(d.shadow_distance_m))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",

@@ -81,6 +81,13 @@ static sq_result create_renderer(sq_run *run, const sq__run_look *look)
     rd.volume_slices = l.volume_slices;
     rd.light_buffer_size = l.light_buffer;
     rd.volume_noise = l.volume_noise;
+    rd.shadows_off = run->out->shadow_cascades == 0;
+    rd.shadow_cascades = run->out->shadow_cascades;
+    rd.shadow_map_size = run->out->shadow_map_size;
+    rd.shadow_distance_m = run->out->shadow_distance_m;
+    rd.lod_pixels = run->out->lod_pixels;
+    rd.cull_pixels = run->out->cull_pixels;
+    rd.mesh_distance_m = run->out->mesh_distance_m;
     rd.seed = sq_scene_seed(run->scene);
     rd.use_current_context = run->desc.render == SQ_RUN_GL_CURRENT_CONTEXT;
     const sq_result r = sq_renderer_create(run->ctx, &rd, &run->renderer);

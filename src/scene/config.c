@@ -492,7 +492,6 @@ const char *sq_preset_text(const char *name)
 
 const char *sq_preset_default(void)
 {
-    if (sq_preset_text("desert-sandstorm") && sq_plugin_find("sandstorm"))
-        return "desert-sandstorm";
+    if (sq_preset_text("haboob") && sq_plugin_find("sandstorm")) return "haboob";
     return "terrain-flight";
 }

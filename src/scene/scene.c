@@ -356,6 +356,7 @@ static sq_result build_world(sq_context *ctx, const sq_scene_desc *sd, const sq_
     wd.terrain.kind = wrf_terrain ? SQ_TERRAIN_GRID : (sq_terrain_kind)ws.terrain_kind;
     wd.terrain.vertical_exaggeration = ws.vertical_exaggeration;
     wd.terrain.material = (sq_terrain_material)ws.terrain_material;
+    wd.terrain.snow_line_m = ws.snow_line_m;
     if (ws.size_count == 2) {
         wd.terrain.size_m[0] = ws.size_m[0];
         wd.terrain.size_m[1] = ws.size_m[1];
@@ -1074,6 +1075,7 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
     if (!(dt_s > 0.0) || !isfinite(dt_s))
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "scene", "step dt = %g s; must be > 0", dt_s);
     for (int i = 0; i < s->layer_count; i++) {
+        sq__scene_couple(s, i);
         const sq_result r = sq_phenomenon_step(s->layers[i].ph, dt_s);
         if (r != SQ_OK)
             return r == SQ_ERR_CANCELLED ? r
@@ -1153,28 +1155,42 @@ static void set_rebuild(sq_live_result *res, const char *fmt, ...)
     va_end(ap);
 }
 
-/* The world section: any change to its content needs a rebuild (terrain, meshes, sun and sky
- * are built once with the world); the first changed key is named. */
-static sq_result check_world(const sq_scene *s, const sq_cfg *cfg, sq_live_result *res)
+/* The world section: the world is built once, so a change needs a rebuild, except for the live
+ * keys of the sun and the sky (turbidity, irradiance, the sun's day, hour, latitude and clock
+ * scale) of a procedural or file terrain: *sky_change is set and *ws holds the new section. The
+ * first key that needs a rebuild is named. */
+static sq_result check_world(const sq_scene *s, const sq_cfg *cfg, sq__world_section *ws,
+                             bool *sky_change, sq_live_result *res)
 {
+    *sky_change = false;
     const sq_cfg_node *wn = sq_cfg_get(cfg->root, "world");
     if (same_node(s->world_cfg, wn)) return SQ_OK;
-    sq__world_section a, b;
+    sq__world_section a;
     sq_params_defaults(sq__world_params, sq__world_param_count, &a);
-    sq_params_defaults(sq__world_params, sq__world_param_count, &b);
+    sq_params_defaults(sq__world_params, sq__world_param_count, ws);
     static const char *const skip[] = {"obstacles", "areas", "meshes", NULL};
     apply_ctx ac = {cfg, "world"};
     sq_result r = SQ_OK;
     if (wn) r = expect_kind(&ac, wn, SQ_CFG_MAP, "world");
     if (r == SQ_OK && wn)
-        r = apply_map(&ac, wn, "", sq__world_params, sq__world_param_count, &b, skip);
+        r = apply_map(&ac, wn, "", sq__world_params, sq__world_param_count, ws, skip);
     if (r != SQ_OK) return relog(s->ctx, r);
     if (s->world_cfg)
         (void)apply_map(&ac, s->world_cfg, "", sq__world_params, sq__world_param_count, &a, skip);
-    const sq_param *p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, &b, false);
-    if (!p) p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, &b, true);
+    const sq_param *p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, ws, false);
+    bool lists = true;
+    for (const char *const *k = skip; *k; k++)
+        lists = lists && same_node(s->world_cfg ? sq_cfg_get(s->world_cfg, *k) : NULL,
+                                   wn ? sq_cfg_get(wn, *k) : NULL);
+    if (!p && lists && ws->terrain_kind != SQ__TERRAIN_CHOICE_WRF &&
+        a.terrain_kind != SQ__TERRAIN_CHOICE_WRF) {
+        *sky_change = sq_params_first_change(sq__world_params, sq__world_param_count, &a, ws,
+                                             true) != NULL;
+        return SQ_OK;
+    }
+    if (!p) p = sq_params_first_change(sq__world_params, sq__world_param_count, &a, ws, true);
     set_rebuild(res, "world.%s changed: the world is built once, the scene must be rebuilt",
-                p ? p->key : "obstacles, areas or meshes");
+                !lists ? "obstacles, areas or meshes" : p ? p->key : "terrain");
     return SQ_OK;
 }
 
@@ -1190,11 +1206,12 @@ sq_result sq_scene_apply_live(sq_scene *s, const sq_scene_desc *desc, sq_live_re
     uint64_t sv = 0;
     if (seed && seed->value && sq__parse_u64(seed->value, &sv) && sv != s->seed)
         set_rebuild(res, "seed changed: the scene must be rebuilt");
-    if (!res->rebuild) {
-        const sq_result r = check_world(s, cfg, res);
+    if (res->rebuild) return SQ_OK;
+    sq__world_section ws;
+    bool sky_change = false;
+    {
+        const sq_result r = check_world(s, cfg, &ws, &sky_change, res);
         if (r != SQ_OK || res->rebuild) return r;
-    } else {
-        return SQ_OK;
     }
     /* every other section, built exactly as sq_scene_create builds it (the same rules and
      * messages), into a scratch scene on this scene's world */
@@ -1242,7 +1259,32 @@ sq_result sq_scene_apply_live(sq_scene *s, const sq_scene_desc *desc, sq_live_re
         scratch_free(t);
         return SQ_OK;
     }
-    /* apply: output rendering keys, the camera, then each layer through its hook */
+    /* apply: the sun and sky, output rendering keys, the camera, then each layer's hook */
+    const sq_cfg_node *wn = sq_cfg_get(cfg->root, "world");
+    if (!same_node(s->world_cfg, wn)) {
+        sq_cfg_node *copy = wn ? clone_node(wn) : NULL;
+        if (wn && !copy) {
+            scratch_free(t);
+            return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "scene", "out of memory");
+        }
+        if (sky_change) {
+            sq__world_section old;
+            sq_params_defaults(sq__world_params, sq__world_param_count, &old);
+            static const char *const skip[] = {"obstacles", "areas", "meshes", NULL};
+            apply_ctx ac = {cfg, "world"};
+            if (s->world_cfg)
+                (void)apply_map(&ac, s->world_cfg, "", sq__world_params, sq__world_param_count,
+                                &old, skip);
+            for (size_t i = 0; i < sq__world_param_count; i++)
+                if ((sq__world_params[i].flags & SQ_PARAM_LIVE) &&
+                    sq_params_first_change(&sq__world_params[i], 1, &old, &ws, true))
+                    res->changed++;
+            sq_world_set_sky(s->world, ws.day_of_year, ws.hour, ws.latitude_deg, ws.clock_scale,
+                             ws.turbidity, ws.irradiance);
+        }
+        sq_cfg_node_free(s->world_cfg);
+        s->world_cfg = copy; /* the same content as far as the world is concerned */
+    }
     for (size_t i = 0; i < sq__output_param_count; i++)
         if ((sq__output_params[i].flags & SQ_PARAM_LIVE) &&
             sq_params_first_change(&sq__output_params[i], 1, &s->out, &t->out, true))

@@ -33,6 +33,7 @@ typedef struct sq__world_section {
     int crs_origin_count;
     char wrf[SQ_PARAM_STRING_MAX];
     float vertical_exaggeration;
+    float snow_line_m;
     float sun_direction[3];
     int day_of_year;
     float hour, latitude_deg, irradiance;
@@ -116,6 +117,9 @@ bool sq__parse_u64(const char *text, uint64_t *out);
 /* Rewrites the current error text of a layer for scene users: solver field names that are the
  * trailing part of exactly one key of the layer's table become "layers.LAYER.KEY"; the text is
  * prefixed "layers.LAYER: " unless it names the layer. Returns r. */
+/* Hands layer `layer` what it reads from the scene's other layers (scene_couple.c). */
+void sq__scene_couple(sq_scene *s, int layer);
+
 sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
                                     sq_result r);
 

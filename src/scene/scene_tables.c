@@ -30,6 +30,9 @@
 /* live entries (SQ_PARAM_LIVE): a change may apply to a running scene (camera, rendering) */
 #define F_LIVE(key, field, unit, def, lo, hi, doc)                                             \
     {key, SQ_PARAM_FLOAT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, SQ_PARAM_LIVE, doc}
+#define FZ_LIVE(key, field, unit, def, lo, hi, doc)                                            \
+    {key, SQ_PARAM_FLOAT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0,            \
+     SQ_PARAM_ZERO_IS_PHYSICAL | SQ_PARAM_LIVE, doc}
 #define I_LIVE(key, field, unit, def, lo, hi, doc)                                             \
     {key, SQ_PARAM_INT, unit, offsetof(S, field), def, lo, hi, NULL, NULL, 0, 0, SQ_PARAM_LIVE, doc}
 #define B_LIVE(key, field, def, doc)                                                           \
@@ -73,6 +76,10 @@ const sq_param sq__world_params[] = {
         "of its first time on the model grid (x east, y north along the map projection, origin "
         "at the domain centre); the sun follows the file's times over the domain centre unless "
         "sun.direction or sun.date is given. docs/wrf.md."),
+    F("terrain.snow_line_m", snow_line_m, "m", 0, 0, 9000,
+      "With terrain.material snow: the snow line (m above sea level): snow above it, alpine "
+      "meadow and scree below (a ~100 m band roughened by noise); rock on faces steeper than "
+      "~45 deg at every altitude. 0 = snow everywhere (rock on the steep faces)."),
     F("terrain.vertical_exaggeration", vertical_exaggeration, "1", 1, 0.1, 100,
       "Multiplies every terrain height (for real terrain: a WRF domain is hundreds of km wide "
       "and a few km high); phenomena placed by height above sea level use the same factor."),
@@ -105,21 +112,21 @@ const sq_param sq__world_params[] = {
        "it; outputs are georeferenced back."),
     V3("sun.direction", sun_direction, "1", "0 0 0", -1, 1,
        "Direction toward the sun (normalised); [0, 0, 0] = from day, hour and latitude."),
-    I("sun.day_of_year", day_of_year, "1", 172, 1, 366, "Day of the year for the sun position."),
-    FZ("sun.hour", hour, "h", 15, 0, 24, "Local solar time for the sun position."),
-    FZ("sun.latitude_deg", latitude_deg, "deg", 40, -90, 90, "Latitude for the sun position."),
+    I_LIVE("sun.day_of_year", day_of_year, "1", 172, 1, 366, "Day of the year for the sun position."),
+    FZ_LIVE("sun.hour", hour, "h", 15, 0, 24, "Local solar time for the sun position."),
+    FZ_LIVE("sun.latitude_deg", latitude_deg, "deg", 40, -90, 90, "Latitude for the sun position."),
     STR("sun.date", sun_date, "",
         "UTC date and time 'YYYY-MM-DD hh:mm:ss' at scene time 0: the sun then moves with the "
         "scene clock (precise position with the equation of time at latitude_deg, "
         "longitude_deg; day_of_year and hour are ignored). Empty = a fixed sun."),
     FZ("sun.longitude_deg", longitude_deg, "deg", 0, -180, 180,
        "Longitude (east) for the sun position with sun.date."),
-    F("sun.clock_scale", clock_scale, "1", 1, 1e-3, 1e6,
+    F_LIVE("sun.clock_scale", clock_scale, "1", 1, 1e-3, 1e6,
       "Seconds of sun time per second of scene time with sun.date (e.g. 1800: half an hour "
       "per second)."),
-    F("sun.irradiance_w_m2", irradiance, "W/m2", 1000, 1, 1500,
+    F_LIVE("sun.irradiance_w_m2", irradiance, "W/m2", 1000, 1, 1500,
       "Direct normal solar irradiance at the ground (scales the light)."),
-    F("sky.turbidity", turbidity, "1", 3, 1.5, 12, "Haze of the analytic sky (2 clear, 10 hazy)."),
+    F_LIVE("sky.turbidity", turbidity, "1", 3, 1.5, 12, "Haze of the analytic sky (2 clear, 10 hazy)."),
     {"city.rows", SQ_PARAM_INT, "1", offsetof(S, city_rows), 0, 0, 32, NULL, NULL, 0, 0,
      SQ_PARAM_ZERO_IS_PHYSICAL, "Procedural city: rows of blocks (0 = no city)."},
     {"city.cols", SQ_PARAM_INT, "1", offsetof(S, city_cols), 0, 0, 32, NULL, NULL, 0, 0,
@@ -245,6 +252,20 @@ const sq_param sq__output_params[] = {
     I_LIVE("light_buffer", light_buffer, "px", 256, 32, 4096, "Light buffer resolution for volumes."),
     B_LIVE("volume_noise", volume_noise, 1,
       "Perturb volume texture coordinates with noise for detail (S0 Fig. 3.12)."),
+    {"shadow_cascades", SQ_PARAM_INT, "1", offsetof(S, shadow_cascades), 3, 0, 4, NULL, NULL, 0,
+     0, SQ_PARAM_ZERO_IS_PHYSICAL,
+     "Cascaded sun shadow maps of opaque geometry (docs/meshes.md); 0 = no opaque shadows."},
+    I("shadow_map_size", shadow_map_size, "px", 2048, 64, 16384, "Texels per side of a cascade."),
+    F("shadow_distance_m", shadow_distance_m, "m", 1500, 1, 1e6,
+      "Opaque shadows up to this view depth, fading out over the last 15 %."),
+    F("lod_pixels", lod_pixels, "px", 1, 0.1, 100,
+      "World meshes: the coarsest level of detail whose geometric error projects below this."),
+    F("cull_pixels", cull_pixels, "px", 0.5, 0.01, 100,
+      "World meshes: instances whose bounding sphere projects below this radius are skipped."),
+    {"mesh_distance_m", SQ_PARAM_FLOAT, "m", offsetof(S, mesh_distance_m), 0, 0, 1e7, NULL, NULL,
+     0, 0, SQ_PARAM_ZERO_IS_PHYSICAL,
+     "World meshes farther than this from the camera are not drawn (haze or falling snow hides "
+     "them); 0 = no limit."},
 };
 const size_t sq__output_param_count = sizeof sq__output_params / sizeof sq__output_params[0];
 #undef S

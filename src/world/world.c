@@ -443,6 +443,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
         w->origin = sq_v3(-0.5f * ex, -0.5f * ey, 0.0f);
     w->terrain_kind = t->kind;
     w->terrain_material = t->material;
+    w->snow_line_m = t->snow_line_m;
     if (d.crs_wkt && d.crs_wkt[0]) {
         size_t len = strlen(d.crs_wkt) + 1;
         w->crs_wkt = (char *)sq_alloc(ctx, len);
@@ -497,6 +498,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
     w->sun_longitude_deg = d.sun.longitude_deg;
     w->sun_north_rotation_deg = d.sun.north_rotation_deg;
     w->sun_irradiance_w_m2 = d.sun.irradiance_w_m2;
+    w->sun_from_time = sq_v3_len(sd) == 0.0f;
     if (sq_v3_len(sd) > 0.0f)
         w->sun_dir = sq_v3_norm(sd);
     else
@@ -524,6 +526,22 @@ void sq_world_set_time(sq_world *w, double t_s)
     grid.azimuth_deg += (double)w->sun_north_rotation_deg;
     w->sun_dir = sq_sun_position_direction(&grid);
     sky_model(w, w->turbidity, w->sun_irradiance_w_m2);
+}
+
+void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float latitude_deg,
+                      double clock_scale, float turbidity, float irradiance_w_m2)
+{
+    if (!w) return;
+    w->turbidity = turbidity;
+    w->sun_irradiance_w_m2 = irradiance_w_m2;
+    if (w->sun_follows_clock) {
+        w->sun_latitude_deg = latitude_deg;
+        w->sun_clock_scale = clock_scale;
+        sq_world_set_time(w, w->time_s); /* the sun where the clock puts it, and the sky */
+        return;
+    }
+    if (w->sun_from_time) w->sun_dir = sq_sun_direction(day_of_year, hour_solar, latitude_deg);
+    sky_model(w, turbidity, irradiance_w_m2);
 }
 
 void sq_world_destroy(sq_context *ctx, sq_world *w)
@@ -759,6 +777,7 @@ void sq_world_get_terrain(const sq_world *w, sq_world_terrain *out)
     out->height_max = w->height_max;
     out->kind = w->terrain_kind;
     out->material = w->terrain_material;
+    out->snow_line_m = w->snow_line_m;
     out->vertical_exaggeration = w->vertical_exaggeration > 0.0f ? w->vertical_exaggeration : 1.0f;
 }
 
@@ -803,5 +822,7 @@ int sq_world_mesh_instances(const sq_world *w, const sq_mesh *const **meshes, in
     if (instances) *instances = w ? w->mesh_instances : NULL;
     return w ? w->mesh_instance_count : 0;
 }
+
+int64_t sq_world_mesh_face_count(const sq_world *w) { return w ? w->mesh_faces : 0; }
 
 uint64_t sq_world_generation(const sq_world *w) { return w ? w->generation : 0; }

@@ -15,6 +15,7 @@ struct sq_world {
     float height_min, height_max;
     sq_terrain_kind terrain_kind;
     sq_terrain_material terrain_material;
+    float snow_line_m; /* sq_terrain_desc.snow_line_m; 0 = none */
     /* obstacles */
     sq_obstacle obstacles[SQ_MAX_OBSTACLES];
     int obstacle_count;
@@ -45,6 +46,8 @@ struct sq_world {
     /* the sun's clock (sq_sun_desc.utc_set): sun_dir, sun_radiance and the sky follow
      * sq_world_set_time; sun_position is the sun's place at time_s */
     bool sun_follows_clock;
+    bool sun_from_time;    /* the sun's direction comes from day, hour and latitude (no
+                              sun.direction given) */
     double sun_utc_start_unix_s, sun_clock_scale;
     float sun_latitude_deg, sun_longitude_deg, sun_north_rotation_deg, sun_irradiance_w_m2;
     double time_s;

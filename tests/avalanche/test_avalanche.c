@@ -11,7 +11,6 @@
 #include "squall/avalanche.h"
 #include "squall/plugin.h"
 #include "squall/sph.h"
-#include "world/world_struct.h"
 
 SQ_LABEL(physics)
 
@@ -79,17 +78,19 @@ SQ_TEST(mountain_terrain_has_no_step_or_kink_at_the_toe)
         sq_world *w = NULL;
         SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
         if (!w) break;
+        sq_world_terrain t;
+        sq_world_get_terrain(w, &t);
         double slope = 0.0, curv = 0.0;
-        for (int j = 0; j < w->ny; j++) {
-            const float *h = w->heights + (size_t)j * (size_t)w->nx;
-            for (int i = 1; i + 1 < w->nx; i++) {
-                slope = fmax(slope, fabs((double)h[i + 1] - (double)h[i]) / (double)w->dx);
+        for (int j = 0; j < t.ny; j++) {
+            const float *h = t.heights + (size_t)j * (size_t)t.nx;
+            for (int i = 1; i + 1 < t.nx; i++) {
+                slope = fmax(slope, fabs((double)h[i + 1] - (double)h[i]) / (double)t.dx);
                 curv = fmax(curv, fabs((double)h[i + 1] - 2.0 * (double)h[i] + (double)h[i - 1]) /
-                                      ((double)w->dx * (double)w->dx));
+                                      ((double)t.dx * (double)t.dx));
             }
         }
         printf("dx = %.2f m: max |dh|/dx = %.4f (tan 35 = %.4f), max |d2h|/dx2 = %.5f 1/m\n",
-               (double)w->dx, slope, tanb, curv);
+               (double)t.dx, slope, tanb, curv);
         SQ_CHECK(slope <= tanb + 0.1);
         SQ_CHECK(curv <= 0.02);
         sq_world_destroy(ctx, w);
@@ -253,7 +254,7 @@ SQ_TEST(mass_conserved_nothing_below_terrain_or_inside_obstacles)
     sq_avalanche_desc d = slab_desc();
     sq_avalanche *a = NULL;
     SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
-    const sq_obstacle *o = &w->obstacles[0];
+    const sq_obstacle *o = &sq_world_obstacles(w)[0];
     const size_t n0 = sq_avalanche_release_count(&d, w, NULL);
     double worst_below = 0.0, worst_inside = 0.0;
     int hit = 0;
@@ -538,18 +539,25 @@ SQ_TEST(plugin_metrics_fields_drawables)
     const char *maps[] = {"deposit_depth", "peak_flow_depth", "peak_speed", "peak_pressure",
                           "travel_angle"};
     const char *units[] = {"m", "m", "m/s", "kPa", "deg"};
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
     for (int k = 0; k < nf && k < 5; k++) {
         SQ_CHECK(strcmp(fl[k].name, maps[k]) == 0 && strcmp(fl[k].units, units[k]) == 0);
         /* on the terrain's samples, one map for the whole terrain */
-        SQ_CHECK(fl[k].nz == 1 && fl[k].nx == w->nx && fl[k].ny == w->ny);
-        SQ_CHECK_NEAR(fl[k].origin_m.x, w->origin.x, 1e-4);
-        SQ_CHECK_NEAR(fl[k].spacing_m.x, w->dx, 1e-6);
+        SQ_CHECK(fl[k].nz == 1 && fl[k].nx == t.nx && fl[k].ny == t.ny);
+        SQ_CHECK_NEAR(fl[k].origin_m.x, t.origin.x, 1e-4);
+        SQ_CHECK_NEAR(fl[k].spacing_m.x, t.dx, 1e-6);
     }
     sq_drawable dr[4];
     int nd = pl->drawables(self, dr, 4);
     SQ_CHECK(nd == 3);
+    size_t alive = 0;
+    for (int i = 0; i < nm; i++)
+        if (strcmp(m[i].name, "particles") == 0) alive = (size_t)m[i].value;
+    SQ_CHECK(alive > 100);
+    /* default: the snow surface over all the snow, spheres only for spray above it */
     SQ_CHECK(dr[0].kind == SQ_DRAWABLE_PARTICLES && dr[0].u.particles.sprite == SQ_SPRITE_SPHERE);
-    SQ_CHECK(dr[0].u.particles.count > 100 && dr[0].u.particles.radius_default_m > 0.5f);
+    SQ_CHECK((size_t)dr[0].u.particles.count < alive / 10 && dr[0].u.particles.radius_default_m > 0.5f);
     SQ_CHECK_NEAR(dr[0].u.particles.albedo[1], 0.9, 1e-6);
     SQ_CHECK(dr[1].kind == SQ_DRAWABLE_SURFACE && dr[1].u.surface.material == SQ_MATERIAL_SNOW);
     SQ_CHECK(dr[2].kind == SQ_DRAWABLE_VOLUME && dr[2].u.volume.nz >= 2);
@@ -558,6 +566,34 @@ SQ_TEST(plugin_metrics_fields_drawables)
             SQ_CHECK(!"non-finite particle position");
             break;
         }
+    {
+        /* the reconstructed surface holds the snow: its height above the terrain, integrated,
+         * is the particles' volume (N dx^3, the release lattice) within 3 %; fully covered
+         * somewhere; never below the terrain */
+        const sq_surface_view *sv = &dr[1].u.surface;
+        double vol = 0.0, cmax = 0.0, below = 0.0;
+        for (int j = 0; j < sv->ny; j++)
+            for (int i = 0; i < sv->nx; i++) {
+                const size_t c = (size_t)j * sv->nx + i;
+                const float x = sv->origin_m.x + i * sv->dx_m, y = sv->origin_m.y + j * sv->dy_m;
+                const double h = sv->height_m[c] - sq_world_height_at(w, x, y);
+                vol += h * sv->dx_m * sv->dy_m;
+                below = fmin(below, h);
+                cmax = fmax(cmax, sv->coverage[c]);
+            }
+        const double want_v = (double)alive * d.spacing_m * d.spacing_m * d.spacing_m;
+        printf("snow surface: %.1f m3 above the terrain vs %zu particles x dx^3 = %.1f m3; "
+               "coverage max %.2f; lowest %.3f m\n", vol, alive, want_v, cmax, below);
+        SQ_CHECK_REL(vol, want_v, 0.03);
+        SQ_CHECK(cmax == 1.0);
+        SQ_CHECK(below > -0.05);
+    }
+    pl->destroy(self);
+    /* render.spheres: every particle a sphere (the surface only over the snow at rest) */
+    d.spheres = true;
+    SQ_CHECK_OK(pl->create(ctx, &d, w, &self));
+    nd = pl->drawables(self, dr, 4);
+    SQ_CHECK(nd == 3 && (size_t)dr[0].u.particles.count == alive);
     pl->destroy(self);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);

@@ -79,6 +79,11 @@ check() {
     done
 }
 check sandstorm 6 1.0 "${SANDSTORM[@]}"
+# the haboob (issue 12): cold-pool inflow, temperature background, front history
+HABOOB=(haboob --set layers.storm.domain.nx=24 --set layers.storm.domain.ny=16
+        --set layers.storm.domain.nz=12 --set layers.storm.coldpool.depth_m=300
+        --set layers.storm.coldpool.length_m=300 --set layers.storm.near.particles=200)
+check haboob 6 1.0 "${HABOOB[@]}"
 check snowdrift 8 0.75 snow.yaml
 check avalanche 6 0.15 "${AVALANCHE[@]}"
 check clouds 6 100 wrf-clouds --set layers.clouds.particles.count=2000

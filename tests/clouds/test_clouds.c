@@ -5,7 +5,6 @@
  * the wind, and a particle count beyond the memory limit refused before anything is allocated. */
 #include "phen/clouds/clouds_internal.h"
 #include "sq_test.h"
-#include "world/world_struct.h"
 
 SQ_LABEL(physics)
 

@@ -4,9 +4,15 @@
 
 #include "sq_test.h"
 #include "squall/world.h"
-#include "world/world_struct.h"
 
 SQ_LABEL(unit)
+
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
 
 static sq_context *mkctx(void)
 {
@@ -27,8 +33,8 @@ SQ_TEST(flat_terrain_and_bounds)
     d.terrain.resolution[1] = 6;
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
-    SQ_CHECK_NEAR(w->dx, 10.0, 1e-6);
-    SQ_CHECK_NEAR(w->origin.x, -50.0, 1e-6);
+    SQ_CHECK_NEAR(terrain_of(w).dx, 10.0, 1e-6);
+    SQ_CHECK_NEAR(terrain_of(w).origin.x, -50.0, 1e-6);
     SQ_CHECK_NEAR(sq_world_height_at(w, 3.3f, -7.0f), 12.5, 1e-5);
     sq_vec3 n = sq_world_normal_at(w, 0, 0);
     SQ_CHECK_NEAR(n.z, 1.0, 1e-6);
@@ -55,11 +61,11 @@ SQ_TEST(heightmap_maps_range_and_slope_normals)
     d.terrain.height_max_m = 130.0f;
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
-    SQ_CHECK(w->nx == 4 && w->ny == 3);
-    SQ_CHECK_NEAR(w->height_min, 100.0, 1e-4);
-    SQ_CHECK_NEAR(w->height_max, 130.0, 1e-3);
+    SQ_CHECK(terrain_of(w).nx == 4 && terrain_of(w).ny == 3);
+    SQ_CHECK_NEAR(terrain_of(w).height_min, 100.0, 1e-4);
+    SQ_CHECK_NEAR(terrain_of(w).height_max, 130.0, 1e-3);
     /* slope 10 m per 10 m: normal = (-1, 0, 1)/sqrt 2 */
-    sq_vec3 n = sq_world_normal_at(w, w->origin.x + 15.0f, w->origin.y + 10.0f);
+    sq_vec3 n = sq_world_normal_at(w, terrain_of(w).origin.x + 15.0f, terrain_of(w).origin.y + 10.0f);
     SQ_CHECK_NEAR(n.x, -sqrt(0.5), 1e-4);
     SQ_CHECK_NEAR(n.z, sqrt(0.5), 1e-4);
     sq_world_destroy(ctx, w);
@@ -88,16 +94,18 @@ SQ_TEST(float_grid_terrain_rows_south_first_with_crs)
     d.crs_offset_m[1] = 5170000.0;
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
-    SQ_CHECK(w->nx == 3 && w->ny == 4);
-    SQ_CHECK_NEAR(w->dx, 20.0, 0.0);
-    SQ_CHECK_NEAR(w->dy, 10.0, 0.0);
+    SQ_CHECK(terrain_of(w).nx == 3 && terrain_of(w).ny == 4);
+    SQ_CHECK_NEAR(terrain_of(w).dx, 20.0, 0.0);
+    SQ_CHECK_NEAR(terrain_of(w).dy, 10.0, 0.0);
     SQ_CHECK_NEAR(sq_world_height_at(w, 0.0f, 0.0f), 200.0, 1e-4);   /* south row */
     SQ_CHECK_NEAR(sq_world_height_at(w, 20.0f, 30.0f), 215.0, 1e-4); /* north row */
     /* slope 5 m per 10 m toward north: normal (0, -0.5, 1)/|.| */
     sq_vec3 n = sq_world_normal_at(w, 20.0f, 15.0f);
     SQ_CHECK_NEAR(n.y, -0.5 / sqrt(1.25), 1e-4);
-    SQ_CHECK(w->crs_wkt != NULL && strcmp(w->crs_wkt, "EPSG:32632") == 0);
-    SQ_CHECK_NEAR(w->crs_offset_m[1], 5170000.0, 0.0);
+    double off[2];
+    const char *crs = sq_world_crs(w, off);
+    SQ_CHECK(crs != NULL && strcmp(crs, "EPSG:32632") == 0);
+    SQ_CHECK_NEAR(off[1], 5170000.0, 0.0);
     sq_world_destroy(ctx, w);
     h[5] = NAN;
     SQ_CHECK_ERR(sq_world_create(ctx, &d, &w), SQ_ERR_INVALID_ARG, "sample (2, 1) = nan");
@@ -119,11 +127,13 @@ SQ_TEST(procedural_kinds_are_finite_and_seeded)
         sq_world *a = NULL, *b = NULL;
         SQ_CHECK_OK(sq_world_create(ctx, &d, &a));
         SQ_CHECK_OK(sq_world_create(ctx, &d, &b));
-        SQ_CHECK(a->height_max > a->height_min + 1.0f);
+        if (!a || !b) break;
+        const sq_world_terrain ta = terrain_of(a), tb = terrain_of(b);
+        SQ_CHECK(ta.height_max > ta.height_min + 1.0f);
         int same = 1;
         for (int i = 0; i < 65 * 65; i++) {
-            SQ_CHECK(isfinite(a->heights[i]));
-            same &= a->heights[i] == b->heights[i];
+            SQ_CHECK(isfinite(ta.heights[i]));
+            same &= ta.heights[i] == tb.heights[i];
         }
         SQ_CHECK(same);
         sq_world_destroy(ctx, a);
@@ -143,12 +153,12 @@ SQ_TEST(mountain_slope_angle)
     d.terrain.resolution[0] = d.terrain.resolution[1] = 201;
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
-    float x0 = w->origin.x + 100.0f, x1 = w->origin.x + 300.0f, y = w->origin.y + 100.0f;
+    float x0 = terrain_of(w).origin.x + 100.0f, x1 = terrain_of(w).origin.x + 300.0f, y = terrain_of(w).origin.y + 100.0f;
     float drop = sq_world_height_at(w, x0, y) - sq_world_height_at(w, x1, y);
     SQ_CHECK_NEAR(atan2(drop, 200.0) * 180.0 / SQ_PI, 35.0, 0.5);
     /* run-out plain at the far end is flat */
-    float h1 = sq_world_height_at(w, w->origin.x + 900.0f, y),
-          h2 = sq_world_height_at(w, w->origin.x + 950.0f, y);
+    float h1 = sq_world_height_at(w, terrain_of(w).origin.x + 900.0f, y),
+          h2 = sq_world_height_at(w, terrain_of(w).origin.x + 950.0f, y);
     SQ_CHECK_NEAR(h1, h2, 0.01);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
@@ -184,7 +194,7 @@ SQ_TEST(obstacles_solid_and_roof)
     d.obstacle_count = 1;
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
-    SQ_CHECK_NEAR(w->obstacles[0].center_m.z, 0.0, 1e-6); /* placed on the terrain */
+    SQ_CHECK_NEAR(sq_world_obstacles(w)[0].center_m.z, 0.0, 1e-6); /* placed on the terrain */
     SQ_CHECK(sq_world_solid_at(w, sq_v3(10, 0, 5.9f)));   /* under the ridge */
     SQ_CHECK(!sq_world_solid_at(w, sq_v3(10, 2.9f, 5.0f))); /* eave side: roof lower */
     SQ_CHECK(!sq_world_solid_at(w, sq_v3(15, 0, 1.0f)));   /* outside the footprint */

@@ -31,6 +31,7 @@ void sq_avalanche_destroy(sq_avalanche *a)
     sq_free(ctx, a->dep_height);
     sq_free(ctx, a->dep_cover);
     sq_free(ctx, a->pos);
+    sq_free(ctx, a->spray);
     sq_free(ctx, a->pw_density);
     sq_free(ctx, a->pw_tmp);
     sq__aval_hazard_free(a);
@@ -79,13 +80,14 @@ static sq_result alloc_buffers(sq_avalanche *a)
     const size_t cells = (size_t)pl->dep_nx * (size_t)pl->dep_ny;
     a->scratch = (float *)sq_alloc(ctx, pl->count * sizeof(float));
     a->pos = (float *)sq_alloc_zero(ctx, 3 * pl->count * sizeof(float));
+    a->spray = (float *)sq_alloc_zero(ctx, 3 * pl->count * sizeof(float));
     a->dep_acc = (double *)sq_alloc_zero(ctx, cells * sizeof(double));
     a->dep_depth = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
     a->dep_smooth = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
     a->dep_terrain = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
     a->dep_height = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
     a->dep_cover = (float *)sq_alloc_zero(ctx, cells * sizeof(float));
-    if (!a->scratch || !a->pos || !a->dep_acc || !a->dep_depth || !a->dep_smooth ||
+    if (!a->scratch || !a->pos || !a->spray || !a->dep_acc || !a->dep_depth || !a->dep_smooth ||
         !a->dep_terrain || !a->dep_height || !a->dep_cover)
         return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for %zu particles",
                         pl->count);
@@ -357,9 +359,6 @@ const float *sq_avalanche_positions(sq_avalanche *a, size_t *count)
  * (turbulent diffusivity) and settles out (exponential decay) — a visual model. */
 #define POWDER_DIFFUSIVITY 8.0  /* m²/s */
 #define POWDER_DECAY_S 6.0      /* s */
-/* Shed mass per second per (m/s of excess speed), as a fraction of a particle's mass: a dense
- * wet-snow avalanche raises only a light veil (extinction ~0.1 1/m near the front) */
-#define POWDER_SHED 2.0e-5
 static void update_powder(sq_avalanche *a)
 {
     const sq__aval_plan *pl = &a->plan;
@@ -371,7 +370,7 @@ static void update_powder(sq_avalanche *a)
     const double share = pl->spacing * pl->spacing * pl->spacing /
                          (pl->pw_cell * pl->pw_cell * pl->pw_cell);
     sq__aval_powder_source(v.x, v.y, v.z, v.vx, v.vy, v.vz, v.count, (float)pl->d.powder_speed_mps,
-                           (float)(POWDER_SHED * share * dt * pl->d.density_kgm3), pl->pw_n,
+                           (float)(pl->d.powder_shed * share * dt * pl->d.density_kgm3), pl->pw_n,
                            pl->pw_origin, pl->pw_cell, a->pw_density);
     const double kmax = 1.0 / 6.0;
     const double ktot = POWDER_DIFFUSIVITY * dt / (pl->pw_cell * pl->pw_cell);
@@ -392,36 +391,21 @@ static void update_powder(sq_avalanche *a)
     a->pw_max = mx;
 }
 
-int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
+/* The snow surface (docs/phen/avalanche.md, Drawables): the flow depth on the display grid —
+ * the particles' volume per map area, dep_depth — smoothed twice with the 3x3 binomial filter
+ * (a splat of ~3 cells) and laid on the terrain; coverage full from half a spacing of snow.
+ * Particles more than 1.5 spacings above that surface are spray, drawn as spheres. With
+ * render.spheres: every particle a sphere, the surface only over the snow at rest. */
+static void snow_surface(sq_avalanche *a, bool resting_only)
 {
-    evaluate(a);
     const sq__aval_plan *pl = &a->plan;
-    int n = 0;
-    if (n < max) {
-        sq_drawable *d = &out[n++];
-        memset(d, 0, sizeof *d);
-        d->kind = SQ_DRAWABLE_PARTICLES;
-        d->name = "avalanche-snow";
-        sq_particles_view *p = &d->u.particles;
-        p->count = (int)a->st.particles;
-        p->position = a->pos;
-        p->radius_default_m = (float)(pl->d.radius_factor * pl->spacing);
-        p->tau_default = 1.0f;
-        p->sigma_rel[0] = p->sigma_rel[1] = p->sigma_rel[2] = 1.0f;
-        p->albedo[0] = p->albedo[1] = p->albedo[2] = (float)pl->d.albedo;
-        p->g = 0.0f;
-        p->sprite = SQ_SPRITE_SPHERE;
-        p->softness_m = 0.0f;
-        p->version = a->version;
-    }
-    if (!pl->d.no_deposit_surface && n < max) {
-        const int nx = pl->dep_nx, ny = pl->dep_ny;
-        const size_t cells = (size_t)nx * (size_t)ny;
+    const int nx = pl->dep_nx, ny = pl->dep_ny;
+    const size_t cells = (size_t)nx * (size_t)ny;
+    const float full = (float)(0.5 * pl->spacing); /* full coverage from half a layer */
+    if (resting_only) {
         sq__aval_smooth3(a->dep_depth, a->dep_smooth, nx, ny);
-        /* The surface covers the snow that has come to rest (slower than
-         * metrics.moving_speed_mps): the moving flow is seen as its lit spheres, the deposit
-         * fills in as it settles. dep_acc is free after evaluate(); dep_height holds the
-         * smoothed resting depth until it is overwritten below. */
+        /* dep_acc is free after evaluate(); dep_height holds the smoothed resting depth until it
+         * is overwritten below */
         const sq_sph_view v = sq_sph_particles(a->sph);
         memset(a->dep_acc, 0, cells * sizeof(double));
         sq__aval_deposit_accumulate_resting(v.x, v.y, v.vx, v.vy, v.vz, v.density, v.count,
@@ -431,12 +415,65 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         const double inv_area = 1.0 / (pl->dep_cell * pl->dep_cell);
         for (size_t c = 0; c < cells; c++) a->dep_cover[c] = (float)(a->dep_acc[c] * inv_area);
         sq__aval_smooth3(a->dep_cover, a->dep_height, nx, ny);
-        const float full = (float)(0.5 * pl->spacing); /* full coverage from half a layer */
-        for (size_t c = 0; c < cells; c++) {
-            float f = a->dep_height[c] / full;
-            a->dep_cover[c] = f > 1.0f ? 1.0f : f < 0.0f ? 0.0f : f;
-            a->dep_height[c] = a->dep_terrain[c] + a->dep_smooth[c];
+    } else {
+        sq__aval_smooth3(a->dep_depth, a->dep_cover, nx, ny);
+        sq__aval_smooth3(a->dep_cover, a->dep_smooth, nx, ny);
+        memcpy(a->dep_height, a->dep_smooth, cells * sizeof(float));
+    }
+    for (size_t c = 0; c < cells; c++) {
+        float f = a->dep_height[c] / full;
+        a->dep_cover[c] = f > 1.0f ? 1.0f : f < 0.0f ? 0.0f : f;
+        a->dep_height[c] = a->dep_terrain[c] + a->dep_smooth[c];
+    }
+}
+
+/* The spray: particles more than 1.5 spacings above the snow surface (dep_height) of their
+ * cell; returns their count, positions in a->spray. */
+static size_t collect_spray(sq_avalanche *a)
+{
+    const sq__aval_plan *pl = &a->plan;
+    const float margin = (float)(1.5 * pl->spacing), inv = (float)(1.0 / pl->dep_cell);
+    const float ox = (float)pl->dep_origin[0], oy = (float)pl->dep_origin[1];
+    size_t k = 0;
+    for (size_t i = 0; i < a->st.particles; i++) {
+        const float *p = &a->pos[3 * i];
+        int ci = (int)floorf((p[0] - ox) * inv), cj = (int)floorf((p[1] - oy) * inv);
+        ci = ci < 0 ? 0 : ci >= pl->dep_nx ? pl->dep_nx - 1 : ci;
+        cj = cj < 0 ? 0 : cj >= pl->dep_ny ? pl->dep_ny - 1 : cj;
+        if (p[2] > a->dep_height[(size_t)cj * pl->dep_nx + ci] + margin) {
+            memcpy(&a->spray[3 * k], p, 3 * sizeof(float));
+            k++;
         }
+    }
+    return k;
+}
+
+int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
+{
+    evaluate(a);
+    const sq__aval_plan *pl = &a->plan;
+    const bool surface = !pl->d.no_deposit_surface, spheres = pl->d.spheres || !surface;
+    if (surface) snow_surface(a, spheres);
+    int n = 0;
+    if (n < max) {
+        sq_drawable *d = &out[n++];
+        memset(d, 0, sizeof *d);
+        d->kind = SQ_DRAWABLE_PARTICLES;
+        d->name = "avalanche-snow";
+        sq_particles_view *p = &d->u.particles;
+        p->count = spheres ? (int)a->st.particles : (int)collect_spray(a);
+        p->position = spheres ? a->pos : a->spray;
+        p->radius_default_m = (float)(pl->d.radius_factor * pl->spacing);
+        p->tau_default = 1.0f;
+        p->sigma_rel[0] = p->sigma_rel[1] = p->sigma_rel[2] = 1.0f;
+        p->albedo[0] = p->albedo[1] = p->albedo[2] = (float)pl->d.albedo;
+        p->g = 0.0f;
+        p->sprite = SQ_SPRITE_SPHERE;
+        p->softness_m = 0.0f;
+        p->version = a->version;
+    }
+    if (surface && n < max) {
+        const int nx = pl->dep_nx, ny = pl->dep_ny;
         sq_drawable *d = &out[n++];
         memset(d, 0, sizeof *d);
         d->kind = SQ_DRAWABLE_SURFACE;
@@ -474,6 +511,10 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
             vv->albedo[c] = 0.99f;
             vv->g[c] = 0.8f;
         }
+        /* irregular, rimed grains scatter some light back (a weak back lobe): the cloud in
+         * front of a sun behind the camera is white, not a dark veil */
+        vv->g2 = -0.3f;
+        vv->w2 = 0.2f;
         vv->density_max = a->pw_max;
         vv->version = a->version;
     }

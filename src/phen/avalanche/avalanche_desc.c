@@ -43,6 +43,7 @@ sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_de
     if (d.albedo == 0.0) d.albedo = 0.9;
     if (d.powder_speed_mps == 0.0) d.powder_speed_mps = 10.0;
     if (d.powder_cell_m == 0.0) d.powder_cell_m = 4.0;
+    if (d.powder_shed == 0.0) d.powder_shed = 2.0e-5;
     if (d.release_reference_altitude_m == 0.0) d.release_reference_altitude_m = 2000.0;
     if (out) *out = d;
     return SQ_OK;
@@ -169,6 +170,8 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
         BAD("%srender.albedo = %g; must be in (0, 1]", P, d->albedo);
     if (!pos_finite(d->powder_speed_mps))
         BAD("%spowder.speed_mps = %g; must be > 0 m/s", P, d->powder_speed_mps);
+    if (!pos_finite(d->powder_shed))
+        BAD("%spowder.shed = %g; must be > 0", P, d->powder_shed);
     if (!pos_finite(d->powder_cell_m))
         BAD("%spowder.cell_m = %g; must be > 0 m", P, d->powder_cell_m);
     for (int a = 0; a < 3; a++)

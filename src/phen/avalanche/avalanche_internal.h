@@ -61,6 +61,7 @@ struct sq_avalanche {
     float *dep_cover;             /* coverage of the surface drawable (snow at rest) */
     /* particles drawable */
     float *pos;                   /* 3*count */
+    float *spray;                 /* 3*count: the particles above the snow surface */
     /* hazard maps over the terrain (hz_nx*hz_ny): peaks since release, sampled every
      * SQ_AVAL_TRACK_S of simulated time */
     double *hz_vol, *hz_mom;      /* this sample: volume (m³) and volume x speed per cell */

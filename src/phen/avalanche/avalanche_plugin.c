@@ -145,11 +145,19 @@ static const sq_param params[] = {
     B("render.no_deposit_surface", no_deposit_surface,
       "Do not draw the deposit surface (terrain + depth, material snow; it covers the snow "
       "at rest, slower than metrics.moving_speed_mps) under the particles."),
+    B("render.spheres", spheres,
+      "Draw every particle as a lit sphere and the surface only where the snow rests (the "
+      "look before the snow surface). Default: the snow surface is reconstructed over all the "
+      "snow (its flow depth, smoothed) and only spray above it is drawn as spheres."),
     B("powder.enabled", powder,
       "Draw a powder cloud: fast particles shed suspended snow into a coarse grid that "
       "diffuses and settles (a visual model; S2 does not simulate the powder cloud)."),
     D("powder.speed_mps", powder_speed_mps, "m/s", 10, 1e-3, 1e3, 0,
       "Particles faster than this feed the powder cloud (shedding grows with the excess)."),
+    D("powder.shed", powder_shed, "1/(m/s)/s", 2e-5, 1e-9, 1e-1, 0,
+      "Suspended snow shed per second per m/s of speed above powder.speed_mps, as a fraction "
+      "of a particle's mass: 2e-5 raises the light veil of a wet flow (extinction ~0.1 1/m), "
+      "~5e-4 the opaque cloud of a dry mixed avalanche."),
     D("powder.cell_m", powder_cell_m, "m", 4, 0.01, 1e4, 0,
       "Cell of the powder grid (grown to keep at most 128 cells per axis)."),
 };

@@ -93,6 +93,31 @@ static double bernoulli_speed(const sq_sandstorm_desc *d, double p_pa)
     return sqrt(fmax(0.0, U * U - 2.0 * p_pa / SQ_SAND_AIR_DENSITY));
 }
 
+/* Log-law factor ln(zg/z0)/ln(z_log/z0) below the log layer (1 above) at zg above the ground. */
+static double log_profile(const sq_sandstorm *s, double zg)
+{
+    if (zg <= s->d.roughness_m) return 0.0;
+    return fmin(1.0, log(zg / s->d.roughness_m) / log(s->d.log_layer_m / s->d.roughness_m));
+}
+
+/* Share of cold-pool air at zg above the ground: 1 in the pool, 0 above, a smooth step of
+ * 0.1 H at its top (the haboob's cold outflow of depth H). */
+static double coldpool_fraction(const sq_sandstorm *s, double zg)
+{
+    if (s->d.coldpool_delta_t_k <= 0.0) return 0.0;
+    const double H = s->d.coldpool_depth_m;
+    return 0.5 * (1.0 - tanh((zg - H) / (0.1 * H)));
+}
+
+/* The cold air's inflow speed: the key, or the density current's velocity scale sqrt(g' H),
+ * g' = g dT / theta_s. */
+static double coldpool_speed(const sq_sandstorm_desc *d)
+{
+    if (d->coldpool_speed_mps > 0.0) return d->coldpool_speed_mps;
+    return sqrt(SQ_SAND_GRAVITY * d->coldpool_delta_t_k / d->surface_temperature_k *
+                d->coldpool_depth_m);
+}
+
 /* Initial wind at a point (m/s): Bernoulli speed, direction -grad P (or along the isobars),
  * and a log profile in the surface layer. */
 static sq_vec3 initial_wind(const sq_sandstorm *s, double x, double y, double z_abs, double ramp)
@@ -117,10 +142,7 @@ static sq_vec3 initial_wind(const sq_sandstorm *s, double x, double y, double z_
         dy = sin(a);
     }
     double zg = z_abs - (double)sq_world_height_at(s->world, (float)x, (float)y);
-    double prof = 0.0;
-    if (zg > s->d.roughness_m)
-        prof = fmin(1.0, log(zg / s->d.roughness_m) / log(s->d.log_layer_m / s->d.roughness_m));
-    double v = speed * prof * ramp;
+    double v = speed * log_profile(s, zg) * ramp;
     return sq_v3((float)(v * dx), (float)(v * dy), 0.0f);
 }
 
@@ -132,10 +154,21 @@ static double ramp_factor(const sq_sandstorm *s, double t)
     return u * u * (3.0 - 2.0 * u);
 }
 
+/* The west face: the ambient wind, and below the cold pool's top the cold outflow entering at
+ * its own speed along wind.prevailing_dir_deg (log profile near the ground). */
 static void inflow_fn(void *user, double x, double y, double z, float vel[3])
 {
     const sq_sandstorm *s = (const sq_sandstorm *)user;
     sq_vec3 v = initial_wind(s, x, y, z, ramp_factor(s, s->time_s));
+    double zg = z - (double)sq_world_height_at(s->world, (float)x, (float)y);
+    double f = coldpool_fraction(s, zg);
+    if (f > 0.0) {
+        const double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
+        const double uc = coldpool_speed(&s->d) * log_profile(s, zg);
+        v = sq_v3((float)((1.0 - f) * (double)v.x + f * uc * cos(a)),
+                  (float)((1.0 - f) * (double)v.y + f * uc * sin(a)),
+                  v.z);
+    }
     vel[0] = v.x;
     vel[1] = v.y;
     vel[2] = v.z;
@@ -183,13 +216,19 @@ static void fill_temperature(sq_sandstorm *s)
         for (int j = 0; j < s->ny; j++)
             for (int i = 0; i < s->nx; i++) {
                 double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
-                *sq_field3_at(T, i, j, k) = (float)theta_initial(s, x, y, (k + 0.5) * s->h);
+                double th = theta_initial(s, x, y, (k + 0.5) * s->h);
+                if ((i + 0.5) * s->h < s->d.coldpool_length_m) { /* the outflow so far */
+                    double zg = s->origin[2] + (k + 0.5) * s->h -
+                                (double)sq_world_height_at(s->world, (float)x, (float)y);
+                    th -= s->d.coldpool_delta_t_k * coldpool_fraction(s, zg);
+                }
+                *sq_field3_at(T, i, j, k) = (float)th;
             }
     }
 }
 
 /* The air entering through the west face has the interior's temperature profile (the ghost
- * cells just outside the face, x = origin - h/2). */
+ * cells just outside the face, x = origin - h/2), less the cold pool's deficit below its top. */
 static sq_result set_temperature_inflow(sq_sandstorm *s)
 {
     int na = 0, nb = 0;
@@ -197,9 +236,13 @@ static sq_result set_temperature_inflow(sq_sandstorm *s)
     if (!t) return SQ_ERR_OUT_OF_MEMORY;
     const double x = s->origin[0] - 0.5 * s->h;
     for (int k = 0; k < nb; k++)
-        for (int j = 0; j < na; j++)
-            t[(size_t)k * na + j] =
-                (float)theta_initial(s, x, s->origin[1] + (j + 0.5) * s->h, (k + 0.5) * s->h);
+        for (int j = 0; j < na; j++) {
+            const double y = s->origin[1] + (j + 0.5) * s->h;
+            const double zg = s->origin[2] + (k + 0.5) * s->h -
+                              (double)sq_world_height_at(s->world, (float)x, (float)y);
+            t[(size_t)k * na + j] = (float)(theta_initial(s, x, y, (k + 0.5) * s->h) -
+                                            s->d.coldpool_delta_t_k * coldpool_fraction(s, zg));
+        }
     return SQ_OK;
 }
 
@@ -648,6 +691,76 @@ static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
     return dep * (double)s->h * s->h * s->h;
 }
 
+/* Surface heating (SPEC §1.10): the sensible heat flux H_s warms the first fluid cell of every
+ * column, d theta/dt = H_s / (rho c_p h); the buoyancy then lifts the warm air. */
+static void heat_surface(sq_sandstorm *s, double dt)
+{
+    const float dth = (float)(s->d.surface_heat_flux_w_m2 * dt / (SQ_SAND_AIR_DENSITY * SQ_SAND_CP * s->h));
+    sq_field3 *T = sq_grid_scalar_field(s->grid, s->temp_idx);
+    for (int j = 0; j < s->ny; j++)
+        for (int i = 0; i < s->nx; i++) {
+            const int k0 = s->ground_k[(size_t)j * s->nx + i];
+            if (k0 >= 0) *sq_field3_at(T, i, j, k0) += dth;
+        }
+}
+
+static int cmp_d(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The cold pool's front: per row, the distance from the west face to the last ground cell whose
+ * potential temperature is below the background by more than dT/2 (interpolated to the
+ * crossing); the median over the rows (0 where no cold air). */
+static double coldpool_front(sq_sandstorm *s)
+{
+    sq_field_view t = sq_grid_scalar_view(s->grid, s->temp_idx);
+    const double half = 0.5 * s->d.coldpool_delta_t_k;
+    double *xs = s->row_acc; /* ny of the 4 ny scratch entries */
+    for (int j = 0; j < s->ny; j++) {
+        double x = 0.0;
+        for (int i = s->nx - 1; i >= 0; i--) {
+            const int k0 = s->ground_k[(size_t)j * s->nx + i];
+            if (k0 < 0) continue;
+            const double a = (double)sq_view_get(&t, i, j, k0) - (double)s->theta_ref[k0] + half;
+            if (a < 0.0) { /* cold: find the crossing with the next column east */
+                double f = 0.5;
+                if (i + 1 < s->nx && s->ground_k[(size_t)j * s->nx + i + 1] >= 0) {
+                    const int k1 = s->ground_k[(size_t)j * s->nx + i + 1];
+                    const double b = (double)sq_view_get(&t, i + 1, j, k1) - (double)s->theta_ref[k1] + half;
+                    f = b > a ? (0.0 - a) / (b - a) : 0.5;
+                }
+                x = (i + 0.5 + f) * s->h;
+                break;
+            }
+        }
+        xs[j] = x;
+    }
+    qsort(xs, (size_t)s->ny, sizeof *xs, cmp_d);
+    return s->ny % 2 ? xs[s->ny / 2] : 0.5 * (xs[s->ny / 2 - 1] + xs[s->ny / 2]);
+}
+
+/* Records the front and its speed over the last ~30 s (the oldest sample within 30 s). */
+static void track_front(sq_sandstorm *s)
+{
+    if (s->d.coldpool_delta_t_k <= 0.0) return;
+    const double x = coldpool_front(s), t = s->time_s;
+    s->front_head = (s->front_head + 1) % SQ_SAND_FRONT_HISTORY;
+    s->front_t[s->front_head] = t;
+    s->front_x[s->front_head] = x;
+    if (s->front_n < SQ_SAND_FRONT_HISTORY) s->front_n++;
+    int old = s->front_head;
+    for (int n = 1; n < s->front_n; n++) {
+        const int q = (s->front_head - n + SQ_SAND_FRONT_HISTORY) % SQ_SAND_FRONT_HISTORY;
+        if (t - s->front_t[q] > 30.0) break;
+        old = q;
+    }
+    s->stats.front_m = x;
+    if (t - s->front_t[old] > 1.0)
+        s->stats.front_speed_mps = (x - s->front_x[old]) / (t - s->front_t[old]);
+}
+
 static sq_result step_desert(sq_sandstorm *s, double dt)
 {
     sq_result r = SQ_OK;
@@ -659,6 +772,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     if (r == SQ_OK) r = sq_grid_advect_velocity(s->grid, dt);             /* MacCormack + limiter */
     double t1 = sq_time_now();
     if (r == SQ_OK) r = add_dust_loading(s, dt, before);                   /* dust weight on air */
+    if (r == SQ_OK && s->d.surface_heat_flux_w_m2 != 0.0) heat_surface(s, dt); /* sunlit ground */
     if (r == SQ_OK && s->d.buoyancy_gain > 0.0)                            /* thermal updraft */
         r = sq_grid_add_buoyancy(s->grid, s->temp_idx, s->theta_ref, s->d.buoyancy_gain,
                                  SQ_SAND_GRAVITY, dt);
@@ -709,7 +823,10 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     s->stats.ms_dust += (t6 - t5 + t8 - t7) * 1e3;
     s->stats.pressure_residual = ps.residual;
     s->stats.pressure_iterations = ps.iterations;
-    return sq_grid_check_finite(s->grid, s->step);
+    r = sq_grid_check_finite(s->grid, s->step);
+    s->time_s += dt;
+    if (r == SQ_OK) track_front(s);
+    return r;
 }
 
 /* Near-field particles (S3, SPEC §4): spawn in the upwind sector of a disc around the camera,
@@ -776,12 +893,18 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
     if (s->d.mode == SQ_SANDSTORM_DESERT) {
         double lim = sq_sandstorm_max_stable_dt(s);
         int n = lim > 0.0 && dt > lim ? (int)ceil(dt / lim) : 1;
+        if (n > 100)
+            return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "sandstorm",
+                            "step %g s at a wind of %g m/s is %d times the CFL sub-step limit "
+                            "%g s (solver.cfl = %g, cell %g m), more than 100: lower "
+                            "wind.speed_mps, wave.pressure_amp_pa or coldpool.delta_t_k, or the "
+                            "frame step (output.time_scale)", dt, sq_grid_max_speed(s->grid), n,
+                            lim, s->d.cfl, s->h);
         if (n > 1 && s->step == 0)
             sq_log(s->ctx, SQ_LOG_INFO, "sandstorm",
                    "step %g s exceeds the CFL limit %g s: sub-stepping %d times", dt, lim, n);
         for (int k = 0; k < n && r == SQ_OK; k++) {
             r = step_desert(s, dt / n);
-            s->time_s += dt / n;
             s->step++;
             s->stats.steps++;
         }
@@ -861,6 +984,21 @@ static void update_derived(sq_sandstorm *s)
     for (int v = 0; v < s->d.vis_height_count; v++)
         sq__sand_visibility_plane(s->density, nx, ny, nz, s->ground_k, s->ground_z1,
                                   (float)s->h, s->d.vis_heights_m[v], s->d.contrast, s->vis[v]);
+    /* the dust wall's height: the top of the highest cell with beta >= SQ_SAND_WALL_BETA, above
+     * the ground of its column */
+    double wall = 0.0;
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            const size_t col = (size_t)j * nx + i;
+            const int k0 = s->ground_k[col];
+            if (k0 < 0) continue;
+            for (int k = nz - 1; k >= k0; k--)
+                if (s->density[(size_t)k * nx * ny + col] >= (float)SQ_SAND_WALL_BETA) {
+                    wall = fmax(wall, (k - k0 + 0.5) * s->h + (double)s->ground_z1[col]);
+                    break;
+                }
+        }
+    s->wall_height_m = wall;
     /* Display only: the ground cells below each column's first fluid cell hold the value of that
      * cell, so that trilinear sampling between the last solid and the first fluid cell centre
      * does not thin the densest, near-ground dust toward zero (the opaque terrain hides what is
@@ -1023,7 +1161,35 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         PUT("dust_deposited_kg", b.deposited_kg, "kg");
         PUT("dust_outflow_kg", b.outflow_kg, "kg");
         PUT("dust_inflow_kg", b.inflow_kg, "kg");
-        PUT("max_wind_mps", sq_grid_max_speed(s->grid), "m/s");
+        PUT("dust_emitted_share", b.emitted_kg + b.inflow_kg > 0.0
+                                      ? b.emitted_kg / (b.emitted_kg + b.inflow_kg) : 1.0, "1");
+        /* the visibility at the fixed observer (the first plane, 2 m by default) */
+        int oi = (int)floor((s->d.observer_m[0] - s->origin[0]) / s->h),
+            oj = (int)floor((s->d.observer_m[1] - s->origin[1]) / s->h);
+        oi = oi < 0 ? 0 : oi >= s->nx ? s->nx - 1 : oi;
+        oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
+        PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
+        PUT("wall_height_m", s->wall_height_m, "m");
+        if (s->d.coldpool_delta_t_k > 0.0) {
+            PUT("front_m", s->stats.front_m, "m");
+            PUT("front_speed_mps", s->stats.front_speed_mps, "m/s");
+        }
+        const double vmax = sq_grid_max_speed(s->grid);
+        if (vmax > 100.0 && !(s->warned & 1)) {
+            s->warned |= 1;
+            sq_log(s->ctx, SQ_LOG_WARN, "sandstorm",
+                   "wind %.0f m/s at t = %g s is above 100 m/s, beyond any dust storm: check "
+                   "wind.speed_mps, wave.pressure_amp_pa, coldpool.delta_t_k, coldpool.speed_mps",
+                   vmax, s->time_s);
+        }
+        const double cmax = s->k_ext_total_550 > 0.0 ? (double)s->density_max / s->k_ext_total_550 : 0.0;
+        if (cmax > 1.0 && !(s->warned & 2)) {
+            s->warned |= 2;
+            sq_log(s->ctx, SQ_LOG_WARN, "sandstorm",
+                   "dust concentration ~%.2g kg/m3 at t = %g s is above 1 kg/m3, beyond any dust "
+                   "storm: check surface.emission_coeff, dust.inflow_kg_m3", cmax, s->time_s);
+        }
+        PUT("max_wind_mps", vmax, "m/s");
         PUT("max_friction_velocity_mps", s->stats.max_u_star_mps, "m/s");
         PUT("emitting_fraction", s->stats.emitting_fraction, "1");
         PUT("pressure_residual", s->stats.pressure_residual, "1");

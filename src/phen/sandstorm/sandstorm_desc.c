@@ -38,6 +38,7 @@ sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_de
     DEF(d.bins, 4);
     DEF(d.inflow_dust_height_m, 300.0);
     DEF(d.u_star_t0_mps, 0.25);
+    DEF(d.coldpool_depth_m, 1000.0);
     DEF(d.roughness_factor, 1.0);
     DEF(d.moisture_factor, 1.0);
     DEF(d.compactness_factor, 1.0);
@@ -89,6 +90,23 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
         BAD("%stemperature.lapse_k_per_m = %g K/m; above the dry adiabatic %g K/m the air is "
             "statically unstable (potential temperature falls with height)", P,
             (double)d.lapse_k_per_m, SQ_SAND_DRY_LAPSE);
+    if (d.coldpool_delta_t_k < 0.0 || d.coldpool_delta_t_k > 20.0 || !isfinite(d.coldpool_delta_t_k))
+        BAD("%scoldpool.delta_t_k = %g K; a cold pool is colder than the air it enters (> 0; 0 = "
+            "none) by at most 20 K (observed outflows 2-15 K; beyond, dT/theta > 7 %% and the "
+            "Boussinesq buoyancy no longer holds)", P, (double)d.coldpool_delta_t_k);
+    if (d.coldpool_delta_t_k > 0.0) {
+        const double top = d.cells[2] * (double)d.cell_size_m, len = d.cells[0] * (double)d.cell_size_m;
+        if (!(d.coldpool_depth_m >= 2.0 * d.cell_size_m && d.coldpool_depth_m <= 0.8 * top))
+            BAD("%scoldpool.depth_m = %g m; the cold pool must lie inside the domain: at least 2 "
+                "cells (%g m) and at most 0.8 of its height (%g m; domain.nz x domain.cell_size_m)",
+                P, (double)d.coldpool_depth_m, 2.0 * d.cell_size_m, 0.8 * top);
+        if (d.coldpool_length_m < 0.0 || d.coldpool_length_m >= len)
+            BAD("%scoldpool.length_m = %g m; the initial outflow must start inside the domain "
+                "(0 <= length < %g m)", P, (double)d.coldpool_length_m, len);
+    }
+    if (d.surface_heat_flux_w_m2 < -200.0 || d.surface_heat_flux_w_m2 > 1000.0)
+        BAD("%ssurface.heat_flux_w_m2 = %g W/m2; desert sensible heat fluxes are -200..1000 W/m2",
+            P, (double)d.surface_heat_flux_w_m2);
     if (!(d.median_radius_m > 0.0) || !isfinite(d.median_radius_m))
         BAD("%sdust.median_radius_m = %g; must be a finite radius > 0 m", P, (double)d.median_radius_m);
     if (!(d.sigma_g > 1.0) || !isfinite(d.sigma_g))

@@ -11,6 +11,10 @@
 #define SQ_SAND_AIR_VISCOSITY 1.81e-5 /* Pa s, dynamic viscosity of air at 15-20 °C */
 #define SQ_SAND_GRAVITY 9.81          /* m/s² */
 #define SQ_SAND_DRY_LAPSE 0.0098      /* K/m, dry adiabatic lapse rate g / c_p (c_p = 1004) */
+#define SQ_SAND_CP 1004.0             /* J/(kg K), specific heat of dry air at constant pressure */
+#define SQ_SAND_FRONT_HISTORY 64      /* front samples kept for its speed */
+/* the wall: where the dust's extinction reaches 3e-3 1/m (visibility <= 1 km at 5 % contrast) */
+#define SQ_SAND_WALL_BETA 3.0e-3
 #define SQ_SAND_KARMAN 0.4            /* von Kármán constant (S0) */
 #define SQ_SAND_NU_AIR 1.5e-5         /* m²/s kinematic viscosity of air (SPEC §1.5) */
 /* Cap on the mixing length kappa d (m): kappa x 250 m. The mixing length grows with height only
@@ -63,6 +67,7 @@ struct sq_sandstorm {
     /* drawable and metric buffers */
     float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
     float density_max;
+    double wall_height_m;                    /* highest dust with beta >= SQ_SAND_WALL_BETA */
     float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */
     char vis_names[SQ_SANDSTORM_MAX_VIS][40];
     float *export_buf[6];                    /* fields for export (conc, u, v, w, T, beta) */
@@ -76,6 +81,10 @@ struct sq_sandstorm {
     double time_s;
     int64_t step;
     sq_sandstorm_budget budget;
+    /* cold-pool front history (ring): times and positions, every step */
+    double front_t[SQ_SAND_FRONT_HISTORY], front_x[SQ_SAND_FRONT_HISTORY];
+    int32_t front_n, front_head;
+    int32_t warned;                 /* bit 0: wind > 100 m/s, bit 1: dust > 1 kg/m3 (logged once) */
     sq_sandstorm_stats stats;
     /* near field */
     int np;

@@ -57,6 +57,22 @@ static const sq_param params[] = {
     D("temperature.buoyancy_gain", buoyancy_gain, "1", 0, 0, 100, Z,
       "Boussinesq buoyancy on the air, 1 = physical (replaces S0's negligible thermophoresis, "
       "SPEC §1.10); 0 = off."),
+    D("coldpool.delta_t_k", coldpool_delta_t_k, "K", 0, 0, 20, Z,
+      "Haboob: temperature deficit of the thunderstorm's cold outflow, which enters through the "
+      "west face as a density current (issue 12); 0 = none. Refused above 20 K."),
+    D("coldpool.depth_m", coldpool_depth_m, "m", 1000, 1, 1e4, 0,
+      "Depth H of the cold outflow above the ground (observed 0.5-2 km); inside the domain: "
+      "2 cells to 0.8 of its height."),
+    D("coldpool.length_m", coldpool_length_m, "m", 0, 0, 1e6, Z,
+      "How far the outflow has already come in from the west face at t = 0."),
+    D("coldpool.speed_mps", coldpool_speed_mps, "m/s", 0, 0, 100, Z,
+      "Inflow speed of the cold air; 0 = the density current's scale sqrt(g dT H / T_s)."),
+    D("surface.heat_flux_w_m2", surface_heat_flux_w_m2, "W/m2", 0, -200, 1000, Z,
+      "Sensible heat flux from the sunlit ground into the lowest air (SPEC §1.10): "
+      "d theta/dt = H_s / (rho c_p h); with temperature.buoyancy_gain the warm air rises."),
+    D("observer.x_m", observer_m[0], "m", 0, -1e7, 1e7, Z,
+      "Fixed observer of the visibility_observer_m metric (on the first visibility plane), x."),
+    D("observer.y_m", observer_m[1], "m", 0, -1e7, 1e7, Z, "Fixed observer, y."),
     E("solver.pressure", pressure_solver, "mgpcg|multigrid|jacobi",
       "Pressure solver: multigrid-preconditioned CG (default), multigrid V-cycles, or S0's "
       "fixed-count Jacobi."),

@@ -1,7 +1,8 @@
 /* sandstorm_state.c — the sandstorm's checkpoint hooks (issue 17 part 4): the wind and dust
  * grid (sq_grid_save_state: velocity, dust bins and temperature as scalars, pressure, inflow),
  * the clock and step count, the dust budget and statistics, the urban volume, and the
- * near-field particles around the camera with their spawn counter. Derived buffers
+ * near-field particles around the camera with their spawn counter, the background potential
+ * temperature, the cold-pool front history (issue 12). Derived buffers
  * (extinction, visibility planes, exports) are recomputed from these. */
 #include <string.h>
 
@@ -21,6 +22,13 @@ sq_result sq__sandstorm_save_state(const void *self, sq_state_writer *w)
     sq_state_put(w, "sandstorm/camera", &cam, sizeof cam);
     sq_state_put(w, "sandstorm/cam_pos", &s->cam_pos, sizeof s->cam_pos);
     sq_state_put(w, "sandstorm/spawn_counter", &s->spawn_counter, sizeof s->spawn_counter);
+    /* issue 12: the background temperature profile, the cold-pool front history, the warnings
+     * given (the cold-pool inflow itself is the grid's velocity and temperature inflow) */
+    if (s->theta_ref) sq_state_put(w, "sandstorm/theta_ref", s->theta_ref, (size_t)s->nz * sizeof(float));
+    sq_state_put(w, "sandstorm/front_t", s->front_t, sizeof s->front_t);
+    sq_state_put(w, "sandstorm/front_x", s->front_x, sizeof s->front_x);
+    const int32_t fr[3] = {s->front_n, s->front_head, s->warned};
+    sq_state_put(w, "sandstorm/front", fr, sizeof fr);
     sq_state_put(w, "sandstorm/near", &s->np, sizeof s->np);
     if (s->np > 0 && s->p_pos) {
         const size_t n = (size_t)s->np;
@@ -47,6 +55,14 @@ sq_result sq__sandstorm_load_state(void *self, sq_state_reader *r)
     sq_state_get(r, "sandstorm/camera", &cam, sizeof cam);
     sq_state_get(r, "sandstorm/cam_pos", &s->cam_pos, sizeof s->cam_pos);
     sq_state_get(r, "sandstorm/spawn_counter", &s->spawn_counter, sizeof s->spawn_counter);
+    if (s->theta_ref) sq_state_get(r, "sandstorm/theta_ref", s->theta_ref, (size_t)s->nz * sizeof(float));
+    sq_state_get(r, "sandstorm/front_t", s->front_t, sizeof s->front_t);
+    sq_state_get(r, "sandstorm/front_x", s->front_x, sizeof s->front_x);
+    int32_t fr[3] = {0, 0, 0};
+    sq_state_get(r, "sandstorm/front", fr, sizeof fr);
+    s->front_n = fr[0];
+    s->front_head = fr[1];
+    s->warned = fr[2];
     if (sq_state_get(r, "sandstorm/near", &np, sizeof np) != SQ_OK) return r->status;
     if (np != s->np)
         return r->status = sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "sandstorm",

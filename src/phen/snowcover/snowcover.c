@@ -79,12 +79,68 @@ double sq_snowcover_depth_m(const sq_snowcover *s)
 static void accumulate(sq_snowcover *s, double dt_s)
 {
     const double dw = s->d.snowfall_mmh * 1e-3 / 3600.0 * dt_s * s->d.speedup;
-    if (dw <= 0.0) return;
-    s->water_m += dw;
+    if (dw <= 0.0 && !s->has_depth_in) return;
+    if (dw > 0.0) s->water_m += dw;
     const float d = (float)sq_snowcover_depth_m(s);
-    const size_t cells = (size_t)s->nx * (size_t)s->ny;
-    for (size_t i = 0; i < cells; i++) s->depth[i] = d;
+    const sq_named_field *in = s->has_depth_in ? &s->depth_in : NULL;
+    for (int j = 0; j < s->ny; j++)
+        for (int i = 0; i < s->nx; i++) {
+            float v = d;
+            if (in) {
+                /* the input's depth where it covers the cell centre (nearest sample) */
+                const double x = s->origin[0] + (i + 0.5) * s->cell_m;
+                const double y = s->origin[1] + (j + 0.5) * s->cell_m;
+                const double fi = (x - (double)in->origin_m.x) / (double)in->spacing_m.x + 0.5;
+                const double fj = (y - (double)in->origin_m.y) / (double)in->spacing_m.y + 0.5;
+                if (fi >= 0.0 && fj >= 0.0 && fi < in->nx && fj < in->ny) {
+                    const float q = in->data[(size_t)fj * (size_t)in->nx + (size_t)fi];
+                    if (isfinite(q)) v = q;
+                }
+            }
+            s->depth[(size_t)j * (size_t)s->nx + (size_t)i] = v;
+        }
     s->version++;
+}
+
+static bool usable(const sq_named_field *f, int nz)
+{
+    return f && f->data && f->nx > 0 && f->ny > 0 && f->nz == nz && f->spacing_m.x > 0.0f &&
+           f->spacing_m.y > 0.0f && (nz == 1 || f->spacing_m.z > 0.0f);
+}
+
+void sq_snowcover_set_inputs(sq_snowcover *s, const sq_named_field *depth,
+                             const sq_named_field *u, const sq_named_field *v,
+                             const sq_named_field *w)
+{
+    if (!s) return;
+    s->has_depth_in = usable(depth, 1);
+    if (s->has_depth_in) s->depth_in = *depth;
+    s->has_wind_in = u && v && w && u->nz > 1 && usable(u, u->nz) && usable(v, u->nz) &&
+                     usable(w, u->nz) && v->nx == u->nx && w->nx == u->nx && v->ny == u->ny &&
+                     w->ny == u->ny;
+    if (s->has_wind_in) {
+        s->wind_in[0] = *u;
+        s->wind_in[1] = *v;
+        s->wind_in[2] = *w;
+    }
+}
+
+bool sq__snowcover_input_wind(const sq_snowcover *s, const float p[3], double w[3])
+{
+    if (!s->has_wind_in) return false;
+    const sq_named_field *f = &s->wind_in[0];
+    const float *o = &f->origin_m.x, *h = &f->spacing_m.x;
+    const int n[3] = {f->nx, f->ny, f->nz};
+    size_t idx = 0, stride = 1;
+    for (int a = 0; a < 3; a++) {
+        const double c = ((double)p[a] - (double)o[a]) / (double)h[a] + 0.5; /* centres at o */
+        if (!(c >= 0.0 && c < n[a])) return false;
+        idx += (size_t)c * stride;
+        stride *= (size_t)n[a];
+    }
+    const bool solid = f->invalid && f->invalid[idx];
+    for (int a = 0; a < 3; a++) w[a] = solid ? 0.0 : (double)s->wind_in[a].data[idx];
+    return true;
 }
 
 sq_result sq_snowcover_step(sq_snowcover *s, double dt_s)

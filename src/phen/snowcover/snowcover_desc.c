@@ -34,14 +34,17 @@ sq_result sq_snowcover_desc_resolve(const sq_snowcover_desc *in, sq_snowcover_de
     DEF(d.taps, 4);
     DEF(d.tap_radius, 1.0);
     DEF(d.bias_m, 0.05);
+    DEF(d.noise, 0.3);
     DEF(d.noise_scale_m, 2.0);
+    DEF(d.shell_blend, 0.5);
+    DEF(d.sparkle, 0.5);
     DEF(d.albedo, 0.9);
     DEF(d.shininess, 24.0);
     DEF(d.layers, 4);
     DEF(d.near_m, 1.5);
     DEF(d.reach_m, 80.0);
-    DEF(d.size_mrad, 8.0);
-    DEF(d.layer_growth, 1.5);
+    DEF(d.size_mrad, 6.0);
+    DEF(d.layer_growth, 1.3);
     if (d.atten[0] == 0 && d.atten[1] == 0 && d.atten[2] == 0) d.atten[1] = 1.0;
     DEF(d.fall_speed_mps, 1.0);
     if (out) *out = d;
@@ -59,7 +62,8 @@ sq_result sq_snowcover_validate(sq_context *ctx, const sq_snowcover_desc *in, co
     sq_snowcover_desc_resolve(in, &d);
     const char *P = "sq_snowcover_desc.";
     if (d.level < SQ_SNOWCOVER_CUSTOM || d.level > SQ_SNOWCOVER_HEAVY)
-        BAD("%slevel = %d; must be custom, none, light, medium or heavy (0..4)", P, d.level);
+        BAD("%ssnowfall.level = %d; must be custom, none, light, medium or heavy (0..4)", P,
+            d.level);
     if (!nonneg(d.snowfall_mmh))
         BAD("%ssnowfall.rate_mmh = %g; must be >= 0 mm/h water equivalent", P, d.snowfall_mmh);
     if (!(isfinite(d.density_kgm3) && d.density_kgm3 >= 10 && d.density_kgm3 <= 917))

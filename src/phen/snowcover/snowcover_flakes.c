@@ -108,8 +108,10 @@ void sq__snowcover_flakes_step(sq_snowcover *s, double dt_s)
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(s->nflakes >= 16384))
     for (int i = 0; i < s->nflakes; i++) {
         float *p = &s->pos[3 * i], *v = &s->vel[3 * i];
-        double pd[3] = {p[0], p[1], p[2]}, vd[3] = {v[0], v[1], v[2]};
-        sq_snowcover_flake_update(w, vt, dt_s, pd, vd);
+        double pd[3] = {p[0], p[1], p[2]}, vd[3] = {v[0], v[1], v[2]}, wl[3];
+        /* the wind of the snowdrift lattice where it is present, else the layer's own */
+        const double *wf = sq__snowcover_input_wind(s, p, wl) ? wl : w;
+        sq_snowcover_flake_update(wf, vt, dt_s, pd, vd);
         if (sigma > 0.0) {
             uint32_t b[4];
             sq_rng_bits(s->d.seed, NOISE_STREAM, base + (uint64_t)i, b);

@@ -36,7 +36,13 @@ struct sq_snowcover {
     int visible;         /* flakes drawn in the last frame's view */
     double ms_flakes;    /* time of the last flake step + sizing */
     sq_metric metrics[6];
+    /* inputs from another layer (sq_snowcover_set_inputs): depth, wind u, v, w */
+    bool has_depth_in, has_wind_in;
+    sq_named_field depth_in, wind_in[3];
 };
+
+/* The wind of the input fields at p (nearest cell; 0 in solid cells); false outside them. */
+bool sq__snowcover_input_wind(const sq_snowcover *s, const float p[3], double w[3]);
 
 /* The accumulation grid over the world's terrain (snowcover_desc.c). */
 void sq__snowcover_grid(const sq_snowcover_desc *d, const sq_world *w, int *nx, int *ny,

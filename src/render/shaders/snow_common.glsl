@@ -160,8 +160,10 @@ float sq_snow_cover(vec3 p, vec3 n)
     float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z) * inc : 0.0;
     float far_fp = inc * sq_snow_far_density(p);
     float depth = sq_snow_depth_at(p.xy);
-    // thin snow covers partly: full cover from 3 cm of depth on
-    float cover = smoothstep(0.0, 0.03, depth);
+    // thin snow covers partly, in patches (grass and rough ground poke through): the covered
+    // fraction grows with depth / 8 cm times a noise in [0.5, 1.5]; full from about 16 cm
+    float patchy = sq_snow_noise3(vec3(p.xy / 1.5, 0.37)) * 0.7 + sq_snow_noise3(vec3(p.xy / 0.4, 5.1)) * 0.3;
+    float cover = clamp(depth / 0.08 * (0.5 + patchy), 0.0, 1.0);
     return cover * mix(far_fp, near_fp, w);
 }
 
