@@ -5,13 +5,18 @@
  *             (field, clouds, particles, clustering: ms_model), the light (MFS sweeps, shadow map:
  *             ms_light = a frame after a step minus the same frame again, whose light is cached),
  *             the draw with read-back (ms_draw, the cached frame) and their sum ms_per_frame;
- *             ms_base is the same frame without clouds (sky, terrain, tone mapping, read-back);
+ *             ms_base is the same frame without clouds (sky, terrain, tone mapping, read-back),
+ *             drawn right after each cloud frame; ms_clouds = model + light + draw - base, the
+ *             clouds' share of a frame (median of the pairs), cpu_ms_clouds the same in process
+ *             CPU time (all threads, llvmpipe's included: less sensitive to a shared machine);
  *   table     S4 Table 1: plain vs structured particle system at 2 600, 4 100, 7 800, 10 500 and
  *             13 000 particles, whole frames (model + light + draw), fps and the speed-up per row
  *             next to S4's published fps;
  *   impostor  a distant field (20 cumuli 150 km away, beyond dist_impostor): the cloud pass's
- *             cost (frame minus the base frame) with impostors and with particles only, the
- *             camera turning 0.02 degree per frame (impostors re-rendered as they go stale).
+ *             cost (frame minus the base frame drawn right after it; medians of the pairs, the
+ *             impostors' mean too, which includes their refreshes) with impostors and with
+ *             particles only, the camera turning 0.02 degree per frame (impostors re-rendered
+ *             as they go stale).
  * Medians over --reps frames after --warmup frames. JSON lines. */
 #include <math.h>
 #include <stdio.h>
