@@ -293,6 +293,13 @@ SQ_TEST(dem_unreadable_and_without_crs_are_refused_with_reasons)
     sq_dem_release(ctx, &dem);
     d.assign_crs = "EPSG:999999";
     SQ_CHECK_ERR(sq_dem_load(ctx, &d, &dem), SQ_ERR_INVALID_ARG, "dem_crs = 'EPSG:999999'");
+    /* degrees off the Earth (the fuzzer's find: a UTM zone from longitude 2e171 overflowed) */
+    write_text(in_dir(q, sizeof q, "offworld.asc"),
+               "ncols 4\nnrows 3\nxllcorner 1e12\nyllcorner 45\ncellsize 0.001\n"
+               "100 101 102 103\n110 111 112 113\n120 121 122 123\n");
+    d.path = q;
+    d.assign_crs = "EPSG:4326";
+    SQ_CHECK_ERR(sq_dem_load(ctx, &d, &dem), SQ_ERR_INVALID_ARG, "not a place on Earth");
     SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
     remove_dir();

@@ -729,6 +729,69 @@ SQ_TEST(refusals_name_file_and_variable)
     cleanup();
 }
 
+/* Copies src to dst with the 4-byte big-endian word at offset set to value (value < 0: the file
+ * is cut to offset bytes instead); false when src cannot be read. */
+static bool poke_be32(const char *src, const char *dst, long offset, long long value)
+{
+    FILE *in = fopen(src, "rb");
+    if (!in) return false;
+    unsigned char buf[1 << 16];
+    const size_t n = fread(buf, 1, sizeof buf, in);
+    fclose(in);
+    if (n < (size_t)offset + 4) return false;
+    size_t len = n;
+    if (value >= 0)
+        for (int b = 0; b < 4; b++) buf[offset + b] = (unsigned char)(value >> (24 - 8 * b));
+    else
+        len = (size_t)offset;
+    FILE *out = fopen(dst, "wb");
+    if (!out) return false;
+    const bool ok = fwrite(buf, 1, len, out) == len;
+    return fclose(out) == 0 && ok;
+}
+
+/* libnetcdf allocates what a netCDF-3 header declares; the reader walks the header first and
+ * refuses counts that do not fit in the file (tests/fuzz/regress/wrf/ has the fuzzer's find). */
+SQ_TEST(netcdf3_header_counts_bounded_by_the_file)
+{
+    sq_context *ctx = mkctx();
+    sq_wrf *w = NULL;
+    fx_desc d = fx_default(1);
+    d.classic = true;
+    char good[600]; /* tmp_path() reuses 4 buffers */
+    snprintf(good, sizeof good, "%s", tmp_path("classic.nc"));
+    SQ_CHECK(fx_write(good, &d));
+    sq_wrf *wg = open1(ctx, good); /* the walk accepts a real classic file */
+    if (wg) sq_wrf_close(wg);
+    /* magic, numrecs, NC_DIMENSION, ndims: the first dimension's name length is at byte 16 */
+    const char *name = tmp_path("name.nc");
+    SQ_CHECK(poke_be32(good, name, 16, 0x7ffffff0LL));
+    const char *pn[1] = {name};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pn, 1, &w), SQ_ERR_PARSE,
+                 "name.nc: truncated or corrupt netCDF-3 file: its header declares a dimension "
+                 "that does not fit");
+    /* a dimension count of two billion */
+    const char *count = tmp_path("count.nc");
+    SQ_CHECK(poke_be32(good, count, 12, 0x7fffffffLL));
+    const char *pc[1] = {count};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pc, 1, &w), SQ_ERR_PARSE, "dimension list that does not fit");
+    /* an unknown list tag where the dimensions start */
+    const char *tag = tmp_path("tag.nc");
+    SQ_CHECK(poke_be32(good, tag, 8, 0x0d));
+    const char *pt[1] = {tag};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pt, 1, &w), SQ_ERR_PARSE,
+                 "tag.nc: corrupt netCDF-3 file: invalid dimension list in the header");
+    /* the header cut short */
+    const char *cut = tmp_path("cut.nc");
+    SQ_CHECK(poke_be32(good, cut, 40, -1));
+    const char *pk[1] = {cut};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pk, 1, &w), SQ_ERR_PARSE, "cut.nc: truncated or corrupt netCDF-3");
+    SQ_CHECK(w == NULL);
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
+    sq_context_destroy(ctx);
+    cleanup();
+}
+
 SQ_TEST(memory_limit_refuses_before_allocating)
 {
     sq_context *ctx = NULL;

@@ -141,6 +141,7 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
         c->pp.radius_m = (float)d.radius_m;
         c->pp.lifetime_s = (float)d.lifetime_s;
         c->pp.seed = d.seed;
+        c->pp.threads = sq_context_threads(ctx);
         r = update(c, 0.0, PARTICLES_SEED);
     }
     if (r != SQ_OK) {
