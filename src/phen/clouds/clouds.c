@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "clouds_internal.h"
+#include "world/world_struct.h"
 
 #define MAX_STEP_S 600.0
 #define SPLAT_AREA 0.3f

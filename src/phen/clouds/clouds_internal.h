@@ -14,6 +14,7 @@
 #include "squall/noise.h"
 #include "squall/optics.h"
 #include "squall/plugin.h"
+#include "world/world_struct.h"
 
 /* ==== structured particles: similarity and leader clustering (clouds_cluster.c) ============= */
 

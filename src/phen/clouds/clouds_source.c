@@ -18,6 +18,7 @@
 
 #if defined(SQ_HAVE_PROJ) && SQ_HAVE_PROJ
 #include "squall/wrf.h"
+#include "world/world_struct.h"
 #define CLOUDS_HAVE_WRF 1
 #else
 #define CLOUDS_HAVE_WRF 0
