@@ -126,7 +126,10 @@ typedef struct sq_avalanche_desc {
                                   (default: the snow surface over all snow, spheres for spray) */
     bool powder;               /* publish a powder-cloud volume from fast particles at the front */
     double powder_speed_mps;   /* particles faster than this feed the powder cloud; 0 -> 10 m/s */
-    double powder_cell_m;      /* powder grid cell; 0 -> 4 m */
+    double powder_cell_m;      /* powder grid cell; 0 -> 2 m */
+    double powder_box_m;       /* side of the powder grid's cubic box, which moves with the flow
+                                  by whole cells; 0 -> 256 m (at most 128 cells per axis: the
+                                  cell grows to fit) */
     double powder_shed;        /* shed mass per s per (m/s of excess speed), as a fraction of a
                                   particle's mass; 0 -> 2e-5 (a wet flow's veil) */
 } sq_avalanche_desc;

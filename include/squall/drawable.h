@@ -79,7 +79,9 @@ typedef enum sq_material {
     SQ_MATERIAL_DEFAULT = 0, /* = terrain-like rock/soil */
     SQ_MATERIAL_SAND = 1,
     SQ_MATERIAL_SNOW = 2,
-    SQ_MATERIAL_ROCK = 3
+    SQ_MATERIAL_ROCK = 3,
+    SQ_MATERIAL_SNOW_DEBRIS = 4 /* avalanche snow: granular lumps, shadowed gaps (GL renderer;
+                                   the reference path tracer shades it as textured snow) */
 } sq_material;
 
 /* A heightfield surface z = height[j*nx+i] at (origin.x + i*dx, origin.y + j*dy) drawn over the

@@ -43,6 +43,7 @@ sq_vec3 sq__material_albedo(sq_material m)
     switch (m) {
     case SQ_MATERIAL_SAND: return sq_v3(0.58f, 0.45f, 0.30f);
     case SQ_MATERIAL_SNOW: return sq_v3(0.90f, 0.92f, 0.95f);
+    case SQ_MATERIAL_SNOW_DEBRIS: return sq_v3(0.86f, 0.88f, 0.92f);
     case SQ_MATERIAL_ROCK: return sq_v3(0.30f, 0.28f, 0.26f);
     default: return sq_v3(0.30f, 0.25f, 0.19f); /* soil */
     }

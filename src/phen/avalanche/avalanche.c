@@ -9,6 +9,7 @@
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "avalanche_internal.h"
@@ -34,6 +35,7 @@ void sq_avalanche_destroy(sq_avalanche *a)
     sq_free(ctx, a->spray);
     sq_free(ctx, a->pw_density);
     sq_free(ctx, a->pw_tmp);
+    sq_free(ctx, a->pw_ground);
     sq__aval_hazard_free(a);
     sq_free(ctx, a);
 }
@@ -95,8 +97,11 @@ static sq_result alloc_buffers(sq_avalanche *a)
         const size_t nv = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1] * (size_t)pl->pw_n[2];
         a->pw_density = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
         a->pw_tmp = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
-        if (!a->pw_density || !a->pw_tmp)
+        a->pw_ground = (int *)sq_alloc_zero(ctx, (size_t)pl->pw_n[0] * pl->pw_n[1] * sizeof(int));
+        if (!a->pw_density || !a->pw_tmp || !a->pw_ground)
             return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for the powder grid");
+        memcpy(a->pw_origin, pl->pw_origin, sizeof a->pw_origin);
+        sq__aval_powder_ground(a);
     }
     for (int j = 0; j < pl->dep_ny; j++)
         for (int i = 0; i < pl->dep_nx; i++)
@@ -355,11 +360,72 @@ const float *sq_avalanche_positions(sq_avalanche *a, size_t *count)
 
 /* ---- drawables, metrics, fields -------------------------------------------------------------- */
 
-/* The powder cloud: fast particles shed suspended snow into a coarse grid, which diffuses
- * (turbulent diffusivity) and settles out (exponential decay) — a visual model. */
+/* The powder cloud: fast particles shed suspended snow into a box of cells that follows the
+ * flow, where it diffuses (turbulent diffusivity) between air cells and settles out
+ * (exponential decay) — a visual model with a closed budget (docs/phen/avalanche.md). */
 #define POWDER_DIFFUSIVITY 8.0  /* m²/s */
 #define POWDER_DECAY_S 6.0      /* s */
-static void update_powder(sq_avalanche *a)
+
+void sq__aval_powder_ground(sq_avalanche *a)
+{
+    const sq__aval_plan *pl = &a->plan;
+    const double c = pl->pw_cell;
+    for (int j = 0; j < pl->pw_n[1]; j++)
+        for (int i = 0; i < pl->pw_n[0]; i++) {
+            const double t = sq_world_height_at(a->world, (float)(a->pw_origin[0] + (i + 0.5) * c),
+                                                (float)(a->pw_origin[1] + (j + 0.5) * c));
+            /* cell k is ground when its centre o + (k + 1/2) c is below the terrain */
+            double g = ceil((t - a->pw_origin[2]) / c - 0.5);
+            g = g < 0.0 ? 0.0 : g > pl->pw_n[2] ? pl->pw_n[2] : g;
+            a->pw_ground[(size_t)j * pl->pw_n[0] + i] = (int)g;
+        }
+}
+
+/* Re-centres the box on the snow feeding the cloud (the mass centre of the particles faster
+ * than powder.speed_mps; its lowest quarter below them) when that has moved more than an
+ * eighth of the box: a shift by whole cells, so the powder inside keeps its place. */
+static void powder_follow(sq_avalanche *a, const sq_sph_view *v)
+{
+    const sq__aval_plan *pl = &a->plan;
+    const float v2min = (float)(pl->d.powder_speed_mps * pl->d.powder_speed_mps);
+    double sum[3] = {0.0, 0.0, 0.0};
+    size_t nf = 0;
+    for (size_t p = 0; p < v->count; p++) {
+        const float v2 = v->vx[p] * v->vx[p] + v->vy[p] * v->vy[p] + v->vz[p] * v->vz[p];
+        if (!(v2 > v2min)) continue;
+        sum[0] += (double)v->x[p];
+        sum[1] += (double)v->y[p];
+        sum[2] += (double)v->z[p];
+        nf++;
+    }
+    if (nf == 0) return;
+    const double c = pl->pw_cell;
+    int shift[3];
+    bool move = false;
+    for (int k = 0; k < 3; k++) {
+        const double want = sum[k] / (double)nf - (k == 2 ? 0.25 : 0.5) * pl->pw_n[k] * c;
+        shift[k] = (int)lround((want - a->pw_origin[k]) / c);
+        move = move || 8 * abs(shift[k]) > pl->pw_n[k];
+    }
+    if (!move) return;
+    const double cell_volume = c * c * c;
+    a->pw_left += cell_volume * sq__aval_powder_shift(a->pw_density, a->pw_tmp, pl->pw_n, shift);
+    float *t = a->pw_density;
+    a->pw_density = a->pw_tmp;
+    a->pw_tmp = t;
+    for (int k = 0; k < 3; k++) a->pw_origin[k] += shift[k] * c;
+    sq__aval_powder_ground(a);
+    /* powder now in a ground cell (the box moved up a slope) settles there */
+    const size_t nxy = (size_t)pl->pw_n[0] * pl->pw_n[1];
+    for (size_t col = 0; col < nxy; col++)
+        for (int k = 0; k < a->pw_ground[col]; k++) {
+            float *d = &a->pw_density[(size_t)k * nxy + col];
+            a->pw_settled += cell_volume * (double)*d;
+            *d = 0.0f;
+        }
+}
+
+void sq__aval_update_powder(sq_avalanche *a)
 {
     const sq__aval_plan *pl = &a->plan;
     if (!a->pw_density) return;
@@ -367,11 +433,16 @@ static void update_powder(sq_avalanche *a)
     if (!(dt > 0.0)) return;
     a->pw_time_s = a->time_s;
     const sq_sph_view v = sq_sph_particles(a->sph);
-    const double share = pl->spacing * pl->spacing * pl->spacing /
-                         (pl->pw_cell * pl->pw_cell * pl->pw_cell);
-    sq__aval_powder_source(v.x, v.y, v.z, v.vx, v.vy, v.vz, v.count, (float)pl->d.powder_speed_mps,
-                           (float)(pl->d.powder_shed * share * dt * pl->d.density_kgm3), pl->pw_n,
-                           pl->pw_origin, pl->pw_cell, a->pw_density);
+    powder_follow(a, &v);
+    const double cell_volume = pl->pw_cell * pl->pw_cell * pl->pw_cell;
+    const double share = pl->spacing * pl->spacing * pl->spacing / cell_volume;
+    a->pw_entrained +=
+        cell_volume * sq__aval_powder_source(v.x, v.y, v.z, v.vx, v.vy, v.vz, v.count,
+                                             (float)pl->d.powder_speed_mps,
+                                             (float)(pl->d.powder_shed * share * dt *
+                                                     pl->d.density_kgm3),
+                                             pl->pw_n, a->pw_origin, pl->pw_cell, a->pw_ground,
+                                             a->pw_density);
     const double kmax = 1.0 / 6.0;
     const double ktot = POWDER_DIFFUSIVITY * dt / (pl->pw_cell * pl->pw_cell);
     int nsub = (int)ceil(ktot / kmax);
@@ -380,7 +451,8 @@ static void update_powder(sq_avalanche *a)
     const float k = (float)(ktot / nsub > kmax ? kmax : ktot / nsub);
     const float decay = (float)exp(-dt / POWDER_DECAY_S / nsub);
     for (int s = 0; s < nsub; s++) {
-        sq__aval_powder_diffuse(a->pw_density, a->pw_tmp, pl->pw_n, k, decay);
+        a->pw_settled += cell_volume * sq__aval_powder_diffuse(a->pw_density, a->pw_tmp, pl->pw_n,
+                                                               a->pw_ground, k, decay);
         float *t = a->pw_density;
         a->pw_density = a->pw_tmp;
         a->pw_tmp = t;
@@ -389,6 +461,16 @@ static void update_powder(sq_avalanche *a)
     float mx = 0.0f;
     for (size_t c = 0; c < nv; c++) mx = a->pw_density[c] > mx ? a->pw_density[c] : mx;
     a->pw_max = mx;
+}
+
+double sq__aval_powder_suspended(const sq_avalanche *a)
+{
+    if (!a->pw_density) return 0.0;
+    const sq__aval_plan *pl = &a->plan;
+    const size_t nv = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1] * (size_t)pl->pw_n[2];
+    double s = 0.0;
+    for (size_t c = 0; c < nv; c++) s += (double)a->pw_density[c];
+    return s * pl->pw_cell * pl->pw_cell * pl->pw_cell;
 }
 
 /* The snow surface (docs/phen/avalanche.md, Drawables): the flow depth on the display grid —
@@ -486,12 +568,12 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         s->dx_m = s->dy_m = (float)pl->dep_cell;
         s->height_m = a->dep_height;
         s->coverage = a->dep_cover;
-        s->material = SQ_MATERIAL_SNOW;
+        s->material = SQ_MATERIAL_SNOW_DEBRIS; /* churned snow: lumps, shadowed gaps */
         s->albedo = sq_v3((float)pl->d.albedo, (float)pl->d.albedo, (float)pl->d.albedo);
         s->version = a->version;
     }
     if (a->pw_density && n < max) {
-        update_powder(a);
+        sq__aval_update_powder(a);
         sq_drawable *d = &out[n++];
         memset(d, 0, sizeof *d);
         d->kind = SQ_DRAWABLE_VOLUME;
@@ -501,7 +583,7 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         vv->nx = pl->pw_n[0];
         vv->ny = pl->pw_n[1];
         vv->nz = pl->pw_n[2];
-        vv->origin_m = sq_v3((float)pl->pw_origin[0], (float)pl->pw_origin[1], (float)pl->pw_origin[2]);
+        vv->origin_m = sq_v3((float)a->pw_origin[0], (float)a->pw_origin[1], (float)a->pw_origin[2]);
         vv->size_m = sq_v3((float)(pl->pw_n[0] * pl->pw_cell), (float)(pl->pw_n[1] * pl->pw_cell),
                            (float)(pl->pw_n[2] * pl->pw_cell));
         /* ice grains of ~100 µm radius: geometric-optics extinction Q ≈ 2, mass extinction
@@ -551,6 +633,17 @@ int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max)
     };
     int n = 0;
     for (size_t i = 0; i < sizeof m / sizeof m[0] && n < max; i++) out[n++] = m[i];
+    if (a->pw_density) {
+        /* the powder budget: entrained = suspended + settled + left behind by the box */
+        sq__aval_update_powder(a);
+        const sq_metric pw[] = {
+            {"powder_entrained_kg", a->pw_entrained, "kg"},
+            {"powder_suspended_kg", sq__aval_powder_suspended(a), "kg"},
+            {"powder_settled_kg", a->pw_settled, "kg"},
+            {"powder_left_kg", a->pw_left, "kg"},
+        };
+        for (size_t i = 0; i < sizeof pw / sizeof pw[0] && n < max; i++) out[n++] = pw[i];
+    }
     return n;
 }
 

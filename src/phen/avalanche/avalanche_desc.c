@@ -42,7 +42,8 @@ sq_result sq_avalanche_desc_resolve(const sq_avalanche_desc *in, sq_avalanche_de
     if (d.radius_factor == 0.0) d.radius_factor = 0.6;
     if (d.albedo == 0.0) d.albedo = 0.9;
     if (d.powder_speed_mps == 0.0) d.powder_speed_mps = 10.0;
-    if (d.powder_cell_m == 0.0) d.powder_cell_m = 4.0;
+    if (d.powder_cell_m == 0.0) d.powder_cell_m = 2.0;
+    if (d.powder_box_m == 0.0) d.powder_box_m = 256.0;
     if (d.powder_shed == 0.0) d.powder_shed = 2.0e-5;
     if (d.release_reference_altitude_m == 0.0) d.release_reference_altitude_m = 2000.0;
     if (out) *out = d;
@@ -174,6 +175,9 @@ static sq_result check_scalars(sq_context *ctx, const sq_avalanche_desc *d)
         BAD("%spowder.shed = %g; must be > 0", P, d->powder_shed);
     if (!pos_finite(d->powder_cell_m))
         BAD("%spowder.cell_m = %g; must be > 0 m", P, d->powder_cell_m);
+    if (!pos_finite(d->powder_box_m) || d->powder_box_m < 2.0 * d->powder_cell_m)
+        BAD("%spowder.box_m = %g; must be finite and at least 2 powder.cell_m (%g m)", P,
+            d->powder_box_m, 2.0 * d->powder_cell_m);
     for (int a = 0; a < 3; a++)
         if (!isfinite(d->domain_min_m[a]) || !isfinite(d->domain_max_m[a]))
             BAD("%sdomain.min_m/max_m: not finite", P);
@@ -419,18 +423,18 @@ sq_result sq__avalanche_plan(sq_context *ctx, const sq_avalanche_desc *desc, con
         pl.hz_ny = (int)nyh;
     }
 
-    /* powder grid: at most 128 cells per axis (the cell grows to fit) */
+    /* powder box: a cube of powder.box_m around the release that follows the flow (at most
+     * 128 cells per axis: the cell grows to fit); its lowest quarter below the release top */
     if (d->powder) {
         double c = d->powder_cell_m;
-        for (int a = 0; a < 3; a++) {
-            double need = (dmax[a] - dmin[a]) / 128.0;
-            if (need > c) c = need;
-        }
+        if (d->powder_box_m / 128.0 > c) c = d->powder_box_m / 128.0;
+        const int n = (int)ceil(d->powder_box_m / c - 1e-9);
         pl.pw_cell = c;
+        const double centre[3] = {0.5 * (pl.release_lo[0] + pl.release_hi[0]),
+                                  0.5 * (pl.release_lo[1] + pl.release_hi[1]), pl.release_top_z};
         for (int a = 0; a < 3; a++) {
-            int n = (int)ceil((dmax[a] - dmin[a]) / c);
             pl.pw_n[a] = n < 2 ? 2 : n;
-            pl.pw_origin[a] = dmin[a];
+            pl.pw_origin[a] = centre[a] - (a == 2 ? 0.25 : 0.5) * pl.pw_n[a] * c;
         }
     }
     *out = pl;
@@ -445,6 +449,7 @@ static uint64_t plan_bytes(const sq__aval_plan *pl)
     b += (uint64_t)pl->hz_nx * (uint64_t)pl->hz_ny * (8u + 6u * 4u); /* hazard maps */
     b += (uint64_t)pl->count * (4u + 12u + 16u); /* scratch, positions, travel tracking */
     b += 2u * 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1] * (uint64_t)pl->pw_n[2];
+    b += 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1]; /* powder ground index */
     return b + 4096u;
 }
 

@@ -32,8 +32,8 @@ typedef struct sq__aval_plan {
     double hz_origin[2], hz_cell;
     int dep_nx, dep_ny;           /* deposit grid */
     double dep_origin[2], dep_cell;
-    int pw_n[3];                  /* powder grid (0 when off) */
-    double pw_origin[3], pw_cell;
+    int pw_n[3];                  /* powder box (0 when off) */
+    double pw_origin[3], pw_cell; /* its initial origin (around the release) and cell */
 } sq__aval_plan;
 
 struct sq_avalanche {
@@ -79,8 +79,12 @@ struct sq_avalanche {
     int thw_n, thw_cap;
     /* powder cloud */
     float *pw_density, *pw_tmp;   /* pw_n[0]*pw_n[1]*pw_n[2] */
+    int *pw_ground;               /* pw_n[0]*pw_n[1]: ground cells at the bottom of each column */
     float pw_max;
     double pw_time_s;             /* time up to which the powder has been advanced */
+    double pw_origin[3];          /* the box's current origin (moves with the flow by whole cells) */
+    /* the powder budget (kg): entrained = suspended + settled + left behind by the moving box */
+    double pw_entrained, pw_settled, pw_left;
 };
 
 /* ---- kernels (avalanche_kernels.c): pure functions over arrays -------------------------- */
@@ -102,14 +106,22 @@ void sq__aval_deposit_accumulate_resting(const float *x, const float *y, const f
 void sq__aval_smooth3(const float *src, float *dst, int nx, int ny);
 /* Ordered-dither threshold in [0, 1) of the 4x4 Bayer matrix at lattice column (i, j). */
 double sq__aval_dither(int i, int j);
-/* Powder cloud: adds rate*dt per unit speed excess of each particle faster than v_min into
- * the cell holding it (grid n[3], origin o, cell c); serial. */
-void sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
-                            const float *vy, const float *vz, size_t n, float v_min, float amount,
-                            const int nn[3], const double o[3], double c, float *density);
-/* One explicit diffusion step (7-point, coefficient k = D dt / c² ≤ 1/6) with a decay factor;
- * zero outside the grid. dst and src must not overlap. */
-void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay);
+/* Powder cloud on its moving box (origin o, cell c, n[3] cells; ground[col] = the number of
+ * cells at the bottom of column col = j*n[0]+i whose centre is below the terrain): adds
+ * amount * (|v| - v_min) of each particle faster than v_min to the air cell holding it (a
+ * particle in a ground cell feeds the first air cell above); serial. Returns the sum added. */
+double sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
+                              const float *vy, const float *vz, size_t n, float v_min, float amount,
+                              const int nn[3], const double o[3], double c, const int *ground,
+                              float *density);
+/* One explicit diffusion step (7-point, k = D dt / c^2 <= 1/6) between air cells only (no flux
+ * through the ground or the box's faces), then the decay factor (settling). dst and src must
+ * not overlap; ground cells are set to 0. Returns the sum removed by the decay (settled). */
+double sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], const int *ground,
+                               float k, float decay);
+/* Moves the box by whole cells: dst[i] = src[i + shift] (0 where that is outside). Returns the
+ * sum of the cells that fell out of the box (left behind). */
+double sq__aval_powder_shift(const float *src, float *dst, const int nn[3], const int shift[3]);
 
 /* ---- hazard maps and the thalweg (avalanche_hazard.c) ------------------------------------- */
 sq_result sq__aval_hazard_alloc(sq_avalanche *a);
@@ -145,6 +157,11 @@ sq_result sq__aval_release_estimate(sq_context *ctx, sq__aval_plan *pl, const sq
 sq_result sq__aval_release_place(sq_context *ctx, const sq__aval_plan *pl, const sq_world *w,
                                  float *pos, size_t cap, size_t *count, double *volume,
                                  double *top_z);
+/* The powder cloud (avalanche.c): advance to a->time_s (moving the box with the flow); the
+ * terrain's ground cells of the box's columns; the suspended mass (kg). */
+void sq__aval_update_powder(sq_avalanche *a);
+void sq__aval_powder_ground(sq_avalanche *a);
+double sq__aval_powder_suspended(const sq_avalanche *a);
 int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max);
 int sq__avalanche_metrics(sq_avalanche *a, sq_metric *out, int max);
 int sq__avalanche_fields(sq_avalanche *a, sq_named_field *out, int max);

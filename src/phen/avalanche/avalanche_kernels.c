@@ -91,12 +91,14 @@ double sq__aval_dither(int i, int j)
     return ((double)bayer[j & 3][i & 3] + 0.5) / 16.0;
 }
 
-void sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
-                            const float *vy, const float *vz, size_t n, float v_min, float amount,
-                            const int nn[3], const double o[3], double c, float *density)
+double sq__aval_powder_source(const float *x, const float *y, const float *z, const float *vx,
+                              const float *vy, const float *vz, size_t n, float v_min, float amount,
+                              const int nn[3], const double o[3], double c, const int *ground,
+                              float *density)
 {
     const double inv = 1.0 / c;
     const float v2min = v_min * v_min;
+    double added = 0.0;
     for (size_t p = 0; p < n; p++) {
         const float v2 = vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p];
         if (!(v2 > v2min)) continue;
@@ -105,28 +107,66 @@ void sq__aval_powder_source(const float *x, const float *y, const float *z, cons
         if (!(f[0] >= 0.0 && f[1] >= 0.0 && f[2] >= 0.0 && f[0] < nn[0] && f[1] < nn[1] &&
               f[2] < nn[2]))
             continue;
-        const size_t idx = ((size_t)f[2] * (size_t)nn[1] + (size_t)f[1]) * (size_t)nn[0] + (size_t)f[0];
-        density[idx] += amount * (sqrtf(v2) - v_min);
+        const size_t col = (size_t)f[1] * (size_t)nn[0] + (size_t)f[0];
+        int kz = (int)f[2];
+        if (kz < ground[col]) kz = ground[col]; /* a particle in a ground cell feeds the air above */
+        if (kz >= nn[2]) continue;
+        const float q = amount * (sqrtf(v2) - v_min);
+        density[(size_t)kz * (size_t)nn[0] * (size_t)nn[1] + col] += q;
+        added += (double)q;
     }
+    return added;
 }
 
-void sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], float k, float decay)
+double sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], const int *ground,
+                               float k, float decay)
 {
     const int nx = nn[0], ny = nn[1], nz = nn[2];
     const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
+    double settled = 0.0;
     for (int kz = 0; kz < nz; kz++)
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
-                const size_t c = (size_t)kz * sz + (size_t)j * sy + (size_t)i;
+                const size_t col = (size_t)j * sy + (size_t)i, c = (size_t)kz * sz + col;
+                if (kz < ground[col]) {
+                    dst[c] = 0.0f;
+                    continue;
+                }
+                /* flux only between air cells: no flux through the ground or the box's faces */
                 const float v = src[c];
-                float s = -6.0f * v;
-                s += i > 0 ? src[c - 1] : 0.0f;
-                s += i < nx - 1 ? src[c + 1] : 0.0f;
-                s += j > 0 ? src[c - sy] : 0.0f;
-                s += j < ny - 1 ? src[c + sy] : 0.0f;
-                s += kz > 0 ? src[c - sz] : 0.0f;
-                s += kz < nz - 1 ? src[c + sz] : 0.0f;
-                const float out = (v + k * s) * decay;
-                dst[c] = out > 0.0f ? out : 0.0f;
+                float s = 0.0f;
+                if (i > 0 && kz >= ground[col - 1]) s += src[c - 1] - v;
+                if (i < nx - 1 && kz >= ground[col + 1]) s += src[c + 1] - v;
+                if (j > 0 && kz >= ground[col - sy]) s += src[c - sy] - v;
+                if (j < ny - 1 && kz >= ground[col + sy]) s += src[c + sy] - v;
+                if (kz > ground[col]) s += src[c - sz] - v;
+                if (kz < nz - 1) s += src[c + sz] - v;
+                const float mixed = v + k * s; /* >= 0 for k <= 1/6 */
+                const float out = mixed * decay;
+                dst[c] = out;
+                settled += (double)mixed - (double)out;
             }
+    return settled;
+}
+
+double sq__aval_powder_shift(const float *src, float *dst, const int nn[3], const int shift[3])
+{
+    const int nx = nn[0], ny = nn[1], nz = nn[2];
+    const size_t sz = (size_t)nx * (size_t)ny;
+    double left = 0.0;
+    for (size_t c = 0; c < sz * (size_t)nz; c++) left += (double)src[c];
+    for (int kz = 0; kz < nz; kz++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const int si = i + shift[0], sj = j + shift[1], sk = kz + shift[2];
+                const size_t c = (size_t)kz * sz + (size_t)j * (size_t)nx + (size_t)i;
+                if (si < 0 || sj < 0 || sk < 0 || si >= nx || sj >= ny || sk >= nz) {
+                    dst[c] = 0.0f;
+                    continue;
+                }
+                const float v = src[(size_t)sk * sz + (size_t)sj * (size_t)nx + (size_t)si];
+                dst[c] = v;
+                left -= (double)v;
+            }
+    return left;
 }

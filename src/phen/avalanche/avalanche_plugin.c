@@ -158,8 +158,12 @@ static const sq_param params[] = {
       "Suspended snow shed per second per m/s of speed above powder.speed_mps, as a fraction "
       "of a particle's mass: 2e-5 raises the light veil of a wet flow (extinction ~0.1 1/m), "
       "~5e-4 the opaque cloud of a dry mixed avalanche."),
-    D("powder.cell_m", powder_cell_m, "m", 4, 0.01, 1e4, 0,
+    D("powder.cell_m", powder_cell_m, "m", 2, 0.01, 1e4, 0,
       "Cell of the powder grid (grown to keep at most 128 cells per axis)."),
+    D("powder.box_m", powder_box_m, "m", 256, 1, 1e5, 0,
+      "Side of the powder grid's cubic box. It starts around the release and follows the "
+      "fast snow by whole cells (the powder it leaves behind is counted, not kept); cells "
+      "below the terrain hold no powder."),
 };
 
 #undef SQ__PHEN_STATE_SAVE

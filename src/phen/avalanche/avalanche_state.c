@@ -73,6 +73,9 @@ sq_result sq__avalanche_save_state(const void *self, sq_state_writer *w)
     if (pw && a->pw_density) sq_state_put(w, "avalanche/powder", a->pw_density, sizeof(float) * pw);
     sq_state_put(w, "avalanche/powder_max", &a->pw_max, sizeof a->pw_max);
     sq_state_put(w, "avalanche/powder_time_s", &a->pw_time_s, sizeof a->pw_time_s);
+    const double pwb[6] = {a->pw_origin[0], a->pw_origin[1], a->pw_origin[2],
+                           a->pw_entrained, a->pw_settled, a->pw_left};
+    sq_state_put(w, "avalanche/powder_box", pwb, sizeof pwb);
     hazard_put(a, w);
     if (w->status != SQ_OK) return w->status;
     return sq_sph_save_state(a->sph, w);
@@ -93,6 +96,16 @@ sq_result sq__avalanche_load_state(void *self, sq_state_reader *r)
     if (pw && a->pw_density) sq_state_get(r, "avalanche/powder", a->pw_density, sizeof(float) * pw);
     sq_state_get(r, "avalanche/powder_max", &a->pw_max, sizeof a->pw_max);
     sq_state_get(r, "avalanche/powder_time_s", &a->pw_time_s, sizeof a->pw_time_s);
+    double pwb[6] = {a->pw_origin[0], a->pw_origin[1], a->pw_origin[2],
+                     a->pw_entrained, a->pw_settled, a->pw_left};
+    sq_state_get(r, "avalanche/powder_box", pwb, sizeof pwb);
+    if (a->pw_ground) {
+        for (int k = 0; k < 3; k++) a->pw_origin[k] = pwb[k];
+        a->pw_entrained = pwb[3];
+        a->pw_settled = pwb[4];
+        a->pw_left = pwb[5];
+        sq__aval_powder_ground(a);
+    }
     hazard_get(a, r);
     if (r->status != SQ_OK) return r->status;
     a->dirty = flags[0] != 0;
