@@ -15,6 +15,7 @@ PREFIX ?= /usr/local
 DEMO_OUT ?= out/demo.mp4
 FUZZ_SECONDS ?= 300
 FUZZ_CI_SECONDS ?= 10
+FUZZ_CI_SEED ?= 20261127
 
 .PHONY: all deps build demo test test-release test-asan test-nogl test-fuzz fuzz fuzz-build install bench clean
 
@@ -62,7 +63,7 @@ fuzz-build: deps
 
 # Each harness for a short budget (new inputs stay in $(FUZZ_BUILD)/fuzz-work, never the repo).
 test-fuzz: fuzz-build
-	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_CI_SECONDS) ctest --output-on-failure -L fuzz
+	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_CI_SECONDS) SQ_FUZZ_SEED=$(FUZZ_CI_SEED) ctest --output-on-failure -L fuzz
 
 fuzz: fuzz-build
 	@cd $(FUZZ_BUILD) && SQ_FUZZ_SECONDS=$(FUZZ_SECONDS) ctest --output-on-failure -L fuzz

@@ -112,7 +112,15 @@ static sq_result target_crs(dem_job *j)
             return sq__fail(j->ctx, SQ_ERR_INVALID_ARG, MOD,
                             "%s.dem = '%s': the region's centre has no longitude/latitude (%s)",
                             j->key, d->path, sq__geo_reason());
-        int zone = (int)floor((cx + 180.0) / 6.0) + 1;
+        if (fabs(cy) > 90.0 || fabs(cx) > 540.0)
+            return sq__fail(j->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "%s.dem = '%s': the region's centre maps to longitude %g, latitude %g, "
+                            "not a place on Earth; check the file's georeferencing or name a "
+                            "metric CRS with the crs option",
+                            j->key, d->path, cx, cy);
+        /* UTM zones count 6-degree bands eastwards from 180 W; wrap the longitude first */
+        const double lon = cx - 360.0 * floor((cx + 180.0) / 360.0);
+        int zone = (int)floor((lon + 180.0) / 6.0) + 1;
         if (zone < 1) zone = 1;
         if (zone > 60) zone = 60;
         const int epsg = (cy >= 0.0 ? 32600 : 32700) + zone;

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 
 #include "io/io_internal.h"
+#include "io/nc3_header.h"
 #include "io/wrf_internal.h"
 
 #if SQ_HAVE_NETCDF && SQ_HAVE_PROJ
@@ -381,6 +382,7 @@ static sq_result open_file(sq_wrf *w, int index, const char *path, wrf_entry **e
     memcpy(f->path, path, plen);
     sq_result r = check_regular_file(w, path);
     if (r == SQ_OK) r = sq__input_guard(w->ctx, "wrf", "WRF file", path); /* never written */
+    if (r == SQ_OK) r = sq__nc3_check_header(w->ctx, "wrf", path); /* before libnetcdf trusts it */
     if (r != SQ_OK) return r;
     int st = nc_open(path, NC_NOWRITE, &f->ncid);
     if (st != NC_NOERR) {

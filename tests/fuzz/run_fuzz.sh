@@ -1,5 +1,8 @@
 #!/bin/bash
 # run_fuzz.sh EXE NAME — runs one libFuzzer harness for $SQ_FUZZ_SECONDS (default 10) seconds.
+# With SQ_FUZZ_SEED set (make test does: CI), libFuzzer's mutations start from that seed, so a
+# finding in CI is found again by the same command on the same tree; without it (make fuzz) every
+# run explores from a new random seed.
 # New inputs go to a working corpus in the build directory (fuzz-work/NAME), never into the
 # repository; the repository's corpus/NAME and regress/NAME are read as extra seed directories.
 # Limits: 10 s per input (a hang is a finding), 2048 MiB RSS, 512 MiB for one allocation.
@@ -10,6 +13,8 @@ set -u
 EXE="$1"
 NAME="$2"
 SECS="${SQ_FUZZ_SECONDS:-10}"
+SEED=()
+[ -n "${SQ_FUZZ_SEED:-}" ] && SEED=(-seed="$SQ_FUZZ_SEED")
 SRC="${SQ_SOURCE_DIR:?}"
 WORK="${SQ_FUZZ_WORK:-$PWD/fuzz-work}"
 mkdir -p "$WORK/$NAME" "$WORK/artifacts"
@@ -20,7 +25,7 @@ done
 LOG="$WORK/$NAME.log"
 ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}" \
 UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}" \
-    "$EXE" -max_total_time="$SECS" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 \
+    "$EXE" "${SEED[@]}" -max_total_time="$SECS" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=512 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$WORK/artifacts/$NAME-" \
     "$WORK/$NAME" "${SEEDS[@]}" >"$LOG" 2>&1
 rc=$?

@@ -19,6 +19,13 @@
 
 SQ_LABEL(unit)
 
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
+
 #if SQ_HAVE_GDAL
 #include <cpl_conv.h>
 #include <gdal.h>
@@ -286,6 +293,13 @@ SQ_TEST(dem_unreadable_and_without_crs_are_refused_with_reasons)
     sq_dem_release(ctx, &dem);
     d.assign_crs = "EPSG:999999";
     SQ_CHECK_ERR(sq_dem_load(ctx, &d, &dem), SQ_ERR_INVALID_ARG, "dem_crs = 'EPSG:999999'");
+    /* degrees off the Earth (the fuzzer's find: a UTM zone from longitude 2e171 overflowed) */
+    write_text(in_dir(q, sizeof q, "offworld.asc"),
+               "ncols 4\nnrows 3\nxllcorner 1e12\nyllcorner 45\ncellsize 0.001\n"
+               "100 101 102 103\n110 111 112 113\n120 121 122 123\n");
+    d.path = q;
+    d.assign_crs = "EPSG:4326";
+    SQ_CHECK_ERR(sq_dem_load(ctx, &d, &dem), SQ_ERR_INVALID_ARG, "not a place on Earth");
     SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
     remove_dir();
@@ -634,12 +648,14 @@ SQ_TEST(scene_dem_terrain_and_area_in_world_coordinates)
     sq_scene *sc = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &sd, &sc));
     const sq_world *w = sc ? sq_scene_world(sc) : NULL;
-    SQ_CHECK(w && w->crs_wkt && strstr(w->crs_wkt, "UTM zone 32N"));
+    SQ_CHECK(w && sq_world_crs(w, NULL) && strstr(sq_world_crs(w, NULL), "UTM zone 32N"));
     if (w) {
-        SQ_CHECK(w->crs_offset_m[0] == 640000.0 && w->crs_offset_m[1] == 5185000.0);
-        SQ_CHECK(w->terrain_kind == SQ_TERRAIN_GRID && w->dx == 30.0f);
+        double off[2];
+        sq_world_crs(w, off);
+        SQ_CHECK(off[0] == 640000.0 && off[1] == 5185000.0);
+        SQ_CHECK(terrain_of(w).kind == SQ_TERRAIN_GRID && terrain_of(w).dx == 30.0f);
         /* the terrain's origin is a multiple of 30 m in UTM */
-        SQ_CHECK_NEAR(fmod((double)w->origin.x + 640000.0, 30.0), 0.0, 1e-3);
+        SQ_CHECK_NEAR(fmod((double)terrain_of(w).origin.x + 640000.0, 30.0), 0.0, 1e-3);
         const sq_world_area *a = sq_world_area_find(w, "release");
         SQ_CHECK(a != NULL);
         if (a) {

@@ -22,6 +22,20 @@
 
 SQ_LABEL(unit)
 
+static inline sq_world_light light_of(const sq_world *w)
+{
+    sq_world_light l;
+    sq_world_get_light(w, &l);
+    return l;
+}
+
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
+
 #define SAMPLE SQ_TEST_SOURCE_DIR "/data/wrf/wrf_d01_allvars_cropped.nc"
 
 static sq_context *mkctx(void)
@@ -202,15 +216,17 @@ SQ_TEST(sample_scan_ranges_and_world)
     sq_wrf_state s;
     SQ_CHECK_OK(sq_wrf_read_index(w, 0, &s));
     if (world && s.terrain_m) {
-        SQ_CHECK(world->nx == in.nx && world->ny == in.ny);
+        SQ_CHECK(terrain_of(world).nx == in.nx && terrain_of(world).ny == in.ny);
         for (int j = 0; j < in.ny; j++)
             for (int i = 0; i < in.nx; i++)
                 SQ_CHECK_NEAR(sq_world_height_at(world, s.x_m[i], s.y_m[j]),
                               s.terrain_m[j * in.nx + i], 1e-3);
-        SQ_CHECK(world->crs_wkt && strstr(world->crs_wkt, "Lambert"));
-        SQ_CHECK_NEAR(world->crs_offset_m[0], in.crs_offset_m[0], 0.0);
+        SQ_CHECK(sq_world_crs(world, NULL) && strstr(sq_world_crs(world, NULL), "Lambert"));
+        double off[2];
+        sq_world_crs(world, off);
+        SQ_CHECK_NEAR(off[0], in.crs_offset_m[0], 0.0);
         /* 03 UTC at 87 E is about 08:55 true solar time: the sun is up in the east-south-east */
-        SQ_CHECK(world->sun_dir.z > 0.5f && world->sun_dir.x > 0.5f);
+        SQ_CHECK(light_of(world).sun_dir.z > 0.5f && light_of(world).sun_dir.x > 0.5f);
         /* the projected coordinates of a grid point's lat/lon give back its world position */
         double x, y;
         SQ_CHECK_OK(sq_wrf_to_world(w, s.lon_deg[3 * in.nx + 7], s.lat_deg[3 * in.nx + 7], &x, &y));
@@ -281,21 +297,21 @@ SQ_TEST(scene_terrain_from_wrf_with_moving_sun)
         const sq_world *world = sq_scene_world(s);
         sq_wrf_info in;
         sq_wrf_get_info(w, &in);
-        SQ_CHECK(world->nx == in.nx && world->ny == in.ny && world->dx == 30000.0f);
+        SQ_CHECK(terrain_of(world).nx == in.nx && terrain_of(world).ny == in.ny && terrain_of(world).dx == 30000.0f);
         for (int j = 0; j < in.ny; j++)
             for (int i = 0; i < in.nx; i++)
                 SQ_CHECK_NEAR(sq_world_height_at(world, st.x_m[i], st.y_m[j]),
                               3.0 * st.terrain_m[j * in.nx + i], 3e-3);
-        SQ_CHECK(world->crs_wkt && strstr(world->crs_wkt, "Lambert"));
+        SQ_CHECK(sq_world_crs(world, NULL) && strstr(sq_world_crs(world, NULL), "Lambert"));
         /* sunrise at scene time 0; after 6 scene seconds = 3 h of sun time, the 03 UTC sun */
         sq_sun_position p;
         sq_vec3 dir;
         SQ_CHECK_OK(sq_wrf_sun(w, 0.0, &p, &dir));
-        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.z, dir.z, 1e-5);
         for (int k = 0; k < 6; k++) SQ_CHECK_OK(sq_scene_step(s, 1.0));
         SQ_CHECK_OK(sq_wrf_sun(w, 3 * 3600.0, &p, &dir));
-        SQ_CHECK_NEAR(world->sun_dir.x, dir.x, 1e-5);
-        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.x, dir.x, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.z, dir.z, 1e-5);
         SQ_CHECK(p.elevation_deg > 30.0);
     }
     sq_wrf_close(w);
@@ -707,6 +723,69 @@ SQ_TEST(refusals_name_file_and_variable)
         const char *pf[1] = {fifo};
         SQ_CHECK_ERR(sq_wrf_open(ctx, pf, 1, &w), SQ_ERR_IO, "is a FIFO");
     }
+    SQ_CHECK(w == NULL);
+    SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
+    sq_context_destroy(ctx);
+    cleanup();
+}
+
+/* Copies src to dst with the 4-byte big-endian word at offset set to value (value < 0: the file
+ * is cut to offset bytes instead); false when src cannot be read. */
+static bool poke_be32(const char *src, const char *dst, long offset, long long value)
+{
+    FILE *in = fopen(src, "rb");
+    if (!in) return false;
+    unsigned char buf[1 << 16];
+    const size_t n = fread(buf, 1, sizeof buf, in);
+    fclose(in);
+    if (n < (size_t)offset + 4) return false;
+    size_t len = n;
+    if (value >= 0)
+        for (int b = 0; b < 4; b++) buf[offset + b] = (unsigned char)(value >> (24 - 8 * b));
+    else
+        len = (size_t)offset;
+    FILE *out = fopen(dst, "wb");
+    if (!out) return false;
+    const bool ok = fwrite(buf, 1, len, out) == len;
+    return fclose(out) == 0 && ok;
+}
+
+/* libnetcdf allocates what a netCDF-3 header declares; the reader walks the header first and
+ * refuses counts that do not fit in the file (tests/fuzz/regress/wrf/ has the fuzzer's find). */
+SQ_TEST(netcdf3_header_counts_bounded_by_the_file)
+{
+    sq_context *ctx = mkctx();
+    sq_wrf *w = NULL;
+    fx_desc d = fx_default(1);
+    d.classic = true;
+    char good[600]; /* tmp_path() reuses 4 buffers */
+    snprintf(good, sizeof good, "%s", tmp_path("classic.nc"));
+    SQ_CHECK(fx_write(good, &d));
+    sq_wrf *wg = open1(ctx, good); /* the walk accepts a real classic file */
+    if (wg) sq_wrf_close(wg);
+    /* magic, numrecs, NC_DIMENSION, ndims: the first dimension's name length is at byte 16 */
+    const char *name = tmp_path("name.nc");
+    SQ_CHECK(poke_be32(good, name, 16, 0x7ffffff0LL));
+    const char *pn[1] = {name};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pn, 1, &w), SQ_ERR_PARSE,
+                 "name.nc: truncated or corrupt netCDF-3 file: its header declares a dimension "
+                 "that does not fit");
+    /* a dimension count of two billion */
+    const char *count = tmp_path("count.nc");
+    SQ_CHECK(poke_be32(good, count, 12, 0x7fffffffLL));
+    const char *pc[1] = {count};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pc, 1, &w), SQ_ERR_PARSE, "dimension list that does not fit");
+    /* an unknown list tag where the dimensions start */
+    const char *tag = tmp_path("tag.nc");
+    SQ_CHECK(poke_be32(good, tag, 8, 0x0d));
+    const char *pt[1] = {tag};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pt, 1, &w), SQ_ERR_PARSE,
+                 "tag.nc: corrupt netCDF-3 file: invalid dimension list in the header");
+    /* the header cut short */
+    const char *cut = tmp_path("cut.nc");
+    SQ_CHECK(poke_be32(good, cut, 40, -1));
+    const char *pk[1] = {cut};
+    SQ_CHECK_ERR(sq_wrf_open(ctx, pk, 1, &w), SQ_ERR_PARSE, "cut.nc: truncated or corrupt netCDF-3");
     SQ_CHECK(w == NULL);
     SQ_CHECK(sq_context_bytes_in_use(ctx) == 0);
     sq_context_destroy(ctx);
