@@ -587,11 +587,15 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         vv->size_m = sq_v3((float)(pl->pw_n[0] * pl->pw_cell), (float)(pl->pw_n[1] * pl->pw_cell),
                            (float)(pl->pw_n[2] * pl->pw_cell));
         /* ice grains of ~100 µm radius: geometric-optics extinction Q ≈ 2, mass extinction
-         * 3 Q / (4 ρ_ice r) ≈ 16 m²/kg, grey; nearly conservative scattering, forward peaked */
+         * 3 Q / (4 ρ_ice r) ≈ 16 m²/kg, grey; nearly conservative scattering. A single grain
+         * scatters forward (g ≈ 0.8), but a powder cloud is optically thick (τ ≫ 1 over a few
+         * metres), where multiple scattering makes the light leaving it nearly isotropic; the
+         * slicing renderer carries only forward scattering, so the cloud takes an effective
+         * g = 0.3 — with 0.8 a thick cloud seen from the side is a grey shadow, not white. */
         for (int c = 0; c < 3; c++) {
             vv->sigma_ext[c] = 16.0f;
             vv->albedo[c] = 0.99f;
-            vv->g[c] = 0.8f;
+            vv->g[c] = 0.3f;
         }
         /* irregular, rimed grains scatter some light back (a weak back lobe): the cloud in
          * front of a sun behind the camera is white, not a dark veil */
