@@ -5,16 +5,22 @@
  *             (field, clouds, particles, clustering: ms_model), the light (MFS sweeps, shadow map:
  *             ms_light = a frame after a step minus the same frame again, whose light is cached),
  *             the draw with read-back (ms_draw, the cached frame) and their sum ms_per_frame;
- *             ms_base is the same frame without clouds (sky, terrain, tone mapping, read-back);
+ *             ms_base is the same frame without clouds (sky, terrain, tone mapping, read-back),
+ *             drawn right after each cloud frame; ms_clouds = model + light + draw - base, the
+ *             clouds' share of a frame (median of the pairs), cpu_ms_clouds the same in process
+ *             CPU time (all threads, llvmpipe's included: less sensitive to a shared machine);
  *   table     S4 Table 1: plain vs structured particle system at 2 600, 4 100, 7 800, 10 500 and
  *             13 000 particles, whole frames (model + light + draw), fps and the speed-up per row
  *             next to S4's published fps;
  *   impostor  a distant field (20 cumuli 150 km away, beyond dist_impostor): the cloud pass's
- *             cost (frame minus the base frame) with impostors and with particles only, the
- *             camera turning 0.02 degree per frame (impostors re-rendered as they go stale).
+ *             cost (frame minus the base frame drawn right after it; medians of the pairs, the
+ *             impostors' mean too, which includes their refreshes) with impostors and with
+ *             particles only, the camera turning 0.02 degree per frame (impostors re-rendered
+ *             as they go stale).
  * Medians over --reps frames after --warmup frames. JSON lines. */
 #include <math.h>
 #include <stdio.h>
+#include <sys/resource.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -46,13 +52,30 @@ static double median(double *v, int n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/* draw + read back (the read waits for the frame); ms, or -1 on error */
-static double timed_frame(bench *b, const sq_drawable *d, int n)
+/* CPU time of the process (all threads: llvmpipe's rasteriser threads included), ms. */
+static double cpu_ms(void)
 {
-    const double t0 = sq_time_now();
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * ((double)u.ru_utime.tv_sec + (double)u.ru_stime.tv_sec) +
+           1e-3 * ((double)u.ru_utime.tv_usec + (double)u.ru_stime.tv_usec);
+}
+
+/* draw + read back (the read waits for the frame); wall ms, or -1 on error; *cpu (if set) the
+ * process CPU ms of the frame */
+static double timed_frame_cpu(bench *b, const sq_drawable *d, int n, double *cpu)
+{
+    const double c0 = cpu_ms(), t0 = sq_time_now();
     if (sq_renderer_draw(b->r, b->w, &b->cam, d, n, 0.0) != SQ_OK) return -1.0;
     if (sq_renderer_read_rgba8(b->r, b->rgba) != SQ_OK) return -1.0;
-    return (sq_time_now() - t0) * 1e3;
+    const double t = (sq_time_now() - t0) * 1e3;
+    if (cpu) *cpu = cpu_ms() - c0;
+    return t;
+}
+
+static double timed_frame(bench *b, const sq_drawable *d, int n)
+{
+    return timed_frame_cpu(b, d, n, NULL);
 }
 
 static sq_result make_clouds(bench *b, int particles, bool plain, int clouds, double size_m,
@@ -72,25 +95,33 @@ static sq_result make_clouds(bench *b, int particles, bool plain, int clouds, do
 }
 
 typedef struct frame_times {
-    double model, light, draw, total;
+    double model, light, draw, base, total, clouds, cpu_clouds;
     int clusters, particles;
 } frame_times;
 
-/* reps frames of: step, frame (relight), frame again (cached light) */
+/* reps frames of: step, frame (relight), frame again (cached light), the frame without clouds
+ * (base). The base frame is drawn next to each cloud frame, so that the clouds' share of a
+ * frame (model + light + draw - base) is a difference of frames a moment apart: the load of a
+ * shared machine drifts between them far less than over a whole run. */
 static sq_result run_frames(bench *b, sq_clouds *c, int warmup, int reps, frame_times *out)
 {
-    double *m = malloc(sizeof(double) * (size_t)reps * 4);
+    double *m = malloc(sizeof(double) * (size_t)reps * 7);
     if (!m) return SQ_ERR_OUT_OF_MEMORY;
-    double *ml = m + reps, *md = m + 2 * reps, *mt = m + 3 * reps;
+    double *ml = m + reps, *md = m + 2 * reps, *mt = m + 3 * reps, *mb = m + 4 * reps;
+    double *mc = m + 5 * reps, *mcpu = m + 6 * reps;
     sq_result res = SQ_OK;
     for (int k = -warmup; k < reps && res == SQ_OK; k++) {
+        const double cpu0 = cpu_ms();
         if ((res = sq_clouds_step(c, 60.0)) != SQ_OK) break;
+        const double cpu_model = cpu_ms() - cpu0;
         sq_clouds_stats st;
         sq_clouds_stats_get(c, &st);
         sq_drawable d;
         if ((res = sq_clouds_drawable(c, &d)) != SQ_OK) break;
-        const double t1 = timed_frame(b, &d, 1), t2 = timed_frame(b, &d, 1);
-        if (t1 < 0.0 || t2 < 0.0) {
+        double c1 = 0.0, cb = 0.0;
+        const double t1 = timed_frame_cpu(b, &d, 1, &c1), t2 = timed_frame(b, &d, 1);
+        const double tb = timed_frame_cpu(b, NULL, 0, &cb);
+        if (t1 < 0.0 || t2 < 0.0 || tb < 0.0) {
             res = SQ_ERR_GL;
             break;
         }
@@ -98,7 +129,10 @@ static sq_result run_frames(bench *b, sq_clouds *c, int warmup, int reps, frame_
         m[k] = st.ms_model;
         ml[k] = t1 - t2 > 0.0 ? t1 - t2 : 0.0;
         md[k] = t2;
+        mb[k] = tb;
         mt[k] = st.ms_model + t1;
+        mc[k] = st.ms_model + t1 - tb;
+        mcpu[k] = cpu_model + c1 - cb;
         out->clusters = st.clusters;
         out->particles = st.particles;
     }
@@ -106,20 +140,13 @@ static sq_result run_frames(bench *b, sq_clouds *c, int warmup, int reps, frame_
         out->model = median(m, reps);
         out->light = median(ml, reps);
         out->draw = median(md, reps);
+        out->base = median(mb, reps);
         out->total = median(mt, reps);
+        out->clouds = median(mc, reps);
+        out->cpu_clouds = median(mcpu, reps);
     }
     free(m);
     return res;
-}
-
-static double base_frame(bench *b, int reps)
-{
-    double *t = malloc(sizeof(double) * (size_t)reps);
-    if (!t) return -1.0;
-    for (int k = 0; k < reps; k++) t[k] = timed_frame(b, NULL, 0);
-    const double v = median(t, reps);
-    free(t);
-    return v;
 }
 
 static void json_head(sq_json *j, const bench *b, const char *what)
@@ -134,7 +161,6 @@ static void json_head(sq_json *j, const bench *b, const char *what)
 
 static int bench_frame(bench *b, int particles)
 {
-    const double base = base_frame(b, b->a->reps);
     for (int plain = 1; plain >= 0; plain--) {
         sq_clouds *c = NULL;
         frame_times ft;
@@ -154,8 +180,10 @@ static int bench_frame(bench *b, int particles)
         sq_json_num(&j, "ms_model", ft.model);
         sq_json_num(&j, "ms_light", ft.light);
         sq_json_num(&j, "ms_draw", ft.draw);
-        sq_json_num(&j, "ms_base", base);
+        sq_json_num(&j, "ms_base", ft.base);
         sq_json_num(&j, "ms_per_frame", ft.total);
+        sq_json_num(&j, "ms_clouds", ft.clouds);
+        sq_json_num(&j, "cpu_ms_clouds", ft.cpu_clouds);
         sq_json_str(&j, "gl_renderer", b->info.gl_renderer);
         sq_json_end(&j, stdout);
     }
@@ -211,24 +239,41 @@ static int bench_impostor(bench *b, int particles)
     b->cam.fov_y_deg = 12.0f;
     b->cam.far_m = 400000.0f;
     b->cam.near_m = 50.0f;
-    const double base = base_frame(b, b->a->reps);
-    double ms[2] = {0, 0};
+    double ms[2] = {0, 0}, base[2] = {0, 0}, pass[2] = {0, 0}, cpu[2] = {0, 0}, mean[2] = {0, 0};
     int drawn = 0;
     for (int imp = 0; imp < 2; imp++) {
         sq_clouds *c = NULL;
         sq_result res = make_clouds(b, particles, false, 20, 40000.0, imp == 1, &c);
         sq_drawable d;
         if (res == SQ_OK) res = sq_clouds_drawable(c, &d);
-        double *t = malloc(sizeof(double) * (size_t)b->a->reps);
-        for (int k = -b->a->warmup; res == SQ_OK && k < b->a->reps; k++) {
+        const int reps = b->a->reps;
+        double *t = malloc(sizeof(double) * (size_t)reps * 4);
+        if (!t) res = SQ_ERR_OUT_OF_MEMORY;
+        double *tb = t + reps, *tp = t + 2 * reps, *tc = t + 3 * reps;
+        double sum = 0.0;
+        for (int k = -b->a->warmup; res == SQ_OK && k < reps; k++) {
             const float ang = 0.0003491f * (float)(k + b->a->warmup); /* 0.02 deg per frame */
             b->cam.position_m = sq_v3(-150000.0f * cosf(ang), -150000.0f * sinf(ang), 3000.0f);
-            const double f = timed_frame(b, &d, 1);
-            if (f < 0.0) res = SQ_ERR_GL;
-            else if (k >= 0) t[k] = f;
+            double cf = 0.0, cb = 0.0;
+            const double f = timed_frame_cpu(b, &d, 1, &cf);
+            const double fb = timed_frame_cpu(b, NULL, 0, &cb);
+            if (f < 0.0 || fb < 0.0) res = SQ_ERR_GL;
+            else if (k >= 0) {
+                t[k] = f;
+                tb[k] = fb;
+                tp[k] = f - fb;
+                tc[k] = cf - cb;
+                sum += f - fb;
+            }
         }
-        if (res == SQ_OK) ms[imp] = median(t, b->a->reps);
-        if (res == SQ_OK) drawn = d.u.clouds.count;
+        if (res == SQ_OK) {
+            ms[imp] = median(t, reps);
+            base[imp] = median(tb, reps);
+            pass[imp] = median(tp, reps);
+            cpu[imp] = median(tc, reps);
+            mean[imp] = sum / reps;
+            drawn = d.u.clouds.count;
+        }
         free(t);
         sq_clouds_destroy(c);
         if (res != SQ_OK) {
@@ -239,12 +284,15 @@ static int bench_impostor(bench *b, int particles)
     sq_json j;
     json_head(&j, b, "impostor");
     sq_json_int(&j, "particles", drawn);
-    sq_json_num(&j, "ms_base", base);
+    sq_json_num(&j, "ms_base", 0.5 * (base[0] + base[1]));
     sq_json_num(&j, "ms_frame_particles", ms[0]);
     sq_json_num(&j, "ms_frame_impostors", ms[1]);
-    sq_json_num(&j, "ms_clouds_particles", ms[0] - base);
-    sq_json_num(&j, "ms_clouds_impostors", ms[1] - base);
-    sq_json_num(&j, "speedup_clouds", (ms[0] - base) / fmax(ms[1] - base, 1e-3));
+    sq_json_num(&j, "ms_clouds_particles", pass[0]);
+    sq_json_num(&j, "ms_clouds_impostors", pass[1]);
+    sq_json_num(&j, "ms_clouds_impostors_mean", mean[1]);
+    sq_json_num(&j, "cpu_ms_clouds_particles", cpu[0]);
+    sq_json_num(&j, "cpu_ms_clouds_impostors", cpu[1]);
+    sq_json_num(&j, "speedup_clouds", pass[0] / fmax(pass[1], 1e-3));
     sq_json_num(&j, "speedup_frame", ms[0] / ms[1]);
     sq_json_end(&j, stdout);
     b->cam = cam0;

@@ -126,7 +126,9 @@ int sq_bench_render_volume(const sq_bench_args *a)
     sq_volume_view *v = &vol.u.volume;
     v->density = dens;
     v->nx = v->ny = v->nz = size;
-    v->origin_m = sq_v3(-400.0f, -400.0f, w->height_min - 5.0f);
+    sq_world_terrain terrain;
+    sq_world_get_terrain(w, &terrain);
+    v->origin_m = sq_v3(-400.0f, -400.0f, terrain.height_min - 5.0f);
     v->size_m = sq_v3(800.0f, 800.0f, 250.0f);
     const float sigma = 0.02f, albedo[3] = {0.85f, 0.72f, 0.55f};
     for (int c = 0; c < 3; c++) {

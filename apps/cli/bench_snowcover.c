@@ -193,8 +193,9 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_json_int(&j, "width", width);
     sq_json_int(&j, "height", height);
     sq_json_num(&j, "time_s", sq_scene_time(b.scene));
-    sq_json_int(&j, "faces", (long long)sq_scene_world(b.scene)->mesh_faces);
-    sq_json_int(&j, "instances", sq_scene_world(b.scene)->mesh_instance_count);
+    const sq_world *world = sq_scene_world(b.scene);
+    sq_json_int(&j, "faces", (long long)sq_world_mesh_face_count(world));
+    sq_json_int(&j, "instances", sq_world_mesh_instances(world, NULL, NULL, NULL));
     sq_json_int(&j, "faces_drawn", (long long)st.faces);
     sq_json_int(&j, "camera_faces", (long long)st.camera_faces);
     sq_json_int(&j, "flakes", flakes);

@@ -102,7 +102,8 @@ sq_result sq_cli_rasters_write(sq_context *ctx, sq_scene *scene, const char *dir
                                double *seconds)
 {
     const double t0 = sq_time_now();
-    const sq_world *w = sq_scene_world(scene);
+    double crs_offset[2];
+    const char *crs = sq_world_crs(sq_scene_world(scene), crs_offset);
     sq_named_field maps[MAX_MAPS];
     const int n = maps_of(scene, maps);
     char path[1200];
@@ -117,9 +118,9 @@ sq_result sq_cli_rasters_write(sq_context *ctx, sq_scene *scene, const char *dir
     fprintf(js, ",\n  \"time_s\": ");
     json_num(js, sq_scene_time(scene));
     fprintf(js, ",\n  \"crs_wkt\": ");
-    json_text(js, w->crs_wkt ? w->crs_wkt : "");
-    fprintf(js, ",\n  \"crs_offset_m\": [%.3f, %.3f],\n  \"rasters\": [", w->crs_offset_m[0],
-            w->crs_offset_m[1]);
+    json_text(js, crs ? crs : "");
+    fprintf(js, ",\n  \"crs_offset_m\": [%.3f, %.3f],\n  \"rasters\": [", crs_offset[0],
+            crs_offset[1]);
     for (int i = 0; i < n && r == SQ_OK; i++) {
         const sq_named_field *m = &maps[i];
         snprintf(path, sizeof path, "%s/%s.%s", dir, m->name, ext_of(format));
@@ -127,12 +128,12 @@ sq_result sq_cli_rasters_write(sq_context *ctx, sq_scene *scene, const char *dir
         memset(&rd, 0, sizeof rd);
         rd.path = path;
         rd.format = format;
-        rd.crs_wkt = w->crs_wkt;
+        rd.crs_wkt = crs;
         rd.nx = m->nx;
         rd.ny = m->ny;
         rd.cell_m = (double)m->spacing_m.x;
-        rd.x0 = (double)m->origin_m.x - 0.5 * rd.cell_m + w->crs_offset_m[0];
-        rd.y0 = (double)m->origin_m.y - 0.5 * (double)m->spacing_m.y + w->crs_offset_m[1];
+        rd.x0 = (double)m->origin_m.x - 0.5 * rd.cell_m + crs_offset[0];
+        rd.y0 = (double)m->origin_m.y - 0.5 * (double)m->spacing_m.y + crs_offset[1];
         rd.data = m->data;
         rd.nodata = -9999.0;
         rd.description = m->long_name ? m->long_name : m->name;

@@ -109,7 +109,7 @@ typedef struct sq_field_file_desc {
      * as "YYYY-MM-DD" or "YYYY-MM-DD hh:mm:ss" (UTC). NULL -> "2000-01-01 00:00:00", an
      * arbitrary origin (then only differences of time are meaningful). NetCDF only. */
     const char *reference_time;
-    /* The world's georeference (sq_world: crs_wkt, crs_offset_m): when crs_wkt is set, x and y
+    /* The world's georeference (sq_world_crs): when crs_wkt is set, x and y
      * are written as world + offset (easting, northing in that CRS) and NetCDF fields carry
      * grid_mapping = "crs", a variable holding the WKT (crs_wkt, and GDAL's spatial_ref). */
     const char *crs_wkt;

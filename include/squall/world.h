@@ -177,57 +177,65 @@ typedef struct sq_world_desc {
     int area_count;
 } sq_world_desc;
 
-/* The world after creation: read-only for phenomena and the renderer. */
-typedef struct sq_world {
-    /* terrain heightfield: heights[j*nx + i] at (origin.x + i*dx, origin.y + j*dy) */
-    int nx, ny;
-    float dx, dy;
-    sq_vec3 origin;        /* x, y of sample (0,0); z unused */
-    float *heights;        /* nx*ny, metres above datum */
-    float *normals;        /* 3*nx*ny, unit normals */
-    float height_min, height_max;
-    sq_terrain_kind terrain_kind;
-    sq_terrain_material terrain_material;
-    float snow_line_m; /* sq_terrain_desc.snow_line_m; 0 = none */
-    /* obstacles */
-    sq_obstacle obstacles[SQ_MAX_OBSTACLES];
-    int obstacle_count;
-    /* sun and sky */
-    sq_vec3 sun_dir;       /* unit vector toward the sun */
-    sq_vec3 sun_radiance;  /* linear RGB irradiance scale of the sun at the ground */
-    sq_vec3 sky_zenith;    /* linear RGB sky radiance at zenith */
-    sq_vec3 sky_horizon;   /* linear RGB sky radiance at the horizon */
+/* The world after creation, opaque: its layout is not part of the ABI (it holds up to
+ * SQ_MAX_OBSTACLES obstacles and SQ_MAX_WORLD_AREAS areas inline, caches and private parts).
+ * Read it through the calls below; every pointer they return is borrowed from the world: valid
+ * until sq_world_destroy (mesh instances: until the next sq_world_set_meshes). Read-only for
+ * phenomena and the renderer; only sq_world_set_meshes, sq_world_set_time and
+ * sq_world_set_sky change it. */
+typedef struct sq_world sq_world;
+
+/* The terrain heightfield. */
+typedef struct sq_world_terrain {
+    int nx, ny;               /* samples along x and y */
+    float dx, dy;             /* sample spacing, m */
+    sq_vec3 origin;           /* world x, y of sample (0, 0); z unused */
+    const float *heights;     /* nx*ny heights above datum (m): heights[j*nx + i] at
+                                 (origin.x + i*dx, origin.y + j*dy), row 0 the south edge */
+    const float *normals;     /* 3*nx*ny unit normals, same order */
+    const uint8_t *void_mask; /* nx*ny, 1 where the source had no data (filled); NULL = none */
+    float height_min, height_max;  /* m */
+    sq_terrain_kind kind;
+    sq_terrain_material material;
+    float vertical_exaggeration;   /* the factor the heights were multiplied by (1 = none) */
+    float snow_line_m;             /* SQ_GROUND_SNOW: the snow line (m a.s.l.); 0 = none */
+} sq_world_terrain;
+/* The terrain as borrowed arrays and its geometry. */
+SQ_API void sq_world_get_terrain(const sq_world *w, sq_world_terrain *out);
+
+/* Sun and sky as the renderer uses them, at the world's time. */
+typedef struct sq_world_light {
+    sq_vec3 sun_dir;          /* unit vector toward the sun */
+    sq_vec3 sun_radiance;     /* linear RGB irradiance scale of the sun at the ground */
+    sq_vec3 sky_zenith;       /* linear RGB sky radiance at the zenith */
+    sq_vec3 sky_horizon;      /* linear RGB sky radiance at the horizon */
     sq_vec3 ground_albedo;
     float turbidity;
-    /* georeference: NULL when the world has no CRS (owned by the world) */
-    char *crs_wkt;
-    double crs_offset_m[2];
-    /* 1 where the terrain source had no data (the height is filled); NULL = all measured */
-    uint8_t *terrain_void;
-    /* named polygon areas (owned copies) */
-    sq_world_area areas[SQ_MAX_WORLD_AREAS];
-    int area_count;
-    /* meshes (sq_world_set_meshes): the mesh pointers are borrowed — the meshes must outlive
-     * the world or the next sq_world_set_meshes; the instances are the world's copy, with z
-     * resolved on the terrain and scale (0,0,0) replaced by (1,1,1) */
-    const sq_mesh *const *meshes;
-    int mesh_count;
-    sq_mesh_instance *mesh_instances;
-    int mesh_instance_count;
-    int64_t mesh_faces;    /* LOD-0 triangles over all instances */
-    struct sq__mesh_accel *mesh_accel; /* BVHs behind the solid queries (private) */
-    /* the sun's clock (sq_sun_desc.utc_set): sun_dir, sun_radiance and the sky follow
-     * sq_world_set_time; sun_position is the sun's place at time_s */
-    bool sun_follows_clock;
-    bool sun_from_time;    /* the sun's direction comes from day, hour and latitude (no
-                              sun.direction given) */
-    double sun_utc_start_unix_s, sun_clock_scale;
-    float sun_latitude_deg, sun_longitude_deg, sun_north_rotation_deg, sun_irradiance_w_m2;
-    double time_s;
-    sq_sun_position sun_position;
-    float vertical_exaggeration;
-    uint64_t generation;   /* changes when terrain, obstacles or meshes change */
-} sq_world;
+    double time_s;            /* the world's time (sq_world_set_time), s */
+    bool sun_follows_clock;   /* the sun moves with time_s (sq_sun_desc.utc_set) */
+    sq_sun_position sun_position; /* with sun_follows_clock: the sun's place at time_s */
+} sq_world_light;
+/* The sun, sky and time of the world. */
+SQ_API void sq_world_get_light(const sq_world *w, sq_world_light *out);
+
+/* Obstacles (copies of the desc's, z resolved on the terrain): count, and the array of count
+ * entries (borrowed). */
+SQ_API int sq_world_obstacle_count(const sq_world *w);
+SQ_API const sq_obstacle *sq_world_obstacles(const sq_world *w);
+/* Named polygon areas: count, and area i in [0, count) (NULL outside; borrowed). */
+SQ_API int sq_world_area_count(const sq_world *w);
+SQ_API const sq_world_area *sq_world_area_at(const sq_world *w, int i);
+/* The georeference: the CRS as given (WKT or what PROJ accepts; NULL when the world has none)
+ * and, if offset_m is not NULL, the offset with world (x, y) + offset = CRS (easting, northing). */
+SQ_API const char *sq_world_crs(const sq_world *w, double offset_m[2]);
+/* The meshes placed by sq_world_set_meshes (each pointer may be NULL): the mesh array and its
+ * count, the instances (z resolved, scale 0 replaced by 1); returns the instance count. */
+SQ_API int sq_world_mesh_instances(const sq_world *w, const sq_mesh *const **meshes,
+                                   int *mesh_count, const sq_mesh_instance **instances);
+/* Triangles of the placed meshes at LOD 0, summed over all instances (0 without meshes). */
+SQ_API int64_t sq_world_mesh_face_count(const sq_world *w);
+/* A number that changes whenever the terrain, obstacles or meshes change (caches key on it). */
+SQ_API uint64_t sq_world_generation(const sq_world *w);
 
 /* Copies in to out with zero fields replaced by their defaults; never validates. */
 SQ_API sq_result sq_world_desc_resolve(const sq_world_desc *in, sq_world_desc *out);

@@ -4,6 +4,7 @@
 #include "core/core_internal.h"
 #include "squall/drawable.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 /* Declared in render_internal.h and reference/reference_internal.h. */
 void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);

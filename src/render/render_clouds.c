@@ -20,6 +20,7 @@
 
 #include "render/clouds_light.h"
 #include "render/render_internal.h"
+#include "world/world_struct.h"
 
 #define PACK 12            /* floats per instance: pos r | tau fade g I | amb.rgb 0 */
 #define BATCH 8192

@@ -12,6 +12,7 @@
 
 #include "render/render_internal.h"
 #include "render/snow_map.h"
+#include "world/world_struct.h"
 
 #define RING_VIEWS 8 /* views per frame before the ring wraps (camera + cascades + snow) */
 

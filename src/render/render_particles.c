@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "world/world_struct.h"
 
 #define PART_FLOATS 12 /* per instance: pos.xyz radius | rot tau fade seed | albedo.rgb 0 */
 

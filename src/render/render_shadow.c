@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "world/world_struct.h"
 
 #define MAX_CASCADES 4
 

@@ -11,6 +11,7 @@
 
 #include "render/render_internal.h"
 #include "render/snow_map.h"
+#include "world/world_struct.h"
 
 /* std140 mirror of the Snow block in shaders/snow_common.glsl. */
 typedef struct snow_block {

@@ -42,6 +42,7 @@
 
 #include "render/render_internal.h"
 #include "squall/rng.h"
+#include "world/world_struct.h"
 
 #define VOL_MAX_SLICES 4096
 #define VOL_MIN_LIGHT_SIZE 8

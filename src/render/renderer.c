@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "world/world_struct.h"
 
 #define SQ_MAX_SURFACES 8
 #define SQ_MAX_SCANNED_VOLUMES 8

@@ -247,11 +247,7 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
     sq_field_file_desc fd;
     memset(&fd, 0, sizeof fd);
     fd.path = staged;
-    if (o->world && o->world->crs_wkt) {
-        fd.crs_wkt = o->world->crs_wkt;
-        fd.crs_offset_m[0] = o->world->crs_offset_m[0];
-        fd.crs_offset_m[1] = o->world->crs_offset_m[1];
-    }
+    if (o->world) fd.crs_wkt = sq_world_crs(o->world, fd.crs_offset_m);
     fd.title = o->title;
     fd.source = "squall " SQ_VERSION_STRING;
     fd.time_s = time_s;

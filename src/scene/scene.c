@@ -14,6 +14,7 @@
 #include "phen/phenomenon_internal.h"
 #include "scene_internal.h"
 #include "squall/rng.h"
+#include "world/world_struct.h"
 
 #define MAX_LAYERS 16
 #define MAX_METRICS 256

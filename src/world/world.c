@@ -759,3 +759,70 @@ sq_mat4 sq_camera_proj(const sq_camera *c, float aspect)
     sq_camera r = sq_camera_resolve(*c);
     return sq_m4_perspective(r.fov_y_deg * (float)(SQ_PI / 180.0), aspect, r.near_m, r.far_m);
 }
+
+/* ---- read access (the layout is private: src/world/world_struct.h) ------------------------ */
+void sq_world_get_terrain(const sq_world *w, sq_world_terrain *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!w) return;
+    out->nx = w->nx;
+    out->ny = w->ny;
+    out->dx = w->dx;
+    out->dy = w->dy;
+    out->origin = w->origin;
+    out->heights = w->heights;
+    out->normals = w->normals;
+    out->void_mask = w->terrain_void;
+    out->height_min = w->height_min;
+    out->height_max = w->height_max;
+    out->kind = w->terrain_kind;
+    out->material = w->terrain_material;
+    out->snow_line_m = w->snow_line_m;
+    out->vertical_exaggeration = w->vertical_exaggeration > 0.0f ? w->vertical_exaggeration : 1.0f;
+}
+
+void sq_world_get_light(const sq_world *w, sq_world_light *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!w) return;
+    out->sun_dir = w->sun_dir;
+    out->sun_radiance = w->sun_radiance;
+    out->sky_zenith = w->sky_zenith;
+    out->sky_horizon = w->sky_horizon;
+    out->ground_albedo = w->ground_albedo;
+    out->turbidity = w->turbidity;
+    out->time_s = w->time_s;
+    out->sun_follows_clock = w->sun_follows_clock;
+    out->sun_position = w->sun_position;
+}
+
+int sq_world_obstacle_count(const sq_world *w) { return w ? w->obstacle_count : 0; }
+const sq_obstacle *sq_world_obstacles(const sq_world *w) { return w ? w->obstacles : NULL; }
+int sq_world_area_count(const sq_world *w) { return w ? w->area_count : 0; }
+
+const sq_world_area *sq_world_area_at(const sq_world *w, int i)
+{
+    return w && i >= 0 && i < w->area_count ? &w->areas[i] : NULL;
+}
+
+const char *sq_world_crs(const sq_world *w, double offset_m[2])
+{
+    if (offset_m) {
+        offset_m[0] = w ? w->crs_offset_m[0] : 0.0;
+        offset_m[1] = w ? w->crs_offset_m[1] : 0.0;
+    }
+    return w ? w->crs_wkt : NULL;
+}
+
+int sq_world_mesh_instances(const sq_world *w, const sq_mesh *const **meshes, int *mesh_count,
+                            const sq_mesh_instance **instances)
+{
+    if (meshes) *meshes = w ? w->meshes : NULL;
+    if (mesh_count) *mesh_count = w ? w->mesh_count : 0;
+    if (instances) *instances = w ? w->mesh_instances : NULL;
+    return w ? w->mesh_instance_count : 0;
+}
+
+int64_t sq_world_mesh_face_count(const sq_world *w) { return w ? w->mesh_faces : 0; }
+
+uint64_t sq_world_generation(const sq_world *w) { return w ? w->generation : 0; }

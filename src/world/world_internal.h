@@ -4,6 +4,7 @@
 #define SQ_WORLD_INTERNAL_H
 
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 typedef struct sq__mesh_accel sq__mesh_accel;
 

@@ -78,17 +78,19 @@ SQ_TEST(mountain_terrain_has_no_step_or_kink_at_the_toe)
         sq_world *w = NULL;
         SQ_CHECK_OK(sq_world_create(ctx, &wd, &w));
         if (!w) break;
+        sq_world_terrain t;
+        sq_world_get_terrain(w, &t);
         double slope = 0.0, curv = 0.0;
-        for (int j = 0; j < w->ny; j++) {
-            const float *h = w->heights + (size_t)j * (size_t)w->nx;
-            for (int i = 1; i + 1 < w->nx; i++) {
-                slope = fmax(slope, fabs((double)h[i + 1] - (double)h[i]) / (double)w->dx);
+        for (int j = 0; j < t.ny; j++) {
+            const float *h = t.heights + (size_t)j * (size_t)t.nx;
+            for (int i = 1; i + 1 < t.nx; i++) {
+                slope = fmax(slope, fabs((double)h[i + 1] - (double)h[i]) / (double)t.dx);
                 curv = fmax(curv, fabs((double)h[i + 1] - 2.0 * (double)h[i] + (double)h[i - 1]) /
-                                      ((double)w->dx * (double)w->dx));
+                                      ((double)t.dx * (double)t.dx));
             }
         }
         printf("dx = %.2f m: max |dh|/dx = %.4f (tan 35 = %.4f), max |d2h|/dx2 = %.5f 1/m\n",
-               (double)w->dx, slope, tanb, curv);
+               (double)t.dx, slope, tanb, curv);
         SQ_CHECK(slope <= tanb + 0.1);
         SQ_CHECK(curv <= 0.02);
         sq_world_destroy(ctx, w);
@@ -252,7 +254,7 @@ SQ_TEST(mass_conserved_nothing_below_terrain_or_inside_obstacles)
     sq_avalanche_desc d = slab_desc();
     sq_avalanche *a = NULL;
     SQ_CHECK_OK(sq_avalanche_create(ctx, &d, w, &a));
-    const sq_obstacle *o = &w->obstacles[0];
+    const sq_obstacle *o = &sq_world_obstacles(w)[0];
     const size_t n0 = sq_avalanche_release_count(&d, w, NULL);
     double worst_below = 0.0, worst_inside = 0.0;
     int hit = 0;
@@ -537,12 +539,14 @@ SQ_TEST(plugin_metrics_fields_drawables)
     const char *maps[] = {"deposit_depth", "peak_flow_depth", "peak_speed", "peak_pressure",
                           "travel_angle"};
     const char *units[] = {"m", "m", "m/s", "kPa", "deg"};
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
     for (int k = 0; k < nf && k < 5; k++) {
         SQ_CHECK(strcmp(fl[k].name, maps[k]) == 0 && strcmp(fl[k].units, units[k]) == 0);
         /* on the terrain's samples, one map for the whole terrain */
-        SQ_CHECK(fl[k].nz == 1 && fl[k].nx == w->nx && fl[k].ny == w->ny);
-        SQ_CHECK_NEAR(fl[k].origin_m.x, w->origin.x, 1e-4);
-        SQ_CHECK_NEAR(fl[k].spacing_m.x, w->dx, 1e-6);
+        SQ_CHECK(fl[k].nz == 1 && fl[k].nx == t.nx && fl[k].ny == t.ny);
+        SQ_CHECK_NEAR(fl[k].origin_m.x, t.origin.x, 1e-4);
+        SQ_CHECK_NEAR(fl[k].spacing_m.x, t.dx, 1e-6);
     }
     sq_drawable dr[4];
     int nd = pl->drawables(self, dr, 4);

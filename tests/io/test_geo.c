@@ -19,6 +19,13 @@
 
 SQ_LABEL(unit)
 
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
+
 #if SQ_HAVE_GDAL
 #include <cpl_conv.h>
 #include <gdal.h>
@@ -641,12 +648,14 @@ SQ_TEST(scene_dem_terrain_and_area_in_world_coordinates)
     sq_scene *sc = NULL;
     SQ_CHECK_OK(sq_scene_create(ctx, &sd, &sc));
     const sq_world *w = sc ? sq_scene_world(sc) : NULL;
-    SQ_CHECK(w && w->crs_wkt && strstr(w->crs_wkt, "UTM zone 32N"));
+    SQ_CHECK(w && sq_world_crs(w, NULL) && strstr(sq_world_crs(w, NULL), "UTM zone 32N"));
     if (w) {
-        SQ_CHECK(w->crs_offset_m[0] == 640000.0 && w->crs_offset_m[1] == 5185000.0);
-        SQ_CHECK(w->terrain_kind == SQ_TERRAIN_GRID && w->dx == 30.0f);
+        double off[2];
+        sq_world_crs(w, off);
+        SQ_CHECK(off[0] == 640000.0 && off[1] == 5185000.0);
+        SQ_CHECK(terrain_of(w).kind == SQ_TERRAIN_GRID && terrain_of(w).dx == 30.0f);
         /* the terrain's origin is a multiple of 30 m in UTM */
-        SQ_CHECK_NEAR(fmod((double)w->origin.x + 640000.0, 30.0), 0.0, 1e-3);
+        SQ_CHECK_NEAR(fmod((double)terrain_of(w).origin.x + 640000.0, 30.0), 0.0, 1e-3);
         const sq_world_area *a = sq_world_area_find(w, "release");
         SQ_CHECK(a != NULL);
         if (a) {

@@ -22,6 +22,20 @@
 
 SQ_LABEL(unit)
 
+static inline sq_world_light light_of(const sq_world *w)
+{
+    sq_world_light l;
+    sq_world_get_light(w, &l);
+    return l;
+}
+
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
+
 #define SAMPLE SQ_TEST_SOURCE_DIR "/data/wrf/wrf_d01_allvars_cropped.nc"
 
 static sq_context *mkctx(void)
@@ -202,15 +216,17 @@ SQ_TEST(sample_scan_ranges_and_world)
     sq_wrf_state s;
     SQ_CHECK_OK(sq_wrf_read_index(w, 0, &s));
     if (world && s.terrain_m) {
-        SQ_CHECK(world->nx == in.nx && world->ny == in.ny);
+        SQ_CHECK(terrain_of(world).nx == in.nx && terrain_of(world).ny == in.ny);
         for (int j = 0; j < in.ny; j++)
             for (int i = 0; i < in.nx; i++)
                 SQ_CHECK_NEAR(sq_world_height_at(world, s.x_m[i], s.y_m[j]),
                               s.terrain_m[j * in.nx + i], 1e-3);
-        SQ_CHECK(world->crs_wkt && strstr(world->crs_wkt, "Lambert"));
-        SQ_CHECK_NEAR(world->crs_offset_m[0], in.crs_offset_m[0], 0.0);
+        SQ_CHECK(sq_world_crs(world, NULL) && strstr(sq_world_crs(world, NULL), "Lambert"));
+        double off[2];
+        sq_world_crs(world, off);
+        SQ_CHECK_NEAR(off[0], in.crs_offset_m[0], 0.0);
         /* 03 UTC at 87 E is about 08:55 true solar time: the sun is up in the east-south-east */
-        SQ_CHECK(world->sun_dir.z > 0.5f && world->sun_dir.x > 0.5f);
+        SQ_CHECK(light_of(world).sun_dir.z > 0.5f && light_of(world).sun_dir.x > 0.5f);
         /* the projected coordinates of a grid point's lat/lon give back its world position */
         double x, y;
         SQ_CHECK_OK(sq_wrf_to_world(w, s.lon_deg[3 * in.nx + 7], s.lat_deg[3 * in.nx + 7], &x, &y));
@@ -281,21 +297,21 @@ SQ_TEST(scene_terrain_from_wrf_with_moving_sun)
         const sq_world *world = sq_scene_world(s);
         sq_wrf_info in;
         sq_wrf_get_info(w, &in);
-        SQ_CHECK(world->nx == in.nx && world->ny == in.ny && world->dx == 30000.0f);
+        SQ_CHECK(terrain_of(world).nx == in.nx && terrain_of(world).ny == in.ny && terrain_of(world).dx == 30000.0f);
         for (int j = 0; j < in.ny; j++)
             for (int i = 0; i < in.nx; i++)
                 SQ_CHECK_NEAR(sq_world_height_at(world, st.x_m[i], st.y_m[j]),
                               3.0 * st.terrain_m[j * in.nx + i], 3e-3);
-        SQ_CHECK(world->crs_wkt && strstr(world->crs_wkt, "Lambert"));
+        SQ_CHECK(sq_world_crs(world, NULL) && strstr(sq_world_crs(world, NULL), "Lambert"));
         /* sunrise at scene time 0; after 6 scene seconds = 3 h of sun time, the 03 UTC sun */
         sq_sun_position p;
         sq_vec3 dir;
         SQ_CHECK_OK(sq_wrf_sun(w, 0.0, &p, &dir));
-        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.z, dir.z, 1e-5);
         for (int k = 0; k < 6; k++) SQ_CHECK_OK(sq_scene_step(s, 1.0));
         SQ_CHECK_OK(sq_wrf_sun(w, 3 * 3600.0, &p, &dir));
-        SQ_CHECK_NEAR(world->sun_dir.x, dir.x, 1e-5);
-        SQ_CHECK_NEAR(world->sun_dir.z, dir.z, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.x, dir.x, 1e-5);
+        SQ_CHECK_NEAR(light_of(world).sun_dir.z, dir.z, 1e-5);
         SQ_CHECK(p.elevation_deg > 30.0);
     }
     sq_wrf_close(w);

@@ -22,6 +22,20 @@ for h in "$SRC"/include/squall/*.h; do
         echo "FAIL: squall/squall.h does not include squall/$n"; fails=$((fails + 1))
     fi
 done
+# Opaque handles stay opaque: every type the headers declare as `typedef struct sq_x sq_x;` is
+# incomplete for a user (sizeof fails), so its layout is not part of the ABI (docs/api.md); the
+# world (256 inline obstacles, caches) must be one of them.
+handles=$(sed -n 's/^typedef struct \(sq_[a-z0-9_]*\) \1;.*/\1/p' "$SRC"/include/squall/*.h | sort -u)
+echo "$handles" | grep -qx sq_world || { echo "FAIL: sq_world is not an opaque handle"; fails=$((fails + 1)); }
+for t in $handles; do
+    if printf '#include "squall/squall.h"\nunsigned long n = sizeof(%s);\n' "$t" | "$CC" -std=c11 \
+            -fsyntax-only -I "$SRC/include" -x c - 2> err.txt; then
+        echo "FAIL: $t has a public layout (sizeof compiles)"; fails=$((fails + 1))
+    elif ! grep -q 'incomplete' err.txt; then
+        echo "FAIL: sizeof($t): not the expected incomplete-type error: $(head -3 err.txt)"
+        fails=$((fails + 1))
+    fi
+done
 # Every public function is documented: a comment on its line, or a comment ending right above
 # it or above the run of declarations it belongs to (a group documented together).
 undoc=$(awk '
@@ -37,5 +51,5 @@ if [ -n "$undoc" ]; then
     echo "FAIL: public functions without documentation:"; echo "$undoc"; fails=$((fails + 1))
 fi
 rm -f err.txt
-[ "$fails" = 0 ] && echo "ok: $(ls "$SRC"/include/squall/*.h | wc -l) headers"
+[ "$fails" = 0 ] && echo "ok: $(ls "$SRC"/include/squall/*.h | wc -l) headers, $(echo "$handles" | wc -w) opaque handles"
 exit $((fails > 0))

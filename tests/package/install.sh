@@ -83,7 +83,13 @@ for kind in shared static; do
         cat "$W/cfg-$kind.log" "$W/build-$kind.log" | tail -30; fail "find_package, $kind: build"
     fi
 done
-ldd "$W/cmake-shared/sandstorm_visibility" | grep -q "libsquall.so.0 => $P" || fail "cmake-shared: not linked to the installed libsquall.so"
+# the soname is the ABI version: major.minor before 1.0 (a 0.x minor may break the ABI), then major
+ver() { sed -n "s/^#define SQ_VERSION_$1 \([0-9]*\)$/\1/p" "$SRC/include/squall/core.h"; }
+soname="libsquall.so.$(ver MAJOR)"
+[ "$(ver MAJOR)" = 0 ] && soname="$soname.$(ver MINOR)"
+readelf -d "$LIBDIR/libsquall.so" | grep -q "SONAME.*\[$soname\]" ||
+    fail "libsquall.so: soname is not $soname: $(readelf -d "$LIBDIR/libsquall.so" | grep SONAME)"
+ldd "$W/cmake-shared/sandstorm_visibility" | grep -q "$soname => $P" || fail "cmake-shared: not linked to the installed $soname"
 ldd "$W/cmake-static/sandstorm_visibility" | grep -q "libsquall.so" && fail "cmake-static: linked to libsquall.so"
 
 # 3, 4: pkg-config, shared and static (-l:libsquall.a: the archive beside the shared library)

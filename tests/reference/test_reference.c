@@ -21,6 +21,7 @@
 #include "squall/render.h"
 #include "squall/rng.h"
 #include "squall/sqmath.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(physics)
 

@@ -13,6 +13,7 @@
 #include "sq_test.h"
 #include "squall/render.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(render)
 SQ_REQUIRES(gl)

@@ -14,6 +14,13 @@
 #include "squall/world.h"
 
 SQ_LABEL(render)
+
+static inline sq_world_light light_of(const sq_world *w)
+{
+    sq_world_light l;
+    sq_world_get_light(w, &l);
+    return l;
+}
 SQ_REQUIRES(gl)
 
 #define W 320
@@ -156,9 +163,9 @@ SQ_TEST(box_shadows_the_ground_under_a_high_sun)
     const double dark = radiance_at(shad, &cam, in_shadow);
     const double lit = radiance_at(shad, &cam, beside), lit_ref = radiance_at(bare, &cam, beside);
     /* ground model: albedo (E cos + ambient); in the shadow only albedo * ambient remains */
-    const sq_vec3 s = w->sun_dir;
-    const double sun_part = (double)(w->sun_radiance.y * s.z);
-    const double amb = 0.5 * (double)(w->sky_zenith.y + w->sky_horizon.y); /* order of magnitude */
+    const sq_vec3 s = light_of(w).sun_dir;
+    const double sun_part = (double)(light_of(w).sun_radiance.y * s.z);
+    const double amb = 0.5 * (double)(light_of(w).sky_zenith.y + light_of(w).sky_horizon.y); /* order of magnitude */
     printf("lit %.4f (no mesh %.4f), shadow %.4f, unshadowed there %.4f, sun term %.3f, sky ~%.3f\n",
            lit, lit_ref, dark, lit0, sun_part, amb);
     SQ_CHECK_MSG(fabs(lit - lit_ref) < 0.02 * lit_ref, "beside the shadow %.4f vs %.4f without the box",

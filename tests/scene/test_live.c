@@ -335,29 +335,31 @@ SQ_TEST(live_sky_equals_rebuilt)
     SQ_CHECK(s && ref);
     if (!s || !ref) return;
     SQ_CHECK_OK(sq_scene_step(s, 0.5));
-    const sq_world w0 = *sq_scene_world(s);
+    sq_world_light w0, w, r;
+    sq_world_get_light(sq_scene_world(s), &w0);
     sq_scene_desc d = {.cfg = c2};
     sq_live_result res;
     SQ_CHECK_OK(sq_scene_apply_live(s, &d, &res));
     SQ_CHECK_MSG(!res.rebuild && res.changed == 2, "rebuild %d (%s), changed %d", res.rebuild,
                  res.reason, res.changed);
     SQ_CHECK_NEAR(sq_scene_time(s), 0.5, 1e-12);
-    const sq_world *w = sq_scene_world(s), *r = sq_scene_world(ref);
-    SQ_CHECK_NEAR(w->turbidity, 8.0, 1e-6);
-    SQ_CHECK_NEAR(w->sun_dir.x, r->sun_dir.x, 1e-6);
-    SQ_CHECK_NEAR(w->sun_dir.y, r->sun_dir.y, 1e-6);
-    SQ_CHECK_NEAR(w->sun_dir.z, r->sun_dir.z, 1e-6);
-    SQ_CHECK_NEAR(w->sun_radiance.x, r->sun_radiance.x, 1e-6);
-    SQ_CHECK_NEAR(w->sun_radiance.z, r->sun_radiance.z, 1e-6);
-    SQ_CHECK_NEAR(w->sky_zenith.y, r->sky_zenith.y, 1e-6);
-    SQ_CHECK_NEAR(w->sky_horizon.x, r->sky_horizon.x, 1e-6);
-    SQ_CHECK(w->sun_dir.z < w0.sun_dir.z); /* 7 h is lower than 15 h */
+    sq_world_get_light(sq_scene_world(s), &w);
+    sq_world_get_light(sq_scene_world(ref), &r);
+    SQ_CHECK_NEAR(w.turbidity, 8.0, 1e-6);
+    SQ_CHECK_NEAR(w.sun_dir.x, r.sun_dir.x, 1e-6);
+    SQ_CHECK_NEAR(w.sun_dir.y, r.sun_dir.y, 1e-6);
+    SQ_CHECK_NEAR(w.sun_dir.z, r.sun_dir.z, 1e-6);
+    SQ_CHECK_NEAR(w.sun_radiance.x, r.sun_radiance.x, 1e-6);
+    SQ_CHECK_NEAR(w.sun_radiance.z, r.sun_radiance.z, 1e-6);
+    SQ_CHECK_NEAR(w.sky_zenith.y, r.sky_zenith.y, 1e-6);
+    SQ_CHECK_NEAR(w.sky_horizon.x, r.sky_horizon.x, 1e-6);
+    SQ_CHECK(w.sun_dir.z < w0.sun_dir.z); /* 7 h is lower than 15 h */
     /* the same sun height with more haze: a dimmer direct sun (the aerosol's optical depth) */
     SQ_CHECK_OK(apply(ctx, s, "world.sky.turbidity=8", &res)); /* back to 15 h, turbidity 8 */
     SQ_CHECK(!res.rebuild && res.changed == 1);
-    w = sq_scene_world(s);
-    SQ_CHECK_NEAR(w->sun_dir.z, w0.sun_dir.z, 1e-6);
-    SQ_CHECK(w->sun_radiance.y < w0.sun_radiance.y);
+    sq_world_get_light(sq_scene_world(s), &w);
+    SQ_CHECK_NEAR(w.sun_dir.z, w0.sun_dir.z, 1e-6);
+    SQ_CHECK(w.sun_radiance.y < w0.sun_radiance.y);
     sq_scene_destroy(ref);
     sq_scene_destroy(s);
     sq_cfg_destroy(c2);

@@ -42,7 +42,9 @@ SQ_TEST(minimal_scene_defaults)
     const sq_scene_output *o = sq_scene_output_settings(s);
     SQ_CHECK(o->width == 640 && o->height == 360 && o->fps == 24);
     SQ_CHECK(sq_scene_frame_count(s) == 240); /* 10 s at 24 fps */
-    SQ_CHECK(sq_scene_world(s)->nx == 5);
+    sq_world_terrain terr;
+    sq_world_get_terrain(sq_scene_world(s), &terr);
+    SQ_CHECK(terr.nx == 5);
     SQ_CHECK_OK(sq_scene_step(s, 0.1));
     SQ_CHECK_NEAR(sq_scene_time(s), 0.1, 1e-12);
     sq_scene_destroy(s);
@@ -137,7 +139,9 @@ SQ_TEST(set_overrides)
     SQ_CHECK_OK(sq_scene_create(ctx, &d, &s));
     SQ_CHECK(sq_scene_output_settings(s)->fps == 30);
     SQ_CHECK(sq_scene_frame_count(s) == 60);
-    SQ_CHECK_NEAR(sq_scene_world(s)->dx, 75.0, 1e-4);
+    sq_world_terrain terr;
+    sq_world_get_terrain(sq_scene_world(s), &terr);
+    SQ_CHECK_NEAR(terr.dx, 75.0, 1e-4);
     sq_scene_destroy(s);
     SQ_CHECK_ERR(sq_cfg_set(cfg, "output.fps"), SQ_ERR_INVALID_ARG, "expected path.to.key=value");
     SQ_CHECK_ERR(sq_cfg_set(cfg, "output.fps.x=3"), SQ_ERR_INVALID_ARG, "is a value");

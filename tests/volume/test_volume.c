@@ -15,6 +15,7 @@
 #include "squall/render.h"
 #include "squall/world.h"
 #include "sq_test.h"
+#include "world/world_struct.h"
 
 SQ_LABEL(render)
 SQ_REQUIRES(gl)

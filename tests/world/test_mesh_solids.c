@@ -420,7 +420,10 @@ SQ_TEST(avalanche_stops_at_a_mesh)
     in.position_m = sq_v3(-4.0f, 0.0f, NAN); /* on the lowest terrain under it */
     const sq_mesh *list[1] = {m};
     SQ_CHECK_OK(sq_world_set_meshes(ctx, w, list, 1, &in, 1));
-    const sq_vec3 c = w->mesh_instances[0].position_m;
+    const sq_mesh_instance *placed = NULL;
+    SQ_CHECK(sq_world_mesh_instances(w, NULL, NULL, &placed) == 1);
+    if (!placed) return;
+    const sq_vec3 c = placed[0].position_m;
     sq_avalanche_desc d;
     memset(&d, 0, sizeof d);
     d.spacing_m = 0.5;

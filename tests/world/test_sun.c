@@ -10,6 +10,20 @@
 
 SQ_LABEL(physics)
 
+static inline sq_world_light light_of(const sq_world *w)
+{
+    sq_world_light l;
+    sq_world_get_light(w, &l);
+    return l;
+}
+
+static inline sq_world_terrain terrain_of(const sq_world *w)
+{
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    return t;
+}
+
 SQ_TEST(civil_time_to_unix)
 {
     SQ_CHECK_NEAR(sq_unix_time(1970, 1, 1, 0, 0, 0.0), 0.0, 0.0);
@@ -115,26 +129,26 @@ SQ_TEST(world_sun_follows_the_clock)
     if (!w) return;
     /* at 00 UTC the sun rises at 87 E: elevation ~0, in the east (turned by 10 deg) */
     sq_sun_position p0 = sq_sun_position_at(d.sun.utc_start_unix_s, 30.0, 87.0);
-    SQ_CHECK_NEAR(w->sun_position.elevation_deg, p0.elevation_deg, 1e-9);
-    SQ_CHECK_NEAR(asin((double)w->sun_dir.z) * 180.0 / M_PI, p0.elevation_deg, 1e-3);
-    const double az0 = atan2((double)w->sun_dir.x, (double)w->sun_dir.y) * 180.0 / M_PI;
+    SQ_CHECK_NEAR(light_of(w).sun_position.elevation_deg, p0.elevation_deg, 1e-9);
+    SQ_CHECK_NEAR(asin((double)light_of(w).sun_dir.z) * 180.0 / M_PI, p0.elevation_deg, 1e-3);
+    const double az0 = atan2((double)light_of(w).sun_dir.x, (double)light_of(w).sun_dir.y) * 180.0 / M_PI;
     SQ_CHECK_NEAR(az0, p0.azimuth_deg + 10.0, 1e-3);
-    const float dawn = w->sun_radiance.y;
+    const float dawn = light_of(w).sun_radiance.y;
     /* 6 scene seconds later = 06 UTC = 11:55 solar: high in the south, brighter light and sky */
     sq_world_set_time(w, 6.0);
     sq_sun_position p6 = sq_sun_position_at(d.sun.utc_start_unix_s + 6 * 3600.0, 30.0, 87.0);
-    SQ_CHECK_NEAR(asin((double)w->sun_dir.z) * 180.0 / M_PI, p6.elevation_deg, 1e-3);
+    SQ_CHECK_NEAR(asin((double)light_of(w).sun_dir.z) * 180.0 / M_PI, p6.elevation_deg, 1e-3);
     SQ_CHECK(p6.elevation_deg > 55.0);
-    SQ_CHECK(w->sun_radiance.y > dawn + 0.3f);
-    SQ_CHECK_NEAR(w->time_s, 6.0, 0.0);
+    SQ_CHECK(light_of(w).sun_radiance.y > dawn + 0.3f);
+    SQ_CHECK_NEAR(light_of(w).time_s, 6.0, 0.0);
     sq_world_destroy(ctx, w);
     /* a given direction wins over the clock and does not move */
     d.sun.direction = sq_v3(0.0f, 0.0f, 1.0f);
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
     if (w) {
         sq_world_set_time(w, 6.0);
-        SQ_CHECK_NEAR(w->sun_dir.z, 1.0, 1e-6);
-        SQ_CHECK(!w->sun_follows_clock);
+        SQ_CHECK_NEAR(light_of(w).sun_dir.z, 1.0, 1e-6);
+        SQ_CHECK(!light_of(w).sun_follows_clock);
         sq_world_destroy(ctx, w);
     }
     d.sun.latitude_deg = 95.0f;
@@ -157,9 +171,9 @@ SQ_TEST(vertical_exaggeration_scales_heights_and_slopes)
     sq_world *w = NULL;
     SQ_CHECK_OK(sq_world_create(ctx, &d, &w));
     if (w) {
-        SQ_CHECK_NEAR(w->height_min, 400.0, 1e-3);
-        SQ_CHECK_NEAR(w->height_max, 480.0, 1e-3);
-        SQ_CHECK_NEAR(w->vertical_exaggeration, 4.0, 0.0);
+        SQ_CHECK_NEAR(terrain_of(w).height_min, 400.0, 1e-3);
+        SQ_CHECK_NEAR(terrain_of(w).height_max, 480.0, 1e-3);
+        SQ_CHECK_NEAR(terrain_of(w).vertical_exaggeration, 4.0, 0.0);
         /* slope 4: normal (-4, 0, 1)/sqrt(17) */
         sq_vec3 n = sq_world_normal_at(w, 0.0f, 0.0f);
         SQ_CHECK_NEAR(n.x, -4.0 / sqrt(17.0), 1e-5);

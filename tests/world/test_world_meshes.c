@@ -249,7 +249,7 @@ SQ_TEST(voxelised_house_matches_analytic_volume)
     in.yaw_deg = 30.0f;
     const sq_mesh *list[1] = {m};
     SQ_CHECK(sq_world_set_meshes(ctx, w, list, 1, &in, 1) == SQ_OK);
-    SQ_CHECK(w->mesh_faces == 20);
+    SQ_CHECK(sq_world_mesh_face_count(w) == 20);
     /* h = 0.1 m: the discretisation error is about (surface area) x h x (mean |offset| ~ h/4)
      * with random signs (~0.1 %); a 0.5 % bound is several times that for this 624 m^3 house */
     const double v = voxel_volume(w, sq_v3(-10, -10, 0.0f), sq_v3(16, 6, 9), 0.1);
@@ -321,11 +321,13 @@ SQ_TEST(placement_rules)
     in.mesh = 1;
     SQ_CHECK(sq_world_set_meshes(ctx, w, list, 1, &in, 1) == SQ_ERR_INVALID_ARG);
     in.mesh = 0;
-    const uint64_t g = w->generation;
+    const uint64_t g = sq_world_generation(w);
     SQ_CHECK(sq_world_set_meshes(ctx, w, list, 1, &in, 1) == SQ_OK);
-    SQ_CHECK(w->generation != g);
-    SQ_CHECK(w->mesh_instances[0].position_m.z == 0.0f); /* on the flat terrain */
-    SQ_CHECK(w->mesh_instances[0].scale.x == 1.0f);
+    SQ_CHECK(sq_world_generation(w) != g);
+    const sq_mesh_instance *placed = NULL;
+    SQ_CHECK(sq_world_mesh_instances(w, NULL, NULL, &placed) == 1);
+    SQ_CHECK(placed[0].position_m.z == 0.0f); /* on the flat terrain */
+    SQ_CHECK(placed[0].scale.x == 1.0f);
     /* removing the meshes leaves an empty world */
     SQ_CHECK(sq_world_set_meshes(ctx, w, NULL, 0, NULL, 0) == SQ_OK);
     SQ_CHECK(!sq_world_solid_at(w, sq_v3(0, 0, 1)));
@@ -432,7 +434,9 @@ SQ_TEST(voxelise_equals_point_queries_over_a_town)
     SQ_CHECK(sq_world_set_meshes(ctx, w, (const sq_mesh *const *)pl->meshes, pl->mesh_count,
                                  pl->instances, pl->instance_count) == SQ_OK);
     const int n[3] = {150, 150, 40};
-    const double h = 0.7, origin[3] = {-60.03, -40.011, (double)w->height_min - 1.13};
+    sq_world_terrain t;
+    sq_world_get_terrain(w, &t);
+    const double h = 0.7, origin[3] = {-60.03, -40.011, (double)t.height_min - 1.13};
     const size_t cells = (size_t)n[0] * n[1] * n[2];
     uint8_t *m = (uint8_t *)malloc(cells);
     SQ_CHECK(m != NULL);

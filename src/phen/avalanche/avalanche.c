@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "avalanche_internal.h"
+#include "world/world_struct.h"
 
 #define MOD "avalanche"
 

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "avalanche_internal.h"
+#include "world/world_struct.h"
 
 #define MOD "avalanche"
 #define P "sq_avalanche_desc." /* the scene shows it as layers.<name>. */

@@ -9,6 +9,7 @@
 #include "phen/avalanche/avalanche_internal.h"
 #include "squall/mesh.h"
 #include "squall/world.h"
+#include "world/world_struct.h"
 
 #define MOD "avalanche"
 #define SQ_AVAL_MESH_CELLS (1 << 24)

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "clouds_internal.h"
+#include "world/world_struct.h"
 
 #define MAX_STEP_S 600.0
 #define SPLAT_AREA 0.3f
@@ -140,6 +141,7 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
         c->pp.radius_m = (float)d.radius_m;
         c->pp.lifetime_s = (float)d.lifetime_s;
         c->pp.seed = d.seed;
+        c->pp.threads = sq_context_threads(ctx);
         r = update(c, 0.0, PARTICLES_SEED);
     }
     if (r != SQ_OK) {

@@ -247,7 +247,11 @@ sq_result sq__cluster_leader(sq_context *ctx, sq__clustering *c, const sq__clust
     c->comparisons = 0;
     sq__cluster_ranges_compute(in, &c->ranges);
     const sq__cluster_ranges *rg = &c->ranges;
-    seed_order(c->order, n, p->seed);
+    if (c->order_n != n || c->order_seed != p->seed) {
+        seed_order(c->order, n, p->seed);
+        c->order_n = n;
+        c->order_seed = p->seed;
+    }
     if (use_grid) {
         grid_setup(c, p, rg);
         grid_fill(c, in, rg);

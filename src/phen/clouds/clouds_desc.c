@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "clouds_internal.h"
+#include "world/world_struct.h"
 
 #define MAX_PARTICLES 10000000
 #define P "sq_clouds_desc." /* the scene shows it as layers.<name>. */

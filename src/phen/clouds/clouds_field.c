@@ -187,9 +187,23 @@ void sq__cloud_field_update(sq__cloud_field *f, const sq__cloud_frame *fr, doubl
     double mu = 0.0, mv = 0.0, mw = 0.0;
     for (size_t c = 0; c < cells; c++) {
         float conc[SQ_HYDRO_COUNT], reff[SQ_HYDRO_COUNT] = {0};
+        bool any = false;
         for (int s = 0; s < SQ_HYDRO_COUNT; s++) {
             const float q = f->conc[s][c];
             conc[s] = q > 0.0f && isfinite(q) ? q : 0.0f;
+            any = any || conc[s] > 0.0f;
+        }
+        if (!any) { /* clear air: what the mixture gives for no condensate (beta = g = 0) */
+            if (!(f->frac[c] >= 0.0f)) f->frac[c] = 0.0f;
+            if (f->frac[c] > 1.0f) f->frac[c] = 1.0f;
+            f->beta[c] = f->g[c] = f->cond[c] = 0.0f;
+            float *p = f->pack + PACK * c;
+            p[0] = p[1] = p[2] = p[3] = 0.0f;
+            p[4] = f->frac[c];
+            p[5] = f->u[c];
+            p[6] = f->v[c];
+            p[7] = f->w[c];
+            continue;
         }
         if (f->reff_from_number && fr->number_ice && conc[SQ_HYDRO_ICE] > 0.0f) {
             const double r = sq_cloud_effective_radius(conc[SQ_HYDRO_ICE], fr->number_ice[c],

@@ -14,6 +14,7 @@
 #include "squall/noise.h"
 #include "squall/optics.h"
 #include "squall/plugin.h"
+#include "world/world_struct.h"
 
 /* ==== structured particles: similarity and leader clustering (clouds_cluster.c) ============= */
 
@@ -81,6 +82,8 @@ typedef struct sq__clustering {
     float bsize[3];
     sq__cluster_ranges ranges;
     uint64_t comparisons; /* similarity tests made (for the benchmark) */
+    int order_n;          /* the seed order in `order` is for order_n particles and order_seed */
+    uint64_t order_seed;  /* (it depends on nothing else, so it is made once) */
 } sq__clustering;
 
 sq_result sq__cluster_reserve(sq_context *ctx, sq__clustering *c, int n);
@@ -267,6 +270,7 @@ typedef struct sq__particle_params {
     float radius_m;     /* 0: auto */
     float lifetime_s;
     uint64_t seed;
+    int threads;        /* for the particle loops (results do not depend on it) */
 } sq__particle_params;
 
 sq_result sq__particles_init(sq_context *ctx, sq__particles *p, int count, size_t cells);

@@ -206,8 +206,12 @@ static bool update_from_field(sq__particles *p, const sq__cloud_field *f, int i,
     return s->beta > 0.0f;
 }
 
+/* Particles are independent (each reads the field and writes only itself; its random numbers
+ * are keyed by its index and spawn count), so both loops run in parallel with results that do
+ * not depend on the thread count. */
 void sq__particles_seed(sq__particles *p, const sq__cloud_field *f, const sq__particle_params *pp)
 {
+    SQ_OMP(omp parallel for schedule(static) num_threads(pp->threads > 0 ? pp->threads : 1))
     for (int i = 0; i < p->n; i++) {
         float u = sq_rng_uniform(pp->seed, STREAM_SPAWN + 1u, (uint64_t)i);
         spawn(p, f, pp, i, u);
@@ -220,6 +224,8 @@ void sq__particles_advance(sq__particles *p, const sq__cloud_field *f,
                            const sq__particle_params *pp, double dt_s)
 {
     const float dt = (float)dt_s;
+    uint64_t respawns = 0;
+    SQ_OMP(omp parallel for schedule(static) num_threads(pp->threads > 0 ? pp->threads : 1) reduction(+ : respawns))
     for (int i = 0; i < p->n; i++) {
         sq__cloud_sample s;
         sq__cloud_field_sample(f, p->pos[3 * i], p->pos[3 * i + 1], p->pos[3 * i + 2], &s);
@@ -228,9 +234,10 @@ void sq__particles_advance(sq__particles *p, const sq__cloud_field *f,
         bool alive = p->age[i] < p->life[i] && p->coef[i] > 0.0f;
         if (alive) alive = update_from_field(p, f, i, &s);
         if (!alive) {
-            p->respawns++;
+            respawns++;
             spawn(p, f, pp, i, 0.0f);
             update_from_field(p, f, i, &s);
         }
     }
+    p->respawns += respawns;
 }

@@ -18,6 +18,7 @@
 
 #if defined(SQ_HAVE_PROJ) && SQ_HAVE_PROJ
 #include "squall/wrf.h"
+#include "world/world_struct.h"
 #define CLOUDS_HAVE_WRF 1
 #else
 #define CLOUDS_HAVE_WRF 0
@@ -118,39 +119,56 @@ static sq_result syn_open(sq__cloud_source *s, const sq_world *world)
     return SQ_OK;
 }
 
-/* Water of the cumulus field at (x, y, h above the base) and time t. */
-static float syn_cumulus(const sq__cloud_source *s, float x, float y, float h, double t)
+/* A cumulus tower at one time: its centre drifting with the wind (wrapped into the domain),
+ * its pulsing top and the reach of its widest lump. Computed once per read, not per cell. */
+typedef struct syn_tower {
+    float cx, cy, pulse, top, reach;
+} syn_tower;
+
+static void syn_towers(const sq__cloud_source *s, double t, syn_tower *tw)
 {
-    float best = 0.0f;
     const float ox = SYN_WIND_U * (float)t, oy = SYN_WIND_V * (float)t;
     const float sx = (float)s->d.synthetic_size_m[0], sy = (float)s->d.synthetic_size_m[1];
     for (int c = 0; c < s->nclouds; c++) {
         const syn_cloud *cl = &s->clouds[c];
-        if (h < 0.0f || h > cl->top * 1.15f) continue;
-        /* centre drifting with the wind, wrapped into the domain */
         float cx = cl->cx + ox, cy = cl->cy + oy;
         cx -= sx * floorf(cx / sx + 0.5f);
         cy -= sy * floorf(cy / sy + 0.5f);
-        const float pulse = 0.85f + 0.15f * sinf(6.2831853f * (float)(t / SYN_PULSE_S) + cl->phase);
-        const float top = cl->top * pulse;
-        const float hz = h / top;
-        if (hz > 1.1f) continue;
-        const float ddx = x - cx, ddy = y - cy, reach = 1.3f * cl->radius;
+        tw[c].cx = cx;
+        tw[c].cy = cy;
+        tw[c].pulse = 0.85f + 0.15f * sinf(6.2831853f * (float)(t / SYN_PULSE_S) + cl->phase);
+        tw[c].top = cl->top * tw[c].pulse;
         /* beyond the widest lump: rz <= radius (0.85 + 0.3 |noise|), |noise| <= sqrt(3/2) */
-        if (ddx * ddx + ddy * ddy >= reach * reach) continue;
-        /* lumpy dome: radius shrinks toward the top, modulated by noise (cauliflower) */
-        const float lump = sq_noise3(&s->noise, (x - cx) / (0.35f * cl->radius),
-                                     (y - cy) / (0.35f * cl->radius), h / (0.3f * cl->top) + 3.7f * (float)c);
-        const float rz = cl->radius * sqrtf(fmaxf(0.0f, 1.0f - hz * hz)) * (0.85f + 0.3f * lump) *
-                         (0.75f + 0.25f * (1.0f - hz));
-        const float dx = x - cx, dy = y - cy;
-        const float r2 = (dx * dx + dy * dy) / fmaxf(rz * rz, 1.0f);
-        if (r2 >= 1.0f) continue;
-        const float adiabatic = powf(fmaxf(hz, 0.0f), 0.7f) * 0.9f + 0.1f;
-        const float v = cl->lwc * pulse * adiabatic * (1.0f - r2) * (1.0f - r2 * r2 * 0.5f);
-        if (v > best) best = v;
+        tw[c].reach = 1.3f * cl->radius;
     }
-    return best;
+}
+
+/* True when (x, y) lies within tower c's reach (the only clouds a column can hold). */
+static bool syn_in_reach(const syn_tower *tw, float x, float y)
+{
+    const float ddx = x - tw->cx, ddy = y - tw->cy;
+    return ddx * ddx + ddy * ddy < tw->reach * tw->reach;
+}
+
+/* Water of tower c at (x, y, h above the base), (x, y) within its reach. */
+static float syn_cumulus(const sq__cloud_source *s, const syn_tower *tw, int c, float x, float y,
+                         float h)
+{
+    const syn_cloud *cl = &s->clouds[c];
+    if (h < 0.0f || h > cl->top * 1.15f) return 0.0f;
+    const float hz = h / tw->top;
+    if (hz > 1.1f) return 0.0f;
+    const float cx = tw->cx, cy = tw->cy;
+    /* lumpy dome: radius shrinks toward the top, modulated by noise (cauliflower) */
+    const float lump = sq_noise3(&s->noise, (x - cx) / (0.35f * cl->radius),
+                                 (y - cy) / (0.35f * cl->radius), h / (0.3f * cl->top) + 3.7f * (float)c);
+    const float rz = cl->radius * sqrtf(fmaxf(0.0f, 1.0f - hz * hz)) * (0.85f + 0.3f * lump) *
+                     (0.75f + 0.25f * (1.0f - hz));
+    const float dx = x - cx, dy = y - cy;
+    const float r2 = (dx * dx + dy * dy) / fmaxf(rz * rz, 1.0f);
+    if (r2 >= 1.0f) return 0.0f;
+    const float adiabatic = powf(fmaxf(hz, 0.0f), 0.7f) * 0.9f + 0.1f;
+    return cl->lwc * tw->pulse * adiabatic * (1.0f - r2) * (1.0f - r2 * r2 * 0.5f);
 }
 
 /* Water of the stratocumulus deck (depth = size_z / 3) at (x, y, h above the base). */
@@ -169,19 +187,40 @@ static float syn_stratocumulus(const sq__cloud_source *s, float x, float y, floa
     return (float)s->d.synthetic_lwc_g_m3 * cover * (0.15f + 0.85f * h / top);
 }
 
+/* The analytic field at time t: per column, only the towers within reach are evaluated (the
+ * water is the largest of theirs, so skipping the others changes nothing); columns in parallel,
+ * each cell written by one thread. */
 static void syn_read(sq__cloud_source *s, double t, sq__cloud_frame *fr)
 {
     const sq__cloud_grid *g = &s->grid;
-    for (int k = 0; k < g->nz; k++)
-        for (int j = 0; j < g->ny; j++)
-            for (int i = 0; i < g->nx; i++) {
-                const size_t c = sq__cell(g, i, j, k);
-                const float x = g->x0 + (float)i * g->dx, y = g->y0 + (float)j * g->dy;
-                const float h = s->z[c] - s->terrain[(size_t)j * g->nx + i] -
-                                (float)s->d.synthetic_base_m;
-                s->lwc[c] = s->kind == SQ_CLOUDS_SOURCE_CUMULUS ? syn_cumulus(s, x, y, h, t)
-                                                                : syn_stratocumulus(s, x, y, h, t);
+    syn_tower tw[SYN_MAX_CLOUDS];
+    if (s->kind == SQ_CLOUDS_SOURCE_CUMULUS) syn_towers(s, t, tw);
+    const int nt = sq_context_threads(s->ctx);
+    const int ncols = g->nx * g->ny;
+    SQ_OMP(omp parallel for schedule(dynamic, 16) num_threads(nt))
+    for (int q = 0; q < ncols; q++) {
+        const int i = q % g->nx, j = q / g->nx;
+        const float x = g->x0 + (float)i * g->dx, y = g->y0 + (float)j * g->dy;
+        int near[SYN_MAX_CLOUDS], nn = 0;
+        if (s->kind == SQ_CLOUDS_SOURCE_CUMULUS)
+            for (int c = 0; c < s->nclouds; c++)
+                if (syn_in_reach(&tw[c], x, y)) near[nn++] = c;
+        for (int k = 0; k < g->nz; k++) {
+            const size_t c = sq__cell(g, i, j, k);
+            const float h = s->z[c] - s->terrain[(size_t)j * g->nx + i] -
+                            (float)s->d.synthetic_base_m;
+            float v = 0.0f;
+            if (s->kind == SQ_CLOUDS_SOURCE_CUMULUS) {
+                for (int m = 0; m < nn; m++) {
+                    const float w = syn_cumulus(s, &tw[near[m]], near[m], x, y, h);
+                    if (w > v) v = w;
+                }
+            } else {
+                v = syn_stratocumulus(s, x, y, h, t);
             }
+            s->lwc[c] = v;
+        }
+    }
     memset(fr, 0, sizeof *fr);
     fr->z_m = s->z;
     fr->z_w_m = s->zw;

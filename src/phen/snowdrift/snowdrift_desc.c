@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "snowdrift_internal.h"
+#include "world/world_struct.h"
 
 #define DEF(f, v)                                                                              \
     do {                                                                                       \

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "render/reference/reference_internal.h"
+#include "world/world_struct.h"
 
 #define MODULE "reference"
 
