@@ -50,7 +50,8 @@
 #define SQ__INLINE static inline
 #endif
 
-/* With AVX-512 (the default -march=native build on such a CPU) the hot neighbour loops are
+/* With AVX-512 (the default -march=native build on such a CPU, or sph_passes_v4.c in a portable
+ * build, chosen at run time) the hot neighbour loops are
  * written with intrinsics: 16 candidates or neighbours per vector, the accepted neighbours
  * appended with a compress, and the j-side data gathered from the packed record (rec). The
  * arithmetic per pair is the scalar code's, operation by operation (no FMA contraction, exact
