@@ -166,8 +166,11 @@ static void print_info_json(const sq_wrf_info *in, const sq_wrf_ranges *g, sq_wr
             snprintf(key, sizeof key, "%s_g_m3", sq_wrf_species_name((sq_wrf_species)s));
             json_range(key, g->q_g_m3[s], true);
         }
-    printf("}, \"z_top_m\": %.9g, \"cloudy_fraction\": %.9g, \"clamped_negative\": %lld}\n",
-           g->z_top_m, g->cloudy_fraction, (long long)g->clamped_negative);
+    if (in->has_cloud_fraction) json_range("cloud_fraction", g->cloud_fraction, true);
+    printf("}, \"z_top_m\": %.9g, \"cloudy_fraction\": %.9g, \"clamped_negative\": %lld, "
+           "\"cloud_fraction_is_flag\": %s}\n",
+           g->z_top_m, g->cloudy_fraction, (long long)g->clamped_negative,
+           in->has_cloud_fraction && g->cloud_fraction_is_flag ? "true" : "false");
 }
 
 static void text_range(const char *label, const char *unit, sq_wrf_range r)
@@ -201,6 +204,7 @@ static void print_info_text(const sq_wrf_info *in, const sq_wrf_ranges *g, sq_wr
         printf("; numbers:%s%s", in->has_ice_number ? " QNICE" : "",
                in->has_rain_number ? " QNRAIN" : "");
     if (in->mp_physics >= 0) printf("; MP_PHYSICS %d", in->mp_physics);
+    if (in->has_cloud_fraction) printf("; cloud fraction: CLDFRA");
     printf("\ntimes:        %d, %s .. %s UTC\n", in->time_count, in->time_strings[0],
            in->time_strings[in->time_count - 1]);
     for (int t = 0; t < in->time_count; t++) {
@@ -229,6 +233,10 @@ static void print_info_text(const sq_wrf_info *in, const sq_wrf_ranges *g, sq_wr
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++)
         if (in->has_species[s]) text_range(sq_wrf_species_name((sq_wrf_species)s), "g m-3",
                                            g->q_g_m3[s]);
+    if (in->has_cloud_fraction)
+        text_range("cloud fraction (CLDFRA)",
+                   g->cloud_fraction_is_flag ? "(only 0 and 1: a cloud flag)" : "1",
+                   g->cloud_fraction);
     printf("  model top %.1f m; cloud water + ice > 1e-3 g m-3 in %.2f %% of cells; %lld tiny "
            "negative mixing ratios set to 0\n",
            g->z_top_m, 100.0 * g->cloudy_fraction, (long long)g->clamped_negative);

@@ -4,7 +4,7 @@
  *     rain; g/m³), interpolated in time between the stored outputs, turned into extinction by
  *     the geometric-optics relation beta = 3 W / (2 rho r_eff) (include/squall/optics.h) and a
  *     Henyey–Greenstein phase with the extinction-weighted asymmetry (droplets 0.85, ice 0.75);
- *     sub-grid structure: the cloud fraction of a cell (CLDFRA, or 1) is the share of it covered
+ *     sub-grid structure: the cloud fraction of a cell (CLDFRA, or cloud_fraction) is the share of it covered
  *     by a deterministic fBm pattern that keeps the cell's mean extinction;
  *   - clouds: connected cells whose condensate exceeds a threshold; per cloud the centre,
  *     extent, boundary cells and liquid/ice water paths;
@@ -74,7 +74,8 @@ typedef struct sq_clouds_desc {
     double threshold_g_m3;            /* condensate above which a cell is cloud; 0 -> 0.01 */
     bool no_subgrid;                  /* no sub-grid fBm structure inside model cells */
     double subgrid_scale_m;           /* horizontal size of sub-grid cells; 0 -> 6000 m */
-    double cloud_fraction;            /* coverage when the file has no CLDFRA; 0 -> 1 */
+    double cloud_fraction;            /* coverage where the file has no CLDFRA (or only a 0/1
+                                         flag, or 0 in a cloudy cell); 0 -> 1 */
     /* particles */
     int particles;                    /* total; 0 -> 15000 */
     double particles_per_km3;         /* > 0: the count from the clouds' volume instead; 0 = off */

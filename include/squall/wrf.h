@@ -101,6 +101,7 @@ typedef struct sq_wrf_info {
     /* content */
     bool has_species[SQ_WRF_SPECIES_COUNT]; /* which hydrometeor mixing ratios exist */
     bool has_ice_number, has_rain_number;   /* QNICE, QNRAIN (number mixing ratios) */
+    bool has_cloud_fraction;                /* CLDFRA */
     int mp_physics;             /* MP_PHYSICS attribute (-1 when absent) */
     int file_count;
     const char *title;          /* TITLE attribute of the first file ("" when absent) */
@@ -124,6 +125,11 @@ typedef struct sq_wrf_state {
     const float *q_g_m3[SQ_WRF_SPECIES_COUNT];
     const float *ice_number_m3; /* QNICE * dry-air density: ice particles per m3 (or NULL) */
     const float *rain_number_m3; /* QNRAIN likewise (or NULL) */
+    /* CLDFRA, the cloud fraction of the radiation scheme, clamped to [0, 1] (or NULL). Some
+     * schemes write a fraction, others only 0 or 1 (a cloud flag: then is_flag is true at both
+     * stored times around time_s, and values between them are only the time interpolation's) */
+    const float *cloud_fraction;
+    bool cloud_fraction_is_flag;
     /* 3D on w-levels (nx*ny*(nz+1)): zstag, m above sea level (cell faces, for column sums) */
     const float *z_w_m;
     /* 2D (nx*ny) */
@@ -149,6 +155,8 @@ typedef struct sq_wrf_ranges {
     double cloudy_fraction;             /* share of (cells x times) with cloud water + ice
                                            above 1e-3 g m-3 */
     int64_t clamped_negative;           /* tiny negative mixing ratios set to 0 */
+    sq_wrf_range cloud_fraction;        /* CLDFRA ({0, 0} when absent) */
+    bool cloud_fraction_is_flag;        /* CLDFRA holds only 0 and 1 at every stored time */
 } sq_wrf_ranges;
 
 typedef struct sq_wrf sq_wrf;

@@ -66,6 +66,18 @@ sq_result sq_output_check(const char *path, bool overwrite)
     if (lstat(path, &st) == 0) {
         if (S_ISDIR(st.st_mode))
             return sq__set_error(SQ_ERR_IO, "cannot write '%s': it is a directory", path);
+        /* outputs are made under a temporary name and renamed over the path: that would replace
+         * a FIFO, device or socket (as root even /dev/null) by a regular file */
+        if (!S_ISREG(st.st_mode) && !S_ISLNK(st.st_mode))
+            return sq__set_error(SQ_ERR_IO,
+                                 "cannot write '%s': it is a %s, not a regular file; outputs are "
+                                 "written whole and renamed into place, which would replace it "
+                                 "(not even with --overwrite)",
+                                 path, S_ISFIFO(st.st_mode)   ? "FIFO"
+                                       : S_ISCHR(st.st_mode)  ? "character device"
+                                       : S_ISBLK(st.st_mode)  ? "block device"
+                                       : S_ISSOCK(st.st_mode) ? "socket"
+                                                              : "special file");
         if (!overwrite)
             return sq__set_error(SQ_ERR_EXISTS, "'%s' exists; pass --overwrite to replace it",
                                  path);

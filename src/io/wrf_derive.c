@@ -71,6 +71,18 @@ void sq__wrf_derive(int nx, int ny, int nz, const sq__wrf_raw *raw, sq__wrf_fiel
     for (size_t c = 0; c < plane; c++) out->hgt[c] = raw->hgt[c];
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(plane * (size_t)nz >= PARALLEL_MIN))
     for (int k = 0; k < nz; k++) derive_level(nx, ny, k, raw, out);
+    /* cloud fraction as read; a flag when it holds nothing between 0 and 1 */
+    out->cldfra_flag = false;
+    if (raw->cldfra && out->cldfra) {
+        const size_t n = plane * (size_t)nz;
+        bool flag = true;
+        for (size_t c = 0; c < n; c++) {
+            const float v = raw->cldfra[c];
+            out->cldfra[c] = v;
+            flag = flag && (v == 0.0f || v == 1.0f);
+        }
+        out->cldfra_flag = flag;
+    }
 }
 
 static void lerp_array(size_t n, const float *a, const float *b, double w, float *o, int nt)
@@ -98,6 +110,8 @@ void sq__wrf_lerp(int nx, int ny, int nz, const sq__wrf_fields *f0, const sq__wr
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) lerp_array(n, f0->q[s], f1->q[s], a, o->q[s], nt);
     lerp_array(n, f0->ni, f1->ni, a, o->ni, nt);
     lerp_array(n, f0->nr, f1->nr, a, o->nr, nt);
+    lerp_array(n, f0->cldfra, f1->cldfra, a, o->cldfra, nt);
+    o->cldfra_flag = f0->cldfra_flag && f1->cldfra_flag;
     lerp_array(plane * (size_t)(nz + 1), f0->zw, f1->zw, a, o->zw, nt);
     lerp_array(plane, f0->hgt, f1->hgt, a, o->hgt, nt);
     o->index = -1;

@@ -25,7 +25,7 @@
 /* The variables the reader uses. */
 typedef enum wrf_var {
     WV_PH, WV_PHB, WV_P, WV_PB, WV_T, WV_QVAPOR, WV_U, WV_V, WV_W, WV_HGT,
-    WV_QCLOUD, WV_QICE, WV_QSNOW, WV_QRAIN, WV_QGRAUP, WV_QNICE, WV_QNRAIN,
+    WV_QCLOUD, WV_QICE, WV_QSNOW, WV_QRAIN, WV_QGRAUP, WV_QNICE, WV_QNRAIN, WV_CLDFRA,
     WV_COUNT
 } wrf_var;
 
@@ -36,6 +36,7 @@ typedef struct sq__wrf_raw {
     float *p, *pb, *t, *qv;     /* n: Pa, Pa, K (theta - 300), kg/kg */
     float *q[SQ_WRF_SPECIES_COUNT]; /* n: kg/kg */
     float *qni, *qnr;           /* n: number mixing ratios, kg-1 */
+    float *cldfra;              /* n: cloud fraction, clamped to [0, 1] */
     float *u;                   /* nx+1 per row: (k*ny + j)*(nx+1) + i */
     float *v;                   /* ny+1 rows: (k*(ny+1) + j)*nx + i */
     float *w;                   /* ns */
@@ -48,6 +49,8 @@ typedef struct sq__wrf_fields {
     float *z, *agl, *p, *theta, *t, *rho, *qv, *u, *v, *w;
     float *q[SQ_WRF_SPECIES_COUNT];
     float *ni, *nr;
+    float *cldfra;              /* n: cloud fraction (or NULL) */
+    bool cldfra_flag;           /* every value 0 or 1: a cloud flag, not a fraction */
     float *zw;                  /* ns */
     float *hgt;                 /* nx*ny */
     void *block;                /* the one allocation behind the pointers */

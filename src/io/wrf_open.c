@@ -64,6 +64,7 @@ static const var_spec var_specs[WV_COUNT] = {
     [WV_QGRAUP] = {"QGRAUP", false, 3, {D_BT, D_SN, D_WE}},
     [WV_QNICE] = {"QNICE", false, 3, {D_BT, D_SN, D_WE}},
     [WV_QNRAIN] = {"QNRAIN", false, 3, {D_BT, D_SN, D_WE}},
+    [WV_CLDFRA] = {"CLDFRA", false, 3, {D_BT, D_SN, D_WE}},
 };
 static const var_spec latlon_spec[2] = {{"XLAT", true, 2, {D_SN, D_WE}},
                                         {"XLONG", true, 2, {D_SN, D_WE}}};
@@ -453,6 +454,7 @@ static sq_result open_file(sq_wrf *w, int index, const char *path, wrf_entry **e
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) in.has_species[s] = f->varid[WV_QCLOUD + s] >= 0;
     in.has_ice_number = f->varid[WV_QNICE] >= 0;
     in.has_rain_number = f->varid[WV_QNRAIN] >= 0;
+    in.has_cloud_fraction = f->varid[WV_CLDFRA] >= 0;
     /* MP_PHYSICS is informative only: absent or malformed gives -1 */
     int mp = -1;
     nc_type mp_type;
@@ -492,6 +494,12 @@ static sq_result open_file(sq_wrf *w, int index, const char *path, wrf_entry **e
         if (in.has_ice_number != a->has_ice_number || in.has_rain_number != a->has_rain_number)
             return sq__fail(w->ctx, SQ_ERR_INVALID_ARG, "wrf",
                             "%s: QNICE/QNRAIN presence differs from %s", path, first);
+        if (in.has_cloud_fraction != a->has_cloud_fraction)
+            return sq__fail(w->ctx, SQ_ERR_INVALID_ARG, "wrf",
+                            "%s: variable 'CLDFRA' is %s but %s in %s; the files of one series "
+                            "must hold the same variables",
+                            path, in.has_cloud_fraction ? "present" : "missing",
+                            a->has_cloud_fraction ? "present" : "missing", first);
     }
     /* times */
     wrf_entry *grown = (wrf_entry *)sq_alloc(

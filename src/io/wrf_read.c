@@ -16,7 +16,7 @@
 
 static const char *const var_name[WV_COUNT] = {
     "PH",     "PHB",  "P",     "PB",    "T",      "QVAPOR", "U",     "V",     "W",
-    "HGT",    "QCLOUD", "QICE", "QSNOW", "QRAIN", "QGRAUP", "QNICE", "QNRAIN"};
+    "HGT",    "QCLOUD", "QICE", "QSNOW", "QRAIN", "QGRAUP", "QNICE", "QNRAIN", "CLDFRA"};
 
 /* Sizes of a variable without its Time dimension (slowest first). */
 static int var_shape(const sq_wrf *w, wrf_var v, size_t shape[3])
@@ -129,6 +129,26 @@ sq_result sq__wrf_read_hgt0(sq_wrf *w)
     return read_var(w, &w->files[e->file], e->local, WV_HGT, w->hgt0);
 }
 
+/* Cloud fraction: rounding noise outside [0, 1] (up to 0.01) is clamped, more is an error. */
+static sq_result clamp_fraction(sq_wrf *w, const wrf_file *f, int local, float *q, size_t n)
+{
+    for (size_t c = 0; c < n; c++) {
+        if (q[c] >= 0.0f && q[c] <= 1.0f) continue;
+        if (q[c] >= -0.01f && q[c] <= 1.01f) {
+            q[c] = q[c] < 0.0f ? 0.0f : 1.0f;
+            w->clamped++;
+            continue;
+        }
+        const size_t nx = (size_t)w->info.nx, ny = (size_t)w->info.ny;
+        return sq__fail(w->ctx, SQ_ERR_INVALID_ARG, "wrf",
+                        "%s: variable 'CLDFRA' = %g at [Time %d, bottom_top %zu, south_north "
+                        "%zu, west_east %zu]; a cloud fraction must be in [0, 1] (rounding noise "
+                        "up to 0.01 beyond is clamped)",
+                        f->path, (double)q[c], local, c / (nx * ny), c / nx % ny, c % nx);
+    }
+    return SQ_OK;
+}
+
 /* Mixing ratios: rounding noise below zero is clamped, real negatives are an error. */
 static sq_result clamp_mixing_ratio(sq_wrf *w, const wrf_file *f, int local, wrf_var v, float *q,
                                     size_t n, bool number)
@@ -178,7 +198,7 @@ static uint64_t raw_floats(const sq_wrf *w)
     const uint64_t n = nx * ny * nz, ns = nx * ny * (nz + 1);
     uint64_t q = 0;
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) q += w->info.has_species[s];
-    q += w->info.has_ice_number + w->info.has_rain_number;
+    q += w->info.has_ice_number + w->info.has_rain_number + w->info.has_cloud_fraction;
     return 3 * ns + (4 + q) * n + nz * ny * (nx + 1) + nz * (ny + 1) * nx + nx * ny;
 }
 
@@ -189,7 +209,7 @@ static uint64_t field_floats(const sq_wrf *w)
     const uint64_t n = nx * ny * nz, ns = nx * ny * (nz + 1);
     uint64_t q = 0;
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) q += w->info.has_species[s];
-    q += w->info.has_ice_number + w->info.has_rain_number;
+    q += w->info.has_ice_number + w->info.has_rain_number + w->info.has_cloud_fraction;
     return (10 + q) * n + ns + nx * ny;
 }
 
@@ -223,6 +243,7 @@ static sq_result alloc_fields(sq_wrf *w, sq__wrf_fields *f)
         f->q[s] = w->info.has_species[s] ? carve(&cur, n) : NULL;
     f->ni = w->info.has_ice_number ? carve(&cur, n) : NULL;
     f->nr = w->info.has_rain_number ? carve(&cur, n) : NULL;
+    f->cldfra = w->info.has_cloud_fraction ? carve(&cur, n) : NULL;
     f->zw = carve(&cur, ns);
     f->hgt = carve(&cur, plane);
     f->index = -1;
@@ -254,6 +275,7 @@ sq_result sq__wrf_alloc_buffers(sq_wrf *w)
         raw->q[s] = w->info.has_species[s] ? carve(&cur, n) : NULL;
     raw->qni = w->info.has_ice_number ? carve(&cur, n) : NULL;
     raw->qnr = w->info.has_rain_number ? carve(&cur, n) : NULL;
+    raw->cldfra = w->info.has_cloud_fraction ? carve(&cur, n) : NULL;
     raw->u = carve(&cur, nz * ny * (nx + 1));
     raw->v = carve(&cur, nz * (ny + 1) * nx);
     raw->hgt = carve(&cur, nx * ny);
@@ -294,11 +316,13 @@ sq_result sq__wrf_load(sq_wrf *w, int index, sq__wrf_fields *dst)
                  {WV_U, raw->u},    {WV_V, raw->v},          {WV_W, raw->w},
                  {WV_HGT, raw->hgt}, {WV_QCLOUD, raw->q[0]}, {WV_QICE, raw->q[1]},
                  {WV_QSNOW, raw->q[2]}, {WV_QRAIN, raw->q[3]}, {WV_QGRAUP, raw->q[4]},
-                 {WV_QNICE, raw->qni}, {WV_QNRAIN, raw->qnr}};
+                 {WV_QNICE, raw->qni}, {WV_QNRAIN, raw->qnr}, {WV_CLDFRA, raw->cldfra}};
     for (size_t i = 0; i < sizeof reads / sizeof reads[0] && r == SQ_OK; i++) {
         if (!reads[i].dst) continue;
         r = read_var(w, f, t, reads[i].v, reads[i].dst);
-        if (r == SQ_OK && (reads[i].v == WV_QVAPOR || reads[i].v >= WV_QCLOUD))
+        if (r == SQ_OK && reads[i].v == WV_CLDFRA)
+            r = clamp_fraction(w, f, t, raw->cldfra, n);
+        else if (r == SQ_OK && (reads[i].v == WV_QVAPOR || reads[i].v >= WV_QCLOUD))
             r = clamp_mixing_ratio(w, f, t, reads[i].v, reads[i].dst, n,
                                    reads[i].v == WV_QNICE || reads[i].v == WV_QNRAIN);
     }
@@ -348,6 +372,8 @@ static void fill_state(sq_wrf *w, const sq__wrf_fields *f, double time_s, int i0
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) o->q_g_m3[s] = f->q[s];
     o->ice_number_m3 = f->ni;
     o->rain_number_m3 = f->nr;
+    o->cloud_fraction = f->cldfra;
+    o->cloud_fraction_is_flag = f->cldfra_flag;
     o->z_w_m = f->zw;
     o->terrain_m = f->hgt;
     o->lat_deg = w->lat;
@@ -430,13 +456,14 @@ sq_result sq_wrf_scan(sq_wrf *w, sq_wrf_ranges *out)
     sq_wrf_range *all[] = {&g.z_m,     &g.height_agl_m, &g.p_pa,    &g.theta_k,   &g.t_k,
                            &g.rho_kg_m3, &g.qv_kg_kg,   &g.u_mps,   &g.v_mps,     &g.w_mps,
                            &g.terrain_m, &g.lat_deg,    &g.lon_deg, &g.q_g_m3[0], &g.q_g_m3[1],
-                           &g.q_g_m3[2], &g.q_g_m3[3],  &g.q_g_m3[4]};
+                           &g.q_g_m3[2], &g.q_g_m3[3],  &g.q_g_m3[4], &g.cloud_fraction};
     for (size_t i = 0; i < sizeof all / sizeof all[0]; i++) range_init(all[i]);
     const size_t plane = (size_t)w->info.nx * (size_t)w->info.ny;
     const size_t n = plane * (size_t)w->info.nz;
     const int64_t clamped_before = w->clamped;
     int64_t cloudy = 0;
     g.z_top_m = -INFINITY;
+    g.cloud_fraction_is_flag = w->info.has_cloud_fraction;
     for (int t = 0; t < w->info.time_count; t++) {
         /* slot 0 is reused; slot 1 keeps whatever an animation had */
         sq__wrf_fields *f = &w->slot[0];
@@ -455,6 +482,8 @@ sq_result sq_wrf_scan(sq_wrf *w, sq_wrf_ranges *out)
         range_add(&g.w_mps, f->w, n);
         range_add(&g.terrain_m, f->hgt, plane);
         for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) range_add(&g.q_g_m3[s], f->q[s], n);
+        range_add(&g.cloud_fraction, f->cldfra, n);
+        g.cloud_fraction_is_flag = g.cloud_fraction_is_flag && f->cldfra_flag;
         for (size_t c = plane * (size_t)w->info.nz; c < plane * (size_t)(w->info.nz + 1); c++)
             g.z_top_m = fmax(g.z_top_m, (double)f->zw[c]);
         for (size_t c = 0; c < n; c++) {

@@ -586,6 +586,7 @@ static void upload_frame_block(sq_renderer *r, const sq_world *w)
     f.viewport[2] = 1.0f / (float)r->width;
     f.viewport[3] = 1.0f / (float)r->height;
     f.params[0] = r->desc.exposure;
+    f.params[1] = w->vertical_exaggeration > 0.0f ? 1.0f / w->vertical_exaggeration : 1.0f;
     glNamedBufferSubData(r->frame_ubo, 0, sizeof f, &f);
 }
 

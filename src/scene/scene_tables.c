@@ -126,7 +126,9 @@ const sq_param sq__world_params[] = {
       "per second)."),
     F_LIVE("sun.irradiance_w_m2", irradiance, "W/m2", 1000, 1, 1500,
       "Direct normal solar irradiance at the ground (scales the light)."),
-    F_LIVE("sky.turbidity", turbidity, "1", 3, 1.5, 12, "Haze of the analytic sky (2 clear, 10 hazy)."),
+    F_LIVE("sky.turbidity", turbidity, "1", 3, 1.5, 12,
+           "Haze of the analytic sky (2 clear, 10 hazy); the aerosol it adds falls off with a "
+           "1.5 km scale height above sea level."),
     {"city.rows", SQ_PARAM_INT, "1", offsetof(S, city_rows), 0, 0, 32, NULL, NULL, 0, 0,
      SQ_PARAM_ZERO_IS_PHYSICAL, "Procedural city: rows of blocks (0 = no city)."},
     {"city.cols", SQ_PARAM_INT, "1", offsetof(S, city_cols), 0, 0, 32, NULL, NULL, 0, 0,

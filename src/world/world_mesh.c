@@ -416,13 +416,12 @@ static bool vertical_cross(const float *t, double px, double py, double *z, int 
     return true;
 }
 
-/* Winding number of the mesh around local point p (counting crossings above it), and the highest
- * crossing (NaN when none). */
-static void mesh_column(const mesh_accel *ma, double px, double py, double pz, bool want_top,
-                        int *winding, double *ztop)
+/* Visits every crossing of the vertical line through local (px, py) with mesh ma, skipping BVH
+ * nodes whose top is at or below z_cull (-INFINITY: none); visit returns false to stop. */
+typedef bool (*crossing_fn)(void *user, double z, int sign);
+static void column_walk(const mesh_accel *ma, double px, double py, double z_cull,
+                        crossing_fn visit, void *user)
 {
-    *winding = 0;
-    *ztop = NAN;
     if (ma->tri_count == 0) return;
     int32_t stack[64];
     int sp = 0;
@@ -431,7 +430,7 @@ static void mesh_column(const mesh_accel *ma, double px, double py, double pz, b
     while (sp > 0) {
         const bvh_node *n = &ma->tree.nodes[stack[--sp]];
         if (fx < n->lo[0] || fx > n->hi[0] || fy < n->lo[1] || fy > n->hi[1]) continue;
-        if (!want_top && (double)n->hi[2] <= pz) continue; /* nothing above p here */
+        if ((double)n->hi[2] <= z_cull) continue;
         if (n->count == 0) {
             if (sp < 62) {
                 stack[sp++] = n->first;
@@ -442,11 +441,36 @@ static void mesh_column(const mesh_accel *ma, double px, double py, double pz, b
         for (int32_t s = n->first; s < n->first + n->count; s++) {
             double z;
             int sign;
-            if (!vertical_cross(&ma->tri[9 * s], px, py, &z, &sign)) continue;
-            if (z > pz) *winding += sign;
-            if (isnan(*ztop) || z > *ztop) *ztop = z;
+            if (vertical_cross(&ma->tri[9 * s], px, py, &z, &sign) && !visit(user, z, sign))
+                return;
         }
     }
+}
+
+typedef struct column_acc {
+    double pz;
+    int winding;
+    double ztop;
+} column_acc;
+
+static bool column_add(void *user, double z, int sign)
+{
+    column_acc *c = (column_acc *)user;
+    if (z > c->pz) c->winding += sign;
+    if (isnan(c->ztop) || z > c->ztop) c->ztop = z;
+    return true;
+}
+
+/* Winding number of the mesh around local point p (counting crossings above it), and the highest
+ * crossing (NaN when none). */
+static void mesh_column(const mesh_accel *ma, double px, double py, double pz, bool want_top,
+                        int *winding, double *ztop)
+{
+    column_acc c = {pz, 0, NAN};
+    /* without the top, nodes wholly below p cannot change the winding above it */
+    column_walk(ma, px, py, want_top ? -(double)INFINITY : pz, column_add, &c);
+    *winding = c.winding;
+    *ztop = c.ztop;
 }
 
 /* Local coordinates of world point (x, y, z) in instance i. */
@@ -499,34 +523,30 @@ bool sq__world_mesh_solid_at(const sq_world *w, sq_vec3 p)
 
 /* Every crossing of the vertical line through local (px, py) with mesh ma: its height and sign
  * (as mesh_column counts them). Returns the number of crossings, or -1 when more than cap. */
+typedef struct crossing_list {
+    double *z;
+    int8_t *sign;
+    int n, cap;
+} crossing_list;
+
+static bool crossing_keep(void *user, double z, int sign)
+{
+    crossing_list *l = (crossing_list *)user;
+    if (l->n == l->cap) {
+        l->n = -1;
+        return false;
+    }
+    l->z[l->n] = z;
+    l->sign[l->n++] = (int8_t)sign;
+    return true;
+}
+
 static int mesh_crossings(const mesh_accel *ma, double px, double py, double *z, int8_t *sign,
                           int cap)
 {
-    if (ma->tri_count == 0) return 0;
-    int32_t stack[64];
-    int sp = 0, n = 0;
-    stack[sp++] = 0;
-    const float fx = (float)px, fy = (float)py;
-    while (sp > 0) {
-        const bvh_node *nd = &ma->tree.nodes[stack[--sp]];
-        if (fx < nd->lo[0] || fx > nd->hi[0] || fy < nd->lo[1] || fy > nd->hi[1]) continue;
-        if (nd->count == 0) {
-            if (sp < 62) {
-                stack[sp++] = nd->first;
-                stack[sp++] = nd->first + 1;
-            }
-            continue;
-        }
-        for (int32_t s = nd->first; s < nd->first + nd->count; s++) {
-            double zc;
-            int sg;
-            if (!vertical_cross(&ma->tri[9 * s], px, py, &zc, &sg)) continue;
-            if (n == cap) return -1;
-            z[n] = zc;
-            sign[n++] = (int8_t)sg;
-        }
-    }
-    return n;
+    crossing_list l = {z, sign, 0, cap};
+    column_walk(ma, px, py, -INFINITY, crossing_keep, &l);
+    return l.n;
 }
 
 #define COLUMN_CROSSINGS 512

@@ -5,6 +5,7 @@
  * the wind, and a particle count beyond the memory limit refused before anything is allocated. */
 #include "phen/clouds/clouds_internal.h"
 #include "sq_test.h"
+#include "squall/rng.h"
 
 SQ_LABEL(physics)
 
@@ -100,6 +101,59 @@ SQ_TEST(segmentation_hand_counts)
     free(qi);
     free(zero);
     free(ter);
+    sq_context_destroy(ctx);
+}
+
+/* The source's cloud fraction (WRF's CLDFRA) is the cells' sub-grid cover: the pattern covers
+ * that share of a cell (mask >= 1/2 at 0.3 and 0.7 of random points, within 0.05); a cloudy cell
+ * whose CLDFRA is 0 (the radiation scheme saw no cloud) and a source without CLDFRA get the
+ * desc's cloud.fraction. */
+SQ_TEST(cloud_fraction_from_the_source)
+{
+    sq_context *ctx = ctx_new(0);
+    sq__cloud_grid g;
+    memset(&g, 0, sizeof g);
+    g.nx = 3;
+    g.ny = 1;
+    g.nz = 1;
+    g.dx = g.dy = 6000.0f;
+    sq_clouds_desc d;
+    sq_clouds_desc_resolve(NULL, &d);
+    d.cloud_fraction = 0.8;
+    d.subgrid_scale_m = 300.0; /* many pattern cells per model cell: the share is a mean */
+    sq__cloud_field f;
+    SQ_CHECK_OK(sq__cloud_field_init(ctx, &f, &g, &d, 1.0f));
+    float z[3] = {500.0f, 500.0f, 500.0f}, zw[6] = {0, 0, 0, 1000.0f, 1000.0f, 1000.0f};
+    float q[3] = {0.3f, 0.3f, 0.3f}, zero[3] = {0}, ter[3] = {0};
+    float cf[3] = {0.3f, 0.0f, 0.7f};
+    sq__cloud_frame fr;
+    memset(&fr, 0, sizeof fr);
+    fr.z_m = z;
+    fr.z_w_m = zw;
+    fr.conc[SQ_HYDRO_CLOUD] = q;
+    fr.u = fr.v = fr.w = zero;
+    fr.terrain_m = ter;
+    fr.cldfra = cf;
+    sq__cloud_field_update(&f, &fr, 0.0, 0.0);
+    SQ_CHECK(f.frac[0] == 0.3f && f.frac[1] == 0.8f && f.frac[2] == 0.7f);
+    for (int c = 0; c < 3; c += 2) {
+        int covered = 0;
+        const int n = 20000;
+        for (int k = 0; k < n; k++) {
+            float u[4];
+            sq_rng_uniform4(7, 99, (uint64_t)k, u);
+            const float x = g.x0 + (float)c * g.dx + (u[0] - 0.5f) * g.dx;
+            const float y = g.y0 + (u[1] - 0.5f) * g.dy, zz = 1000.0f * u[2];
+            covered += sq__cloud_subgrid_mask(&f, x, y, zz, f.frac[c]) >= 0.5f;
+        }
+        printf("cell %d: CLDFRA %.1f, covered %.3f\n", c, (double)cf[c], (double)covered / n);
+        SQ_CHECK_NEAR((double)covered / n, (double)cf[c], 0.05);
+    }
+    /* the next frame has no CLDFRA: the desc's fraction everywhere again */
+    fr.cldfra = NULL;
+    sq__cloud_field_update(&f, &fr, 60.0, 60.0);
+    SQ_CHECK(f.frac[0] == 0.8f && f.frac[1] == 0.8f && f.frac[2] == 0.8f);
+    sq__cloud_field_free(ctx, &f);
     sq_context_destroy(ctx);
 }
 

@@ -112,6 +112,7 @@ SQ_TEST(sample_info)
     for (int s = 0; s < SQ_WRF_SPECIES_COUNT; s++) SQ_CHECK(in.has_species[s]);
     SQ_CHECK(in.has_ice_number && in.has_rain_number);
     SQ_CHECK(in.mp_physics == 8);
+    SQ_CHECK(in.has_cloud_fraction);
     /* the centre of the mass grid; XLAT/XLONG have no Time dimension in this file */
     SQ_CHECK_NEAR(in.center_lat_deg, 30.0, 0.01);
     SQ_CHECK_NEAR(in.center_lon_deg, 87.0, 0.01);
@@ -205,6 +206,20 @@ SQ_TEST(sample_scan_ranges_and_world)
     SQ_CHECK(g.t_k.min > 180.0 && g.t_k.max < 300.0);
     SQ_CHECK(g.q_g_m3[SQ_WRF_CLOUD].max > 0.1 && g.q_g_m3[SQ_WRF_CLOUD].min == 0.0);
     SQ_CHECK(g.lat_deg.min > 25.0 && g.lat_deg.max < 35.0);
+    /* this run's CLDFRA is a cloud flag: 8521 zeros and 119 ones over its 4 x 27 x 8 x 10
+     * values (ncdump) */
+    SQ_CHECK(g.cloud_fraction_is_flag);
+    SQ_CHECK(g.cloud_fraction.min == 0.0 && g.cloud_fraction.max == 1.0);
+    int ones = 0, others = 0;
+    for (int t = 0; t < 4; t++) {
+        sq_wrf_state st;
+        SQ_CHECK_OK(sq_wrf_read_index(w, t, &st));
+        for (int c = 0; st.cloud_fraction && c < 10 * 8 * 27; c++) {
+            ones += st.cloud_fraction[c] == 1.0f;
+            others += st.cloud_fraction[c] != 0.0f && st.cloud_fraction[c] != 1.0f;
+        }
+    }
+    SQ_CHECK(ones == 119 && others == 0);
 
     /* the world from the file: terrain heights at the grid points equal HGT, georeferenced */
     sq_wrf_info in;
@@ -595,6 +610,76 @@ SQ_TEST(time_interpolation_between_stored_times)
         SQ_CHECK_ERR(sq_wrf_read(w, NAN, &s), SQ_ERR_INVALID_ARG, "outside");
         SQ_CHECK_ERR(sq_wrf_read_index(w, 3, &s), SQ_ERR_INVALID_ARG, "time index 3");
         SQ_CHECK(s.z_m == NULL);
+        sq_wrf_close(w);
+    }
+    sq_context_destroy(ctx);
+    cleanup();
+}
+
+/* CLDFRA: read as written (a fraction), interpolated between stored times, known as a 0/1 flag
+ * when a scheme writes only those, refused beyond [0, 1] (rounding noise clamped), absent
+ * without it. */
+SQ_TEST(cloud_fraction_read_flag_and_refused)
+{
+    sq_context *ctx = mkctx();
+    for (int mode = 0; mode < 3; mode++) {
+        fx_desc d = fx_default(1);
+        d.cldfra = mode;
+        char name[32];
+        snprintf(name, sizeof name, "cldfra%d.nc", mode);
+        const char *path = tmp_path(name);
+        SQ_CHECK(fx_write(path, &d));
+        sq_wrf *w = open1(ctx, path);
+        if (!w) continue;
+        sq_wrf_info in;
+        sq_wrf_get_info(w, &in);
+        SQ_CHECK(in.has_cloud_fraction == (mode != 0));
+        sq_wrf_state s;
+        SQ_CHECK_OK(sq_wrf_read_index(w, 1, &s));
+        if (mode == 0) SQ_CHECK(s.cloud_fraction == NULL);
+        if (mode != 0 && s.cloud_fraction) {
+            int bad = 0;
+            for (int k = 0; k < d.nz; k++)
+                for (int j = 0; j < d.ny; j++)
+                    for (int i = 0; i < d.nx; i++) {
+                        const double want = mode == 1 ? fx_cf(1, k, j, i) : fx_cf01(1, k, j, i);
+                        bad += s.cloud_fraction[((size_t)k * d.ny + j) * d.nx + i] != (float)want;
+                    }
+            SQ_CHECK(bad == 0);
+            SQ_CHECK(s.cloud_fraction_is_flag == (mode == 2));
+            /* halfway between stored times 1 and 2: the mean; a flag stays a flag */
+            SQ_CHECK_OK(sq_wrf_read(w, 1.5 * 3 * 3600.0, &s));
+            const size_t c = ((size_t)2 * d.ny + 1) * d.nx + 3;
+            const double a = mode == 1 ? fx_cf(1, 2, 1, 3) : fx_cf01(1, 2, 1, 3);
+            const double b = mode == 1 ? fx_cf(2, 2, 1, 3) : fx_cf01(2, 2, 1, 3);
+            SQ_CHECK_NEAR(s.cloud_fraction[c], 0.5 * (a + b), 1e-6);
+            SQ_CHECK(s.cloud_fraction_is_flag == (mode == 2));
+            sq_wrf_ranges g;
+            SQ_CHECK_OK(sq_wrf_scan(w, &g));
+            SQ_CHECK(g.cloud_fraction_is_flag == (mode == 2));
+            SQ_CHECK_NEAR(g.cloud_fraction.max, 1.0, 0.0);
+        }
+        sq_wrf_close(w);
+    }
+    /* beyond [0, 1]: refused with the variable, value and index; 1.004 is rounding noise */
+    const float pokes[2] = {1.5f, 1.004f};
+    for (int q = 0; q < 2; q++) {
+        fx_desc d = fx_default(1);
+        d.cldfra = 1;
+        d.poke_cldfra = pokes[q];
+        const char *path = tmp_path(q == 0 ? "cldfra_bad.nc" : "cldfra_noise.nc");
+        SQ_CHECK(fx_write(path, &d));
+        sq_wrf *w = open1(ctx, path);
+        if (!w) continue;
+        sq_wrf_state s;
+        if (q == 0) {
+            SQ_CHECK_ERR(sq_wrf_read_index(w, 0, &s), SQ_ERR_INVALID_ARG, "'CLDFRA' = 1.5");
+            SQ_CHECK(strstr(sq_last_error(), "bottom_top 1, south_north 1, west_east 1") != NULL);
+        } else {
+            SQ_CHECK_OK(sq_wrf_read_index(w, 0, &s));
+            if (s.cloud_fraction)
+                SQ_CHECK(s.cloud_fraction[((size_t)1 * d.ny + 1) * d.nx + 1] == 1.0f);
+        }
         sq_wrf_close(w);
     }
     sq_context_destroy(ctx);

@@ -32,6 +32,8 @@ typedef struct fx_desc {
     bool omit_ph;                 /* leave out PH (not WRF output) */
     bool bad_qcloud_shape;        /* QCLOUD without west_east */
     float poke_qcloud;            /* when != 0: QCLOUD[t=0,k=1,j=1,i=1] = poke value */
+    int cldfra;                   /* CLDFRA: 0 none, 1 a fraction (fx_cf), 2 a 0/1 flag (fx_cf01) */
+    float poke_cldfra;            /* when != 0: CLDFRA[t=0,k=1,j=1,i=1] = poke value */
 } fx_desc;
 
 /* ---- projections (Snyder, sphere of radius FX_R) ------------------------------------------ */
@@ -129,6 +131,8 @@ static double fx_qi(int t, int k, int j, int i) { return k == 3 ? 2e-5 * (1 + j)
 static double fx_qs(int t, int k, int j, int i) { return k == 3 ? 3e-5 + 0 * (t + i + j) : 0.0; }
 static double fx_qg(int t, int k, int j, int i) { return 1e-6 * k + 0 * (t + i + j); }
 static double fx_qni(int t, int k, int j, int i) { return k == 3 ? 1e5 + 0 * (t + i + j) : 0.0; }
+static double fx_cf(int t, int k, int j, int i) { return 0.25 * ((i + j + k + t) % 5); }
+static double fx_cf01(int t, int k, int j, int i) { return (double)((i + j + k + t) % 2); }
 static double fx_u(int t, int k, int j, int is) { return is + k + t + 0 * j; }
 static double fx_v(int t, int k, int js, int i) { return 2.0 * js + 0 * (t + k + i); }
 static double fx_w(int t, int ks, int j, int i) { return 0.1 * ks + 0 * (t + j + i); }
@@ -314,6 +318,14 @@ static bool fx_write(const char *path, const fx_desc *d)
              fx_put4(path, ncid, "QSNOW", mass, nt, nz, ny, nx, fx_qs, 4) &&
              fx_put4(path, ncid, "QGRAUP", mass, nt, nz, ny, nx, fx_qg, 4) &&
              fx_put4(path, ncid, "QNICE", mass, nt, nz, ny, nx, fx_qni, 4);
+    if (ok && d->cldfra)
+        ok = fx_put4(path, ncid, "CLDFRA", mass, nt, nz, ny, nx, d->cldfra == 1 ? fx_cf : fx_cf01, 4);
+    if (ok && d->cldfra && d->poke_cldfra != 0.0f) {
+        int vc;
+        FX_TRY(nc_inq_varid(ncid, "CLDFRA", &vc));
+        size_t s[4] = {0, 1, 1, 1};
+        FX_TRY(nc_put_var1_float(ncid, vc, s, &d->poke_cldfra));
+    }
     if (ok && d->poke_qcloud != 0.0f) {
         int vq;
         FX_TRY(nc_inq_varid(ncid, "QCLOUD", &vq));

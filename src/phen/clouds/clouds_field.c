@@ -129,7 +129,8 @@ sq_result sq__cloud_field_init(sq_context *ctx, sq__cloud_field *f, const sq__cl
     sq_noise_init(&f->sub.noise, d->seed ^ 0x5ab9e1dULL);
     const sq_result r = subgrid_table(ctx, &f->sub);
     if (r != SQ_OK) sq__cloud_field_free(ctx, f);
-    for (size_t c = 0; c < cells; c++) f->frac[c] = (float)d->cloud_fraction;
+    f->frac_default = (float)d->cloud_fraction;
+    for (size_t c = 0; c < cells; c++) f->frac[c] = f->frac_default;
     return r;
 }
 
@@ -181,7 +182,16 @@ void sq__cloud_field_update(sq__cloud_field *f, const sq__cloud_frame *fr, doubl
     memcpy(f->u, fr->u, cells * sizeof(float));
     memcpy(f->v, fr->v, cells * sizeof(float));
     memcpy(f->w, fr->w, cells * sizeof(float));
-    if (fr->cldfra) memcpy(f->frac, fr->cldfra, cells * sizeof(float));
+    /* the cells' cloud fraction: CLDFRA where the source has it and it is > 0 (a cell whose
+     * condensate makes it cloudy while the radiation scheme saw no cloud gets the default) */
+    if (fr->cldfra) {
+        for (size_t c = 0; c < cells; c++)
+            f->frac[c] = fr->cldfra[c] > 0.0f ? fr->cldfra[c] : f->frac_default;
+        f->frac_from_source = true;
+    } else if (f->frac_from_source) {
+        for (size_t c = 0; c < cells; c++) f->frac[c] = f->frac_default;
+        f->frac_from_source = false;
+    }
     /* optics per cell */
     float beta_max = 0.0f;
     double mu = 0.0, mv = 0.0, mw = 0.0;

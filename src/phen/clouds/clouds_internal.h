@@ -174,6 +174,8 @@ typedef struct sq__cloud_field {
                                     frac, u, v, w */
     float *cond;                 /* cloud condensate: cloud water + ice + snow (g/m³) */
     float *frac;                 /* cloud fraction of the cell */
+    float frac_default;          /* the desc's cloud.fraction: without CLDFRA, or where it is 0 */
+    bool frac_from_source;       /* frac holds the source's CLDFRA of the last update */
     float *u, *v, *w;
     float *terrain;              /* nx*ny */
     int32_t *label;              /* cloud id of the cell or -1 */

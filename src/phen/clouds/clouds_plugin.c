@@ -69,8 +69,9 @@ static const sq_param params[] = {
     D("cloud.subgrid_scale_m", subgrid_scale_m, "m", 6000, 10, 1e6, 0,
       "Horizontal size of the sub-grid cloud cells (a quarter of it vertically)."),
     D("cloud.fraction", cloud_fraction, "1", 1, 0.01, 1, 0,
-      "Cloud fraction of cloudy cells when the source gives none (the WRF reader does not "
-      "pass CLDFRA); < 1 breaks decks into cells."),
+      "Cloud fraction of cloudy cells where the source gives none: no CLDFRA, a CLDFRA of only "
+      "0 and 1 (a cloud flag), or CLDFRA 0 in a cell with condensate; < 1 breaks decks into "
+      "cells."),
     I("particles.count", particles, "1", 15000, 1, 10000000,
       "Particles filling the clouds (S4: 2000-15000). Memory: 200 bytes each."),
     D("particles.per_km3", particles_per_km3, "1/km3", 0, 0, 1e12, Z,

@@ -265,6 +265,9 @@ static sq_result wrf_read_source(sq__cloud_source *s, double t, sq__cloud_frame 
     for (int q = 0; q < SQ_HYDRO_COUNT && q < SQ_WRF_SPECIES_COUNT; q++) fr->conc[q] = st.q_g_m3[q];
     fr->number_ice = st.ice_number_m3;
     fr->number_rain = st.rain_number_m3;
+    /* CLDFRA as the cells' cloud fraction, unless the scheme wrote only 0 or 1: a flag says
+     * nothing of the sub-grid cover (the desc's cloud.fraction is used then) */
+    fr->cldfra = st.cloud_fraction_is_flag ? NULL : st.cloud_fraction;
     fr->u = st.u_mps;
     fr->v = st.v_mps;
     fr->w = st.w_mps;

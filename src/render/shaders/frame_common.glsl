@@ -17,7 +17,7 @@ layout(std140, binding = 0) uniform Frame {
     vec4 u_sky_horizon;        // xyz, w far plane (m)
     vec4 u_ground_albedo;      // xyz, w terrain kind (sq_terrain_kind)
     vec4 u_viewport;           // width, height, 1/width, 1/height
-    vec4 u_params;             // x exposure
+    vec4 u_params;             // x exposure, y 1 / vertical exaggeration of the world
 };
 
 layout(binding = 7) uniform sampler2D u_sun_shadow; // transmittance of sun light (rgb)
@@ -141,17 +141,52 @@ vec3 sq_ambient(vec3 n)
     return sky * up + ground * (1.0 - up);
 }
 
-// Aerial perspective: blends radiance toward the horizon sky with distance. Over the last half
-// of the way to the far plane the blend also goes to 1: a terrain that reaches beyond the far
-// plane then meets the sky drawn behind it (the horizon colour just below the horizon) without
-// a step where it is clipped, instead of ending in a bright edge.
+// Aerial haze: extinction (1/m) at sea level and scale heights of its two parts. Air molecules
+// (clean air, turbidity 1; 1e-5/m is about Rayleigh's 1.16e-5/m at 550 nm) thin out with the
+// atmosphere's scale height of 8 km; the aerosol that turbidity adds lives in the lowest
+// kilometres and falls off with a scale height of about 1.5 km (Elterman 1968; the continental
+// aerosol profiles of Hess, Koepke & Schult 1998 use 1-2 km). At sea level the two add up to the
+// 1e-5 (1 + 2 (T - 1)) / m of a uniform haze; above a few kilometres (mountains, a plateau,
+// clouds seen from above) the air is clear.
+const float SQ_HAZE_AIR_BETA = 1.0e-5;
+const float SQ_HAZE_AIR_SCALE_M = 8000.0;
+const float SQ_HAZE_AEROSOL_BETA = 2.0e-5; // per unit of turbidity above 1
+const float SQ_HAZE_AEROSOL_SCALE_M = 1500.0;
+
+// Mean of exp(-z / H) along a straight path between heights z0 and z1 (m above sea level):
+// exp(-z_low / H) (1 - exp(-d)) / d with d = |z1 - z0| / H (stable both ways).
+float sq_haze_profile_mean(float z0, float z1, float H)
+{
+    float d = abs(z1 - z0) / H;
+    float low = exp(-min(z0, z1) / H);
+    return d < 1e-3 ? low * (1.0 - 0.5 * d) : low * (1.0 - exp(-d)) / d;
+}
+
+// Optical depth of the haze between the camera and world point p. World heights are the
+// physical ones times the vertical exaggeration (u_params.y holds 1 / exaggeration), so the
+// profile and the path length are taken in physical metres.
+float sq_haze_optical_depth(vec3 p)
+{
+    float inv_e = u_params.y > 0.0 ? u_params.y : 1.0;
+    vec3 v = p - u_cam_pos.xyz;
+    float len = length(vec3(v.xy, v.z * inv_e));
+    float z0 = u_cam_pos.z * inv_e, z1 = p.z * inv_e;
+    float aerosol = SQ_HAZE_AEROSOL_BETA * max(u_sun_radiance.w - 1.0, 0.0);
+    return len * (SQ_HAZE_AIR_BETA * sq_haze_profile_mean(z0, z1, SQ_HAZE_AIR_SCALE_M) +
+                  aerosol * sq_haze_profile_mean(z0, z1, SQ_HAZE_AEROSOL_SCALE_M));
+}
+
+// Aerial perspective: blends radiance toward the horizon sky with the haze's optical depth
+// along the view ray (1 - exp(-tau)). Over the last half of the way to the far plane the blend
+// also goes to 1: a terrain that reaches beyond the far plane then meets the sky drawn behind it
+// (the horizon colour just below the horizon) without a step where it is clipped, instead of
+// ending in a bright edge.
 vec3 sq_haze(vec3 L, vec3 p)
 {
     vec3 v = p - u_cam_pos.xyz;
     float dist = length(v);
-    float beta = 1.0e-5 * (1.0 + 2.0 * max(u_sun_radiance.w - 1.0, 0.0)); // 1/m
     float far = u_sky_horizon.w;
-    float f = max(1.0 - exp(-beta * dist), smoothstep(0.5 * far, far, dist));
+    float f = max(1.0 - exp(-sq_haze_optical_depth(p)), smoothstep(0.5 * far, far, dist));
     vec3 d = v / max(dist, 1e-3);
     vec3 inscatter = sq_sky_radiance(normalize(vec3(d.xy, max(d.z, 0.02))), false);
     return mix(L, inscatter, f);
