@@ -393,7 +393,7 @@ sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
         return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_set_eddy_scalars: grid is NULL");
     if (!(prandtl_t >= 0.1 && prandtl_t <= 10.0))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "turbulent Prandtl number = %g; must be in [0.1, 10] (neutral: 0.74)",
+                        "prandtl_t = %g (turbulent Prandtl number); must be in [0.1, 10] (neutral: 0.74)",
                         prandtl_t);
     if (theta_idx < -1 || theta_idx >= g->d.scalar_count)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
@@ -401,7 +401,7 @@ sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
                         theta_idx, g->d.scalar_count - 1, g->d.scalar_count);
     if (theta_idx >= 0 && !(gravity_mps2 > 0.0 && isfinite(gravity_mps2)))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "gravity = %g m/s^2; must be > 0 with a stratification scalar",
+                        "gravity_mps2 = %g; must be > 0 with a stratification scalar",
                         gravity_mps2);
     g->eddy_scalars = true;
     g->eddy_prandtl = (float)prandtl_t;
