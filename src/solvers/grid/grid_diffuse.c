@@ -316,8 +316,9 @@ static void molecular(sq_grid *g, float nu_mol, float s, bool implicit)
  * a = dt K_link / h^2 with K_link the mean of the link's two cells. Links exist only between
  * two fluid cells of the column: no flux through the ground, solids or the column's ends, so
  * the column sum is conserved (to round-off), and the M-matrix keeps c within its old range.
- * nu: eddy viscosity per cell (cell layout); ahi, cp, dp: scratch in the cell layout. */
-static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, float *ahi,
+ * nu: eddy viscosity per cell (cell layout; overwritten); ahi, cp, dp: scratch in the cell
+ * layout. */
+static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *ahi,
                                       float *cp, float *dp)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
@@ -337,6 +338,23 @@ static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, f
                 ahi[c + i] = sq__fselm(open, 0.5f * s_pr * (nu[c + i] + nu[c + i + sz]), 0.0f);
             }
         }
+    /* the elimination's coefficients are the same for every scalar: cp and 1/den once (iden
+     * overwrites nu, which is no longer needed) */
+    float *iden = (float *)nu;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++)
+        for (int k = 0; k < nz; k++) {
+            const ptrdiff_t c = sq__cidx(g, 0, j, k);
+            const int32_t bottom = -(int32_t)(k == 0);
+            for (int i = 0; i < nx; i++) {
+                const float alo = sq__fselm(bottom, 0.0f, ahi[c + i - sz]);
+                const float ah = ahi[c + i];
+                const float cprev = sq__fselm(bottom, 0.0f, cp[c + i - sz]);
+                const float inv = 1.0f / (1.0f + alo + ah + alo * cprev); /* cp <= 0 */
+                cp[c + i] = -ah * inv;
+                iden[c + i] = inv;
+            }
+        }
     for (int sidx = 0; sidx < g->d.scalar_count; sidx++) {
         float *f = g->scalar[sidx].base;
         SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -347,14 +365,11 @@ static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, f
                 for (int i = 0; i < nx; i++) {
                     const float alo = sq__fselm(bottom, 0.0f, ahi[c + i - sz]);
                     const float ah = ahi[c + i];
-                    const float cprev = sq__fselm(bottom, 0.0f, cp[c + i - sz]);
                     const float dprev = sq__fselm(bottom, 0.0f, dp[c + i - sz]);
-                    const float den = 1.0f + alo + ah + alo * cprev; /* cp <= 0 */
                     /* in increments: (1 - a L) dc = a L c, so that a uniform field stays
                      * bit-exact (no round-off anomalies for the buoyancy to amplify) */
                     const float rhs = alo * (f[c + i - sz] - f[c + i]) + ah * (f[c + i + sz] - f[c + i]);
-                    cp[c + i] = -ah / den;
-                    dp[c + i] = (rhs + alo * dprev) / den;
+                    dp[c + i] = (rhs + alo * dprev) * iden[c + i];
                 }
             }
             for (int k = nz - 2; k >= 0; k--) { /* back substitution of the increments */
