@@ -270,6 +270,20 @@ SQ_API sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity
  * > 1e-3): explicit up to 1/6, else backward Euler by red-black Gauss-Seidel sweeps (logged). */
 SQ_API sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol_m2ps, double kappa,
                                       double dt_s);
+/* Turbulent transport of the scalars and stratification of the mixing length, used by every
+ * later sq_grid_diffuse_eddy (off after create):
+ *  - every scalar c gets the vertical eddy flux of the same mixing-length closure,
+ *    dc/dt = d/dz (K dc/dz), K = nu_t / prandtl_t (gradient diffusion; no flux through the
+ *    ground, solids or the domain's ends: sources and sinks belong to the caller), solved by
+ *    backward Euler per column (conservative, monotone, stable for any dt);
+ *  - with theta_idx >= 0 (a potential-temperature scalar, K) the eddy viscosity feels the
+ *    stratification (Lilly 1962): nu_t = l^2 sqrt(max(0, S^2 - N^2 / Pr_t)), S = |du_h/dz|,
+ *    N^2 = (g / theta) d theta / dz, i.e. l^2 S sqrt(1 - Ri / Pr_t): no mixing above the
+ *    critical Richardson number Ri = Pr_t, and free convection (mixing without shear) where the
+ *    air is statically unstable (N^2 < 0). theta_idx = -1: neutral (nu_t = l^2 S).
+ * prandtl_t in [0.1, 10] (neutral surface layer 0.74, Businger et al. 1971); gravity > 0. */
+SQ_API sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
+                                          double gravity_mps2);
 /* Makes the velocity divergence-free: solves A phi = -h^2 div u* for phi = p dt / rho to the
  * relative residual tolerance (warm-started from the previous pressure), then u -= grad phi.
  * The residual reported equals h^2 |div u|_2 / h^2 |div u*|_2 after the correction. Fluid

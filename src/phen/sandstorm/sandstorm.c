@@ -295,6 +295,12 @@ static sq_result create_grid(sq_sandstorm *s)
     s->temp_idx = s->nbins;
     sq_result r = sq_grid_create(s->ctx, &g, &s->grid);
     if (r != SQ_OK) return r;
+    /* the mixing-length closure also carries the dust and the heat (K = nu_t / Pr_t), and with
+     * buoyancy it feels the stratification of theta (Lilly 1962) */
+    r = sq_grid_set_eddy_scalars(s->grid, SQ_SAND_PRANDTL_T,
+                                 d->buoyancy_gain > 0.0 ? s->temp_idx : -1,
+                                 SQ_SAND_GRAVITY * d->buoyancy_gain);
+    if (r != SQ_OK) return r;
     /* solid cells: terrain, obstacles and closed meshes at cell centres */
     size_t n = (size_t)s->nx * s->ny * s->nz, cols = (size_t)s->nx * s->ny;
     uint8_t *mask = (uint8_t *)sq_alloc_zero(s->ctx, n);

@@ -23,6 +23,10 @@
  * 1 km for a 2.5 km deep domain) and the upper-level eddy viscosity nu_t = l^2 |du/dz| would
  * smear the storm's vertical structure. */
 #define SQ_SAND_MIXING_LENGTH_MAX 100.0
+/* Turbulent Prandtl number Pr_t = nu_t / K of the dust's and heat's eddy diffusivity K: 0.74 in
+ * the neutral surface layer (Businger, Wyngaard, Izumi, Bradley 1971, J. Atmos. Sci. 28, 181);
+ * also the critical Richardson number of the stratified mixing length (Lilly 1962). */
+#define SQ_SAND_PRANDTL_T 0.74
 /* Rayleigh extinction of clean air at 550 nm, sea level (Bucholtz 1995: 1.16e-5 1/m): the
  * visibility of dust-free air is then ln(20)/beta ~ 258 km instead of infinite. */
 #define SQ_SAND_BETA_AIR_550 1.16e-5

@@ -290,6 +290,7 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
         return SQ_ERR_OUT_OF_MEMORY;
     }
     g->topology_dirty = true;
+    g->eddy_theta = -1;
     r = sq__grid_update_topology(g);
     if (r != SQ_OK) {
         sq_grid_destroy(g);

@@ -8,6 +8,9 @@
  *     0 half a cell below in a cell resting on a solid or a no-slip ground);
  *   =>  du/dt = d/dz ((nu_mol + nu_t) du/dz), likewise v  (the horizontal components only, as
  *     in S0; w and horizontal gradients see the molecular viscosity alone).
+ *   With sq_grid_set_eddy_scalars: stratified (Lilly 1962) nu_t = l^2 sqrt(max(0, S^2 -
+ *     N^2 / Pr_t)), N^2 = (g / theta) d theta / dz, and every scalar's turbulent flux
+ *     dc/dt = d/dz (K dc/dz), K = nu_t / Pr_t (scalars_vertical_implicit).
  *
  * The vertical part is solved exactly by backward Euler: one tridiagonal system per column
  * (Thomas algorithm), unconditionally stable and monotone (an M-matrix: no new extrema) for any
@@ -44,6 +47,7 @@ static void cell_row_uv(const sq_grid *g, int i0, int n, int j, int k, float *re
 
 typedef struct eddy_par {
     float ih, h, kappa, lmax;
+    float g_pr;                    /* g / Pr_t of the stratification term; 0: neutral */
     bool no_slip_ground, kdn, kup; /* kdn: k > 0, kup: k < nz - 1 */
 } eddy_par;
 
@@ -56,9 +60,11 @@ static int32_t eddy_row(const eddy_par *p, const uint8_t *restrict fl,
                         const uint16_t *restrict below, const float *restrict um,
                         const float *restrict u0, const float *restrict up,
                         const float *restrict vm, const float *restrict v0,
-                        const float *restrict vp, float *restrict nu, int n)
+                        const float *restrict vp, const float *restrict tm,
+                        const float *restrict t0, const float *restrict tp,
+                        float *restrict nu, int n)
 {
-    const float ih = p->ih, h = p->h, kappa = p->kappa, lmax = p->lmax;
+    const float ih = p->ih, h = p->h, kappa = p->kappa, lmax = p->lmax, g_pr = p->g_pr;
     /* conditions as int32 masks (see sq__fselm) */
     const int32_t kdn = -(int32_t)p->kdn, kup = -(int32_t)p->kup,
                   nsg = -(int32_t)p->no_slip_ground, kap = -(int32_t)(kappa > 0.0f);
@@ -81,7 +87,20 @@ static int32_t eddy_row(const eddy_par *p, const uint8_t *restrict fl,
         const int32_t active =
             kap & -(int32_t)((fl[i] & SQ__CF_SOLID) == 0) & -(int32_t)(below[i] > 0);
         l2[i] = sq__fselm(active, l * l, 0.0f);
-        nu[i] = du * du + dv * dv;
+        /* stratification (Lilly 1962): S^2 - N^2 / Pr_t, N^2 = (g / theta) d theta / dz
+         * (central; one-sided next to a solid or the domain's ends; tm = t0 = tp when
+         * neutral) */
+        const float dth = sq__fselm(dn & upo, 0.5f * (tp[i] - tm[i]) * ih,
+                                    sq__fselm(upo, (tp[i] - t0[i]) * ih,
+                                              sq__fselm(dn, (t0[i] - tm[i]) * ih, 0.0f)));
+        /* differences below 1e-3 K per cell are round-off of the float theta (its resolution
+         * is 3e-5 K at 300 K), not stratification: without this dead band an exactly neutral
+         * column without shear would convect on round-off */
+        const float dthc = dth * h;
+        const float dths = sq__fselm(-(int32_t)(dthc > 1e-3f || dthc < -1e-3f), dth, 0.0f);
+        const float ith = sq__fselm(-(int32_t)(t0[i] > 0.0f), 1.0f / t0[i], 0.0f);
+        const float s2 = du * du + dv * dv - g_pr * dths * ith;
+        nu[i] = sq__fselm(-(int32_t)(s2 > 0.0f), s2, 0.0f);
     }
     sq__sqrt_row(nu, n);
     int32_t m = 0;
@@ -108,10 +127,14 @@ static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
     par.kappa = kappa;
     par.lmax = g->d.mixing_length_max_m > 0.0 ? (float)g->d.mixing_length_max_m : 1e30f;
     par.no_slip_ground = g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP;
+    const bool strat = g->eddy_scalars && g->eddy_theta >= 0;
+    par.g_pr = strat ? g->eddy_g / g->eddy_prandtl : 0.0f;
+    const sq_field3 *T = strat ? &g->scalar[g->eddy_theta] : NULL;
     double *pm = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
-        float um[DROW], vm[DROW], u0[DROW], v0[DROW], up[DROW], vp[DROW];
+        float um[DROW], vm[DROW], u0[DROW], v0[DROW], up[DROW], vp[DROW], one[DROW];
+        for (int i = 0; i < DROW; i++) one[i] = 1.0f;
         eddy_par pk = par;
         pk.kdn = k > 0;
         pk.kup = k < nz - 1;
@@ -123,8 +146,11 @@ static float eddy_viscosity(sq_grid *g, float *nu, float kappa)
                 cell_row_uv(g, i0, n, j, k, u0, v0);
                 cell_row_uv(g, i0, n, j, k + 1, up, vp);
                 const ptrdiff_t c = sq__cidx(g, i0, j, k);
+                const float *t0 = strat ? sq_field3_at(T, i0, j, k) : one;
+                const float *tm = strat ? t0 - T->sz : one, *tp = strat ? t0 + T->sz : one;
                 const int32_t rm = eddy_row(&pk, fl + c, fl + c - g->sz, fl + c + g->sz,
-                                            g->below + c, um, u0, up, vm, v0, vp, nu + c, n);
+                                            g->below + c, um, u0, up, vm, v0, vp, tm, t0, tp,
+                                            nu + c, n);
                 m = rm > m ? rm : m;
             }
         float mf;
@@ -284,6 +310,91 @@ static void molecular(sq_grid *g, float nu_mol, float s, bool implicit)
     }
 }
 
+/* Turbulent flux of every scalar, dc/dt = d/dz (K dc/dz) with K = nu_t / Pr_t (gradient
+ * diffusion with the momentum's mixing-length closure), by backward Euler per column:
+ *   -a_lo c_{k-1} + (1 + a_lo + a_hi) c_k - a_hi c_{k+1} = c_k^old,
+ * a = dt K_link / h^2 with K_link the mean of the link's two cells. Links exist only between
+ * two fluid cells of the column: no flux through the ground, solids or the column's ends, so
+ * the column sum is conserved (to round-off), and the M-matrix keeps c within its old range.
+ * nu: eddy viscosity per cell (cell layout); ahi, cp, dp: scratch in the cell layout. */
+static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, float *ahi,
+                                      float *cp, float *dp)
+{
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    const uint8_t *fl = g->flags;
+    const ptrdiff_t sz = g->sz;
+    const int nt = sq_context_threads(g->ctx);
+    (void)nt;
+    /* coefficient of the link between cell k and k + 1 (0: no link) */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++) {
+            const ptrdiff_t c = sq__cidx(g, 0, j, k);
+            const int32_t top = -(int32_t)(k == nz - 1);
+            for (int i = 0; i < nx; i++) {
+                const int32_t open = ~top & -(int32_t)(((fl[c + i] | fl[c + i + sz]) &
+                                                        SQ__CF_SOLID) == 0);
+                ahi[c + i] = sq__fselm(open, 0.5f * s_pr * (nu[c + i] + nu[c + i + sz]), 0.0f);
+            }
+        }
+    for (int sidx = 0; sidx < g->d.scalar_count; sidx++) {
+        float *f = g->scalar[sidx].base;
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+        for (int j = 0; j < ny; j++) {
+            for (int k = 0; k < nz; k++) { /* forward elimination, a row of columns at once */
+                const ptrdiff_t c = sq__cidx(g, 0, j, k);
+                const int32_t bottom = -(int32_t)(k == 0);
+                for (int i = 0; i < nx; i++) {
+                    const float alo = sq__fselm(bottom, 0.0f, ahi[c + i - sz]);
+                    const float ah = ahi[c + i];
+                    const float cprev = sq__fselm(bottom, 0.0f, cp[c + i - sz]);
+                    const float dprev = sq__fselm(bottom, 0.0f, dp[c + i - sz]);
+                    const float den = 1.0f + alo + ah + alo * cprev; /* cp <= 0 */
+                    /* in increments: (1 - a L) dc = a L c, so that a uniform field stays
+                     * bit-exact (no round-off anomalies for the buoyancy to amplify) */
+                    const float rhs = alo * (f[c + i - sz] - f[c + i]) + ah * (f[c + i + sz] - f[c + i]);
+                    cp[c + i] = -ah / den;
+                    dp[c + i] = (rhs + alo * dprev) / den;
+                }
+            }
+            for (int k = nz - 2; k >= 0; k--) { /* back substitution of the increments */
+                const ptrdiff_t c = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < nx; i++) dp[c + i] -= cp[c + i] * dp[c + i + sz];
+            }
+            for (int k = 0; k < nz; k++) {
+                const ptrdiff_t c = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < nx; i++) f[c + i] += dp[c + i];
+            }
+        }
+        sq__grid_fill_ghosts(g, g->scalar[sidx].origin, g->scalar[sidx].sy, g->scalar[sidx].sz,
+                             SQ__L_CELL, sidx);
+    }
+}
+
+sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
+                                   double gravity_mps2)
+{
+    if (!g)
+        return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_set_eddy_scalars: grid is NULL");
+    if (!(prandtl_t >= 0.1 && prandtl_t <= 10.0))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "turbulent Prandtl number = %g; must be in [0.1, 10] (neutral: 0.74)",
+                        prandtl_t);
+    if (theta_idx < -1 || theta_idx >= g->d.scalar_count)
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "theta_idx = %d; must be -1 (neutral) or in 0..%d (scalar_count = %d)",
+                        theta_idx, g->d.scalar_count - 1, g->d.scalar_count);
+    if (theta_idx >= 0 && !(gravity_mps2 > 0.0 && isfinite(gravity_mps2)))
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "gravity = %g m/s^2; must be > 0 with a stratification scalar",
+                        gravity_mps2);
+    g->eddy_scalars = true;
+    g->eddy_prandtl = (float)prandtl_t;
+    g->eddy_theta = theta_idx;
+    g->eddy_g = theta_idx >= 0 ? (float)gravity_mps2 : 0.0f;
+    return SQ_OK;
+}
+
 sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double dt_s)
 {
     if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_diffuse_eddy: grid is NULL");
@@ -319,6 +430,9 @@ sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double d
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
         }
     }
+    if (ntmax > 0.0f && g->eddy_scalars && g->d.scalar_count > 0)
+        scalars_vertical_implicit(g, nu, s / g->eddy_prandtl, g->scratch[3], g->scratch[1],
+                                  g->scratch[2]);
     if (do_mol) {
         const bool implicit = mol > 1.0f / 6.0f;
         if (implicit)

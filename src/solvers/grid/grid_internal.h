@@ -94,6 +94,11 @@ struct sq_grid {
     uint64_t trace_version;
     double trace_dt, trace_drift;
     float trace_cfl;
+    /* turbulent scalar transport and stratified mixing length (sq_grid_set_eddy_scalars) */
+    bool eddy_scalars;   /* sq_grid_diffuse_eddy also diffuses every scalar with K = nu_t/Pr_t */
+    int eddy_theta;      /* potential-temperature scalar for N^2, -1: neutral */
+    float eddy_g;        /* gravity of N^2 = (g / theta) d theta / dz */
+    float eddy_prandtl;  /* turbulent Prandtl number Pr_t */
     sq_grid_stats stats;
 };
 
