@@ -346,6 +346,18 @@ static const char *gl_error_name(GLenum e)
     }
 }
 
+GLuint sq__gl_texture_2d(GLenum format, int w, int h, GLenum filter)
+{
+    GLuint t = 0;
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, format, w, h);
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, (GLint)filter);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, (GLint)filter);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    return t;
+}
+
 sq_result sq__gl_check(sq_context *ctx, const char *where)
 {
     GLenum e = glGetError();

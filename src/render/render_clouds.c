@@ -388,12 +388,7 @@ static sq_result render_impostor(sq_renderer *r, sq__clouds_pass *cp, const sq_c
     if (!im->tex || im->px != px) {
         glDeleteTextures(1, &im->tex);
         if (!im->fbo) glCreateFramebuffers(1, &im->fbo);
-        glCreateTextures(GL_TEXTURE_2D, 1, &im->tex);
-        glTextureStorage2D(im->tex, 1, GL_RGBA16F, px, px);
-        glTextureParameteri(im->tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-        glTextureParameteri(im->tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-        glTextureParameteri(im->tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTextureParameteri(im->tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        im->tex = sq__gl_texture_2d(GL_RGBA16F, px, px, GL_LINEAR);
         glNamedFramebufferTexture(im->fbo, GL_COLOR_ATTACHMENT0, im->tex, 0);
         sq_result res = sq__gl_check_framebuffer(r->ctx, im->fbo, "cloud impostor");
         if (res != SQ_OK) return res;

@@ -148,6 +148,9 @@ sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, co
 const char *sq__shader_source(const char *name);
 /* Translates glGetError into an sq_result with the place named. */
 sq_result sq__gl_check(sq_context *ctx, const char *where);
+/* A 2D texture of one level, w x h texels of format, filtered by filter (GL_NEAREST or GL_LINEAR)
+ * both ways and clamped to its edge: what the renderer's maps and targets are made of. */
+GLuint sq__gl_texture_2d(GLenum format, int w, int h, GLenum filter);
 /* Compute program from one embedded shader ("x.comp"). */
 sq_result sq__gl_compute_program(sq_context *ctx, const char *comp, GLuint *out);
 /* Compiles one shader stage from text; name is used in messages ("name:line: error ...").

@@ -27,18 +27,6 @@ struct sq__snow_pass {
     double ms_map; /* last occlusion map (CPU + GL, finished) */
 };
 
-static GLuint make_tex(GLenum format, int w, int h, GLenum filter)
-{
-    GLuint t = 0;
-    glCreateTextures(GL_TEXTURE_2D, 1, &t);
-    glTextureStorage2D(t, 1, format, w, h);
-    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, filter);
-    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, filter);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    return t;
-}
-
 sq_result sq__snow_pass_create(sq_renderer *r)
 {
     sq__snow_pass *s = sq_alloc_zero(r->ctx, sizeof *s);
@@ -49,9 +37,9 @@ sq_result sq__snow_pass_create(sq_renderer *r)
     memset(&zero, 0, sizeof zero);
     glNamedBufferStorage(s->ubo, sizeof zero, &zero, GL_DYNAMIC_STORAGE_BIT);
     const float far = 1.0f, none = 0.0f;
-    s->dummy_occ = make_tex(GL_R32F, 1, 1, GL_NEAREST);
+    s->dummy_occ = sq__gl_texture_2d(GL_R32F, 1, 1, GL_NEAREST);
     glTextureSubImage2D(s->dummy_occ, 0, 0, 0, 1, 1, GL_RED, GL_FLOAT, &far);
-    s->dummy_depth = make_tex(GL_R32F, 1, 1, GL_NEAREST);
+    s->dummy_depth = sq__gl_texture_2d(GL_R32F, 1, 1, GL_NEAREST);
     glTextureSubImage2D(s->dummy_depth, 0, 0, 0, 1, 1, GL_RED, GL_FLOAT, &none);
     return sq__gl_check(r->ctx, "snow pass creation");
 }
@@ -74,7 +62,7 @@ static sq_result ensure_map(sq_renderer *r, int size)
     if (s->occ_tex && s->occ_size == size) return SQ_OK;
     glDeleteTextures(1, &s->occ_tex);
     if (s->fbo) glDeleteFramebuffers(1, &s->fbo);
-    s->occ_tex = make_tex(GL_DEPTH_COMPONENT32F, size, size, GL_NEAREST);
+    s->occ_tex = sq__gl_texture_2d(GL_DEPTH_COMPONENT32F, size, size, GL_NEAREST);
     glTextureParameteri(s->occ_tex, GL_TEXTURE_COMPARE_MODE, GL_NONE);
     glCreateFramebuffers(1, &s->fbo);
     glNamedFramebufferTexture(s->fbo, GL_DEPTH_ATTACHMENT, s->occ_tex, 0);
@@ -92,7 +80,7 @@ static void upload_depth(sq_renderer *r, const sq_snow_cover_view *v)
         return;
     if (!s->depth_tex || s->depth_nx != v->nx || s->depth_ny != v->ny) {
         glDeleteTextures(1, &s->depth_tex);
-        s->depth_tex = make_tex(GL_R32F, v->nx, v->ny, GL_LINEAR);
+        s->depth_tex = sq__gl_texture_2d(GL_R32F, v->nx, v->ny, GL_LINEAR);
         s->depth_nx = v->nx;
         s->depth_ny = v->ny;
     }

@@ -501,18 +501,6 @@ static void surface_slot_free(surface_slot *s)
     memset(s, 0, sizeof *s);
 }
 
-static GLuint make_r32f(int nx, int ny)
-{
-    GLuint t = 0;
-    glCreateTextures(GL_TEXTURE_2D, 1, &t);
-    glTextureStorage2D(t, 1, GL_R32F, nx, ny);
-    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    return t;
-}
-
 static void upload_surface(sq_renderer *r, surface_slot *s, const sq_surface_view *v)
 {
     if (s->height_tex && s->nx == v->nx && s->ny == v->ny && s->version == v->version &&
@@ -520,8 +508,8 @@ static void upload_surface(sq_renderer *r, surface_slot *s, const sq_surface_vie
         return;
     if (!s->height_tex || s->nx != v->nx || s->ny != v->ny) {
         surface_slot_free(s);
-        s->height_tex = make_r32f(v->nx, v->ny);
-        s->coverage_tex = make_r32f(v->nx, v->ny);
+        s->height_tex = sq__gl_texture_2d(GL_R32F, v->nx, v->ny, GL_NEAREST);
+        s->coverage_tex = sq__gl_texture_2d(GL_R32F, v->nx, v->ny, GL_NEAREST);
         s->nx = v->nx;
         s->ny = v->ny;
     }
@@ -1179,18 +1167,6 @@ static sq_result check_limits(sq_renderer *r)
     return SQ_OK;
 }
 
-static GLuint make_target_texture(GLenum format, int w, int h)
-{
-    GLuint t = 0;
-    glCreateTextures(GL_TEXTURE_2D, 1, &t);
-    glTextureStorage2D(t, 1, format, w, h);
-    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    return t;
-}
-
 /* (Re)creates the frame buffers at w x h with depth_format (DEPTH_COMPONENT32F for the
  * renderer's own frames; the target's format for sq_renderer_draw_to, so blits match). The new
  * textures are made before the old ones are deleted, so their names differ from the old ones
@@ -1198,9 +1174,9 @@ static GLuint make_target_texture(GLenum format, int w, int h)
 static sq_result resize_targets(sq_renderer *r, int w, int h, GLenum depth_format)
 {
     const GLuint old[3] = {r->hdr_color, r->depth_tex, r->ldr_color};
-    r->hdr_color = make_target_texture(GL_RGBA16F, w, h);
-    r->depth_tex = make_target_texture(depth_format, w, h);
-    r->ldr_color = make_target_texture(GL_RGBA8, w, h);
+    r->hdr_color = sq__gl_texture_2d(GL_RGBA16F, w, h, GL_NEAREST);
+    r->depth_tex = sq__gl_texture_2d(depth_format, w, h, GL_NEAREST);
+    r->ldr_color = sq__gl_texture_2d(GL_RGBA8, w, h, GL_NEAREST);
     glDeleteTextures(3, old);
     const bool stencil = depth_format == GL_DEPTH24_STENCIL8 || depth_format == GL_DEPTH32F_STENCIL8;
     if (!r->hdr_fbo) glCreateFramebuffers(1, &r->hdr_fbo);

@@ -158,6 +158,13 @@ sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend)
     return sq_v3_scale(dir, depth_m * f_e * w);
 }
 
+sq_vec3 sq__snow_shell_normal(sq_vec3 n, float gx, float gy)
+{
+    const float w = fminf(1.0f, 2.0f * fmaxf(0.0f, n.z));
+    if (w <= 0.0f) return n;
+    return sq_v3_norm(sq_v3_sub(n, sq_v3(n.z * w * gx, n.z * w * gy, 0.0f)));
+}
+
 typedef struct keyed {
     float p[3];
     int i;

@@ -73,6 +73,13 @@ float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m)
  * normalize(ns + blend (up - ns)) by depth_m × f_e × min(1, 2 max(0, ns.z)). */
 sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend);
 
+/* Shading normal of the snow shell over a surface of unit normal n where the depth varies with
+ * gradient (gx, gy) (m per m, a drift): the shell lies w × depth above the surface, w =
+ * min(1, 2 max(0, n.z)) as in the offset, so its normal is normalize(n - n.z w (gx, gy, 0)) --
+ * exactly the normal of z = h(x, y) + depth(x, y) where w = 1 (slopes up to 60 degrees); n
+ * itself on walls and overhangs. */
+sq_vec3 sq__snow_shell_normal(sq_vec3 n, float gx, float gy);
+
 /* Smoothed normals: per vertex, the normalised sum of the normals of all vertices at exactly the
  * same position (n vertices, positions and normals 3 floats each); out may not alias.
  * Returns false when out of memory (out then holds the input normals). */

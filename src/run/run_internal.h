@@ -13,6 +13,9 @@
 #define SQ_RUN_MAX_DRAWABLES 32
 #define SQ_RUN_MAX_METRICS 128
 #define SQ_RUN_MAX_FIELDS 64
+/* Field files: a file holds one grid; the 3D fields and the 2D maps of a frame each go to as
+ * many files as they have grids, at most this many together */
+#define SQ_RUN_FIELD_GROUPS 8
 
 /* ---- run_snapshot.c ------------------------------------------------------------------------ */
 /* The rendering settings of a frame (output's live keys, read by advance on the simulation side
@@ -63,11 +66,12 @@ typedef struct sq__run_outputs {
         char *staged, *final;
     } *staged;
     int staged_count, staged_cap;
-    /* the .vti files of the run (final base names) for the .pvd time-series indices: [0] 3D
-     * fields, [1] 2D maps */
-    char **vti[2];
-    double *vti_t[2];
-    int vti_count[2], vti_cap[2];
+    /* the .vti files of the run (final base names) for the .pvd time-series indices, one per
+     * group of fields on one grid, and that group's part of the file names (run_outputs.c) */
+    char **vti[SQ_RUN_FIELD_GROUPS];
+    double *vti_t[SQ_RUN_FIELD_GROUPS];
+    int vti_count[SQ_RUN_FIELD_GROUPS], vti_cap[SQ_RUN_FIELD_GROUPS];
+    char vti_tag[SQ_RUN_FIELD_GROUPS][16];
     char partial[1200]; /* where the metrics rows of a failed run were kept ("" = nowhere) */
     /* metric table for the statistics (and the CSV header) */
     int metric_count;

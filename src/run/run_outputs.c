@@ -220,9 +220,11 @@ static sq_result write_depth_png(const char *path, const sq_named_field *f, bool
     return r;
 }
 
-/* Remembers a .vti file of the run for the .pvd index of its group. */
-static sq_result note_vti(sq__run_outputs *o, int grp, const char *final, double t)
+/* Remembers a .vti file of the run for the .pvd index of its group (tag: the group's part of
+ * the file names). */
+static sq_result note_vti(sq__run_outputs *o, int grp, const char *tag, const char *final, double t)
 {
+    snprintf(o->vti_tag[grp], sizeof o->vti_tag[grp], "%s", tag);
     if (o->vti_count[grp] == o->vti_cap[grp]) {
         const int cap = o->vti_cap[grp] ? 2 * o->vti_cap[grp] : 64;
         char **f = (char **)realloc(o->vti[grp], sizeof *f * (size_t)cap);
@@ -239,6 +241,17 @@ static sq_result note_vti(sq__run_outputs *o, int grp, const char *final, double
     return SQ_OK;
 }
 
+/* Fields that can share a file: the same cells; 3D ones the same origin and spacing, 2D maps the
+ * same x and y (each map may lie at its own level). */
+static bool same_grid(const sq_named_field *a, const sq_named_field *b)
+{
+    if (a->nx != b->nx || a->ny != b->ny || a->nz != b->nz) return false;
+    if (a->origin_m.x != b->origin_m.x || a->origin_m.y != b->origin_m.y ||
+        a->spacing_m.x != b->spacing_m.x || a->spacing_m.y != b->spacing_m.y)
+        return false;
+    return a->nz == 1 || (a->origin_m.z == b->origin_m.z && a->spacing_m.z == b->spacing_m.z);
+}
+
 sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
                                  const sq_named_field *fv, int nf)
 {
@@ -252,19 +265,36 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
     fd.source = "squall " SQ_VERSION_STRING;
     fd.time_s = time_s;
     fd.overwrite = false; /* staged names are new; commit applies overwrite */
-    /* 3D fields and 2D maps go to separate files (a file holds one grid) */
-    sq_named_field f3[SQ_RUN_MAX_FIELDS], f2[SQ_RUN_MAX_FIELDS];
-    int n3 = 0, n2 = 0;
+    /* a file holds one grid: the 3D fields and the 2D maps go to one file per grid */
+    sq_named_field grouped[SQ_RUN_MAX_FIELDS];
+    int group_of[SQ_RUN_MAX_FIELDS], first[SQ_RUN_FIELD_GROUPS], ng = 0, n = 0;
     for (int q = 0; q < nf && q < SQ_RUN_MAX_FIELDS; q++) {
-        if (fv[q].nz == 1) f2[n2++] = fv[q];
-        else f3[n3++] = fv[q];
+        int g = 0;
+        while (g < ng && !same_grid(&fv[q], &fv[first[g]])) g++;
+        if (g == ng) {
+            if (ng == SQ_RUN_FIELD_GROUPS)
+                return sq__set_error(SQ_ERR_INVALID_ARG,
+                                     "field '%s': the scene's fields lie on more than %d grids "
+                                     "(one file each)",
+                                     fv[q].name, SQ_RUN_FIELD_GROUPS);
+            first[ng++] = q;
+        }
+        group_of[q] = g;
     }
     sq_result r = SQ_OK;
-    for (int grp = 0; grp < 2 && r == SQ_OK; grp++) {
-        const sq_named_field *fs = grp ? f2 : f3;
-        const int nfs = grp ? n2 : n3;
-        if (!nfs) continue;
-        const char *tag = grp ? "_maps" : "";
+    for (int g = 0; g < ng && r == SQ_OK; g++) {
+        int nfs = 0, rank = 0;
+        for (int q = 0; q < nf && q < SQ_RUN_MAX_FIELDS; q++)
+            if (group_of[q] == g) grouped[n + nfs++] = fv[q];
+        /* the group's tag: "" / "_maps" for the first grid of 3D fields / 2D maps, then "_2",
+         * "_3" / "_maps2", "_maps3" in the order the layers publish them */
+        const bool maps = fv[first[g]].nz == 1;
+        for (int h = 0; h < g; h++) rank += (fv[first[h]].nz == 1) == maps;
+        char tag[16];
+        if (rank == 0) snprintf(tag, sizeof tag, "%s", maps ? "_maps" : "");
+        else snprintf(tag, sizeof tag, "%s%d", maps ? "_maps" : "_", rank + 1);
+        const sq_named_field *fs = &grouped[n];
+        n += nfs;
         if (o->fields_format != SQ_FIELDS_VTK) {
             snprintf(path, sizeof path, "%s%s_%05d.nc", o->fields, tag, frame);
             r = stage(o, path, staged, sizeof staged);
@@ -280,7 +310,7 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
                 r = sq_vtk_write_fields(o->ctx, &fd, fs, nfs);
                 if (r != SQ_OK) unstage_last(o);
             }
-            if (r == SQ_OK) r = note_vti(o, grp, path, time_s);
+            if (r == SQ_OK) r = note_vti(o, g, tag, path, time_s);
         }
     }
     /* 2D maps in metres (snow depth, deposit depth) also as 16-bit PNG, 1 mm per unit, row 0 =
@@ -324,10 +354,10 @@ sq_result sq__run_outputs_commit(sq__run_outputs *o)
         free(e->final);
         memmove(o->staged, o->staged + 1, sizeof *o->staged * (size_t)(--o->staged_count));
     }
-    for (int grp = 0; grp < 2; grp++) {
+    for (int grp = 0; grp < SQ_RUN_FIELD_GROUPS; grp++) {
         if (!o->vti_count[grp]) continue;
         char pvd[PATH_MAX_RUN];
-        snprintf(pvd, sizeof pvd, "%s%s.pvd", o->fields, grp ? "_maps" : "");
+        snprintf(pvd, sizeof pvd, "%s%s.pvd", o->fields, o->vti_tag[grp]);
         sq_result r = sq_vtk_write_series(o->ctx, pvd, (const char *const *)o->vti[grp],
                                           o->vti_t[grp], o->vti_count[grp], o->overwrite);
         if (r != SQ_OK) return r;
@@ -400,7 +430,7 @@ void sq__run_outputs_free(sq__run_outputs *o)
     free(o->staged);
     o->staged = NULL;
     o->staged_count = o->staged_cap = 0;
-    for (int grp = 0; grp < 2; grp++) {
+    for (int grp = 0; grp < SQ_RUN_FIELD_GROUPS; grp++) {
         for (int i = 0; i < o->vti_count[grp]; i++) free(o->vti[grp][i]);
         free(o->vti[grp]);
         free(o->vti_t[grp]);

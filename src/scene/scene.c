@@ -1100,10 +1100,13 @@ sq_camera sq_scene_camera(sq_scene *s)
 
 int sq_scene_drawables(sq_scene *s, sq_drawable *out, int max)
 {
-    int n = 0;
-    for (int i = 0; i < s->layer_count && n < max; i++)
-        n += sq_phenomenon_drawables(s->layers[i].ph, out + n, max - n);
-    return n;
+    int n = 0, first[MAX_LAYERS + 1];
+    for (int i = 0; i < s->layer_count; i++) {
+        first[i] = n;
+        if (n < max) n += sq_phenomenon_drawables(s->layers[i].ph, out + n, max - n);
+    }
+    first[s->layer_count] = n;
+    return sq__scene_couple_drawables(s, out, first);
 }
 
 int sq_scene_metrics(sq_scene *s, sq_metric *out, int max)

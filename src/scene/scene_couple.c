@@ -1,8 +1,13 @@
-/* scene_couple.c — what one layer of a scene reads from another, one rule each, applied before
- * the reading layer steps:
- *   - snowcover <- snowdrift: the snowdrift's deposited depth replaces the snow cover's model
- *     depth where its lattice lies, and the flakes fall in the lattice's wind there (issue 11,
- *     SPEC §6 with §5). */
+/* scene_couple.c — what one layer of a scene reads from another, one rule each:
+ *   - snowcover <- snowdrift (before the snow cover steps): the snowdrift's deposited depth
+ *     replaces the snow cover's model depth where its lattice lies, and the flakes fall in the
+ *     lattice's wind there (issue 11, SPEC §6 with §5);
+ *   - what is drawn when a scene has both: one snow surface and one snowfall. The snow cover
+ *     draws the drift's depth on every surface (terrain, roofs, obstacles, meshes) through its
+ *     occlusion map, so the snowdrift's own drift heightfield is left out (drawn as well, it is a
+ *     second surface over the cover's shell, and where it meets a house it climbs the walls);
+ *     the cover's flakes fall around the camera in the lattice wind, so the snowdrift's drawn
+ *     flakes are left out when the cover draws flakes. */
 #include <string.h>
 
 #include "scene/scene_internal.h"
@@ -38,4 +43,29 @@ void sq__scene_couple(sq_scene *s, int layer)
 #else
     (void)s, (void)layer;
 #endif
+}
+
+/* Layer l drew out[first[l] .. first[l + 1] - 1]; out is compacted in place. */
+int sq__scene_couple_drawables(sq_scene *s, sq_drawable *out, const int *first)
+{
+    const int layers = sq_scene_layer_count(s);
+    bool cover_surface = false, cover_flakes = false;
+    for (int l = 0; l < layers; l++) {
+        if (strcmp(sq_scene_layer_type(s, l), "snowcover") != 0) continue;
+        for (int i = first[l]; i < first[l + 1]; i++) {
+            cover_surface |= out[i].kind == SQ_DRAWABLE_SNOW_COVER;
+            cover_flakes |= out[i].kind == SQ_DRAWABLE_PARTICLES;
+        }
+    }
+    int m = 0;
+    for (int l = 0; l < layers; l++) {
+        const bool drift = strcmp(sq_scene_layer_type(s, l), "snowdrift") == 0;
+        for (int i = first[l]; i < first[l + 1]; i++) {
+            if (drift && ((cover_surface && out[i].kind == SQ_DRAWABLE_SURFACE) ||
+                          (cover_flakes && out[i].kind == SQ_DRAWABLE_PARTICLES)))
+                continue;
+            out[m++] = out[i];
+        }
+    }
+    return m;
 }

@@ -119,6 +119,9 @@ bool sq__parse_u64(const char *text, uint64_t *out);
  * prefixed "layers.LAYER: " unless it names the layer. Returns r. */
 /* Hands layer `layer` what it reads from the scene's other layers (scene_couple.c). */
 void sq__scene_couple(sq_scene *s, int layer);
+/* Leaves out of a frame's drawables (layer l drew out[first[l] .. first[l + 1] - 1]) what another
+ * layer draws in its place (scene_couple.c); returns the count left, out compacted in place. */
+int sq__scene_couple_drawables(sq_scene *s, sq_drawable *out, const int *first);
 
 sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char *layer_name,
                                     sq_result r);

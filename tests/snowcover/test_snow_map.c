@@ -6,49 +6,30 @@
  *   - the frustum footprint: the region holds every ground point of the view nearer than D_snow;
  *   - inclination: max(0, N·up) without noise, mean-preserving with noise;
  *   - the snow shell on a closed cube with split (sharp-crease) normals stays watertight, where
- *     S2's per-vertex normal displacement cracks it. */
+ *     S2's per-vertex normal displacement cracks it;
+ *   - the shell's shading normal over a drift (a depth that varies) is the normal of the surface
+ *     z = h(x, y) + depth(x, y), from its plane equation, for slopes up to 60 degrees. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "render/snow_map.h"
+#include "snow_fixtures.h"
 #include "sq_test.h"
 #include "squall/world.h"
 
 SQ_LABEL(physics)
 
-static sq_context *make_ctx(void)
-{
-    sq_context *ctx = NULL;
-    sq_context_desc cd;
-    memset(&cd, 0, sizeof cd);
-    cd.threads = 1;
-    if (sq_context_create(&cd, &ctx) != SQ_OK) exit(1);
-    return ctx;
-}
-
 /* Flat ground at z = 0 with one box obstacle 10 x 6 m, 4 m high, centred at (0, 0). */
 static sq_world *box_world(sq_context *ctx)
 {
-    sq_world_desc d;
-    memset(&d, 0, sizeof d);
-    d.terrain.kind = SQ_TERRAIN_FLAT;
-    d.terrain.size_m[0] = d.terrain.size_m[1] = 200.0f;
-    d.terrain.resolution[0] = d.terrain.resolution[1] = 17;
     sq_obstacle box;
     memset(&box, 0, sizeof box);
     box.kind = SQ_OBSTACLE_BOX;
     box.center_m = sq_v3(0.0f, 0.0f, 0.0f);
     box.size_m = sq_v3(10.0f, 6.0f, 4.0f);
-    d.obstacles = &box;
-    d.obstacle_count = 1;
-    sq_world *w = NULL;
-    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
-        fprintf(stderr, "world: %s\n", sq_last_error());
-        exit(1);
-    }
-    return w;
+    return snow_test_world(ctx, 200.0f, &box);
 }
 
 static sq_camera looking_at_box(float x, float y)
@@ -64,7 +45,7 @@ static sq_camera looking_at_box(float x, float y)
 
 SQ_TEST(plane_under_box)
 {
-    sq_context *ctx = make_ctx();
+    sq_context *ctx = snow_test_ctx();
     sq_world *w = box_world(ctx);
     const sq_camera cam = looking_at_box(0.0f, 0.0f);
     const int size = 256;
@@ -109,7 +90,7 @@ SQ_TEST(plane_under_box)
 
 SQ_TEST(no_shimmer)
 {
-    sq_context *ctx = make_ctx();
+    sq_context *ctx = snow_test_ctx();
     sq_world *w = box_world(ctx);
     const int size = 256;
     const sq_camera c0 = looking_at_box(0.0f, 0.0f);
@@ -222,6 +203,30 @@ SQ_TEST(inclination)
     }
 }
 
+SQ_TEST(shell_normal_over_a_drift)
+{
+    /* planes z = b x + c y under depth ramps a1 x + a2 y: the shell is the plane z = (b + a1) x
+     * + (c + a2) y; its normal from two of its edge vectors */
+    const float planes[][2] = {{0, 0}, {0.5f, 0}, {0, -1.2f}, {0.8f, 0.9f}, {-1.5f, 0.3f}};
+    const float ramps[][2] = {{0, 0}, {0.3f, 0}, {-0.6f, 0.2f}, {0.05f, -0.4f}};
+    for (size_t i = 0; i < sizeof planes / sizeof planes[0]; i++)
+        for (size_t k = 0; k < sizeof ramps / sizeof ramps[0]; k++) {
+            const float b = planes[i][0], c = planes[i][1], a1 = ramps[k][0], a2 = ramps[k][1];
+            const sq_vec3 n = sq_v3_norm(sq_v3_cross(sq_v3(1, 0, b), sq_v3(0, 1, c)));
+            if (n.z < 0.5f) continue; /* steeper than 60 degrees: the shell thins there */
+            const sq_vec3 want =
+                sq_v3_norm(sq_v3_cross(sq_v3(1, 0, b + a1), sq_v3(0, 1, c + a2)));
+            const sq_vec3 got = sq__snow_shell_normal(n, a1, a2);
+            SQ_CHECK_MSG(sq_v3_len(sq_v3_sub(got, want)) < 1e-5f,
+                         "plane (%g, %g), ramp (%g, %g): (%g %g %g) vs (%g %g %g)", b, c, a1, a2,
+                         got.x, got.y, got.z, want.x, want.y, want.z);
+        }
+    /* walls and overhangs carry no shell: their normal stays */
+    const sq_vec3 wall = sq_v3(1, 0, 0), under = sq_v3(0, 0, -1);
+    SQ_CHECK(sq_v3_len(sq_v3_sub(sq__snow_shell_normal(wall, 0.7f, 0.2f), wall)) == 0.0f);
+    SQ_CHECK(sq_v3_len(sq_v3_sub(sq__snow_shell_normal(under, 0.7f, 0.2f), under)) == 0.0f);
+}
+
 /* Cube [-1, 1]^3 with split normals: 24 vertices, 4 per face, 12 triangles. */
 static void split_cube(float pos[72], float nrm[72], unsigned idx[36])
 {
@@ -267,7 +272,7 @@ static int open_edges(const float *p, const unsigned *idx, int tris)
 
 SQ_TEST(shell_watertight)
 {
-    sq_context *ctx = make_ctx();
+    sq_context *ctx = snow_test_ctx();
     float pos[72], nrm[72], sm[72], moved[72], naive[72];
     unsigned idx[36];
     split_cube(pos, nrm, idx);

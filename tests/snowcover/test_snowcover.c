@@ -5,45 +5,28 @@
  *     dv/dt = k (w + v_t - v), k = g / v_t, for any step length; the noise's stationary
  *     standard deviation is the requested one for two different steps (scaled by √Δt);
  *   - the pool recycles: flakes never end below the ground, the count stays;
- *   - the drawn layers: hidden nearer than near_m, sizes from S2 eq 2.4. */
+ *   - the drawn layers: hidden nearer than near_m, sizes from S2 eq 2.4;
+ *   - with a snowdrift layer: its depth and wind are read (blended into the model's depth at
+ *     its edge), and the scene draws one snow surface and one snowfall. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "phen/snowcover/snowcover_internal.h"
+#include "snow_fixtures.h"
 #include "sq_test.h"
 #include "squall/snowcover.h"
+#include "squall/io.h"
+#include "squall/scene.h"
 #include "squall/world.h"
 
 SQ_LABEL(physics)
 
-static sq_context *make_ctx(void)
-{
-    sq_context *ctx = NULL;
-    sq_context_desc cd;
-    memset(&cd, 0, sizeof cd);
-    cd.threads = 1;
-    if (sq_context_create(&cd, &ctx) != SQ_OK) exit(1);
-    return ctx;
-}
-
-static sq_world *flat_world(sq_context *ctx)
-{
-    sq_world_desc d;
-    memset(&d, 0, sizeof d);
-    d.terrain.kind = SQ_TERRAIN_FLAT;
-    d.terrain.size_m[0] = d.terrain.size_m[1] = 400.0f;
-    d.terrain.resolution[0] = d.terrain.resolution[1] = 17;
-    sq_world *w = NULL;
-    if (sq_world_create(ctx, &d, &w) != SQ_OK) exit(1);
-    return w;
-}
-
 SQ_TEST(depth_flat_ground)
 {
-    sq_context *ctx = make_ctx();
-    sq_world *w = flat_world(ctx);
+    sq_context *ctx = snow_test_ctx();
+    sq_world *w = snow_test_world(ctx, 400.0f, NULL);
     sq_snowcover_desc d;
     memset(&d, 0, sizeof d);
     d.snowfall_mmh = 2.0;
@@ -184,8 +167,8 @@ static double velocity_std(sq_context *ctx, const sq_world *w, double dt, int *b
 
 SQ_TEST(noise_and_recycling)
 {
-    sq_context *ctx = make_ctx();
-    sq_world *w = flat_world(ctx);
+    sq_context *ctx = snow_test_ctx();
+    sq_world *w = snow_test_world(ctx, 400.0f, NULL);
     int below = 0, count = 0;
     const double s1 = velocity_std(ctx, w, 0.01, &below, &count);
     SQ_CHECK(below == 0 && count == 20000);
@@ -202,8 +185,8 @@ SQ_TEST(noise_and_recycling)
  * grid, and flakes inside its lattice relax to its wind (none in its solid cells). */
 SQ_TEST(inputs_from_snowdrift)
 {
-    sq_context *ctx = make_ctx();
-    sq_world *w = flat_world(ctx);
+    sq_context *ctx = snow_test_ctx();
+    sq_world *w = snow_test_world(ctx, 400.0f, NULL);
     sq_snowcover_desc d;
     memset(&d, 0, sizeof d);
     d.snowfall_mmh = 1.0;
@@ -234,21 +217,29 @@ SQ_TEST(inputs_from_snowdrift)
     sq_named_field f;
     SQ_CHECK(sq__snowcover_fields(s, &f, 1) == 1);
     const double model = 1e-3 / 60.0 * 1000.0 / 100.0; /* 1 mm/h for a minute */
-    int inside = 0, outside = 0, in_ok = 0, out_ok = 0;
+    /* the drift's depth beyond the blend band (a quarter of its 40 m side: 10 m inside its
+     * edge), the model's outside it, strictly between the two in the band */
+    int inside = 0, outside = 0, band = 0, in_ok = 0, out_ok = 0, band_ok = 0;
     for (int j = 0; j < f.ny; j++)
         for (int i = 0; i < f.nx; i++) {
             const double x = f.origin_m.x + i * f.spacing_m.x, y = f.origin_m.y + j * f.spacing_m.y;
+            const double r = fmax(fabs(x), fabs(y));
             const float val = f.data[(size_t)j * (size_t)f.nx + (size_t)i];
-            if (fabs(x) < 19.0 && fabs(y) < 19.0) {
+            if (r < 9.5) {
                 inside++;
                 in_ok += val == 0.5f;
-            } else if (fabs(x) > 21.0 || fabs(y) > 21.0) {
+            } else if (r > 10.5 && r < 19.5) {
+                band++;
+                band_ok += val > model && val < 0.5f;
+            } else if (r > 21.0) {
                 outside++;
                 out_ok += fabs(val - model) < 1e-6 * model + 1e-9;
             }
         }
     SQ_CHECK_MSG(inside > 0 && in_ok == inside, "%d of %d cells in the drift take its depth", in_ok,
                  inside);
+    SQ_CHECK_MSG(band > 0 && band_ok == band, "%d of %d cells of the band blend the two", band_ok,
+                 band);
     SQ_CHECK_MSG(outside > 0 && out_ok == outside, "%d of %d cells outside keep the model's", out_ok,
                  outside);
     /* wind: a flake in the lattice relaxes to (0, -4, 0), one outside to (1, 0, 0) */
@@ -276,4 +267,74 @@ SQ_TEST(inputs_from_snowdrift)
     sq_snowcover_destroy(s);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
+}
+
+/* One snow surface and one snowfall when a scene has both layers (src/scene/scene_couple.c):
+ * the cover draws the drift's depth, so the snowdrift's heightfield is left out, and the
+ * cover's flakes replace the snowdrift's drawn ones only when the cover has flakes. */
+static void count_drawn(const char *cover, int *surfaces, int *covers, int *flake_counts,
+                        int *particles)
+{
+    char text[2048];
+    snprintf(text, sizeof text,
+             "name: t\n"
+             "world:\n"
+             "  terrain: {kind: flat, material: snow, size_m: [120, 120], resolution: [31, 31]}\n"
+             "  obstacles:\n"
+             "    - {kind: house, center: [0, 0], size: [8, 6, 4], roof_m: 2}\n"
+             "camera:\n"
+             "  path:\n"
+             "    - {t: 0, position: [-30, -30, 10], target: [0, 0, 2]}\n"
+             "layers:\n"
+             "  - type: snowdrift\n"
+             "    name: drift\n"
+             "    domain: {nx: 32, ny: 32, nz: 16, cell_size_m: 1}\n"
+             "    wind: {speed_mps: 5}\n"
+             "    snow: {snowfall_mmh: 4, speedup: 1000}\n"
+             "    draw: {flakes: 700}\n"
+             "%s",
+             cover);
+    sq_context *ctx = snow_test_ctx();
+    sq_cfg *cfg = NULL;
+    SQ_CHECK(sq_cfg_parse(ctx, text, strlen(text), "t.yaml", &cfg) == SQ_OK);
+    sq_scene_desc d = {.cfg = cfg};
+    sq_scene *s = NULL;
+    SQ_CHECK(sq_scene_create(ctx, &d, &s) == SQ_OK);
+    (void)sq_scene_camera(s);
+    for (int k = 0; k < 3; k++) SQ_CHECK(sq_scene_step(s, 0.05) == SQ_OK);
+    (void)sq_scene_camera(s);
+    sq_drawable dr[16];
+    const int n = sq_scene_drawables(s, dr, 16);
+    *surfaces = *covers = *particles = 0;
+    for (int i = 0; i < n; i++) {
+        *surfaces += dr[i].kind == SQ_DRAWABLE_SURFACE;
+        *covers += dr[i].kind == SQ_DRAWABLE_SNOW_COVER;
+        if (dr[i].kind == SQ_DRAWABLE_PARTICLES) flake_counts[(*particles)++] = dr[i].u.particles.count;
+    }
+    sq_scene_destroy(s);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(drawn_once_with_snowdrift)
+{
+    int surf, cov, part, counts[16];
+    count_drawn("", &surf, &cov, counts, &part);
+    SQ_CHECK_MSG(surf == 1 && cov == 0 && part == 1 && counts[0] == 700,
+                 "snowdrift alone: %d surfaces, %d covers, %d flake sets", surf, cov, part);
+    const char *cover_flakes = "  - type: snowcover\n"
+                               "    name: cover\n"
+                               "    snowfall: {rate_mmh: 4, speedup: 1000}\n"
+                               "    flakes: {count: 500}\n";
+    count_drawn(cover_flakes, &surf, &cov, counts, &part);
+    SQ_CHECK_MSG(surf == 0 && cov == 1 && part == 1 && counts[0] == 500,
+                 "with a cover with flakes: %d surfaces, %d covers, %d flake sets (first %d)",
+                 surf, cov, part, part > 0 ? counts[0] : -1);
+    /* no snowfall of its own: the cover still draws the drift's depth */
+    const char *cover_only = "  - type: snowcover\n"
+                             "    name: cover\n";
+    count_drawn(cover_only, &surf, &cov, counts, &part);
+    SQ_CHECK_MSG(surf == 0 && cov == 1 && part == 1 && counts[0] == 700,
+                 "with a cover without flakes or snowfall: %d surfaces, %d covers, %d flake sets",
+                 surf, cov, part);
 }

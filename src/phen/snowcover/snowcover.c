@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "phen/snowflakes.h"
 #include "snowcover_internal.h"
 
 sq_result sq_snowcover_create(sq_context *ctx, const sq_snowcover_desc *desc,
@@ -24,20 +25,20 @@ sq_result sq_snowcover_create(sq_context *ctx, const sq_snowcover_desc *desc,
     s->depth = sq_alloc(ctx, cells * sizeof(float));
     s->nflakes = s->d.flakes;
     const size_t nf = (size_t)(s->nflakes > 0 ? s->nflakes : 1);
-    s->pos = sq_alloc(ctx, 3 * nf * sizeof(float));
-    s->vel = sq_alloc(ctx, 3 * nf * sizeof(float));
-    s->birth = sq_alloc(ctx, 2 * nf * sizeof(float));
-    s->rot = sq_alloc(ctx, nf * sizeof(float));
-    s->spin = sq_alloc(ctx, nf * sizeof(float));
-    s->radius = sq_alloc(ctx, nf * sizeof(float));
-    s->fade = sq_alloc(ctx, nf * sizeof(float));
-    if (!s->depth || !s->pos || !s->vel || !s->birth || !s->rot || !s->spin || !s->radius ||
-        !s->fade) {
+    s->pool = sq_alloc(ctx, SQ__SNOWCOVER_FLAKE_FLOATS * nf * sizeof(float));
+    if (!s->depth || !s->pool) {
         sq_snowcover_destroy(s);
         return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "snowcover",
                         "out of memory for a %dx%d snow grid and %d flakes", s->nx, s->ny,
                         s->nflakes);
     }
+    s->pos = s->pool;
+    s->vel = s->pos + 3 * nf;
+    s->birth = s->vel + 3 * nf;
+    s->rot = s->birth + 2 * nf;
+    s->spin = s->rot + nf;
+    s->radius = s->spin + nf;
+    s->fade = s->radius + nf;
     s->water_m = s->d.snowfall_mmh * 1e-3 * s->d.prior_h;
     const float d0 = (float)sq_snowcover_depth_m(s);
     for (size_t i = 0; i < cells; i++) s->depth[i] = d0;
@@ -52,13 +53,7 @@ void sq_snowcover_destroy(sq_snowcover *s)
     if (!s) return;
     sq_context *ctx = s->ctx;
     sq_free(ctx, s->depth);
-    sq_free(ctx, s->pos);
-    sq_free(ctx, s->vel);
-    sq_free(ctx, s->birth);
-    sq_free(ctx, s->rot);
-    sq_free(ctx, s->spin);
-    sq_free(ctx, s->radius);
-    sq_free(ctx, s->fade);
+    sq_free(ctx, s->pool);
     sq_free(ctx, s);
 }
 
@@ -73,9 +68,20 @@ double sq_snowcover_depth_m(const sq_snowcover *s)
     return s->water_m * SQ_SNOWCOVER_RHO_WATER / s->d.density_kgm3;
 }
 
+/* Width of the band inside another layer's depth input over which its depth blends into this
+ * model's (no seam at the input's edge): 8 of its cells, at most a quarter of its narrower side. */
+static double input_fade_m(const sq_named_field *in)
+{
+    const double dx = (double)in->spacing_m.x, dy = (double)in->spacing_m.y;
+    const double narrow = fmin(in->nx * dx, in->ny * dy);
+    return fmin(8.0 * fmax(dx, dy), 0.25 * narrow);
+}
+
 /* Depth where f_p > 0: every column's highest surface is exposed to the sky (the occlusion map
  * decides, per point, what lies below it), so the snowfall adds rate × Δt × ρ_water / ρ_snow of
- * depth to every cell of the grid; the renderer scales it by f_e per point. */
+ * depth to every cell of the grid; the renderer scales it by f_e per point. Where another
+ * layer's depth covers the cell (the snowdrift's drifts) that depth is the depth, blended into
+ * the model's with a smoothstep over input_fade_m inside the input's edge. */
 static void accumulate(sq_snowcover *s, double dt_s)
 {
     const double dw = s->d.snowfall_mmh * 1e-3 / 3600.0 * dt_s * s->d.speedup;
@@ -83,6 +89,7 @@ static void accumulate(sq_snowcover *s, double dt_s)
     if (dw > 0.0) s->water_m += dw;
     const float d = (float)sq_snowcover_depth_m(s);
     const sq_named_field *in = s->has_depth_in ? &s->depth_in : NULL;
+    const double fade = in ? input_fade_m(in) : 0.0;
     for (int j = 0; j < s->ny; j++)
         for (int i = 0; i < s->nx; i++) {
             float v = d;
@@ -94,7 +101,10 @@ static void accumulate(sq_snowcover *s, double dt_s)
                 const double fj = (y - (double)in->origin_m.y) / (double)in->spacing_m.y + 0.5;
                 if (fi >= 0.0 && fj >= 0.0 && fi < in->nx && fj < in->ny) {
                     const float q = in->data[(size_t)fj * (size_t)in->nx + (size_t)fi];
-                    if (isfinite(q)) v = q;
+                    const double edge = fmin(fmin(fi, in->nx - fi) * (double)in->spacing_m.x,
+                                             fmin(fj, in->ny - fj) * (double)in->spacing_m.y);
+                    const double e = fade > 0.0 ? fmin(1.0, edge / fade) : 1.0;
+                    if (isfinite(q)) v = d + (float)(e * e * (3.0 - 2.0 * e)) * (q - d);
                 }
             }
             s->depth[(size_t)j * (size_t)s->nx + (size_t)i] = v;
@@ -173,7 +183,7 @@ int sq__snowcover_drawables(sq_snowcover *s, sq_drawable *out, int max)
 {
     int n = 0;
     const sq_snowcover_desc *d = &s->d;
-    if (n < max && sq_snowcover_depth_m(s) > 0.0) {
+    if (n < max && (sq_snowcover_depth_m(s) > 0.0 || s->has_depth_in)) {
         sq_drawable *dr = &out[n++];
         memset(dr, 0, sizeof *dr);
         dr->kind = SQ_DRAWABLE_SNOW_COVER;
@@ -204,26 +214,8 @@ int sq__snowcover_drawables(sq_snowcover *s, sq_drawable *out, int max)
         const double t0 = sq_time_now();
         sq__snowcover_flakes_size(s);
         s->ms_flakes += 1e3 * (sq_time_now() - t0);
-        sq_drawable *dr = &out[n++];
-        memset(dr, 0, sizeof *dr);
-        dr->kind = SQ_DRAWABLE_PARTICLES;
-        dr->name = "snowfall";
-        sq_particles_view *p = &dr->u.particles;
-        p->count = s->nflakes;
-        p->position = s->pos;
-        p->rotation_rad = s->rot;
-        p->radius_m = s->radius;
-        p->fade = s->fade;
-        p->radius_default_m = 0.005f;
-        p->tau_default = 2.0f;
-        for (int c = 0; c < 3; c++) {
-            p->sigma_rel[c] = 1.0f;
-            p->albedo[c] = 0.95f;
-        }
-        p->g = 0.5f;
-        p->sprite = SQ_SPRITE_FLAKE6;
-        p->softness_m = 0.1f;
-        p->version = s->flake_step;
+        sq__snowflakes_drawable(&out[n++], s->nflakes, s->pos, s->rot, s->radius, s->fade, 0.005f,
+                                0.1f, s->flake_step);
     }
     return n;
 }

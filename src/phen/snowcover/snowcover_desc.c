@@ -112,6 +112,7 @@ uint64_t sq_snowcover_memory_bytes(const sq_snowcover_desc *in, const sq_world *
     int nx, ny;
     double origin[2], cell;
     sq__snowcover_grid(&d, w, &nx, &ny, origin, &cell);
+    const uint64_t flakes = (uint64_t)(d.flakes > 0 ? d.flakes : 0);
     return (uint64_t)nx * (uint64_t)ny * sizeof(float) +
-           (uint64_t)(d.flakes > 0 ? d.flakes : 0) * 14u * sizeof(float) + sizeof(sq_snowcover);
+           flakes * SQ__SNOWCOVER_FLAKE_FLOATS * sizeof(float) + sizeof(sq_snowcover);
 }

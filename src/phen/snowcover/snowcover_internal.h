@@ -9,6 +9,9 @@
 
 #define SQ_SNOWCOVER_G 9.80665 /* m/s², standard gravity */
 #define SQ_SNOWCOVER_RHO_WATER 1000.0 /* kg/m³ */
+/* floats per flake of the pool: position 3, velocity 3, birth offset 2, rotation, spin, radius,
+ * fade */
+#define SQ__SNOWCOVER_FLAKE_FLOATS 12
 
 struct sq_snowcover {
     sq_context *ctx;
@@ -24,6 +27,7 @@ struct sq_snowcover {
     uint64_t version;
     /* falling snow: pool of flakes */
     int nflakes;
+    float *pool;         /* one block holding the arrays below: SQ__SNOWCOVER_FLAKE_FLOATS each */
     float *pos, *vel;    /* 3 per flake, world metres, m/s */
     float *birth;        /* 2 per flake: horizontal offset from the emitter centre at birth */
     float *rot, *spin;   /* rad, rad/s */

@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "phen/snowflakes.h"
 #include "snowdrift_internal.h"
 #include "squall/par.h"
 #include "squall/rng.h"
@@ -666,31 +667,15 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
         v->version = s->version;
     }
     if (s->nflakes > 0 && n < max) {
-        sq_drawable *d = &out[n++];
-        memset(d, 0, sizeof *d);
-        d->kind = SQ_DRAWABLE_PARTICLES;
-        d->name = "snowfall";
-        sq_particles_view *p = &d->u.particles;
-        p->count = s->nflakes;
-        p->position = s->fpos;
-        p->rotation_rad = s->frot;
-        p->radius_default_m = (float)s->d.flake_radius_m;
-        if (s->have_camera) {
+        const bool sized = s->have_camera;
+        if (sized) {
             const double t0 = sq_time_now();
             size_flakes(s);
             s->ms_flakes += 1e3 * (sq_time_now() - t0);
-            p->radius_m = s->fradius;
-            p->fade = s->ffade;
         }
-        p->tau_default = 2.0f; /* opaque flakes */
-        for (int c = 0; c < 3; c++) {
-            p->sigma_rel[c] = 1.0f;
-            p->albedo[c] = 0.95f;
-        }
-        p->g = 0.5f;
-        p->sprite = SQ_SPRITE_FLAKE6;
-        p->softness_m = 0.0f;
-        p->version = s->version;
+        sq__snowflakes_drawable(&out[n++], s->nflakes, s->fpos, s->frot, sized ? s->fradius : NULL,
+                                sized ? s->ffade : NULL, (float)s->d.flake_radius_m, 0.0f,
+                                s->version);
     }
     return n;
 }

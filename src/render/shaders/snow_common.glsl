@@ -179,6 +179,20 @@ vec3 sq_snow_shell(vec3 p, vec3 ns)
     return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z) * w);
 }
 
+// Shading normal of the shell over a surface of unit normal n at p where the depth varies (a
+// drift): normalize(n - n.z w grad(depth)), w as in the shell (sq__snow_shell_normal); the
+// gradient by central differences one depth cell apart.
+vec3 sq_snow_shell_normal(vec3 p, vec3 n)
+{
+    float w = min(1.0, 2.0 * max(0.0, n.z));
+    if (!sq_snow_on() || w <= 0.0) return n;
+    vec2 h = 1.0 / u_snow_depth_grid.xy;
+    vec2 g = vec2(sq_snow_depth_at(p.xy + vec2(h.x, 0.0)) - sq_snow_depth_at(p.xy - vec2(h.x, 0.0)),
+                  sq_snow_depth_at(p.xy + vec2(0.0, h.y)) - sq_snow_depth_at(p.xy - vec2(0.0, h.y))) /
+             (2.0 * h);
+    return normalize(n - n.z * w * vec3(g, 0.0));
+}
+
 // Radiance of snow at p (unit normal n, view direction v toward the eye) under the sun E_sun
 // (already shadowed) and the sky: the physically based default or S2's Blinn-Phong (eq 2.7)
 // with the noise-perturbed normal.
