@@ -9,7 +9,8 @@ per case, as one JSON line:
   budget      the worst closure error over all frames, relative to the quantity's size:
               sandstorm  |suspended - (inflow + emitted - deposited - outflow)| / emitted+inflow
               snowdrift  |fallen - (airborne + deposited + left)| / fallen
-              avalanche  |mass_balance - 1| (SPH mass: particles are never created or lost)
+              avalanche  |mass_balance| = |particles + removed - released| / released (SPH
+                         mass: particles are never created or lost)
               clouds     |particles - particles at frame 1| / particles (structured particles
                          are recycled, never leaked)
   rss_mb      RSS at 10, 25, 50, 75 and 100 % of the run; growth_mb = end - 50 % value (the
@@ -81,7 +82,7 @@ def budget(name, rows):
             "snow_fallen_kg", "snow_airborne_kg", "snow_deposited_kg", "snow_left_kg"))
         return max(abs(f[k] - (a[k] + d[k] + l[k])) / f[k] for k in range(len(rows)) if f[k] > 0)
     if name == "avalanche":
-        return max(abs(m - 1.0) for m in column(rows, "slide.mass_balance"))
+        return max(abs(m) for m in column(rows, "slide.mass_balance"))
     p = column(rows, "clouds.particles")
     return max(abs(x - p[0]) / p[0] for x in p)
 

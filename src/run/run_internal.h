@@ -77,7 +77,7 @@ typedef struct sq__run_outputs {
     int metric_count;
     char names[SQ_RUN_MAX_METRICS][96];
     char units[SQ_RUN_MAX_METRICS][24];
-    double *values; /* frames x SQ_RUN_MAX_METRICS */
+    double *values; /* frames x metric_count */
     int rows, cap;
 } sq__run_outputs;
 

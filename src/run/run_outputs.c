@@ -175,16 +175,19 @@ sq_result sq__run_outputs_metrics(sq__run_outputs *o, int frame, double time_s,
             fprintf(o->metrics_file, "\n");
         }
     }
+    /* every row is kept for the summary's medians: metric_count doubles a frame (the columns
+     * of the first row), not the table's capacity, so a long run grows by 8 bytes per metric and
+     * frame (1.5 MB over 10 000 frames of a sandstorm's 19 metrics) */
+    const size_t stride = (size_t)(o->metric_count > 0 ? o->metric_count : 1);
     if (o->rows >= o->cap) {
         const int cap = o->cap ? o->cap * 2 : 256;
-        double *v = (double *)realloc(o->values, sizeof(double) * (size_t)cap * SQ_RUN_MAX_METRICS);
+        double *v = (double *)realloc(o->values, sizeof(double) * (size_t)cap * stride);
         if (!v) return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory for the metrics table");
         o->values = v;
         o->cap = cap;
     }
     for (int i = 0; i < o->metric_count; i++)
-        o->values[(size_t)o->rows * SQ_RUN_MAX_METRICS + (size_t)i] =
-            i < n ? m[i].value : (double)NAN;
+        o->values[(size_t)o->rows * stride + (size_t)i] = i < n ? m[i].value : (double)NAN;
     o->rows++;
     if (o->metrics_file) {
         errno = 0;
@@ -458,14 +461,15 @@ sq_result sq__run_metric_stats(const sq__run_outputs *o, int i, sq_run_metric_st
     if (!col) return sq__set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory for metric statistics");
     int n = 0;
     double sum = 0.0;
+    const size_t stride = (size_t)o->metric_count;
     for (int f = 0; f < o->rows; f++) {
-        const double v = o->values[(size_t)f * SQ_RUN_MAX_METRICS + (size_t)i];
+        const double v = o->values[(size_t)f * stride + (size_t)i];
         if (isfinite(v)) {
             col[n++] = v;
             sum += v;
         }
     }
-    if (o->rows > 0) out->last = o->values[(size_t)(o->rows - 1) * SQ_RUN_MAX_METRICS + (size_t)i];
+    if (o->rows > 0) out->last = o->values[(size_t)(o->rows - 1) * stride + (size_t)i];
     out->count = n;
     if (n > 0) {
         qsort(col, (size_t)n, sizeof(double), cmp_d);

@@ -924,10 +924,10 @@ SQ_TEST(eddy_scalars_bad_input)
     sq_grid_desc d = {.cells = {4, 4, 4}, .cell_size_m = 1.0, .scalar_count = 1};
     sq_grid *g = make_grid(ctx, &d);
     SQ_CHECK_ERR(sq_grid_set_eddy_scalars(g, 0.0, -1, 9.81), SQ_ERR_INVALID_ARG,
-                 "turbulent Prandtl number = 0");
+                 "prandtl_t = 0 (turbulent Prandtl number)");
     SQ_CHECK_ERR(sq_grid_set_eddy_scalars(g, 0.74, 1, 9.81), SQ_ERR_INVALID_ARG,
                  "theta_idx = 1");
-    SQ_CHECK_ERR(sq_grid_set_eddy_scalars(g, 0.74, 0, 0.0), SQ_ERR_INVALID_ARG, "gravity = 0");
+    SQ_CHECK_ERR(sq_grid_set_eddy_scalars(g, 0.74, 0, 0.0), SQ_ERR_INVALID_ARG, "gravity_mps2 = 0");
     SQ_CHECK_OK(sq_grid_set_eddy_scalars(g, 0.74, -1, 0.0));
     sq_grid_destroy(g);
     sq_context_destroy(ctx);

@@ -316,8 +316,9 @@ static void molecular(sq_grid *g, float nu_mol, float s, bool implicit)
  * a = dt K_link / h^2 with K_link the mean of the link's two cells. Links exist only between
  * two fluid cells of the column: no flux through the ground, solids or the column's ends, so
  * the column sum is conserved (to round-off), and the M-matrix keeps c within its old range.
- * nu: eddy viscosity per cell (cell layout); ahi, cp, dp: scratch in the cell layout. */
-static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, float *ahi,
+ * nu: eddy viscosity per cell (cell layout; overwritten); ahi, cp, dp: scratch in the cell
+ * layout. */
+static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *ahi,
                                       float *cp, float *dp)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
@@ -337,6 +338,23 @@ static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, f
                 ahi[c + i] = sq__fselm(open, 0.5f * s_pr * (nu[c + i] + nu[c + i + sz]), 0.0f);
             }
         }
+    /* the elimination's coefficients are the same for every scalar: cp and 1/den once (iden
+     * overwrites nu, which is no longer needed) */
+    float *iden = (float *)nu;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++)
+        for (int k = 0; k < nz; k++) {
+            const ptrdiff_t c = sq__cidx(g, 0, j, k);
+            const int32_t bottom = -(int32_t)(k == 0);
+            for (int i = 0; i < nx; i++) {
+                const float alo = sq__fselm(bottom, 0.0f, ahi[c + i - sz]);
+                const float ah = ahi[c + i];
+                const float cprev = sq__fselm(bottom, 0.0f, cp[c + i - sz]);
+                const float inv = 1.0f / (1.0f + alo + ah + alo * cprev); /* cp <= 0 */
+                cp[c + i] = -ah * inv;
+                iden[c + i] = inv;
+            }
+        }
     for (int sidx = 0; sidx < g->d.scalar_count; sidx++) {
         float *f = g->scalar[sidx].base;
         SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -347,14 +365,11 @@ static void scalars_vertical_implicit(sq_grid *g, const float *nu, float s_pr, f
                 for (int i = 0; i < nx; i++) {
                     const float alo = sq__fselm(bottom, 0.0f, ahi[c + i - sz]);
                     const float ah = ahi[c + i];
-                    const float cprev = sq__fselm(bottom, 0.0f, cp[c + i - sz]);
                     const float dprev = sq__fselm(bottom, 0.0f, dp[c + i - sz]);
-                    const float den = 1.0f + alo + ah + alo * cprev; /* cp <= 0 */
                     /* in increments: (1 - a L) dc = a L c, so that a uniform field stays
                      * bit-exact (no round-off anomalies for the buoyancy to amplify) */
                     const float rhs = alo * (f[c + i - sz] - f[c + i]) + ah * (f[c + i + sz] - f[c + i]);
-                    cp[c + i] = -ah / den;
-                    dp[c + i] = (rhs + alo * dprev) / den;
+                    dp[c + i] = (rhs + alo * dprev) * iden[c + i];
                 }
             }
             for (int k = nz - 2; k >= 0; k--) { /* back substitution of the increments */
@@ -378,7 +393,7 @@ sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
         return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_set_eddy_scalars: grid is NULL");
     if (!(prandtl_t >= 0.1 && prandtl_t <= 10.0))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "turbulent Prandtl number = %g; must be in [0.1, 10] (neutral: 0.74)",
+                        "prandtl_t = %g (turbulent Prandtl number); must be in [0.1, 10] (neutral: 0.74)",
                         prandtl_t);
     if (theta_idx < -1 || theta_idx >= g->d.scalar_count)
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
@@ -386,7 +401,7 @@ sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
                         theta_idx, g->d.scalar_count - 1, g->d.scalar_count);
     if (theta_idx >= 0 && !(gravity_mps2 > 0.0 && isfinite(gravity_mps2)))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
-                        "gravity = %g m/s^2; must be > 0 with a stratification scalar",
+                        "gravity_mps2 = %g; must be > 0 with a stratification scalar",
                         gravity_mps2);
     g->eddy_scalars = true;
     g->eddy_prandtl = (float)prandtl_t;
