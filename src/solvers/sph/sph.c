@@ -121,6 +121,7 @@ sq_result sq_sph_create(sq_context *ctx, const sq_sph_desc *desc, sq_sph **out)
     s->d = d;
     s->nt = sq_context_threads(ctx);
     if (s->nt < 1) s->nt = 1;
+    s->avx512 = sq__sph_uses_avx512();
 
     sq__sph_kern_init(&s->k, (float)d.support_radius_m, d.kernel == SQ_SPH_KERNEL_CUBIC);
     sq__sph_rheo_init(&s->rheo, &d.rheology);

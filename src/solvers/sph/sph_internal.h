@@ -191,6 +191,7 @@ struct sq_sph {
     sq_context *ctx;
     sq_sph_desc d;            /* resolved */
     int nt;                   /* threads */
+    int avx512;               /* the passes run the AVX-512 loops (sq__sph_uses_avx512) */
 
     /* constants (internal units = SI, float) */
     sq__sph_kern k;
@@ -296,6 +297,9 @@ size_t sq__sph_sort(sq_sph *s);
 /* Neighbour lists (plain then mirror images), density with self term, pressure.
  * Returns the largest neighbour count seen (may exceed nb_cap: then redo with a larger list). */
 int sq__sph_pass_density(sq_sph *s);
+/* Whether the passes run the AVX-512 loops: compiled in (-march=native on such a CPU), or chosen
+ * at run time in a portable build when the CPU is x86-64-v4 and SQ_SPH_ISA is not "portable". */
+int sq__sph_uses_avx512(void);
 /* Correction matrices, velocity gradient, |γ̇|, μ and τ. Returns max μ. */
 float sq__sph_pass_strain(sq_sph *s);
 /* Accelerations (pressure, viscosity/stress, body force) and the XSPH term. Returns max |a|. */

@@ -19,8 +19,18 @@
  * strain and forces read the j-side data from one packed 32-byte record per particle (rec,
  * written by the density pass) with row loads and transposes. Same per-pair arithmetic; only
  * the order of the sums over neighbours differs from the portable loops. */
+#include <stdlib.h>
 #include <string.h>
 
+/* Runtime dispatch (a portable build, SQ_NATIVE=OFF, on x86-64 with GCC: SQ_SPH_DISPATCH): this
+ * file is compiled a second time for x86-64-v4 (sph_passes_v4.c) with the three passes renamed
+ * (*_v4) and without the functions that are not per-pair loops; the portable passes call the
+ * *_v4 ones when the CPU has AVX-512 (sq__sph_isa_v4). */
+#if defined(SQ__SPH_VARIANT_V4)
+#define sq__sph_pass_density sq__sph_pass_density_v4
+#define sq__sph_pass_strain sq__sph_pass_strain_v4
+#define sq__sph_pass_forces sq__sph_pass_forces_v4
+#endif
 #include "solvers/sph/sph_internal.h"
 
 /* The hot block functions are compiled twice on x86-64 Linux (AVX2 and baseline) and the
@@ -40,7 +50,8 @@
 #define SQ__INLINE static inline
 #endif
 
-/* With AVX-512 (the default -march=native build on such a CPU) the hot neighbour loops are
+/* With AVX-512 (the default -march=native build on such a CPU, or sph_passes_v4.c in a portable
+ * build, chosen at run time) the hot neighbour loops are
  * written with intrinsics: 16 candidates or neighbours per vector, the accepted neighbours
  * appended with a compress, and the j-side data gathered from the packed record (rec). The
  * arithmetic per pair is the scalar code's, operation by operation (no FMA contraction, exact
@@ -175,6 +186,7 @@ SQ__INLINE V16 v_sum16(const V16 v[16])
 }
 #endif
 
+#if !defined(SQ__SPH_VARIANT_V4) /* compiled once: not per-pair loops */
 /* ---- kernels for tests ------------------------------------------------------------------- */
 
 void sq__sph_kern_init(sq__sph_kern *k, float H, int cubic)
@@ -241,6 +253,8 @@ void sq__sph_kernel_grad(const sq__sph_kern *k, sq__sph_kernel_fn fn, const floa
     g[2] = f * d[2];
 }
 
+#endif
+
 /* ---- grid and sort ---------------------------------------------------------------------- */
 
 static inline int clamp_cell(float f, int n)
@@ -257,6 +271,7 @@ static inline int abs_cell_z(const sq_sph *s, float z)
     return f >= 0.0f ? (f < 2e9f ? (int)f : 2000000000) : 0; /* NaN -> 0 */
 }
 
+#if !defined(SQ__SPH_VARIANT_V4)
 uint32_t sq__sph_cell_of(const sq_sph *s, float x, float y, float z)
 {
     const int cx = clamp_cell((x - s->lo[0]) * s->inv_cell[0], s->n[0]);
@@ -371,6 +386,36 @@ size_t sq__sph_sort(sq_sph *s)
     s->count = alive;
     return N - alive;
 }
+
+/* ---- which loops run ------------------------------------------------------------------------ */
+
+#if defined(SQ_SPH_DISPATCH) && SQ_SPH_DISPATCH && !SQ__SPH_AVX512
+int sq__sph_pass_density_v4(sq_sph *s);
+float sq__sph_pass_strain_v4(sq_sph *s);
+float sq__sph_pass_forces_v4(sq_sph *s);
+
+int sq__sph_uses_avx512(void)
+{
+    const char *e = getenv("SQ_SPH_ISA");
+    if (e && strcmp(e, "portable") == 0) return 0;
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("x86-64-v4") != 0;
+}
+#define SQ__SPH_DISPATCH(call) \
+    do { \
+        if (s->avx512) return call##_v4(s); \
+    } while (0)
+#else
+int sq__sph_uses_avx512(void) { return SQ__SPH_AVX512; }
+#define SQ__SPH_DISPATCH(call) ((void)0)
+#endif
+#endif /* !SQ__SPH_VARIANT_V4 */
+#if defined(SQ__SPH_VARIANT_V4)
+#if !SQ__SPH_AVX512
+#error "sph_passes_v4.c must be compiled with AVX-512 (-march=x86-64-v4)"
+#endif
+#define SQ__SPH_DISPATCH(call) ((void)0)
+#endif
 
 /* ---- neighbour search and density --------------------------------------------------------- */
 
@@ -919,6 +964,7 @@ SQ__SPH_CLONES static int density_block_cubic(sq_sph *restrict s, size_t i0, siz
 
 int sq__sph_pass_density(sq_sph *s)
 {
+    SQ__SPH_DISPATCH(sq__sph_pass_density);
     const size_t N = s->count;
     const int64_t nblk = (int64_t)((N + SQ__SPH_BLOCK - 1) / SQ__SPH_BLOCK);
     const int nt = sq__sph_threads(s, N);
@@ -1386,6 +1432,7 @@ typedef float (*strain_block_fn)(sq_sph *restrict s, size_t i0, size_t i1);
 
 float sq__sph_pass_strain(sq_sph *s)
 {
+    SQ__SPH_DISPATCH(sq__sph_pass_strain);
     static const strain_block_fn table[8] = {strain_block_000, strain_block_001, strain_block_010,
                                              strain_block_011, strain_block_100, strain_block_101,
                                              strain_block_110, strain_block_111};
@@ -1655,6 +1702,7 @@ typedef float (*force_block_fn)(sq_sph *restrict s, size_t i0, size_t i1);
 
 float sq__sph_pass_forces(sq_sph *s)
 {
+    SQ__SPH_DISPATCH(sq__sph_pass_forces);
     static const force_block_fn table[3][4] = {
         {force_block_morris_00, force_block_morris_01, force_block_morris_10, force_block_morris_11},
         {force_block_muller_00, force_block_muller_01, force_block_muller_10, force_block_muller_11},
