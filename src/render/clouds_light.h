@@ -9,6 +9,7 @@
 #include <stdint.h>
 
 #include "core/core_internal.h"
+#include "render/depth_sort.h"
 #include "squall/drawable.h"
 #include "squall/sqmath.h"
 
@@ -56,9 +57,6 @@ sq_result sq__cloud_light_compute(sq_context *ctx, sq__cloud_light *L, const sq_
                                   sq_vec3 sun_dir);
 void sq__cloud_light_free(sq_context *ctx, sq__cloud_light *L);
 
-/* Stable LSD radix sort of n (key, idx) pairs by key ascending (the result is back in key and
- * idx; k2 and i2 are scratch of n entries), and the order-preserving float -> key map. */
-void sq__radix_sort_u32(uint32_t *key, uint32_t *idx, uint32_t *k2, uint32_t *i2, size_t n);
-uint32_t sq__float_sort_key(float f);
+/* The sweeps' and the eye pass's orderings: render/depth_sort.h. */
 
 #endif

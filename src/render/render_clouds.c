@@ -13,7 +13,8 @@
  * Impostors: the group's particles rendered from the current eye into an RGBA16F texture whose
  * frustum just holds the group's bounding sphere, re-rendered when the direction from the eye to
  * the cloud turns by more than impostor_angle_deg, the distance changes by more than 10 %, the
- * cloud's size changes by more than 10 %, or after IMP_MAX_AGE frames (the field evolves). */
+ * cloud's size changes by more than 10 %, or after IMP_MAX_AGE frames (the field evolves; at
+ * most IMP_AGED_PER_FRAME of those per frame, the others wait a frame or a few). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -28,6 +29,8 @@
 #define IMP_MIN_PX 32
 #define IMP_MAX_PX 512
 #define IMP_MAX_AGE 48     /* frames */
+#define IMP_AGED_PER_FRAME 4 /* impostors re-rendered for their age alone, per frame (so that
+                                clouds made together are not all re-rendered in one frame) */
 #define IMP_DIST_TOL 0.10f
 #define IMP_SIZE_TOL 0.10f
 
@@ -480,6 +483,7 @@ sq_result sq__clouds_pass_draw(sq_renderer *r, const sq_clouds_view *v)
         float dist[IMP_SLOTS];
         if (nimp > IMP_SLOTS) nimp = IMP_SLOTS; /* the farthest beyond the slots are dropped */
         for (int k = 0; k < nimp; k++) order[k] = (int)ii[k];
+        int aged = 0;
         for (int k = 0; k < nimp; k++) {
             const sq_cloud_group *g = &groups[order[k]];
             const sq_vec3 to = sq_v3_sub(g->center_m, r->cam_pos);
@@ -487,11 +491,13 @@ sq_result sq__clouds_pass_draw(sq_renderer *r, const sq_clouds_view *v)
             const sq_vec3 dir = sq_v3_scale(to, 1.0f / d);
             impostor *im = impostor_slot(cp, g);
             const float cosang = im->valid ? sq_v3_dot(dir, im->dir) : -2.0f;
-            const bool stale =
+            const bool moved =
                 !im->valid || cosang < cosf(v->impostor_angle_deg * 0.0174532925f) ||
                 fabsf(d - im->dist) > IMP_DIST_TOL * im->dist ||
-                fabsf(g->radius_m - im->radius) > IMP_SIZE_TOL * im->radius ||
-                cp->frame - im->made_frame > IMP_MAX_AGE;
+                fabsf(g->radius_m - im->radius) > IMP_SIZE_TOL * im->radius;
+            const bool old = cp->frame - im->made_frame > IMP_MAX_AGE;
+            const bool stale = moved || (old && aged < IMP_AGED_PER_FRAME);
+            if (stale && !moved) aged++;
             im->used_frame = cp->frame;
             if (stale && (res = render_impostor(r, cp, v, order[k], im, d, dir)) != SQ_OK)
                 return res;

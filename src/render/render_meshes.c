@@ -52,7 +52,7 @@ struct sq__mesh_pass {
     int *bucket;       /* (mesh * SQ_MESH_MAX_LODS + lod) counts, then offsets */
     uint8_t *lod_of;   /* per instance: chosen LOD (255 = culled) */
     size_t ring_cap, ring_pos; /* in instances */
-    GLuint prog_color, prog_depth;
+    GLuint prog_color, prog_cutout, prog_depth; /* colour: opaque / textured (alpha cut-out) */
     sq_vec3 bounds_min, bounds_max; /* of all instances */
     sq__mesh_stats stats;
 };
@@ -63,6 +63,9 @@ sq_result sq__mesh_pass_create(sq_renderer *r)
     r->meshes = sq_alloc_zero(r->ctx, sizeof *r->meshes);
     if (!r->meshes) return SQ_ERR_OUT_OF_MEMORY;
     sq_result res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes.frag", &r->meshes->prog_color);
+    if (res == SQ_OK)
+        res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
+                             &r->meshes->prog_cutout);
     if (res == SQ_OK)
         res = sq__gl_program(r->ctx, "depth_meshes.vert", NULL, "depth.frag", &r->meshes->prog_depth);
     return res;
@@ -100,6 +103,7 @@ void sq__mesh_pass_destroy(sq_renderer *r)
     if (!r->meshes) return;
     release(r);
     glDeleteProgram(r->meshes->prog_color);
+    glDeleteProgram(r->meshes->prog_cutout);
     glDeleteProgram(r->meshes->prog_depth);
     sq_free(r->ctx, r->meshes);
     r->meshes = NULL;
@@ -409,9 +413,12 @@ static GLuint ring_put(sq__mesh_pass *m, int count)
 }
 
 /* Draws the culled instances with the bound program; materials: set the colour uniforms and
- * textures per part (the colour program's locations 0, 1, 2 and unit 10). */
-static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog)
+ * textures per part (the colour program's locations 0, 1, 2 and unit 10), textured parts with
+ * prog_cutout (which may discard), the others with prog. */
+static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog,
+                         GLuint prog_cutout)
 {
+    GLuint bound = prog;
     sq__mesh_pass *m = r->meshes;
     glBindVertexArray(m->vao);
     glBindTextureUnit(9, m->inst_tex);
@@ -443,9 +450,11 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
             for (int p = 0; p < SL->part_count; p++) {
                 const sq_mesh_part *part = &SL->parts[p];
                 const gpu_material *mt = &m->mat[g->material0 + part->material];
-                glProgramUniform3f(prog, 0, mt->color.x, mt->color.y, mt->color.z);
-                glProgramUniform1i(prog, 1, mt->tint);
-                glProgramUniform1i(prog, 2, mt->texture ? 1 : 0);
+                const GLuint use = mt->texture ? prog_cutout : prog;
+                if (use != bound) glUseProgram(bound = use);
+                glProgramUniform3f(use, 0, mt->color.x, mt->color.y, mt->color.z);
+                glProgramUniform1i(use, 1, mt->tint);
+                glProgramUniform1i(use, 2, mt->texture ? 1 : 0);
                 if (mt->texture) glBindTextureUnit(10, mt->texture);
                 glDrawElementsInstancedBaseVertexBaseInstance(
                     GL_TRIANGLES, (GLsizei)part->index_count, GL_UNSIGNED_INT,
@@ -481,7 +490,7 @@ void sq__mesh_pass_draw(sq_renderer *r)
     if (n == 0) return;
     const GLuint base = ring_put(m, n);
     glUseProgram(m->prog_color);
-    draw_buckets(r, base, true, m->prog_color);
+    draw_buckets(r, base, true, m->prog_color, m->prog_cutout);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -493,7 +502,7 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     const GLuint base = ring_put(m, n);
     glUseProgram(m->prog_depth);
     glProgramUniformMatrix4fv(m->prog_depth, 0, 1, GL_FALSE, v->view_proj.m);
-    draw_buckets(r, base, false, m->prog_depth);
+    draw_buckets(r, base, false, m->prog_depth, m->prog_depth);
 }
 
 void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
@@ -505,7 +514,7 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     if (n == 0) return;
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
-    draw_buckets(r, base, materials, program);
+    draw_buckets(r, base, materials, program, program);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "render/depth_sort.h"
 #include "render/render_internal.h"
 #include "world/world_struct.h"
 
@@ -95,36 +96,6 @@ static sq_result reserve(sq_renderer *r, sq__particle_pass *pp, size_t n)
     }
     pp->cap = cap;
     return SQ_OK;
-}
-
-/* Stable LSD radix sort of n (key, idx) pairs by key ascending, 8 bits per pass. */
-static void radix_sort(uint32_t *key, uint32_t *idx, uint32_t *k2, uint32_t *i2, size_t n)
-{
-    for (int shift = 0; shift < 32; shift += 8) {
-        size_t count[257] = {0};
-        for (size_t i = 0; i < n; i++) count[((key[i] >> shift) & 255u) + 1]++;
-        for (int b = 0; b < 256; b++) count[b + 1] += count[b];
-        for (size_t i = 0; i < n; i++) {
-            const size_t dst = count[(key[i] >> shift) & 255u]++;
-            k2[dst] = key[i];
-            i2[dst] = idx[i];
-        }
-        uint32_t *t = key;
-        key = k2;
-        k2 = t;
-        t = idx;
-        idx = i2;
-        i2 = t;
-    }
-    /* four passes: the result is back in the caller's arrays */
-}
-
-/* Order-preserving map of a float to uint32 (ascending floats -> ascending keys). */
-static uint32_t float_key(float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
 
 /* The program for a sprite kind with or without the sun shadow: particles_sprite.frag compiled
@@ -249,11 +220,11 @@ static sq_result pack(sq_renderer *r, const sq_particles_view *p, size_t *visibl
         if (alpha_max < min_alpha) continue; /* too faint to change any pixel */
         const float depth = (x[0] - cam.x) * fwd.x + (x[1] - cam.y) * fwd.y + (x[2] - cam.z) * fwd.z;
         if (depth < -rad) continue; /* wholly behind the camera */
-        pp->key[m] = ~float_key(depth); /* descending depth: back to front */
+        pp->key[m] = ~sq__float_sort_key(depth); /* descending depth: back to front */
         pp->idx[m] = (uint32_t)i;
         m++;
     }
-    radix_sort(pp->key, pp->idx, pp->key2, pp->idx2, m);
+    sq__radix_sort_u32(pp->key, pp->idx, pp->key2, pp->idx2, m);
     for (size_t j = 0; j < m; j++) {
         const size_t i = pp->idx[j];
         float *o = pp->packed + PART_FLOATS * j;

@@ -1,8 +1,9 @@
 /* render_snowcover.c — the snow-cover drawable in the GL renderer (S2 §2.2, SPEC §6.2–6.5):
  * each frame with a snow-cover view, step 1 of S2 §2.2.2 — the region from the camera frustum
  * clipped at the snow-detail distance (sq__snow_map_region: footprint bounding box, power-of-two
- * texel, origin snapped to whole texels) and an orthographic top-down depth render of all opaque
- * world geometry over it (sq__world_depth_draw), from above the highest object — then the Snow
+ * texel, origin snapped to whole texels) and, unless the last map still covers it (a static
+ * world: sq__snow_map_serves), an orthographic top-down depth render of all opaque world
+ * geometry over it (sq__world_depth_draw), from above the highest object — then the Snow
  * block (binding 4) and the map (unit 11) and snow depth (unit 12) for the opaque shaders, whose
  * vertex stage displaces the snow shell and whose fragment stage blends the snow shading
  * (steps 2–3, shaders/snow_common.glsl). Without a snow-cover view the block says "off". */
@@ -23,8 +24,11 @@ struct sq__snow_pass {
     int occ_size, depth_nx, depth_ny;
     uint64_t depth_version;
     const float *depth_ptr;
-    sq__snow_map_geom geom;
-    double ms_map; /* last occlusion map (CPU + GL, finished) */
+    sq__snow_map_geom geom; /* of the map drawn last */
+    const sq_world *map_world;
+    uint64_t map_generation;
+    bool map_valid;
+    double ms_map; /* this frame's occlusion map (CPU + GL, finished); 0 when the last one served */
 };
 
 sq_result sq__snow_pass_create(sq_renderer *r)
@@ -69,6 +73,7 @@ static sq_result ensure_map(sq_renderer *r, int size)
     glNamedFramebufferDrawBuffer(s->fbo, GL_NONE);
     glNamedFramebufferReadBuffer(s->fbo, GL_NONE);
     s->occ_size = size;
+    s->map_valid = false;
     return sq__gl_check_framebuffer(r->ctx, s->fbo, "snow occlusion map");
 }
 
@@ -142,27 +147,37 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         cam.fov_y_deg = 2.0f * atanf(1.0f / r->proj.m[5]) * 180.0f / SQ_PI_F;
         cam.near_m = r->near_m;
         cam.far_m = r->far_m;
-        s->geom = sq__snow_map_region(&cam, (float)r->width / (float)r->height,
-                                      v->detail_distance_m, v->map_size, 4, top, bottom);
-        /* the map must not stay bound for sampling while it is rendered into */
-        glBindTextureUnit(11, s->dummy_occ);
-        glBindFramebuffer(GL_FRAMEBUFFER, s->fbo);
-        glViewport(0, 0, v->map_size, v->map_size);
-        glDepthMask(GL_TRUE);
-        const float one = 1.0f;
-        glClearNamedFramebufferfv(s->fbo, GL_DEPTH, 0, &one);
-        sq__depth_view dv;
-        memset(&dv, 0, sizeof dv);
-        dv.view_proj = sky_matrix(&s->geom);
-        dv.ortho = true;
-        dv.px_per_m = (float)(1.0 / s->geom.texel_m);
-        /* fine levels: a coarse level's surface above the camera's finer one would shade the
-         * true surface as occluded; the map's level error stays within the depth bias */
-        dv.lod_pixels = fmaxf(0.05f, (float)((double)v->depth_bias_m / s->geom.texel_m));
-        dv.min_pixels = 0.5f;
-        sq__world_depth_draw(r, &dv);
-        glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
-        s->ms_map = (sq_time_now() - t0) * 1e3;
+        const sq__snow_map_geom need = sq__snow_map_region(
+            &cam, (float)r->width / (float)r->height, v->detail_distance_m, v->map_size, 4, top,
+            bottom);
+        /* the world is static between generations: the last map serves while the view's
+         * footprint stays inside it (same texels, so the same exposures) */
+        if (!(s->map_valid && s->map_world == w && s->map_generation == w->generation &&
+              sq__snow_map_serves(&s->geom, &need))) {
+            s->geom = need;
+            /* the map must not stay bound for sampling while it is rendered into */
+            glBindTextureUnit(11, s->dummy_occ);
+            glBindFramebuffer(GL_FRAMEBUFFER, s->fbo);
+            glViewport(0, 0, v->map_size, v->map_size);
+            glDepthMask(GL_TRUE);
+            const float one = 1.0f;
+            glClearNamedFramebufferfv(s->fbo, GL_DEPTH, 0, &one);
+            sq__depth_view dv;
+            memset(&dv, 0, sizeof dv);
+            dv.view_proj = sky_matrix(&s->geom);
+            dv.ortho = true;
+            dv.px_per_m = (float)(1.0 / s->geom.texel_m);
+            /* fine levels: a coarse level's surface above the camera's finer one would shade
+             * the true surface as occluded; the map's level error stays within the depth bias */
+            dv.lod_pixels = fmaxf(0.05f, (float)((double)v->depth_bias_m / s->geom.texel_m));
+            dv.min_pixels = 0.5f;
+            sq__world_depth_draw(r, &dv);
+            glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
+            s->ms_map = (sq_time_now() - t0) * 1e3;
+            s->map_world = w;
+            s->map_generation = w->generation;
+            s->map_valid = true;
+        }
         occ = s->occ_tex;
         depth = s->depth_tex;
         const sq__snow_map_geom *g = &s->geom;

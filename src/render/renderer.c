@@ -601,11 +601,20 @@ static void pass_sky(sq_renderer *r)
     glDrawArrays(GL_TRIANGLES, 0, 3);
 }
 
+/* Nearest first where it is cheap to know: the meshes (houses, trees in front of the ground), then
+ * the obstacles, then the terrain, so that the depth test rejects hidden ground before its
+ * (snow) shading runs. */
 static void pass_opaque(sq_renderer *r, const sq_world *w)
 {
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
     glDepthMask(GL_TRUE);
+    sq__mesh_pass_draw(r);
+    if (r->obstacle_vertex_count > 0) {
+        glUseProgram(r->prog_mesh);
+        glBindVertexArray(r->obstacle_vao);
+        glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
+    }
     if (r->terrain_index_count > 0) {
         sq_vec3 flat, steep;
         sq__terrain_albedo(w, &flat, &steep);
@@ -621,12 +630,6 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         glBindVertexArray(r->terrain_vao);
         glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
     }
-    if (r->obstacle_vertex_count > 0) {
-        glUseProgram(r->prog_mesh);
-        glBindVertexArray(r->obstacle_vao);
-        glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
-    }
-    sq__mesh_pass_draw(r);
 }
 
 static void pass_surfaces(sq_renderer *r, const sq_drawable *ds, int count)

@@ -36,14 +36,30 @@ sq__snow_map_geom sq__snow_map_region(const sq_camera *camera, float aspect, flo
     g.size = size;
     g.top_z = top_z;
     g.bottom_z = bottom_z;
-    /* the box plus the margin on both sides (and one texel for the rounding of the origin)
-     * must fit size texels */
+    /* the box plus the margin on both sides and a texel on each for the rounding of the
+     * centred origin must fit size texels */
     const double extent = fmax(hi[0] - lo[0], hi[1] - lo[1]);
-    const int usable = size - 2 * margin_texels - 1;
+    const int usable = size - 2 * margin_texels - 2;
     g.texel_m = exp2(ceil(log2(fmax(extent, 1e-3) / (usable > 1 ? usable : 1))));
-    for (int a = 0; a < 2; a++)
-        g.origin[a] = floor(lo[a] / g.texel_m - margin_texels) * g.texel_m;
+    for (int a = 0; a < 2; a++) {
+        g.need_lo[a] = lo[a] - margin_texels * g.texel_m;
+        g.need_hi[a] = hi[a] + margin_texels * g.texel_m;
+        const double centre = 0.5 * (g.need_lo[a] + g.need_hi[a]);
+        g.origin[a] = floor(centre / g.texel_m - 0.5 * size) * g.texel_m;
+    }
     return g;
+}
+
+bool sq__snow_map_serves(const sq__snow_map_geom *have, const sq__snow_map_geom *need)
+{
+    if (have->texel_m != need->texel_m || have->size != need->size ||
+        have->top_z != need->top_z || have->bottom_z != need->bottom_z)
+        return false;
+    const double ext = have->size * have->texel_m;
+    for (int a = 0; a < 2; a++)
+        if (need->need_lo[a] < have->origin[a] || need->need_hi[a] > have->origin[a] + ext)
+            return false;
+    return true;
 }
 
 void sq__snow_map_fill(const sq_world *w, const sq__snow_map_geom *g, float *height)

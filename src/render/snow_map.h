@@ -29,15 +29,23 @@ typedef struct sq__snow_map_geom {
     double texel_m;
     int size;            /* texels per side */
     float top_z, bottom_z;
+    double need_lo[2], need_hi[2]; /* what the view needs covered: footprint box plus margin */
 } sq__snow_map_geom;
 
 /* Step 1 of S2 §2.2.2. The camera's frustum (resolved camera, aspect = width / height) with its
  * far plane at detail_m, its 8 corners projected on the ground plane, their bounding box grown
- * by margin_texels on each side; the texel is the smallest power of two (in metres, 2^k for
- * any integer k) with which size texels cover it, and the origin the box's corner rounded down
- * to whole texels. top_z / bottom_z: the vertical range of the ortho camera. */
+ * by margin_texels on each side (need_lo / need_hi); the texel is the smallest power of two (in
+ * metres, 2^k for any integer k) with which size texels cover it with a texel to spare on each
+ * side, and the origin puts the box in the middle of the map, rounded down to whole texels (a
+ * world-aligned grid). top_z / bottom_z: the vertical range of the ortho camera. */
 sq__snow_map_geom sq__snow_map_region(const sq_camera *camera, float aspect, float detail_m,
                                       int size, int margin_texels, float top_z, float bottom_z);
+
+/* Whether the map drawn for `have` serves the view that needs `need` (both from
+ * sq__snow_map_region): the same texel, size and vertical range, and need's box inside have's
+ * map. Every point's exposure is then what a map drawn for `need` gives (the same world-aligned
+ * texels), so a static world's map is drawn again only when the view leaves it. */
+bool sq__snow_map_serves(const sq__snow_map_geom *have, const sq__snow_map_geom *need);
 
 /* Height of the highest surface at every texel centre of g (size² floats, row j = y index):
  * the CPU occlusion map. */

@@ -6,6 +6,7 @@
  * PNG), grid (float heights given by the caller: DEMs, WRF terrain). */
 #include <float.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -509,7 +510,7 @@ sq_result sq_world_create(sq_context *ctx, const sq_world_desc *desc, sq_world *
                                                        : sq_v3(0.35f, 0.3f, 0.25f);
     sky_model(w, d.sky.turbidity, d.sun.irradiance_w_m2);
     sq_world_set_time(w, 0.0);
-    w->generation = 1;
+    w->generation = sq__world_next_generation();
     *out = w;
     return SQ_OK;
 }
@@ -826,3 +827,9 @@ int sq_world_mesh_instances(const sq_world *w, const sq_mesh *const **meshes, in
 int64_t sq_world_mesh_face_count(const sq_world *w) { return w ? w->mesh_faces : 0; }
 
 uint64_t sq_world_generation(const sq_world *w) { return w ? w->generation : 0; }
+
+uint64_t sq__world_next_generation(void)
+{
+    static _Atomic uint64_t last = 0;
+    return atomic_fetch_add(&last, 1) + 1;
+}

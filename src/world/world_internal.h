@@ -20,5 +20,8 @@ bool sq__world_mesh_top_at(const sq_world *w, float x, float y, float *z_out);
 void sq__world_meshes_free(sq_context *ctx, sq_world *w);
 /* Bytes held for the instances and BVHs. */
 uint64_t sq__world_mesh_bytes(const sq_world *w);
+/* A generation number no world of the process had before (renderer caches key on the world's
+ * address and generation; a new world may reuse a destroyed one's address). */
+uint64_t sq__world_next_generation(void);
 
 #endif

@@ -300,7 +300,7 @@ sq_result sq_world_set_meshes(sq_context *ctx, sq_world *w, const sq_mesh *const
     if (r != SQ_OK) return r;
 
     sq__world_meshes_free(ctx, w);
-    w->generation++;
+    w->generation = sq__world_next_generation();
     if (instance_count == 0 && mesh_count == 0) return SQ_OK;
     sq__mesh_accel *a = sq_alloc_zero(ctx, sizeof *a);
     w->meshes = sq_alloc(ctx, (size_t)(mesh_count > 0 ? mesh_count : 1) * sizeof(sq_mesh *));

@@ -4,6 +4,8 @@
  *   - no shimmer: a point's exposure is the same for camera moves smaller than a snapped texel
  *     (and the map's texel grid is the same world-aligned grid);
  *   - the frustum footprint: the region holds every ground point of the view nearer than D_snow;
+ *   - a map kept while it serves the view (a static world) gives every point of the view the
+ *     exposure a map drawn for that view gives, and is drawn again only now and then;
  *   - inclination: max(0, N·up) without noise, mean-preserving with noise;
  *   - the snow shell on a closed cube with split (sharp-crease) normals stays watertight, where
  *     S2's per-vertex normal displacement cracks it;
@@ -140,6 +142,56 @@ SQ_TEST(no_shimmer)
     SQ_CHECK_MSG(changed > 0, "an unsnapped half-texel shift changed no exposure");
     free(h0);
     free(h1);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+SQ_TEST(kept_map_serves_the_view)
+{
+    sq_context *ctx = snow_test_ctx();
+    sq_world *w = box_world(ctx);
+    const int size = 128;
+    float *kept = malloc((size_t)size * size * sizeof(float));
+    float *fresh = malloc((size_t)size * size * sizeof(float));
+    /* a walk past the box: 0.25 m per frame, turning slowly */
+    sq__snow_map_geom have;
+    int draws = 0, frames = 0, compared = 0;
+    for (int k = 0; k < 160; k++, frames++) {
+        const float s = 0.25f * (float)k;
+        const sq_camera cam = looking_at_box(-20.0f + s, -10.0f + 0.3f * s);
+        const sq__snow_map_geom need = sq__snow_map_region(&cam, 1.5f, 40.0f, size, 4, 10.0f, -1.0f);
+        if (k == 0 || !sq__snow_map_serves(&have, &need)) {
+            have = need;
+            sq__snow_map_fill(w, &have, kept);
+            draws++;
+        }
+        if (k % 8) continue;
+        /* every point of the needed box: the kept map's exposure is the fresh one's */
+        sq__snow_map_fill(w, &need, fresh);
+        int differ = 0;
+        for (int j = 0; j <= 12; j++)
+            for (int i = 0; i <= 12; i++) {
+                const sq_vec3 p =
+                    sq_v3((float)(need.need_lo[0] + (need.need_hi[0] - need.need_lo[0]) * i / 12.0),
+                          (float)(need.need_lo[1] + (need.need_hi[1] - need.need_lo[1]) * j / 12.0),
+                          (i + j) % 3 == 0 ? 4.0f : 0.0f);
+                differ += sq__snow_exposure(kept, &have, p, 1.0f, 4, 1.0f, 0.05f) !=
+                          sq__snow_exposure(fresh, &need, p, 1.0f, 4, 1.0f, 0.05f);
+                compared++;
+            }
+        SQ_CHECK_MSG(differ == 0, "frame %d: %d points differ from a fresh map", k, differ);
+    }
+    SQ_CHECK(compared > 1000);
+    SQ_CHECK_MSG(draws > 1 && draws * 4 < frames, "%d maps drawn for %d frames", draws, frames);
+    /* another texel size or a box outside: not served */
+    sq__snow_map_geom other = have;
+    other.texel_m *= 2.0;
+    SQ_CHECK(!sq__snow_map_serves(&have, &other));
+    other = have;
+    other.need_hi[0] = have.origin[0] + have.size * have.texel_m + 0.01;
+    SQ_CHECK(!sq__snow_map_serves(&have, &other));
+    free(kept);
+    free(fresh);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
 }

@@ -1,0 +1,40 @@
+// meshes_shade.glsl — Lambertian shading of world meshes, the body of meshes.frag (opaque
+// materials) and meshes_cutout.frag (textured ones: texels with alpha < 0.5 are cut out; a
+// shader that may discard keeps llvmpipe from testing depth before shading, so opaque
+// materials use the variant without): albedo (material colour or the instance's tint, times
+// the base-colour texture when there is one)
+// under the sun (opaque shadow map and volume transmittance) and the sky ambient, then aerial
+// haze. Faces seen from behind (open meshes) are lit with the flipped normal. Snow
+// (snow_common.glsl) is blended over them by f_p (S2 eq 2.8).
+#include "frame_common.glsl"
+#include "snow_common.glsl"
+
+in vec3 v_pos;
+in vec3 v_normal;
+in vec3 v_base;
+in vec2 v_uv;
+flat in vec3 v_albedo;
+layout(location = 0) out vec4 o_color;
+layout(location = 2) uniform int u_has_texture;
+layout(binding = 10) uniform sampler2D u_base_texture; // sRGB: sampled as linear
+
+void main()
+{
+    vec3 albedo = v_albedo;
+    if (u_has_texture != 0) {
+        vec4 t = texture(u_base_texture, v_uv);
+#ifdef SQ_CUTOUT
+        if (t.a < 0.5) discard;
+#endif
+        albedo *= t.rgb;
+    }
+    vec3 n = normalize(v_normal);
+    if (!gl_FrontFacing) n = -n;
+    vec3 s = u_sun_dir.xyz;
+    vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
+    vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
+    float fp = sq_snow_cover(v_base, n);
+    if (fp > 0.0)
+        L = mix(L, sq_snow_radiance(v_pos, sq_snow_shell_normal(v_base, n), normalize(u_cam_pos.xyz - v_pos), E), fp);
+    o_color = vec4(sq_haze(L, v_pos), 1.0);
+}
