@@ -13,6 +13,11 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
 
 #include "io/io_internal.h"
 #include "squall/io.h"
@@ -171,9 +176,34 @@ static void load_texture(sq_context *ctx, const char *mesh_path, const struct ai
     out->texture_h = h;
 }
 
-static sq_result import_scene(sq_context *ctx, const sq_mesh_import_desc *d, fmt f, sq_mesh **out)
+/* What assimp's scene becomes before sq_mesh_create: z-up triangles with one material index
+ * each and the file's materials. Arrays from sq_alloc (imported_free). */
+typedef struct imported {
+    uint64_t nv, nt;
+    int nmat;
+    float *pos, *nrm, *uv; /* nrm NULL unless every mesh has normals; uv NULL when none has */
+    uint32_t *idx;
+    int *fm;
+    sq_mesh_material *mats;
+} imported;
+
+static void imported_free(sq_context *ctx, imported *im)
+{
+    for (int i = 0; im->mats && i < im->nmat; i++) sq_free(ctx, im->mats[i].texture_rgba);
+    sq_free(ctx, im->mats);
+    sq_free(ctx, im->pos);
+    sq_free(ctx, im->nrm);
+    sq_free(ctx, im->uv);
+    sq_free(ctx, im->idx);
+    sq_free(ctx, im->fm);
+    memset(im, 0, sizeof *im);
+}
+
+static sq_result read_with_assimp(sq_context *ctx, const sq_mesh_import_desc *d, fmt f,
+                                  imported *im)
 {
     const char *path = d->path;
+    memset(im, 0, sizeof *im);
     const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
                            aiProcess_SortByPType | aiProcess_PreTransformVertices |
                            aiProcess_ValidateDataStructure;
@@ -212,16 +242,17 @@ static sq_result import_scene(sq_context *ctx, const sq_mesh_import_desc *d, fmt
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MODULE, "mesh '%s': %d materials; at most %d",
                         path, nmat, SQ_MESH_MAX_MATERIALS);
     }
-    float *pos = sq_alloc(ctx, nv * 3 * sizeof(float));
-    float *nrm = all_normals ? sq_alloc(ctx, nv * 3 * sizeof(float)) : NULL;
-    float *uv = any_uv ? sq_alloc_zero(ctx, nv * 2 * sizeof(float)) : NULL;
-    uint32_t *idx = sq_alloc(ctx, nt * 3 * sizeof(uint32_t));
-    int *fm = sq_alloc(ctx, nt * sizeof(int));
-    sq_mesh_material *mats = sq_alloc_zero(ctx, (size_t)nmat * sizeof *mats);
-    sq_result r = SQ_OK;
+    float *pos = im->pos = sq_alloc(ctx, nv * 3 * sizeof(float));
+    float *nrm = im->nrm = all_normals ? sq_alloc(ctx, nv * 3 * sizeof(float)) : NULL;
+    float *uv = im->uv = any_uv ? sq_alloc_zero(ctx, nv * 2 * sizeof(float)) : NULL;
+    uint32_t *idx = im->idx = sq_alloc(ctx, nt * 3 * sizeof(uint32_t));
+    int *fm = im->fm = sq_alloc(ctx, nt * sizeof(int));
+    sq_mesh_material *mats = im->mats = sq_alloc_zero(ctx, (size_t)nmat * sizeof *mats);
+    im->nmat = nmat;
     if (!pos || (all_normals && !nrm) || (any_uv && !uv) || !idx || !fm || !mats) {
-        r = sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MODULE, "mesh '%s': out of memory", path);
-        goto done;
+        aiReleaseImport(sc);
+        imported_free(ctx, im);
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MODULE, "mesh '%s': out of memory", path);
     }
     const bool yup = d->up == SQ_MESH_UP_Y || (d->up == SQ_MESH_UP_DEFAULT && f != FMT_PLY);
     uint64_t v0 = 0, t = 0;
@@ -269,21 +300,242 @@ static sq_result import_scene(sq_context *ctx, const sq_mesh_import_desc *d, fmt
         load_texture(ctx, path, sc, am, o);
     }
     aiReleaseImport(sc);
-    sc = NULL;
+    im->nv = nv;
+    im->nt = t;
+    return SQ_OK;
+}
+
+/* ---- the importer in a child process -------------------------------------------------------
+ * assimp is not hardened against damaged files (a fuzzer crashes its PLY reader within seconds),
+ * so by default it runs in a forked child that sends the imported arrays back through a pipe: a
+ * crash in assimp becomes a refusal of the file, not the end of the caller's process.
+ * SQ_MESH_IMPORT_IN_PROCESS=1 in the environment imports in the calling process instead. */
+static bool write_all(int fd, const void *p, size_t n)
+{
+    const char *c = (const char *)p;
+    while (n > 0) {
+        const ssize_t k = write(fd, c, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) return false;
+        c += k;
+        n -= (size_t)k;
+    }
+    return true;
+}
+
+/* The parent's reads: polled every 0.1 s so that Ctrl-C (the context's cancellation) and the
+ * time limit are answered while the child works. */
+typedef struct importer_wait {
+    sq_context *ctx;
+    double deadline_s; /* CLOCK_MONOTONIC */
+    int stop;          /* 1 cancelled, 2 past the time limit */
+} importer_wait;
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static bool read_all(importer_wait *w, int fd, void *p, size_t n)
+{
+    char *c = (char *)p;
+    while (n > 0) {
+        struct pollfd pf = {.fd = fd, .events = POLLIN};
+        const int ready = poll(&pf, 1, 100);
+        if (ready < 0 && errno != EINTR) return false;
+        if (ready <= 0) {
+            if (sq_context_cancelled(w->ctx)) w->stop = 1;
+            else if (now_s() > w->deadline_s) w->stop = 2;
+            if (w->stop) return false;
+            continue;
+        }
+        const ssize_t k = read(fd, c, n);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) return false;
+        c += k;
+        n -= (size_t)k;
+    }
+    return true;
+}
+
+typedef struct wire_head {
+    int32_t result;
+    int32_t nmat;
+    uint64_t nv, nt;
+    uint8_t has_nrm, has_uv;
+    char message[1024];
+} wire_head;
+
+/* The child: import, then send the head and the arrays; never returns. */
+static void child_import(sq_context *ctx, const sq_mesh_import_desc *d, fmt f, int fd)
+{
+    imported im;
+    wire_head h;
+    memset(&h, 0, sizeof h);
+    h.result = (int32_t)read_with_assimp(ctx, d, f, &im);
+    if (h.result != SQ_OK) snprintf(h.message, sizeof h.message, "%s", sq_last_error());
+    h.nmat = im.nmat;
+    h.nv = im.nv;
+    h.nt = im.nt;
+    h.has_nrm = im.nrm != NULL;
+    h.has_uv = im.uv != NULL;
+    bool ok = write_all(fd, &h, sizeof h);
+    if (ok && h.result == SQ_OK) {
+        ok = write_all(fd, im.pos, im.nv * 3 * sizeof(float)) &&
+             (!im.nrm || write_all(fd, im.nrm, im.nv * 3 * sizeof(float))) &&
+             (!im.uv || write_all(fd, im.uv, im.nv * 2 * sizeof(float))) &&
+             write_all(fd, im.idx, im.nt * 3 * sizeof(uint32_t)) &&
+             write_all(fd, im.fm, im.nt * sizeof(int));
+        for (int i = 0; ok && i < im.nmat; i++) {
+            const sq_mesh_material *m = &im.mats[i];
+            ok = write_all(fd, m, sizeof *m) &&
+                 (!m->texture_rgba ||
+                  write_all(fd, m->texture_rgba, (size_t)m->texture_w * (size_t)m->texture_h * 4));
+        }
+    }
+    close(fd);
+    _exit(ok ? 0 : 3);
+}
+
+/* The parent: receive what the child imported. */
+static sq_result receive(importer_wait *w, const char *path, int fd, imported *im)
+{
+    sq_context *ctx = w->ctx;
+    wire_head h;
+    memset(im, 0, sizeof *im);
+    if (!read_all(w, fd, &h, sizeof h)) return SQ_ERR_IO; /* the child died: see waitpid */
+    if (h.result != SQ_OK) {
+        h.message[sizeof h.message - 1] = 0;
+        return sq__fail(ctx, (sq_result)h.result, MODULE, "%s", h.message);
+    }
+    if (h.nv > SQ_MESH_MAX_ELEMENTS || h.nt > SQ_MESH_MAX_ELEMENTS || h.nmat < 1 ||
+        h.nmat > SQ_MESH_MAX_MATERIALS)
+        return SQ_ERR_IO;
+    im->nv = h.nv;
+    im->nt = h.nt;
+    im->nmat = h.nmat;
+    im->pos = sq_alloc(ctx, h.nv * 3 * sizeof(float));
+    im->nrm = h.has_nrm ? sq_alloc(ctx, h.nv * 3 * sizeof(float)) : NULL;
+    im->uv = h.has_uv ? sq_alloc(ctx, h.nv * 2 * sizeof(float)) : NULL;
+    im->idx = sq_alloc(ctx, h.nt * 3 * sizeof(uint32_t));
+    im->fm = sq_alloc(ctx, h.nt * sizeof(int));
+    im->mats = sq_alloc_zero(ctx, (size_t)h.nmat * sizeof *im->mats);
+    if (!im->pos || (h.has_nrm && !im->nrm) || (h.has_uv && !im->uv) || !im->idx || !im->fm ||
+        !im->mats) {
+        imported_free(ctx, im);
+        return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MODULE, "mesh '%s': out of memory", path);
+    }
+    bool ok = read_all(w, fd, im->pos, h.nv * 3 * sizeof(float)) &&
+              (!im->nrm || read_all(w, fd, im->nrm, h.nv * 3 * sizeof(float))) &&
+              (!im->uv || read_all(w, fd, im->uv, h.nv * 2 * sizeof(float))) &&
+              read_all(w, fd, im->idx, h.nt * 3 * sizeof(uint32_t)) &&
+              read_all(w, fd, im->fm, h.nt * sizeof(int));
+    for (int i = 0; ok && i < h.nmat; i++) {
+        sq_mesh_material *m = &im->mats[i];
+        ok = read_all(w, fd, m, sizeof *m);
+        const bool has_tex = ok && m->texture_rgba != NULL;
+        m->texture_rgba = NULL;
+        if (!has_tex) continue;
+        if (m->texture_w <= 0 || m->texture_h <= 0 || m->texture_w > 16384 || m->texture_h > 16384) {
+            ok = false;
+            break;
+        }
+        const size_t n = (size_t)m->texture_w * (size_t)m->texture_h * 4;
+        m->texture_rgba = sq_alloc(ctx, n);
+        ok = m->texture_rgba && read_all(w, fd, m->texture_rgba, n);
+    }
+    if (!ok) {
+        imported_free(ctx, im);
+        return SQ_ERR_IO;
+    }
+    return SQ_OK;
+}
+
+/* The importer's time limit: SQ_MESH_IMPORT_TIMEOUT_S, else 120 s plus 10 s per MB of file
+ * (assimp reads tens of MB per second; a file that keeps it longer has sent it into a loop). */
+static double import_limit_s(const char *path)
+{
+    const char *env = getenv("SQ_MESH_IMPORT_TIMEOUT_S");
+    if (env && atof(env) > 0.0) return atof(env);
+    struct stat st;
+    const double mb = stat(path, &st) == 0 ? (double)st.st_size / 1e6 : 0.0;
+    return 120.0 + 10.0 * mb;
+}
+
+static sq_result read_isolated(sq_context *ctx, const sq_mesh_import_desc *d, fmt f, imported *im)
+{
+    const char *env = getenv("SQ_MESH_IMPORT_IN_PROCESS");
+    if (env && env[0] == '1') return read_with_assimp(ctx, d, f, im);
+    const double limit_s = import_limit_s(d->path);
+    int p[2];
+    if (pipe(p) != 0)
+        return sq__fail(ctx, SQ_ERR_IO, MODULE, "mesh '%s': cannot start the importer: %s",
+                        d->path, strerror(errno));
+    fflush(NULL);
+    const pid_t pid = fork();
+    if (pid < 0) {
+        const int e = errno;
+        close(p[0]);
+        close(p[1]);
+        return sq__fail(ctx, SQ_ERR_IO, MODULE, "mesh '%s': cannot start the importer: %s",
+                        d->path, strerror(e));
+    }
+    if (pid == 0) {
+        /* a crash in assimp ends the child by its signal (no handler of the parent's runs) */
+        static const int fatal[] = {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL};
+        for (size_t k = 0; k < sizeof fatal / sizeof fatal[0]; k++) signal(fatal[k], SIG_DFL);
+        close(p[0]);
+        child_import(ctx, d, f, p[1]);
+    }
+    close(p[1]);
+    importer_wait w = {ctx, now_s() + limit_s, 0};
+    sq_result r = receive(&w, d->path, p[0], im);
+    close(p[0]);
+    if (w.stop) kill(pid, SIGKILL);
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    if (r != SQ_ERR_IO) return r;
+    imported_free(ctx, im);
+    if (w.stop == 1)
+        return sq__fail(ctx, SQ_ERR_CANCELLED, MODULE, "mesh '%s': import cancelled", d->path);
+    if (w.stop == 2)
+        return sq__fail(ctx, SQ_ERR_PARSE, MODULE,
+                        "mesh '%s' is corrupt or too large: the importer (assimp) was still "
+                        "reading it after %.0f s (SQ_MESH_IMPORT_TIMEOUT_S sets the limit)",
+                        d->path, limit_s);
+    if (WIFSIGNALED(status))
+        return sq__fail(ctx, SQ_ERR_PARSE, MODULE,
+                        "mesh '%s' is corrupt: the importer (assimp) crashed on it (signal %d, %s)",
+                        d->path, WTERMSIG(status), strsignal(WTERMSIG(status)));
+    return sq__fail(ctx, SQ_ERR_PARSE, MODULE,
+                    "mesh '%s' is corrupt: the importer (assimp) failed on it without a result "
+                    "(exit status %d)",
+                    d->path, WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+}
+
+static sq_result import_scene(sq_context *ctx, const sq_mesh_import_desc *d, fmt f, sq_mesh **out)
+{
+    const char *path = d->path;
+    imported im;
+    sq_result r = read_isolated(ctx, d, f, &im);
+    if (r != SQ_OK) return r;
     {
         const char *slash = strrchr(path, '/');
         sq_mesh_desc md;
         memset(&md, 0, sizeof md);
         md.name = slash ? slash + 1 : path;
-        md.vertex_count = (int)nv;
-        md.positions = pos;
-        md.normals = nrm;
-        md.uvs = uv;
-        md.index_count = (int)(3 * t);
-        md.indices = idx;
-        md.face_materials = fm;
-        md.material_count = nmat;
-        md.materials = mats;
+        md.vertex_count = (int)im.nv;
+        md.positions = im.pos;
+        md.normals = im.nrm;
+        md.uvs = im.uv;
+        md.index_count = (int)(3 * im.nt);
+        md.indices = im.idx;
+        md.face_materials = im.fm;
+        md.material_count = im.nmat;
+        md.materials = im.mats;
         r = sq_mesh_create(ctx, &md, out);
         if (r == SQ_ERR_INVALID_ARG || r == SQ_ERR_TOO_LARGE) {
             char why[1024];
@@ -296,15 +548,7 @@ static sq_result import_scene(sq_context *ctx, const sq_mesh_import_desc *d, fmt
         sq_mesh_destroy(ctx, *out);
         *out = NULL;
     }
-done:
-    if (sc) aiReleaseImport(sc);
-    for (int i = 0; mats && i < nmat; i++) sq_free(ctx, mats[i].texture_rgba);
-    sq_free(ctx, mats);
-    sq_free(ctx, pos);
-    sq_free(ctx, nrm);
-    sq_free(ctx, uv);
-    sq_free(ctx, idx);
-    sq_free(ctx, fm);
+    imported_free(ctx, &im);
     return r;
 }
 #endif

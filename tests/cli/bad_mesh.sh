@@ -1,6 +1,6 @@
 #!/bin/bash
 # label: unit
-# Mesh files in scenes: missing, unreadable, corrupt, unsupported, placed off the terrain, too large
+# Mesh files in scenes: missing, unreadable, corrupt (one that crashes assimp), unsupported, placed off the terrain, too large
 # for memory, and a procedural place larger than the terrain: exit 2, one line naming the file or key
 # and the rule, nothing written.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
@@ -26,6 +26,11 @@ mesh_scene c.yaml model.stl 0
 expect 2 "world.meshes\[0\].file: .*model.stl.*unsupported format '.stl'; supported: glTF 2.0" -- render c.yaml
 mesh_scene d.yaml cube.obj 99.5
 expect 2 "d.yaml:[0-9]+:[0-9]+: world.meshes\[0\]: mesh cube.obj at \(99.5, 0\): its footprint x 99.5..101.5 m.*reaches outside the terrain \(x -100..100 m" -- render d.yaml
+# a damaged PLY that crashes assimp's reader (found by fuzz_mesh): the importer runs assimp in a
+# child process, so the crash is a refusal of the file, not of squall
+tail -c +2 "$SQ_SOURCE_DIR/tests/fuzz/regress/mesh/ply-binary-header-without-end-crashes-assimp" > crash.ply
+mesh_scene f.yaml crash.ply 0
+expect 2 "world.meshes\[0\].file: mesh '.*crash.ply' is corrupt: the importer \(assimp\) crashed on it \(signal" -- simulate f.yaml
 mesh_scene e.yaml huge.ply 0
 expect 2 "world.meshes\[0\].file: .*huge.ply.*declares 4000000000 vertices and 8000000000 faces.*needs [0-9]+ bytes.*memory limit" -- render e.yaml
 if [ "$(id -u)" != 0 ]; then
