@@ -113,7 +113,8 @@ static sq_result precheck(sq_context *ctx, const char *path, fmt *f)
 /* Reads a material's base-colour texture: an embedded PNG ("*N") or a PNG file beside the mesh.
  * Other image kinds are skipped with a warning (the material keeps its colour). */
 static void load_texture(sq_context *ctx, const char *mesh_path, const struct aiScene *sc,
-                         const struct aiMaterial *am, sq_mesh_material *out)
+                         const struct aiMaterial *am, sq_mesh_material *out, char *file_read,
+                         size_t file_size)
 {
     struct aiString tp;
     if (aiGetMaterialTexture(am, aiTextureType_BASE_COLOR, 0, &tp, NULL, NULL, NULL, NULL, NULL,
@@ -164,6 +165,7 @@ static void load_texture(sq_context *ctx, const char *mesh_path, const struct ai
             return;
         }
         r = sq_png_read_rgba8(ctx, full, &rgba, &w, &h);
+        if (r == SQ_OK) snprintf(file_read, file_size, "%s", full);
     }
     if (r != SQ_OK) {
         sq_log(ctx, SQ_LOG_WARN, MODULE, "mesh '%s': texture skipped: %s", mesh_path, sq_last_error());
@@ -185,6 +187,7 @@ typedef struct imported {
     uint32_t *idx;
     int *fm;
     sq_mesh_material *mats;
+    char (*tex_file)[2048]; /* per material: the PNG file its texture came from, or "" */
 } imported;
 
 static void imported_free(sq_context *ctx, imported *im)
@@ -196,6 +199,7 @@ static void imported_free(sq_context *ctx, imported *im)
     sq_free(ctx, im->uv);
     sq_free(ctx, im->idx);
     sq_free(ctx, im->fm);
+    sq_free(ctx, im->tex_file);
     memset(im, 0, sizeof *im);
 }
 
@@ -248,8 +252,10 @@ static sq_result read_with_assimp(sq_context *ctx, const sq_mesh_import_desc *d,
     uint32_t *idx = im->idx = sq_alloc(ctx, nt * 3 * sizeof(uint32_t));
     int *fm = im->fm = sq_alloc(ctx, nt * sizeof(int));
     sq_mesh_material *mats = im->mats = sq_alloc_zero(ctx, (size_t)nmat * sizeof *mats);
+    im->tex_file = sq_alloc_zero(ctx, (size_t)nmat * sizeof *im->tex_file);
     im->nmat = nmat;
-    if (!pos || (all_normals && !nrm) || (any_uv && !uv) || !idx || !fm || !mats) {
+    if (!pos || (all_normals && !nrm) || (any_uv && !uv) || !idx || !fm || !mats ||
+        !im->tex_file) {
         aiReleaseImport(sc);
         imported_free(ctx, im);
         return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MODULE, "mesh '%s': out of memory", path);
@@ -297,7 +303,7 @@ static sq_result read_with_assimp(sq_context *ctx, const sq_mesh_import_desc *d,
         if (aiGetMaterialColor(am, AI_MATKEY_BASE_COLOR, &c) == aiReturn_SUCCESS ||
             aiGetMaterialColor(am, AI_MATKEY_COLOR_DIFFUSE, &c) == aiReturn_SUCCESS)
             o->base_color = sq_v3(fmaxf(c.r, 0.0f), fmaxf(c.g, 0.0f), fmaxf(c.b, 0.0f));
-        load_texture(ctx, path, sc, am, o);
+        load_texture(ctx, path, sc, am, o, im->tex_file[i], sizeof im->tex_file[i]);
     }
     aiReleaseImport(sc);
     im->nv = nv;
@@ -390,9 +396,11 @@ static void child_import(sq_context *ctx, const sq_mesh_import_desc *d, fmt f, i
              write_all(fd, im.fm, im.nt * sizeof(int));
         for (int i = 0; ok && i < im.nmat; i++) {
             const sq_mesh_material *m = &im.mats[i];
+            const uint32_t flen = (uint32_t)strlen(im.tex_file[i]);
             ok = write_all(fd, m, sizeof *m) &&
                  (!m->texture_rgba ||
-                  write_all(fd, m->texture_rgba, (size_t)m->texture_w * (size_t)m->texture_h * 4));
+                  write_all(fd, m->texture_rgba, (size_t)m->texture_w * (size_t)m->texture_h * 4)) &&
+                 write_all(fd, &flen, sizeof flen) && write_all(fd, im.tex_file[i], flen);
         }
     }
     close(fd);
@@ -437,14 +445,30 @@ static sq_result receive(importer_wait *w, const char *path, int fd, imported *i
         ok = read_all(w, fd, m, sizeof *m);
         const bool has_tex = ok && m->texture_rgba != NULL;
         m->texture_rgba = NULL;
-        if (!has_tex) continue;
-        if (m->texture_w <= 0 || m->texture_h <= 0 || m->texture_w > 16384 || m->texture_h > 16384) {
-            ok = false;
-            break;
+        if (has_tex) {
+            if (m->texture_w <= 0 || m->texture_h <= 0 || m->texture_w > 16384 ||
+                m->texture_h > 16384) {
+                ok = false;
+                break;
+            }
+            const size_t n = (size_t)m->texture_w * (size_t)m->texture_h * 4;
+            m->texture_rgba = sq_alloc(ctx, n);
+            ok = m->texture_rgba && read_all(w, fd, m->texture_rgba, n);
         }
-        const size_t n = (size_t)m->texture_w * (size_t)m->texture_h * 4;
-        m->texture_rgba = sq_alloc(ctx, n);
-        ok = m->texture_rgba && read_all(w, fd, m->texture_rgba, n);
+        /* the PNG file the texture came from is an input of the run: the child's record of it
+         * went with the child, so it is recorded here (no output may replace it) */
+        uint32_t flen = 0;
+        char file[2048];
+        ok = ok && read_all(w, fd, &flen, sizeof flen) && flen < sizeof file &&
+             read_all(w, fd, file, flen);
+        if (ok && flen > 0) {
+            file[flen] = 0;
+            const sq_result g = sq__input_guard(ctx, MODULE, "mesh texture", file);
+            if (g != SQ_OK) {
+                imported_free(ctx, im);
+                return g;
+            }
+        }
     }
     if (!ok) {
         imported_free(ctx, im);

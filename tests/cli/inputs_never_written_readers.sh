@@ -44,6 +44,19 @@ YAML
 }
 mesh_scene m.yaml quad.obj
 expect 2 "output 'quad.obj' is the mesh '(\./)?quad.obj': inputs are never written" -- simulate m.yaml --metrics quad.obj --overwrite
+# a mesh's texture is an input too (assimp reads it in a child process: the run records it)
+python3 - <<'PY'
+import struct, zlib
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+raw = b"".join(b"\x00" + bytes([200, 60, 40, 255] * 2) for _ in range(2))
+open("tex.png", "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 2, 2, 8, 6, 0, 0, 0))
+                           + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+PY
+printf 'newmtl brick\nKd 1 1 1\nmap_Kd tex.png\n' > quadt.mtl
+printf 'mtllib quadt.mtl\nusemtl brick\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n' > quadt.obj
+mesh_scene t.yaml quadt.obj
+expect 2 "output 'tex.png' is the mesh texture '(\./)?tex.png': inputs are never written" -- simulate t.yaml --metrics tex.png --overwrite
 mkfifo pipe.obj
 mesh_scene p.yaml pipe.obj
 timeout 20 "$SQ" simulate p.yaml > out.txt 2> err.txt
