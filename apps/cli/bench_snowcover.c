@@ -9,6 +9,8 @@
  *                     (occlusion_maps_drawn of frames_timed; ms_occlusion_map_drawn is the cost
  *                     of one drawing, occlusion_share_drawn its share of a frame);
  *   ms_scene          a frame of the same view without snow and flakes (world geometry, shadows);
+ *                     cpu_ms_scene and cpu_ms_no_flakes: CPU time of all threads per such frame
+ *                     (and per frame with snow but no flakes), as cpu_ms_per_frame;
  *   ms_flakes         the flakes: their step and sizing (CPU) plus the particle pass (the frame
  *                     with flakes minus the frame without them);
  * and reported: faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
@@ -180,10 +182,14 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_render_stats st;
     sq_renderer_stats(b.r, &st);
     b.mode = 1;
+    double cpu1 = cpu_ms();
     const sq_bench_stats scene_only = sq_bench_time(frame, &b, 1, a->reps);
+    const double cpu_scene = (cpu_ms() - cpu1) / (double)(1 + a->reps);
     if (b.err != SQ_OK) goto failed;
     b.mode = 2;
+    cpu1 = cpu_ms();
     const sq_bench_stats no_flakes = sq_bench_time(frame, &b, 1, a->reps);
+    const double cpu_no_flakes = (cpu_ms() - cpu1) / (double)(1 + a->reps);
     if (b.err != SQ_OK) goto failed;
     /* the flakes' CPU share: the step of a frame is almost all flakes (the depth grid is a fill) */
     int flakes = 0;
@@ -215,6 +221,8 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_json_num(&j, "ms_occlusion_map_drawn", ms_occ_drawn);
     sq_json_num(&j, "occlusion_share_drawn", ms_occ_drawn / full.median_ms);
     sq_json_num(&j, "ms_scene", scene_only.median_ms);
+    sq_json_num(&j, "cpu_ms_scene", cpu_scene);
+    sq_json_num(&j, "cpu_ms_no_flakes", cpu_no_flakes);
     sq_json_num(&j, "ms_flakes", ms_flakes);
     sq_json_num(&j, "ms_shadow_cpu", st.ms_shadow);
     sq_json_num(&j, "ms_build_scene", ms_build);
