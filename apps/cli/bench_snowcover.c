@@ -13,7 +13,8 @@
  *                     (and per frame with snow but no flakes), as cpu_ms_per_frame;
  *   ms_flakes         the flakes: their step and sizing (CPU) plus the particle pass (the frame
  *                     with flakes minus the frame without them);
- * and reported: faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
+ * and reported: shadow_cascades_drawn (cascade maps drawn over the frames_timed frames; a cascade
+ * keeps its map while the view stays in its cell, render_shadow.c), faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
  * the renderer drew over all views / for the camera, after culling and LODs), flakes,
  * flakes_visible, the snow depth, cpu_ms_per_frame (CPU time of all threads per full frame: on a
  * machine shared with other work the wall time says little) and the GL renderer string (llvmpipe
@@ -39,7 +40,7 @@ typedef struct cover_bench {
     sq_camera cam;
     int mode; /* 0 full frame with a step, 1 without snow or flakes, 2 without flakes */
     double ms_occ_sum, ms_step_sum;
-    int frames, occ_drawn;
+    int frames, occ_drawn, cascades_drawn;
     sq_result err;
 } cover_bench;
 
@@ -84,6 +85,7 @@ static int frame(void *user)
         sq_renderer_stats(b->r, &st);
         b->ms_occ_sum += st.ms_occlusion_map;
         b->occ_drawn += st.ms_occlusion_map > 0.0;
+        b->cascades_drawn += st.shadow_cascades_drawn;
         b->frames++;
     }
     return 0;
@@ -225,6 +227,7 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_json_num(&j, "cpu_ms_no_flakes", cpu_no_flakes);
     sq_json_num(&j, "ms_flakes", ms_flakes);
     sq_json_num(&j, "ms_shadow_cpu", st.ms_shadow);
+    sq_json_int(&j, "shadow_cascades_drawn", b.cascades_drawn);
     sq_json_num(&j, "ms_build_scene", ms_build);
     sq_json_end(&j, stdout);
     goto done;

@@ -254,6 +254,8 @@ void sq__shadow_bind(sq_renderer *r);
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
 double sq__shadow_pass_ms(const sq_renderer *r);
+/* Cascades drawn by the last frame (the others kept their maps). */
+int sq__shadow_pass_drawn(const sq_renderer *r);
 
 /* ---- render_snowcover.c: snow lying on the opaque surfaces --------------------------------- */
 sq_result sq__snow_pass_create(sq_renderer *r);

@@ -748,6 +748,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->stats.faces = all.faces;
     r->stats.instances = all.instances;
     r->stats.ms_shadow = sq__shadow_pass_ms(r);
+    r->stats.shadow_cascades_drawn = sq__shadow_pass_drawn(r);
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
     return SQ_OK;
 }
