@@ -253,6 +253,19 @@ void sq__shadow_bind(sq_renderer *r);
  * binds the framebuffer, sets the viewport and clears depth. */
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
+/* A shadow cascade's slice and its map's box in the sun's frame (x, y across the sun's direction,
+ * z toward it): half-size, centre, depth range. */
+typedef struct sq__cascade_box {
+    float split; /* far end of the slice along the view axis (m) */
+    float texel; /* m */
+    float half, cx, cy, zlo, zhi;
+} sq__cascade_box;
+/* The C cascades' boxes (render_shadow.c) for a camera at cam looking along unit fwd with half
+ * field-of-view tangents tx, ty, near n and shadow distance f; size texels across a slice's
+ * sphere plus margin texels each side (0: no keeping: origins on whole texels); reach (m)
+ * toward the sun beyond the slice. No GL: the map of a cascade is kept while its box is the same. */
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out);
 double sq__shadow_pass_ms(const sq_renderer *r);
 /* Cascades drawn by the last frame (the others kept their maps). */
 int sq__shadow_pass_drawn(const sq_renderer *r);

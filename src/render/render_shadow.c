@@ -169,6 +169,42 @@ static sq_mat4 light_matrix(sq_vec3 lx, sq_vec3 ly, sq_vec3 lz, float cx, float 
     return m;
 }
 
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out)
+{
+    const float k2 = tx * tx + ty * ty;
+    sq_vec3 lx, ly, lz;
+    light_basis(sun, &lx, &ly, &lz);
+    float d0 = n;
+    for (int c = 0; c < C; c++) {
+        const float u = (float)(c + 1) / (float)C;
+        const float d1 = 0.75f * n * powf(f / n, u) + 0.25f * (n + (f - n) * u);
+        /* bounding sphere of the slice's corners: centre on the view axis */
+        float zc = 0.5f * (d0 + d1) * (1.0f + k2);
+        if (zc > d1) zc = d1;
+        float R = sqrtf((zc - d0) * (zc - d0) + k2 * d0 * d0);
+        R = fmaxf(R, sqrtf((d1 - zc) * (d1 - zc) + k2 * d1 * d1));
+        R *= 1.02f;
+        const sq_vec3 centre = sq_v3_add(cam, sq_v3_scale(fwd, zc));
+        const float texel = 2.0f * R / (float)size;
+        const float M = (float)margin * texel, half = R + M;
+        float cx = sq_v3_dot(centre, lx), cy = sq_v3_dot(centre, ly), cz = sq_v3_dot(centre, lz);
+        if (margin > 0) {
+            /* the centre's cell of 2M (whole texels): the sphere stays inside the map */
+            const float g = 2.0f * M;
+            cx = roundf(cx / g) * g;
+            cy = roundf(cy / g) * g;
+            cz = roundf(cz / g) * g;
+        } else {
+            /* snap the light-space origin to whole texels */
+            cx = floorf(cx / texel) * texel;
+            cy = floorf(cy / texel) * texel;
+        }
+        out[c] = (sq__cascade_box){d1, texel, half, cx, cy, cz - half, cz + half + reach};
+        d0 = d1;
+    }
+}
+
 sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
 {
     sq__shadow_pass *s = r->shadow;
@@ -179,9 +215,6 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
         const double t0 = sq_time_now();
         const int C = s->cascades;
         const float n = r->near_m, f = fminf(r->far_m, s->distance_m);
-        /* tangents of the half field of view from the projection */
-        const float ty = 1.0f / r->proj.m[5], tx = 1.0f / r->proj.m[0];
-        const float k2 = tx * tx + ty * ty;
         sq_vec3 lx, ly, lz;
         light_basis(w->sun_dir, &lx, &ly, &lz);
         /* the highest thing in the world, for how far toward the sun to look */
@@ -197,45 +230,24 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
          * sun's direction (a function of the world and the sun only; nearer casters beyond it
          * still occlude by depth clamping) */
         const float reach = fminf(fmaxf(0.0f, top - wmin.z) / fmaxf(lz.z, 0.05f), 20000.0f);
-        float d0 = n;
+        sq__cascade_box box[MAX_CASCADES];
+        sq__shadow_cascades(r->cam_pos, r->cam_forward, 1.0f / r->proj.m[0], 1.0f / r->proj.m[5], n, f,
+                            C, s->size, s->margin, w->sun_dir, reach, box);
         int drawn = 0;
         glEnable(GL_POLYGON_OFFSET_FILL);
         glPolygonOffset(2.0f, 2.0f);
         for (int c = 0; c < C; c++) {
-            const float u = (float)(c + 1) / (float)C;
-            const float d1 = 0.75f * n * powf(f / n, u) + 0.25f * (n + (f - n) * u);
-            /* bounding sphere of the slice's corners: centre on the view axis */
-            float zc = 0.5f * (d0 + d1) * (1.0f + k2);
-            if (zc > d1) zc = d1;
-            float R = sqrtf((zc - d0) * (zc - d0) + k2 * d0 * d0);
-            R = fmaxf(R, sqrtf((d1 - zc) * (d1 - zc) + k2 * d1 * d1));
-            R *= 1.02f;
-            const sq_vec3 centre = sq_v3_add(r->cam_pos, sq_v3_scale(r->cam_forward, zc));
-            const float texel = 2.0f * R / (float)s->size;
-            const float M = (float)s->margin * texel, half = R + M;
-            float cx = sq_v3_dot(centre, lx), cy = sq_v3_dot(centre, ly), cz = sq_v3_dot(centre, lz);
-            if (s->margin > 0) {
-                /* the centre's cell of 2M (whole texels): the sphere stays inside the map */
-                const float g = 2.0f * M;
-                cx = roundf(cx / g) * g;
-                cy = roundf(cy / g) * g;
-                cz = roundf(cz / g) * g;
-            } else {
-                /* snap the light-space origin to whole texels */
-                cx = floorf(cx / texel) * texel;
-                cy = floorf(cy / texel) * texel;
-            }
-            const float zlo = cz - half, zhi = cz + half + reach;
+            const float half = box[c].half, cx = box[c].cx, cy = box[c].cy, zlo = box[c].zlo,
+                        zhi = box[c].zhi, texel = box[c].texel;
             const sq_mat4 vp = light_matrix(lx, ly, lz, cx, cy, half, zlo, zhi);
-                /* lookup: clip -> [0, 1] */
+            /* lookup: clip -> [0, 1] */
             sq_mat4 bias = sq_m4_identity();
             bias.m[0] = bias.m[5] = bias.m[10] = 0.5f;
             bias.m[12] = bias.m[13] = bias.m[14] = 0.5f;
             const sq_mat4 look = sq_m4_mul(bias, vp);
             memcpy(blk.matrix[c], look.m, sizeof look.m);
-            blk.split[c] = d1;
+            blk.split[c] = box[c].split;
             blk.texel[c] = texel;
-            d0 = d1;
             const cascade_key key = {w, w->generation, w->sun_dir, half, cx, cy, zlo, zhi, true};
             const cascade_key *k = &s->key[c];
             if (s->margin > 0 && k->valid && k->world == key.world &&
