@@ -6,6 +6,7 @@
 #ifndef SQ_RENDER_INTERNAL_H
 #define SQ_RENDER_INTERNAL_H
 
+#include <math.h>
 #include <epoxy/gl.h>
 
 #include "core/core_internal.h"
@@ -171,6 +172,24 @@ void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);
 sq_vec3 sq__material_albedo(sq_material m);
 
 /* ---- render_volume.c --------------------------------------------------------------------- */
+/* Multiple-scattering octaves of the sun light in a volume (after Wrenninge, Kulla &
+ * Lundqvist 2013, "Oz: the great and volumetric", SIGGRAPH talk): light scattered many times
+ * is approximated by further copies of the single-scattering source whose extinction, weight
+ * and phase asymmetry shrink by a, b and c per octave. Here octave i >= 1 adds only what its
+ * weaker extinction lets through beyond the direct beam,
+ *     albedo^i * b^i * (exp(-a^i tau) - exp(-tau)) * p_HG(theta, c^i g),
+ * tau being the sun's optical depth to the point (green), so that it vanishes as tau^2 in thin
+ * media (like true double scattering) and adds no energy there; the eye pass (volume_eye.frag)
+ * evaluates this sum. tests/volume checks it against the line integral and that a conservative
+ * slab sends out no more than it receives. */
+#define SQ_VOL_MS_A 0.5 /* extinction scale per octave */
+#define SQ_VOL_MS_B 0.5 /* weight per octave */
+#define SQ_VOL_MS_C 0.85 /* phase asymmetry scale per octave */
+static inline double sq__volume_ms_weight(int i, double tau)
+{
+    return pow(SQ_VOL_MS_B, i) * (exp(-pow(SQ_VOL_MS_A, i) * tau) - exp(-tau));
+}
+
 sq_result sq__volume_pass_create(sq_renderer *r);
 void sq__volume_pass_destroy(sq_renderer *r);
 /* Uploads (if its version changed) and runs the light passes so sun_shadow_tex is ready. */
