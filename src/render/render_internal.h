@@ -46,6 +46,7 @@ struct sq_renderer {
     uint64_t world_generation;
     GLuint terrain_vao, terrain_vbo, terrain_ibo;
     GLsizei terrain_index_count;
+    double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
     GLsizei obstacle_vertex_count;
 
@@ -258,6 +259,10 @@ void sq__shadow_pass_destroy(sq_renderer *r);
  * the map at unit 8). Call after the camera is set and the world caches are up to date.
  * draw = false: no shadows this frame (the block says 0 cascades). */
 sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw);
+/* Whether the world's opaque geometry can shadow any of itself under its sun: obstacles or mesh
+ * instances, or a terrain with a triangle steeper than the sun's elevation. The cascades are
+ * not drawn when not (the picture is the same: nothing would be in shadow). */
+bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w);
 /* Binds the Shadow block and map (or the 1x1 stand-in) for passes that include frame_common. */
 void sq__shadow_bind(sq_renderer *r);
 /* All opaque world geometry (terrain, obstacles, mesh instances) into the bound depth target

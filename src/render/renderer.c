@@ -243,10 +243,22 @@ static int mesh_sample(int m, int stride, int n)
     return i < n - 1 ? i : n - 1;
 }
 
+/* Steepest rise of the plane through three mesh vertices (x, y, z first): |grad z|; infinite
+ * for a vertical or degenerate triangle. */
+static double triangle_slope(const float *a, const float *b, const float *c)
+{
+    const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+    const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+    const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    const double h = sqrt(nx * nx + ny * ny);
+    return fabs(nz) > 0.0 ? h / fabs(nz) : (h > 0.0 ? (double)INFINITY : 0.0);
+}
+
 static sq_result build_terrain(sq_renderer *r, const sq_world *w)
 {
     sq_context *ctx = r->ctx;
     r->terrain_index_count = 0;
+    r->terrain_max_slope = 0.0;
     if (w->nx < 2 || w->ny < 2 || !w->heights) return SQ_OK; /* nothing to draw */
     const int big = w->nx > w->ny ? w->nx : w->ny;
     const int stride = (big - 1 + SQ_TERRAIN_MAX_SIDE - 2) / (SQ_TERRAIN_MAX_SIDE - 1);
@@ -290,14 +302,19 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
         }
     }
     size_t k = 0;
+    double max_slope = 0.0;
     for (int j = 0; j < ny - 1; j++) {
         for (int i = 0; i < nx - 1; i++) {
             const uint32_t a = (uint32_t)(j * nx + i), b = a + 1;
             const uint32_t c = a + (uint32_t)nx, d = c + 1;
             idx[k++] = a; idx[k++] = b; idx[k++] = d;
             idx[k++] = a; idx[k++] = d; idx[k++] = c;
+            const double sa = triangle_slope(v + 6 * a, v + 6 * b, v + 6 * d);
+            const double sb = triangle_slope(v + 6 * a, v + 6 * d, v + 6 * c);
+            max_slope = fmax(max_slope, fmax(sa, sb));
         }
     }
+    r->terrain_max_slope = max_slope;
     if (!r->terrain_vao) {
         glCreateVertexArrays(1, &r->terrain_vao);
         glEnableVertexArrayAttrib(r->terrain_vao, 0);
