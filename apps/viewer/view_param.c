@@ -21,6 +21,7 @@ int view_param_groups(const viewer *v, view_group *out, int max)
         snprintf(g->title, sizeof g->title, "%s", sections[i]);
         g->params = t;
         g->count = count;
+        g->plugin = NULL;
     }
     const sq_cfg_node *layers = sq_cfg_get(v->cfg->root, "layers");
     int index = 0;
@@ -38,6 +39,7 @@ int view_param_groups(const viewer *v, view_group *out, int max)
         snprintf(g->title, sizeof g->title, "layer %s (%s)", nm, pl->name);
         g->params = pl->params;
         g->count = pl->param_count;
+        g->plugin = pl;
     }
     return n;
 }
@@ -190,7 +192,7 @@ sq_result view_param_apply(viewer *v, const char *full_key, const char *value, v
     snprintf(assignment, sizeof assignment, "%s=%s", full_key, value);
     view_group g;
     const sq_param *p = view_param_find(v, full_key, &g);
-    const bool live = p && (p->flags & SQ_PARAM_LIVE) && v->run && v->sim &&
+    const bool live = p && sq_param_live(p, g.plugin) && v->run && v->sim &&
                       sq_run_frame_index(v->run) > 0;
     sq_result r;
     if (live && strcmp(g.section, "camera") != 0) {

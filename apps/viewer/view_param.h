@@ -18,6 +18,7 @@ typedef struct view_group {
     char title[128];       /* "layer storm (sandstorm)" */
     const sq_param *params;
     size_t count;
+    const sq_phen_plugin *plugin; /* a layer's plug-in; NULL for a section */
 } view_group;
 
 #define VIEW_MAX_GROUPS 24

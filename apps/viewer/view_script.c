@@ -12,6 +12,7 @@
  *   screenshot FILE.png     the next drawn frame (the GL area's pixels)
  *   save FILE.yaml          the scene as edited, as YAML that `squall render` reads
  *   panel-keys SECTION FILE the keys the panel lists for SECTION (e.g. layers.storm), one a line
+ *                           with "live" or "rebuild" after it
  *   record FILE.mp4         start recording every new frame shown (H.264, output.fps)
  *   record-stop             finish the video (also done at the end)
  *   keyframe                the current view as a key of camera.path at the frame's video
