@@ -6,6 +6,7 @@
 #ifndef SQ_RENDER_INTERNAL_H
 #define SQ_RENDER_INTERNAL_H
 
+#include <math.h>
 #include <epoxy/gl.h>
 
 #include "core/core_internal.h"
@@ -181,6 +182,24 @@ void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);
 sq_vec3 sq__material_albedo(sq_material m);
 
 /* ---- render_volume.c --------------------------------------------------------------------- */
+/* Multiple-scattering octaves of the sun light in a volume (after Wrenninge, Kulla &
+ * Lundqvist 2013, "Oz: the great and volumetric", SIGGRAPH talk): light scattered many times
+ * is approximated by further copies of the single-scattering source whose extinction, weight
+ * and phase asymmetry shrink by a, b and c per octave. Here octave i >= 1 adds only what its
+ * weaker extinction lets through beyond the direct beam,
+ *     albedo^i * b^i * (exp(-a^i tau) - exp(-tau)) * p_HG(theta, c^i g),
+ * tau being the sun's optical depth to the point (green), so that it vanishes as tau^2 in thin
+ * media (like true double scattering) and adds no energy there; the eye pass (volume_eye.frag)
+ * evaluates this sum. tests/volume checks it against the line integral and that a conservative
+ * slab sends out no more than it receives. */
+#define SQ_VOL_MS_A 0.5 /* extinction scale per octave */
+#define SQ_VOL_MS_B 0.5 /* weight per octave */
+#define SQ_VOL_MS_C 0.85 /* phase asymmetry scale per octave */
+static inline double sq__volume_ms_weight(int i, double tau)
+{
+    return pow(SQ_VOL_MS_B, i) * (exp(-pow(SQ_VOL_MS_A, i) * tau) - exp(-tau));
+}
+
 sq_result sq__volume_pass_create(sq_renderer *r);
 void sq__volume_pass_destroy(sq_renderer *r);
 /* Uploads (if its version changed) and runs the light passes so sun_shadow_tex is ready. */
@@ -270,7 +289,22 @@ void sq__shadow_bind(sq_renderer *r);
  * binds the framebuffer, sets the viewport and clears depth. */
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
+/* A shadow cascade's slice and its map's box in the sun's frame (x, y across the sun's direction,
+ * z toward it): half-size, centre, depth range. */
+typedef struct sq__cascade_box {
+    float split; /* far end of the slice along the view axis (m) */
+    float texel; /* m */
+    float half, cx, cy, zlo, zhi;
+} sq__cascade_box;
+/* The C cascades' boxes (render_shadow.c) for a camera at cam looking along unit fwd with half
+ * field-of-view tangents tx, ty, near n and shadow distance f; size texels across a slice's
+ * sphere plus margin texels each side (0: no keeping: origins on whole texels); reach (m)
+ * toward the sun beyond the slice. No GL: the map of a cascade is kept while its box is the same. */
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out);
 double sq__shadow_pass_ms(const sq_renderer *r);
+/* Cascades drawn by the last frame (the others kept their maps). */
+int sq__shadow_pass_drawn(const sq_renderer *r);
 
 /* ---- render_snowcover.c: snow lying on the opaque surfaces --------------------------------- */
 sq_result sq__snow_pass_create(sq_renderer *r);

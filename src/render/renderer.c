@@ -766,6 +766,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->stats.faces = all.faces;
     r->stats.instances = all.instances;
     r->stats.ms_shadow = sq__shadow_pass_ms(r);
+    r->stats.shadow_cascades_drawn = sq__shadow_pass_drawn(r);
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
     return SQ_OK;
 }
@@ -1112,6 +1113,10 @@ static sq_result resolve_desc(sq_context *ctx, const sq_render_desc *in, sq_rend
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "exposure = %g; must be finite and > 0 (0 -> 1)", (double)d.exposure);
     if (d.volume_slices == 0) d.volume_slices = 128;
+    if (d.volume_octaves == 0) d.volume_octaves = 3;
+    if (d.volume_octaves < 1 || d.volume_octaves > 8)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume_octaves = %d; must be in 1..8 (0 -> 3)", d.volume_octaves);
     if (d.volume_slices < 1 || d.volume_slices > 4096)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "volume_slices = %d; must be in 1..4096 (0 -> 128)", d.volume_slices);
