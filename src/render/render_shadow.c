@@ -169,6 +169,23 @@ static sq_mat4 light_matrix(sq_vec3 lx, sq_vec3 ly, sq_vec3 lz, float cx, float 
     return m;
 }
 
+bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w)
+{
+    if (r->obstacle_vertex_count > 0) return true;
+    sq_vec3 mmin, mmax;
+    bool any;
+    sq__mesh_pass_bounds(r, &mmin, &mmax, &any);
+    if (any) return true;
+    /* a heightfield whose every triangle rises by less than the sunlight climbs cannot reach
+     * above a sun ray from any point of it: along the ray's ground track the surface gains at
+     * most max_slope x s while the ray gains tan(elevation) x s */
+    const sq_vec3 sun = sq_v3_norm(w->sun_dir);
+    const double sx = sun.x, sy = sun.y, sz = sun.z;
+    const double horiz = sqrt(sx * sx + sy * sy);
+    const double tan_elev = horiz > 0.0 ? sz / horiz : (double)INFINITY;
+    return r->terrain_index_count > 0 && !(r->terrain_max_slope < tan_elev);
+}
+
 void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
                          int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out)
 {
@@ -211,6 +228,7 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
     shadow_block blk;
     memset(&blk, 0, sizeof blk);
     const bool sun_up = w->sun_dir.z > 0.0f;
+    if (draw && s->enabled && sun_up && !sq__shadow_casters_possible(r, w)) draw = false;
     if (draw && s->enabled && sun_up) {
         const double t0 = sq_time_now();
         const int C = s->cascades;

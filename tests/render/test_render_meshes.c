@@ -323,3 +323,79 @@ SQ_TEST(kept_cascades_equal_fresh_ones)
     sq_mesh_destroy(ctx, box);
     sq_context_destroy(ctx);
 }
+
+/* A straight ridge along y at x = 0 (grid terrain, crest h above the plain, flanks of slope s),
+ * the sun in the east (+x) at elevation el, clean air. */
+static sq_world *ridge_world(sq_context *ctx, float h, float s, float el)
+{
+    enum { N = 81 };
+    static float z[N * N];
+    const float dx = 2.5f, x0 = -100.0f;
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++) z[j * N + i] = fmaxf(0.0f, h - s * fabsf(x0 + (float)i * dx));
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_GRID;
+    d.terrain.material = SQ_GROUND_ROCK;
+    d.terrain.grid_heights_m = z;
+    d.terrain.grid_w = d.terrain.grid_h = N;
+    d.terrain.grid_dx_m = d.terrain.grid_dy_m = dx;
+    d.terrain.origin_m[0] = d.terrain.origin_m[1] = x0;
+    d.terrain.origin_set = true;
+    d.sun.direction = sq_v3(cosf(el), 0.0f, sinf(el));
+    d.sky.turbidity = 2.0f;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
+        fprintf(stderr, "world: %s\n", sq_last_error());
+        exit(1);
+    }
+    return w;
+}
+
+/* The terrain shadows itself where a flank is steeper than the sun is high: a 20 m ridge with
+ * 45-degree flanks under a sun 30 degrees up throws its shadow to x = -20 / tan 30 = -34.6 m, so
+ * the plain at x = -27 m is dark; under a sun 60 degrees up (steeper than the flanks) and for a
+ * ridge of slope 0.5 under the 30-degree sun (tan 30 = 0.577) no point can be shaded, and the
+ * renderer skips its shadow cascades there: the same picture as without shadows. */
+SQ_TEST(terrain_shadows_itself_only_where_steeper_than_the_sun)
+{
+    sq_context *ctx = make_ctx();
+    sq_renderer *r = make_renderer(ctx);
+    sq_render_desc od;
+    memset(&od, 0, sizeof od);
+    od.width = W;
+    od.height = H;
+    od.shadows_off = true;
+    sq_renderer *off = NULL;
+    SQ_CHECK(sq_renderer_create(ctx, &od, &off) == SQ_OK);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(-27.0f, -70.0f, 45.0f);
+    cam.target_m = sq_v3(-27.0f, 0.0f, 0.0f);
+    cam.fov_y_deg = 40.0f;
+    const sq_vec3 plain = sq_v3(-27.0f, 0.0f, 0.0f), foot = sq_v3(-21.0f, 0.0f, 0.0f);
+    const float deg = SQ_PI_F / 180.0f;
+    struct { float h, s, el; bool shaded; } cases[3] = {
+        {20.0f, 1.0f, 30.0f, true}, {20.0f, 1.0f, 60.0f, false}, {10.0f, 0.5f, 30.0f, false}};
+    for (int c = 0; c < 3; c++) {
+        sq_world *w = ridge_world(ctx, cases[c].h, cases[c].s, cases[c].el * deg);
+        float *on = render_linear(r, w, &cam), *ref = render_linear(off, w, &cam);
+        const double a = radiance_at(on, &cam, plain), a0 = radiance_at(ref, &cam, plain);
+        const double b = radiance_at(on, &cam, foot), b0 = radiance_at(ref, &cam, foot);
+        printf("slope %.1f sun %.0f deg: plain %.4f (no shadows %.4f), foot %.4f (%.4f)\n",
+               (double)cases[c].s, (double)cases[c].el, a, a0, b, b0);
+        if (cases[c].shaded) {
+            SQ_CHECK_MSG(a < 0.6 * a0, "plain behind the ridge %.4f, unshadowed %.4f", a, a0);
+            SQ_CHECK_MSG(b < 0.6 * b0, "foot of the lee flank %.4f, unshadowed %.4f", b, b0);
+        } else {
+            SQ_CHECK_MSG(fabs(a - a0) <= 0.01 * a0, "plain %.4f vs %.4f without shadows", a, a0);
+            SQ_CHECK_MSG(fabs(b - b0) <= 0.01 * b0, "foot %.4f vs %.4f without shadows", b, b0);
+        }
+        free(on);
+        free(ref);
+        sq_world_destroy(ctx, w);
+    }
+    sq_renderer_destroy(off);
+    sq_renderer_destroy(r);
+    sq_context_destroy(ctx);
+}
