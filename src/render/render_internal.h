@@ -80,6 +80,8 @@ struct sq_renderer {
     GLuint white_tex;           /* 1x1 white RGBA8: bound at unit 7 when no sun shadow */
     struct sq__base_cache *base; /* renderer.c: surface textures, validation cache */
     sq_render_stats stats;      /* of the last frame (sq_renderer_stats) */
+    bool cancelled;             /* the context was cancelled during this frame (sticky) */
+    GLsync part_fence;          /* the last part of a long pass in flight (sq__render_part_done) */
 };
 
 /* ---- gl_context.c ---------------------------------------------------------------------- */
@@ -215,6 +217,17 @@ typedef struct sq__depth_view {
     float min_pixels;   /* instances with a smaller projected radius are skipped; 0 -> 0.5 */
     float max_distance_m; /* perspective: instances farther from the eye are skipped; 0 = none */
 } sq__depth_view;
+
+/* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of
+ * the frame. Passes that issue much work check it between draw calls and stop issuing; the
+ * frame then ends with SQ_ERR_CANCELLED (renderer.c). */
+bool sq__render_cancelled(sq_renderer *r);
+/* Between the parts of a long pass (a volume's slices, batches of particles or instances): the
+ * part just issued is flushed and the one before it waited for, so one part stays in flight.
+ * A software rasteriser otherwise defers a whole pass to the end of the frame, where Ctrl-C
+ * could not reach it; this way it is answered within about two parts. Returns
+ * sq__render_cancelled(r): stop issuing when true. */
+bool sq__render_part_done(sq_renderer *r);
 
 typedef struct sq__mesh_stats {
     int64_t instances, faces; /* drawn since the last reset, over all views */

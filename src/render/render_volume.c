@@ -980,6 +980,20 @@ static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store
     return src;
 }
 
+/* The eye pass over the slice triangles [first, last): in VOL_EYE_PARTS consecutive draws (the
+ * same order, the same picture), so that Ctrl-C reaches a pass of seconds on llvmpipe. */
+#define VOL_EYE_PARTS 16
+static void draw_slices_in_parts(sq_renderer *r, int first, int last)
+{
+    const int tris = (last - first) / 3;
+    const int per = (tris + VOL_EYE_PARTS - 1) / VOL_EYE_PARTS;
+    for (int t = 0; t < tris; t += per) {
+        const int n = tris - t < per ? tris - t : per;
+        glDrawArrays(GL_TRIANGLES, first + 3 * t, 3 * n);
+        if (sq__render_part_done(r)) return;
+    }
+}
+
 static void bind_light_pass(sq__volume_pass *vp, GLuint density)
 {
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->light_fbo);
@@ -1022,7 +1036,10 @@ static sq_result sweep_light(sq_renderer *r, const sq_volume_view *v, const vol_
     if ((res = set_light_uniforms(r, v, p)) != SQ_OK) return res;
     bind_light_pass(vp, density);
     int last = 0;
-    for (int c = 0; c < vp->chunks; c++) last = sweep_chunk(vp, p, c, true);
+    for (int c = 0; c < vp->chunks; c++) {
+        if (sq__render_cancelled(r)) return SQ_OK; /* the key stays invalid; the frame ends */
+        last = sweep_chunk(vp, p, c, true);
+    }
     const int n = vp->light_size;
     glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, last, vp->shadow_tex,
                        GL_TEXTURE_2D, 0, 0, 0, 0, n, n, 1);
@@ -1145,7 +1162,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
                            r->height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
 
     /* slices back to front, chunk by chunk (one chunk unless the light array is chunked) */
-    for (int i = 0; i < vp->chunks; i++) {
+    for (int i = 0; i < vp->chunks && !sq__render_cancelled(r); i++) {
         const int c = p.front_to_back ? vp->chunks - 1 - i : i;
         if (vp->resident != c) {
             state_set_plain();
@@ -1172,7 +1189,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glEnable(GL_DEPTH_TEST); /* early rejection behind the per-pixel bound; no writes */
         glDepthFunc(GL_LEQUAL);
         glDepthMask(GL_FALSE);
-        glDrawArrays(GL_TRIANGLES, first, last - first);
+        draw_slices_in_parts(r, first, last);
     }
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);
