@@ -228,6 +228,11 @@ bool sq__render_cancelled(sq_renderer *r);
  * could not reach it; this way it is answered within about two parts. Returns
  * sq__render_cancelled(r): stop issuing when true. */
 bool sq__render_part_done(sq_renderer *r);
+/* Draws `vertices` vertices of the bound VAO as triangles (indexed: from the bound element buffer,
+ * 32-bit indices) in SQ_RENDER_PARTS consecutive draws with sq__render_part_done between them:
+ * the same picture, and Ctrl-C reaches a pass of seconds (a terrain of 2 M triangles). */
+#define SQ_RENDER_PARTS 8
+void sq__render_triangles_in_parts(sq_renderer *r, int vertices, bool indexed);
 
 typedef struct sq__mesh_stats {
     int64_t instances, faces; /* drawn since the last reset, over all views */

@@ -412,8 +412,9 @@ static GLuint ring_put(sq__mesh_pass *m, int count)
     return at;
 }
 
-/* One draw call holds at most about this many faces: a software rasteriser (llvmpipe) spends
- * seconds on one call of 10^7 faces, and Ctrl-C is polled between calls (sq__render_part_done). */
+/* A part (sq__render_part_done) is about this many faces: one draw call holds at most this many,
+ * and a part ends after the draw that reaches it. A software rasteriser (llvmpipe) spends
+ * seconds on 10^7 faces; Ctrl-C is answered between parts. */
 #define DRAW_CHUNK_FACES (1 << 20)
 
 static int instance_chunk(int faces_per_instance)
@@ -433,6 +434,7 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
     glBindVertexArray(m->vao);
     glBindTextureUnit(9, m->inst_tex);
     bool cull_on = false;
+    int64_t unpolled = 0; /* faces issued since the last part ended */
     for (int mi = 0; mi < m->mesh_count; mi++) {
         const gpu_mesh *g = &m->mesh[mi];
         const sq_mesh *s = m->world->meshes[mi];
@@ -448,7 +450,10 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
             const gpu_lod *L = &g->lod[l];
             const int chunk = instance_chunk(L->index_count / 3);
             for (int i0 = 0; i0 < n_all; i0 += chunk) {
-                if (i0 > 0 && sq__render_part_done(r)) goto done;
+                if (unpolled >= (materials ? 1 : DRAW_CHUNK_FACES)) {
+                    unpolled = 0;
+                    if (sq__render_part_done(r)) goto done;
+                }
                 const int n = n_all - i0 < chunk ? n_all - i0 : chunk;
                 const GLuint first = base + (GLuint)(m->bucket[b] + i0);
                 m->stats.instances += n;
@@ -458,6 +463,7 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
                         (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n,
                         L->base_vertex, first);
                     m->stats.faces += (int64_t)n * (L->index_count / 3);
+                    unpolled += (int64_t)n * (L->index_count / 3);
                     continue;
                 }
                 const sq_mesh_lod *SL = &s->lods[l];
@@ -475,6 +481,7 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
                         (const void *)(uintptr_t)((L->first_index + part->first_index) * sizeof(uint32_t)),
                         n, L->base_vertex, first);
                     m->stats.faces += (int64_t)n * (part->index_count / 3);
+                    unpolled += (int64_t)n * (part->index_count / 3);
                 }
             }
         }

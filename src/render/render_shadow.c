@@ -103,7 +103,7 @@ void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v)
     glUseProgram(s->prog_world);
     if (r->terrain_index_count > 0) {
         glBindVertexArray(r->terrain_vao);
-        glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
+        sq__render_triangles_in_parts(r, r->terrain_index_count, true);
     }
     if (r->obstacle_vertex_count > 0) {
         glBindVertexArray(r->obstacle_vao);

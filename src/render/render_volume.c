@@ -954,8 +954,9 @@ static void light_pass(sq__volume_pass *vp, const vol_plan *p, int k, int n, int
  * bound by the caller), up to light_steps consecutive in-box slabs per pass. With store_next,
  * the light after the chunk becomes checkpoint c + 1. Returns the layer holding the light
  * after the chunk. */
-static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store_next)
+static int sweep_chunk(sq_renderer *r, const vol_plan *p, int c, bool store_next)
 {
+    sq__volume_pass *vp = r->volume;
     int src = c, steps = 0;
     const int end = chunk_end(vp, p, c);
     for (int k = chunk_first(vp, c); k < end;) {
@@ -967,6 +968,7 @@ static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store
         while (n < vp->light_steps && k + n < end && slab_in_box(p, k + n)) n++;
         const int dst = vp->chunks + steps;
         light_pass(vp, p, k, n, src, dst);
+        if (sq__render_part_done(r)) break; /* Ctrl-C: the frame ends (renderer.c) */
         steps += n;
         src = dst + n - 1;
         k += n;
@@ -976,7 +978,7 @@ static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store
         glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, src, vp->light_arr,
                            GL_TEXTURE_2D_ARRAY, 0, 0, 0, c + 1, n, n, 1);
     }
-    vp->resident = c;
+    vp->resident = sq__render_cancelled(r) ? -1 : c; /* a chunk cut short is not resident */
     return src;
 }
 
@@ -1037,8 +1039,8 @@ static sq_result sweep_light(sq_renderer *r, const sq_volume_view *v, const vol_
     bind_light_pass(vp, density);
     int last = 0;
     for (int c = 0; c < vp->chunks; c++) {
+        last = sweep_chunk(r, p, c, true);
         if (sq__render_cancelled(r)) return SQ_OK; /* the key stays invalid; the frame ends */
-        last = sweep_chunk(vp, p, c, true);
     }
     const int n = vp->light_size;
     glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, last, vp->shadow_tex,
@@ -1167,7 +1169,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         if (vp->resident != c) {
             state_set_plain();
             bind_light_pass(vp, density);
-            sweep_chunk(vp, &p, c, false);
+            sweep_chunk(r, &p, c, false);
         }
         int first = vp->vfirst[chunk_first(vp, c)], last = first;
         for (int k = chunk_first(vp, c); k < chunk_end(vp, &p, c); k++) {

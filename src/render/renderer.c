@@ -542,7 +542,7 @@ static void draw_surface(sq_renderer *r, surface_slot *s, const sq_surface_view 
     glBindTextureUnit(2, s->coverage_tex);
     glUseProgram(p);
     glBindVertexArray(r->empty_vao);
-    glDrawArrays(GL_TRIANGLES, 0, (GLsizei)((v->nx - 1) * (v->ny - 1) * 6));
+    sq__render_triangles_in_parts(r, (v->nx - 1) * (v->ny - 1) * 6, false);
 }
 
 /* ---- frame ------------------------------------------------------------------------------ */
@@ -604,17 +604,17 @@ static void pass_sky(sq_renderer *r)
 /* Nearest first where it is cheap to know: the meshes (houses, trees in front of the ground), then
  * the obstacles, then the terrain, so that the depth test rejects hidden ground before its
  * (snow) shading runs. */
-/* The terrain mesh (up to 2 M triangles) in TERRAIN_PARTS draws of whole rows: the same picture,
- * and Ctrl-C reaches the pass between them (sq__render_part_done). */
-#define TERRAIN_PARTS 8
-static void draw_terrain_in_parts(sq_renderer *r)
+void sq__render_triangles_in_parts(sq_renderer *r, int vertices, bool indexed)
 {
-    const int tris = r->terrain_index_count / 3;
-    const int per = (tris + TERRAIN_PARTS - 1) / TERRAIN_PARTS;
+    const int tris = vertices / 3;
+    const int per = (tris + SQ_RENDER_PARTS - 1) / SQ_RENDER_PARTS;
     for (int t = 0; t < tris; t += per) {
         const int n = tris - t < per ? tris - t : per;
-        glDrawElements(GL_TRIANGLES, 3 * n, GL_UNSIGNED_INT,
-                       (const void *)(uintptr_t)((size_t)t * 3 * sizeof(uint32_t)));
+        if (indexed)
+            glDrawElements(GL_TRIANGLES, 3 * n, GL_UNSIGNED_INT,
+                           (const void *)(uintptr_t)((size_t)t * 3 * sizeof(uint32_t)));
+        else
+            glDrawArrays(GL_TRIANGLES, 3 * t, 3 * n);
         if (sq__render_part_done(r)) return;
     }
 }
@@ -643,7 +643,7 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         glProgramUniform2f(r->prog_terrain, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
         glUseProgram(r->prog_terrain);
         glBindVertexArray(r->terrain_vao);
-        draw_terrain_in_parts(r);
+        sq__render_triangles_in_parts(r, r->terrain_index_count, true);
     }
 }
 
