@@ -29,6 +29,10 @@ typedef struct sq_render_desc {
     bool volume_noise;     /* noise perturbation of volume texture coordinates (S0 Fig 3.12) */
     bool single_scatter_only; /* ablation: no multiple forward scattering in the light buffer */
     bool isotropic_phase;  /* ablation: g = 0 */
+    /* multiple-scattering octaves of the sun light in volumes, the first (single scattering
+     * plus the light buffer's forward in-scatter) included: 0 -> 3; 1 = none; at most 8
+     * (docs/validation.md, "Multiple-scattering octaves") */
+    int volume_octaves;
     uint64_t seed;         /* slice jitter */
     /* sun shadows of opaque geometry (cascaded shadow maps fitted to the view) */
     bool shadows_off;      /* no opaque shadows */
@@ -96,6 +100,7 @@ typedef struct sq_render_stats {
     int64_t faces, instances;
     int64_t camera_faces, camera_instances;
     double ms_shadow, ms_occlusion_map;
+    int shadow_cascades_drawn; /* of the cascades: the others kept the map of an earlier frame */
 } sq_render_stats;
 /* Fills out with the statistics above for the last draw. */
 SQ_API sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out);

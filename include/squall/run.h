@@ -32,7 +32,8 @@
  * sq_run_execute does). With desc.snapshot = true sq_run_advance copies the drawables of each new
  * frame into a buffer the run owns, so advance and draw may run at the same time on two threads:
  * draw shows the latest frame advance has completed (advance waits only when the buffer it would
- * fill is being drawn). The renderer is created by the first draw, on the drawing thread; destroy
+ * fill is being drawn). Every frame carries the world's sun, sky and clock as they were when it
+ * was made: a step that moves the sun, or a live sky change, during a draw does not reach it. The renderer is created by the first draw, on the drawing thread; destroy
  * the run on that thread (with the caller's context current for SQ_RUN_GL_CURRENT_CONTEXT).
  * sq_run_set_camera, sq_run_frame_index and sq_run_time may be called from any thread. create,
  * execute, finish and destroy must not overlap anything else. */

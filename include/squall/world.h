@@ -250,7 +250,9 @@ SQ_API void sq_world_destroy(sq_context *ctx, sq_world *w);
  * irradiance as in sq_sky_desc / sq_sun_desc; a sun following the clock takes latitude_deg and
  * clock_scale (its place at the world's time is computed again), a sun placed by day and hour
  * takes day_of_year, hour_solar and latitude_deg; a sun given by direction keeps it. The sky's
- * radiances are derived again. Not synchronised with a renderer drawing the world. */
+ * radiances are derived again. Not synchronised with a renderer drawing the world: the frame
+ * loop (squall/run.h) draws each frame with a copy of the sun and sky taken when the frame was
+ * made, so a change between two steps shows from the next published frame on. */
 SQ_API void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float latitude_deg,
                              double clock_scale, float turbidity, float irradiance_w_m2);
 

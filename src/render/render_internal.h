@@ -6,6 +6,7 @@
 #ifndef SQ_RENDER_INTERNAL_H
 #define SQ_RENDER_INTERNAL_H
 
+#include <math.h>
 #include <epoxy/gl.h>
 
 #include "core/core_internal.h"
@@ -46,11 +47,17 @@ struct sq_renderer {
     uint64_t world_generation;
     GLuint terrain_vao, terrain_vbo, terrain_ibo;
     GLsizei terrain_index_count;
+    double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
     GLsizei obstacle_vertex_count;
 
     /* programs owned by the base renderer */
     GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_tonemap;
+    /* terrain and obstacles with snow cover (snow_common.glsl): compiled on the first frame with
+     * a snow-cover drawable; prog_terrain and prog_mesh have it compiled out (SQ_NO_SNOW).
+     * snow_on: this frame draws snow cover (sq__snow_pass_prepare) */
+    GLuint prog_terrain_snow, prog_mesh_snow;
+    bool snow_on;
     GLuint prog_target; /* sq_renderer_draw_to: target colour <-> linear frame (target.frag) */
 
     /* Sun shadowing by volumes: the volume pass leaves its final light buffer here (a 2D
@@ -146,6 +153,10 @@ void sq__gl_state_restore(const sq__gl_state *s);
  * with the shader name and line. */
 sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, const char *frag,
                          GLuint *out);
+/* The same with defines ("#define NAME VALUE" lines) inserted after each stage's #version line
+ * (program variants: a feature compiled out where a frame does not use it). */
+sq_result sq__gl_program_defs(sq_context *ctx, const char *vert, const char *geom,
+                              const char *frag, const char *defines, GLuint *out);
 /* Text of an embedded shader file by name (NULL if none). */
 const char *sq__shader_source(const char *name);
 /* Translates glGetError into an sq_result with the place named. */
@@ -173,6 +184,24 @@ void sq__terrain_albedo(const sq_world *w, sq_vec3 *flat, sq_vec3 *steep);
 sq_vec3 sq__material_albedo(sq_material m);
 
 /* ---- render_volume.c --------------------------------------------------------------------- */
+/* Multiple-scattering octaves of the sun light in a volume (after Wrenninge, Kulla &
+ * Lundqvist 2013, "Oz: the great and volumetric", SIGGRAPH talk): light scattered many times
+ * is approximated by further copies of the single-scattering source whose extinction, weight
+ * and phase asymmetry shrink by a, b and c per octave. Here octave i >= 1 adds only what its
+ * weaker extinction lets through beyond the direct beam,
+ *     albedo^i * b^i * (exp(-a^i tau) - exp(-tau)) * p_HG(theta, c^i g),
+ * tau being the sun's optical depth to the point (green), so that it vanishes as tau^2 in thin
+ * media (like true double scattering) and adds no energy there; the eye pass (volume_eye.frag)
+ * evaluates this sum. tests/volume checks it against the line integral and that a conservative
+ * slab sends out no more than it receives. */
+#define SQ_VOL_MS_A 0.5 /* extinction scale per octave */
+#define SQ_VOL_MS_B 0.5 /* weight per octave */
+#define SQ_VOL_MS_C 0.85 /* phase asymmetry scale per octave */
+static inline double sq__volume_ms_weight(int i, double tau)
+{
+    return pow(SQ_VOL_MS_B, i) * (exp(-pow(SQ_VOL_MS_A, i) * tau) - exp(-tau));
+}
+
 sq_result sq__volume_pass_create(sq_renderer *r);
 void sq__volume_pass_destroy(sq_renderer *r);
 /* Uploads (if its version changed) and runs the light passes so sun_shadow_tex is ready. */
@@ -257,6 +286,9 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
 /* Box around every instance (any = false when there are none). */
 void sq__mesh_pass_bounds(const sq_renderer *r, sq_vec3 *mn, sq_vec3 *mx, bool *any);
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset);
+/* The instance programs with snow cover (on the first frame that draws snow; the default ones
+ * have it compiled out). */
+sq_result sq__mesh_pass_snow_programs(sq_renderer *r);
 
 sq_result sq__shadow_pass_create(sq_renderer *r);
 void sq__shadow_pass_destroy(sq_renderer *r);
@@ -264,6 +296,10 @@ void sq__shadow_pass_destroy(sq_renderer *r);
  * the map at unit 8). Call after the camera is set and the world caches are up to date.
  * draw = false: no shadows this frame (the block says 0 cascades). */
 sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw);
+/* Whether the world's opaque geometry can shadow any of itself under its sun: obstacles or mesh
+ * instances, or a terrain with a triangle steeper than the sun's elevation. The cascades are
+ * not drawn when not (the picture is the same: nothing would be in shadow). */
+bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w);
 /* Binds the Shadow block and map (or the 1x1 stand-in) for passes that include frame_common. */
 void sq__shadow_bind(sq_renderer *r);
 /* All opaque world geometry (terrain, obstacles, mesh instances) into the bound depth target
@@ -271,7 +307,22 @@ void sq__shadow_bind(sq_renderer *r);
  * binds the framebuffer, sets the viewport and clears depth. */
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
+/* A shadow cascade's slice and its map's box in the sun's frame (x, y across the sun's direction,
+ * z toward it): half-size, centre, depth range. */
+typedef struct sq__cascade_box {
+    float split; /* far end of the slice along the view axis (m) */
+    float texel; /* m */
+    float half, cx, cy, zlo, zhi;
+} sq__cascade_box;
+/* The C cascades' boxes (render_shadow.c) for a camera at cam looking along unit fwd with half
+ * field-of-view tangents tx, ty, near n and shadow distance f; size texels across a slice's
+ * sphere plus margin texels each side (0: no keeping: origins on whole texels); reach (m)
+ * toward the sun beyond the slice. No GL: the map of a cascade is kept while its box is the same. */
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out);
 double sq__shadow_pass_ms(const sq_renderer *r);
+/* Cascades drawn by the last frame (the others kept their maps). */
+int sq__shadow_pass_drawn(const sq_renderer *r);
 
 /* ---- render_snowcover.c: snow lying on the opaque surfaces --------------------------------- */
 sq_result sq__snow_pass_create(sq_renderer *r);
@@ -280,6 +331,9 @@ void sq__snow_pass_destroy(sq_renderer *r);
  * camera, the snow depth texture, the Snow block (UBO 4) and textures (units 11, 12) bound for
  * the opaque shaders. Call after the camera is set and the world caches are up to date. */
 sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow_cover_view *v);
+/* renderer.c: the terrain, obstacle and instance programs with snow cover, compiled once (the
+ * snow pass calls it on the first frame with snow; r->snow_on selects them). */
+sq_result sq__snow_programs(sq_renderer *r);
 /* Time of the last occlusion map, GL finished (ms; 0 without snow). */
 double sq__snow_pass_ms(const sq_renderer *r);
 

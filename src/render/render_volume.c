@@ -451,8 +451,8 @@ static sq_result ensure_light_layers(sq_renderer *r, sq__volume_pass *vp, int n,
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &vp->light_arr);
     glTextureStorage3D(vp->light_arr, 1, GL_RGBA16F, vp->light_size, vp->light_size, alloc);
     set_linear_clamp(vp->light_arr);
-    /* layer 0: the sun before any dust (never written again) */
-    const float one[4] = {1.0f, 1.0f, 1.0f, 1.0f};
+    /* layer 0: the sun before any dust (never written again): full light, optical depth 0 */
+    const float one[4] = {1.0f, 1.0f, 1.0f, 0.0f};
     glClearTexSubImage(vp->light_arr, 0, 0, 0, 0, vp->light_size, vp->light_size, 1, GL_RGBA,
                        GL_FLOAT, one);
     vp->light_layers = alloc;
@@ -827,6 +827,12 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     u3a(prog, "u_inv_back", inv_back);
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
     u3(prog, "u_ambient", ambient_radiance(r->world));
+    /* multiple-scattering octaves (render_internal.h, sq__volume_ms_weight) */
+    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_ms_octaves"),
+                       r->desc.volume_octaves - 1);
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_ms_abc"), (float)SQ_VOL_MS_A,
+                       (float)SQ_VOL_MS_B, (float)SQ_VOL_MS_C);
+    u1f(prog, "u_ms_g", r->desc.isotropic_phase ? 0.0f : v->g[1]);
 
     const GLuint pb = vp->prog_bounds;
     um4(pb, "u_inv_view_proj", &r->inv_view_proj);

@@ -12,6 +12,7 @@
 #include "sq_config.h"
 #include "squall/par.h"
 #include "squall/render.h"
+#include "world/world_internal.h"
 
 /* ---- small pieces ---------------------------------------------------------------------------- */
 static bool cancelled(const sq_run *run)
@@ -181,6 +182,13 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
         !desc->sinks.frame)
         r = sq__fail(ctx, SQ_ERR_INVALID_ARG, "run",
                      "nothing to write: output.video and output.frames_dir are both empty");
+    if (r == SQ_OK && renders(run)) {
+        run->draw_world = (sq_world *)sq_alloc_zero(ctx, sizeof(sq_world));
+        run->slots[0].world = (sq_world *)sq_alloc_zero(ctx, sizeof(sq_world));
+        run->slots[1].world = (sq_world *)sq_alloc_zero(ctx, sizeof(sq_world));
+        if (!run->draw_world || !run->slots[0].world || !run->slots[1].world)
+            r = SQ_ERR_OUT_OF_MEMORY;
+    }
     if (r == SQ_OK && images) {
         const size_t px = (size_t)so->width * (size_t)so->height;
         run->rgba = (uint8_t *)sq_alloc(ctx, px * 4);
@@ -217,6 +225,10 @@ void sq_run_destroy(sq_run *run)
     sq_renderer_destroy(run->renderer);
     sq__run_slot_free(ctx, &run->slots[0]);
     sq__run_slot_free(ctx, &run->slots[1]);
+    /* copies sharing the scene's world: only their memory is theirs */
+    sq_free(ctx, run->slots[0].world);
+    sq_free(ctx, run->slots[1].world);
+    sq_free(ctx, run->draw_world);
     if (run->have_lock) {
         cnd_destroy(&run->released);
         mtx_destroy(&run->lock);
@@ -289,6 +301,7 @@ static sq_result publish_frame(sq_run *run, int frame, double t, const sq_camera
     slot->time_s = t;
     slot->camera = *cam;
     slot->look = look_of(run->out);
+    sq__world_frame_copy(slot->world, sq_scene_world(run->scene)); /* its sun, sky and clock */
     mtx_lock(&run->lock);
     run->front = w;
     mtx_unlock(&run->lock);
@@ -389,10 +402,18 @@ static bool reference_progress(void *user, double fraction)
     return !cancelled(p->run);
 }
 
+/* The world of the slot drawn (its sun, sky and clock), at the one address the renderer keys its
+ * caches on; the slot is held (take_slot), so the simulation side does not write it meanwhile. */
+static const sq_world *slot_world(sq_run *run, const sq__run_frame_slot *s)
+{
+    sq__world_frame_copy(run->draw_world, s->world);
+    return run->draw_world;
+}
+
 static sq_result draw_slot(sq_run *run, const sq__run_frame_slot *s)
 {
     const sq_scene_output *so = run->out;
-    const sq_world *world = sq_scene_world(run->scene);
+    const sq_world *world = slot_world(run, s);
     if (run->desc.render == SQ_RUN_REFERENCE) {
         sq_reference_desc rd;
         memset(&rd, 0, sizeof rd);
@@ -461,7 +482,7 @@ sq_result sq_run_draw_to(sq_run *run, const sq_render_target *target)
     mtx_unlock(&run->lock);
     r = create_renderer(run, &s->look);
     if (r == SQ_OK)
-        r = sq_renderer_draw_to(run->renderer, target, sq_scene_world(run->scene), &cam,
+        r = sq_renderer_draw_to(run->renderer, target, slot_world(run, s), &cam,
                                 s->drawables, s->count, s->time_s);
     release_slot(run);
     return r;

@@ -32,6 +32,10 @@ typedef struct sq__run_frame_slot {
     double time_s;
     sq_camera camera;
     sq__run_look look;
+    /* the world as it was when the frame was made: its sun, sky and clock (a step or a live
+     * change moves them on the simulation side while the frame is drawn); terrain, obstacles
+     * and meshes shared (sq__world_frame_copy); owned memory, NULL when the run draws nothing */
+    sq_world *world;
     sq_drawable drawables[SQ_RUN_MAX_DRAWABLES];
     int count;
     /* owned copies (snapshot mode): one growing buffer per drawable */
@@ -132,6 +136,9 @@ struct sq_run {
     /* drawing side */
     sq_renderer *renderer;
     sq__run_look renderer_look; /* the settings the renderer draws with now */
+    /* the world drawn: the drawn slot's world copied here on the drawing side (one address for
+     * the renderer's caches, which key on it) */
+    sq_world *draw_world;
     uint8_t *rgba;
     float *linear;
 };

@@ -545,6 +545,11 @@ void sq_world_set_sky(sq_world *w, int day_of_year, float hour_solar, float lati
     sky_model(w, turbidity, irradiance_w_m2);
 }
 
+void sq__world_frame_copy(sq_world *dst, const sq_world *src)
+{
+    if (dst && src && dst != src) *dst = *src; /* the pointers inside are shared, not owned */
+}
+
 void sq_world_destroy(sq_context *ctx, sq_world *w)
 {
     if (!w) return;

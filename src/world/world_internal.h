@@ -23,5 +23,12 @@ uint64_t sq__world_mesh_bytes(const sq_world *w);
 /* A generation number no world of the process had before (renderer caches key on the world's
  * address and generation; a new world may reuse a destroyed one's address). */
 uint64_t sq__world_next_generation(void);
+/* dst becomes the world as it is now for drawing one frame: its sun, sky and clock copied, the
+ * terrain, obstacles, areas and meshes shared with src (borrowed: never destroy dst with
+ * sq_world_destroy, free only its memory). The frame loop hands such a copy from the simulation
+ * thread to the drawing thread with each frame, so that a step moving the sun
+ * (sq_world_set_time) or a live sky change (sq_world_set_sky) on the one never changes a picture
+ * the other is drawing, and the frame after the change shows it. */
+void sq__world_frame_copy(sq_world *dst, const sq_world *src);
 
 #endif

@@ -1,12 +1,13 @@
 /* test_compare.c — the real-time renderer (half-angle slicing with Harris multiple forward
- * scattering, SPEC 3.3–3.4) against the unbiased reference path tracer on small scenes: a dust
+ * scattering, SPEC 3.3–3.4, and multiple-scattering octaves) against the unbiased reference path tracer on small scenes: a dust
  * blob over flat terrain, seen with the sun behind the camera and against the sun. Both frames
  * are tone mapped with the shared curve (sq_tonemap_rgba8) and compared by mean SSIM
  * (sq_image_ssim) and mean LDR-FLIP at 67 pixels per degree (sq_image_flip). A third scene,
  * optically thick forward-scattering dust lit from behind at the side, is where multiple forward
  * scattering decides the picture. The full renderer must reach a recorded SSIM floor and stay
  * under a recorded FLIP ceiling, and each ablation
- * (single_scatter_only: no forward in-scatter in the light buffer; isotropic_phase: g = 0)
+ * (single_scatter_only with volume_octaves 1: no forward in-scatter in the light buffer and no
+ * multiple-scattering octaves; isotropic_phase: g = 0)
  * must score worse (in both metrics) than the full renderer on the scenes where that
  * approximation matters.
  *
@@ -129,6 +130,7 @@ static bool gl_frame(sq_context *ctx, bool single, bool iso, const sq_world *w,
     rd.width = CW;
     rd.height = CH;
     rd.single_scatter_only = single;
+    rd.volume_octaves = single ? 1 : 0; /* the ablation: no multiple scattering at all */
     rd.isotropic_phase = iso;
     rd.seed = 3;
     sq_renderer *r = NULL;
@@ -211,7 +213,15 @@ static scores compare_scene(float sun_az, float sun_el, float view_az, float dis
 
 /* Thresholds from the first accepted runs (2026-11-21, Mesa llvmpipe, 128 slices, reference
  * 512 spp, seed 11), see docs/validation.md. SSIM floors are the measured values rounded down to
- * two decimals, FLIP ceilings the measured values rounded up to two decimals.
+ * two decimals, FLIP ceilings the measured values rounded up to two decimals. With the
+ * multiple-scattering octaves (issue 12, 2026-11-28; seeds 11 / 12 / 13):
+ *   sun behind:   SSIM full 0.9338 / 0.9350 / 0.9332, FLIP 0.0924 (all three): within the
+ *                 floors below, 0.0016 SSIM and 0.0011 FLIP worse than without octaves.
+ *   against sun:  SSIM full 0.9532 (all three), FLIP 0.0896 / 0.0893 / 0.0898: floor raised to
+ *                 0.95, ceiling lowered to 0.10 (0.09 would leave 0.0002 of margin).
+ *   side-lit:     SSIM full 0.7531 / 0.7557 / 0.7556, FLIP 0.2187 / 0.2181 / 0.2164: floor
+ *                 raised to 0.75, ceiling lowered to 0.22.
+ * The first run's values:
  *   sun behind:   SSIM full 0.9354, single 0.9352, iso 0.8855; FLIP full 0.0913, single 0.0910,
  *                 iso 0.1220. The single-scatter ablation is equal within noise (Harris forward
  *                 scattering carries light away from this viewer), so only iso is asserted.
@@ -234,10 +244,10 @@ SQ_TEST(dust_blob_against_the_sun)
     /* view azimuth 30 deg toward a sun at azimuth 30 deg, 35 deg up: forward-scatter side,
      * where the light buffer's multiple forward scattering matters */
     scores s = compare_scene(30.0f, 35.0f, 30.0f, 420.0f, &dust, "ahead");
-    SQ_CHECK(s.full >= 0.94);
+    SQ_CHECK(s.full >= 0.95);
     SQ_CHECK(s.full > s.single);
     SQ_CHECK(s.full > s.iso);
-    SQ_CHECK(s.flip_full <= 0.11);
+    SQ_CHECK(s.flip_full <= 0.10);
     SQ_CHECK(s.flip_full < s.flip_single);
     SQ_CHECK(s.flip_full < s.flip_iso);
 }
@@ -255,14 +265,16 @@ SQ_TEST(dust_blob_against_the_sun)
  * full - single 0.0212-0.0219; FLIP full 0.2538-0.2560 with single - full 0.0151-0.0158. The
  * margins asserted (0.01 in both) are about half of the measured ones and 10x their spread. The
  * absolute agreement is lower than in the other scenes: the reference is noisy at 512 spp for
- * g = 0.9 (fireflies from the forward peak) and has the non-forward multiple scattering that
- * half-angle slicing leaves out. */
+ * g = 0.9 (fireflies from the forward peak). The multiple-scattering octaves (its non-forward
+ * multiple scattering, approximately) raised SSIM to 0.7531 and lowered FLIP to 0.2187 (seed
+ * 11; the asserted floor and ceiling are from those, see above); the ablation then has neither
+ * the forward in-scatter nor the octaves. */
 SQ_TEST(thick_dust_lit_from_behind_at_the_side)
 {
     static const medium thick = {0.1f, {0.99f, 0.99f, 0.99f}, 0.9f};
     scores s = compare_scene(60.0f, 10.0f, 30.0f, 220.0f, &thick, "side");
-    SQ_CHECK(s.full >= 0.72);
-    SQ_CHECK(s.flip_full <= 0.26);
+    SQ_CHECK(s.full >= 0.75);
+    SQ_CHECK(s.flip_full <= 0.22);
     SQ_CHECK(s.full - s.single >= 0.01);
     SQ_CHECK(s.flip_single - s.flip_full >= 0.01);
     SQ_CHECK(s.full > s.iso);

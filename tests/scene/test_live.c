@@ -4,6 +4,7 @@
  * gives the message the CLI gives (the scene loader's) and nothing is applied. */
 #include "sq_test.h"
 #include "squall/io.h"
+#include "squall/run.h"
 #include "squall/sandstorm.h"
 #include "squall/scene.h"
 
@@ -363,6 +364,249 @@ SQ_TEST(live_sky_equals_rebuilt)
     sq_scene_destroy(ref);
     sq_scene_destroy(s);
     sq_cfg_destroy(c2);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
+
+/* ---- the sun is drawn with its frame ---------------------------------------------------------
+ * The simulation side changes the world's sun between two frames (a live sky change, or every
+ * step for a sun following the clock) while the drawing side may be drawing the frame before.
+ * A frame is drawn with the sun and sky it was made with: a change on the scene that is not yet
+ * published leaves the picture of the frame shown byte-identical; the frame published after a
+ * live change (sq_run_apply_live) is the picture of a scene built with the new key. The CPU
+ * reference renderer (deterministic: one thread, the seed of the frame) draws the pictures. */
+#define SUN_W 16
+#define SUN_H 16
+static const char *const SUN_SCENE =
+    "name: sunframe\n"
+    "seed: 5\n"
+    "world:\n"
+    "  terrain: {kind: flat, size_m: [400, 400], resolution: [21, 21]}\n"
+    "  sun: {hour: 15}\n"
+    "camera: {position: [0, -150, 20], target: [0, 0, 40]}\n"
+    "output: {width: 16, height: 16, fps: 10, duration_s: 10, video: \"\"}\n";
+
+typedef struct sun_pic {
+    uint8_t rgba[SUN_W * SUN_H * 4];
+    int frames;
+} sun_pic;
+
+static sq_result sun_frame_sink(void *user, const sq_run_frame *f)
+{
+    sun_pic *p = (sun_pic *)user;
+    if (f->width == SUN_W && f->height == SUN_H) memcpy(p->rgba, f->rgba, sizeof p->rgba);
+    p->frames++;
+    return SQ_OK;
+}
+
+static sq_run *sun_run(sq_context *ctx, sq_scene *s, sun_pic *pic)
+{
+    sq_run_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.scene = s;
+    rd.render = SQ_RUN_REFERENCE;
+    rd.reference_samples = 1;
+    rd.snapshot = true;
+    rd.sinks.frame = sun_frame_sink;
+    rd.sinks.user = pic;
+    sq_run *run = NULL;
+    SQ_CHECK_OK(sq_run_create(ctx, &rd, &run));
+    return run;
+}
+
+static sq_context *mkctx1(void)
+{
+    sq_context_desc cd = {0};
+    cd.threads = 1;
+    cd.log_level = SQ_LOG_NONE;
+    sq_context *ctx = NULL;
+    sq_context_create(&cd, &ctx);
+    return ctx;
+}
+
+SQ_TEST(live_sun_drawn_with_its_frame)
+{
+    sq_context *ctx = mkctx1();
+    sq_cfg *cfg = parse(ctx, SUN_SCENE), *low = parse(ctx, SUN_SCENE);
+    SQ_CHECK(cfg && low && sq_cfg_set(low, "world.sun.hour=7") == SQ_OK);
+    sq_scene *s = cfg ? make_scene(ctx, cfg) : NULL, *ref = low ? make_scene(ctx, low) : NULL;
+    SQ_CHECK(s && ref);
+    if (!s || !ref) return;
+    static sun_pic a, b, c, r;
+    sq_run *run = sun_run(ctx, s, &a), *rr = sun_run(ctx, ref, &r);
+    if (!run || !rr) return;
+    SQ_CHECK_OK(sq_run_advance(run));
+    SQ_CHECK_OK(sq_run_draw(run)); /* frame 0 under the 15 h sun */
+    b = a;
+    /* the scene's sun changes (as on the simulation thread) but no frame is published: the frame
+     * shown is drawn again with its own sun */
+    sq_scene_desc d = {.cfg = low};
+    sq_live_result res;
+    SQ_CHECK_OK(sq_scene_apply_live(s, &d, &res));
+    SQ_CHECK(!res.rebuild && res.changed == 1);
+    SQ_CHECK_OK(sq_run_draw(run));
+    SQ_CHECK_MSG(memcmp(a.rgba, b.rgba, sizeof a.rgba) == 0,
+                 "the frame drawn again changed with the scene's unpublished sun");
+    /* the change through the frame loop: the frame is published again with the 7 h sun and
+     * drawn as a scene built with it draws its frame 0 */
+    SQ_CHECK_OK(sq_run_apply_live(run, &d, &res)); /* nothing new for the scene ... */
+    SQ_CHECK(!res.rebuild && res.changed == 0);
+    sq_cfg *back = parse(ctx, SUN_SCENE);
+    sq_scene_desc db = {.cfg = back};
+    SQ_CHECK_OK(sq_scene_apply_live(s, &db, &res)); /* ... so: back to 15 h unpublished */
+    SQ_CHECK_OK(sq_run_apply_live(run, &d, &res));  /* and 7 h through the loop */
+    SQ_CHECK(!res.rebuild && res.changed == 1);
+    SQ_CHECK_OK(sq_run_draw(run));
+    c = a;
+    SQ_CHECK_OK(sq_run_advance(rr));
+    SQ_CHECK_OK(sq_run_draw(rr));
+    SQ_CHECK_MSG(memcmp(c.rgba, r.rgba, sizeof c.rgba) == 0,
+                 "the frame published after the live change differs from a scene built with it");
+    SQ_CHECK_MSG(memcmp(c.rgba, b.rgba, sizeof c.rgba) != 0,
+                 "the 7 h sun draws the same picture as the 15 h sun: the test shows nothing");
+    sq_run_destroy(rr);
+    sq_run_destroy(run);
+    sq_cfg_destroy(back);
+    sq_scene_destroy(ref);
+    sq_scene_destroy(s);
+    sq_cfg_destroy(low);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
+
+/* A sun following the clock (sun.date) moves every step: a step made while a frame is drawn
+ * (the simulation thread working on the next frame) leaves that frame's picture as it was; the
+ * next frame shows the sun moved. */
+SQ_TEST(clock_sun_drawn_with_its_frame)
+{
+    sq_context *ctx = mkctx1();
+    static const char *const text =
+        "name: sunclock\n"
+        "seed: 5\n"
+        "world:\n"
+        "  terrain: {kind: flat, size_m: [400, 400], resolution: [21, 21]}\n"
+        "  sun: {date: \"2026-06-21 06:00:00\", latitude_deg: 40, clock_scale: 3600}\n"
+        "camera: {position: [0, -150, 20], target: [0, 0, 40]}\n"
+        "output: {width: 16, height: 16, fps: 10, duration_s: 10, video: \"\"}\n";
+    sq_cfg *cfg = parse(ctx, text);
+    sq_scene *s = cfg ? make_scene(ctx, cfg) : NULL;
+    SQ_CHECK(s != NULL);
+    if (!s) {
+        fprintf(stderr, "%s\n", sq_last_error());
+        return;
+    }
+    static sun_pic a, b;
+    sq_run *run = sun_run(ctx, s, &a);
+    if (!run) return;
+    SQ_CHECK_OK(sq_run_advance(run));
+    SQ_CHECK_OK(sq_run_draw(run));
+    b = a;
+    sq_world_light l0, l1;
+    sq_world_get_light(sq_scene_world(s), &l0);
+    SQ_CHECK_OK(sq_scene_step(s, 2.0)); /* two hours of sun clock, from 06 h UTC */
+    sq_world_get_light(sq_scene_world(s), &l1);
+    SQ_CHECK(l1.sun_dir.z > l0.sun_dir.z + 0.1f); /* the morning sun rose */
+    SQ_CHECK_OK(sq_run_draw(run));
+    SQ_CHECK_MSG(memcmp(a.rgba, b.rgba, sizeof a.rgba) == 0,
+                 "a step made during the draw changed the picture of the frame drawn");
+    SQ_CHECK_OK(sq_run_advance(run));
+    SQ_CHECK_OK(sq_run_draw(run));
+    SQ_CHECK_MSG(memcmp(a.rgba, b.rgba, sizeof a.rgba) != 0, "the next frame kept the old sun");
+    sq_run_destroy(run);
+    sq_scene_destroy(s);
+    sq_cfg_destroy(cfg);
+    sq_context_destroy(ctx);
+}
+
+/* ---- snowfall started live draws flakes ----------------------------------------------------
+ * A snowdrift scene started without snowfall has no drawn flakes; snow.snowfall_mmh > 0 applied
+ * live makes its draw.flakes (allocated then), all in the air of the lattice box, moving with
+ * the steps; back to 0 mm/h they are no longer drawn. */
+static const sq_particles_view *flakes_of(sq_scene *s)
+{
+    static sq_drawable ds[16];
+    const int n = sq_scene_drawables(s, ds, 16);
+    for (int i = 0; i < n; i++)
+        if (ds[i].kind == SQ_DRAWABLE_PARTICLES) return &ds[i].u.particles;
+    return NULL;
+}
+
+static int flakes_outside(const sq_particles_view *v, const float lo[3], const float hi[3])
+{
+    int bad = 0;
+    for (int f = 0; f < v->count; f++)
+        for (int k = 0; k < 3; k++) {
+            const float p = v->position[3 * f + k];
+            if (!(p >= lo[k] && p <= hi[k])) {
+                bad++;
+                break;
+            }
+        }
+    return bad;
+}
+
+SQ_TEST(live_snowfall_draws_flakes)
+{
+    sq_context *ctx = mkctx1();
+    if (!sq_plugin_find("snowdrift")) { /* not in this build */
+        sq_context_destroy(ctx);
+        return;
+    }
+    static const char *const text =
+        "name: drift\n"
+        "seed: 4\n"
+        "world:\n"
+        "  terrain: {kind: flat, size_m: [200, 200], resolution: [21, 21]}\n"
+        "camera: {position: [-60, -60, 20], target: [0, 0, 5]}\n"
+        "layers:\n"
+        "  - type: snowdrift\n"
+        "    name: drift\n"
+        "    domain: {nx: 16, ny: 16, nz: 8, cell_size_m: 2}\n"
+        "    wind: {speed_mps: 5}\n"
+        "    snow: {snowfall_mmh: 0}\n"
+        "    draw: {flakes: 300}\n"
+        "output: {width: 64, height: 36, video: \"\"}\n";
+    sq_cfg *cfg = parse(ctx, text), *on = parse(ctx, text), *off = parse(ctx, text);
+    SQ_CHECK(on && sq_cfg_set(on, "layers.drift.snow.snowfall_mmh=5") == SQ_OK);
+    sq_scene *s = cfg ? make_scene(ctx, cfg) : NULL;
+    SQ_CHECK(s != NULL);
+    if (!s) {
+        fprintf(stderr, "%s\n", sq_last_error());
+        return;
+    }
+    /* the lattice box: 16 x 16 x 8 cells of 2 m centred on the origin, from the ground up */
+    const float lo[3] = {-16.0f, -16.0f, -0.01f}, hi[3] = {16.0f, 16.0f, 16.01f};
+    SQ_CHECK_OK(sq_scene_step(s, 0.5));
+    SQ_CHECK_MSG(flakes_of(s) == NULL, "flakes drawn without snowfall");
+    sq_scene_desc d = {.cfg = on};
+    sq_live_result res;
+    SQ_CHECK_OK(sq_scene_apply_live(s, &d, &res));
+    SQ_CHECK_MSG(!res.rebuild && res.changed == 1, "rebuild %d (%s), changed %d", res.rebuild,
+                 res.reason, res.changed);
+    const sq_particles_view *v = flakes_of(s);
+    SQ_CHECK_MSG(v != NULL, "snowfall 0 -> 5 mm/h live: no flakes drawn");
+    if (v) {
+        SQ_CHECK_MSG(v->count == 300, "%d flakes drawn, draw.flakes = 300", v->count);
+        SQ_CHECK_MSG(flakes_outside(v, lo, hi) == 0, "%d flakes outside the lattice box",
+                     flakes_outside(v, lo, hi));
+    }
+    static float before[300 * 3];
+    if (v && v->count == 300) memcpy(before, v->position, sizeof before);
+    SQ_CHECK_OK(sq_scene_step(s, 0.5));
+    v = flakes_of(s);
+    SQ_CHECK(v != NULL && v->count == 300);
+    if (v && v->count == 300) {
+        SQ_CHECK(memcmp(before, v->position, sizeof before) != 0); /* they fall */
+        SQ_CHECK(flakes_outside(v, lo, hi) == 0);
+    }
+    SQ_CHECK_NEAR(sq_scene_time(s), 1.0, 1e-9);
+    d.cfg = off;
+    SQ_CHECK_OK(sq_scene_apply_live(s, &d, &res));
+    SQ_CHECK(!res.rebuild && res.changed == 1);
+    SQ_CHECK_MSG(flakes_of(s) == NULL, "flakes still drawn at 0 mm/h");
+    sq_scene_destroy(s);
+    sq_cfg_destroy(off);
+    sq_cfg_destroy(on);
     sq_cfg_destroy(cfg);
     sq_context_destroy(ctx);
 }

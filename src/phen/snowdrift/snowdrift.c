@@ -140,6 +140,9 @@ static void spawn_flake(sq_snowdrift *s, int f, bool anywhere, uint64_t key)
     }
 }
 
+/* The flakes are drawn (and moved) while it snows. */
+static bool flakes_drawn(const sq_snowdrift *s) { return s->nflakes > 0 && s->d.snowfall_mmh > 0; }
+
 /* Moves the visual flakes by (u − u_fall ẑ) dt with the lattice wind of their cell; flakes that
  * land or leave are respawned at the top (keyed by the step: thread-count independent). */
 static void move_flakes(sq_snowdrift *s, double dt, const sq_lbm_views *v)
@@ -445,7 +448,7 @@ sq_result sq_snowdrift_step(sq_snowdrift *s, double dt)
     }
     s->time_s += dt;
     s->steps++;
-    if (s->nflakes > 0) {
+    if (flakes_drawn(s)) {
         const double t0 = sq_time_now();
         sq_result r = sq_lbm_get_views(s->lbm, &v);
         if (r != SQ_OK) return r;
@@ -666,7 +669,7 @@ int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max)
         v->material = SQ_MATERIAL_SNOW;
         v->version = s->version;
     }
-    if (s->nflakes > 0 && n < max) {
+    if (flakes_drawn(s) && n < max) {
         const bool sized = s->have_camera;
         if (sized) {
             const double t0 = sq_time_now();
@@ -738,13 +741,41 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max)
 /* ---- live changes (the plug-in's apply_live, snowdrift_plugin.c) ------------------------------
  * d differs from s->d only in live keys: the wind (speed and direction, through the lattice's
  * wind forcing, which checks the Mach limit of the lattice made at create), the snowfall rate
- * (the flakes injected per top cell and snow step from now on) and the drawing of flakes. The
- * drawn flakes exist only when the scene started with snowfall. */
+ * (the flakes injected per top cell and snow step from now on) and the drawing of flakes. Flakes
+ * are drawn while it snows: a scene that started without snowfall gets its draw.flakes when it
+ * starts to snow (placed anywhere in the air, as at create); at 0 mm/h they are not drawn. */
 sq_result sq__snowdrift_apply_live(sq_snowdrift *s, const sq_snowdrift_desc *d)
 {
+    const bool make = d->snowfall_mmh > 0 && s->nflakes == 0 && s->d.visual_flakes > 0;
+    float *a[5] = {NULL, NULL, NULL, NULL, NULL};
+    if (make) {
+        const size_t n = (size_t)s->d.visual_flakes, per[5] = {3, 1, 1, 1, 1};
+        bool ok = true;
+        for (int k = 0; k < 5; k++) a[k] = (float *)xalloc(s, n * per[k] * sizeof(float), &ok);
+        if (!ok) {
+            for (int k = 0; k < 5; k++) sq_free(s->ctx, a[k]);
+            return sq__fail(s->ctx, SQ_ERR_OUT_OF_MEMORY, "snowdrift",
+                            "snow.snowfall_mmh = %g: no memory for the %d drawn flakes "
+                            "(draw.flakes)",
+                            d->snowfall_mmh, s->d.visual_flakes);
+        }
+    }
     if (d->wind_speed_mps != s->d.wind_speed_mps || d->wind_dir_deg != s->d.wind_dir_deg) {
         const sq_result r = sq_lbm_set_wind(s->lbm, d->wind_speed_mps, d->wind_dir_deg);
-        if (r != SQ_OK) return r;
+        if (r != SQ_OK) {
+            for (int k = 0; k < 5; k++) sq_free(s->ctx, a[k]);
+            return r;
+        }
+    }
+    if (make) {
+        s->fpos = a[0];
+        s->frot = a[1];
+        s->fspin = a[2];
+        s->fradius = a[3];
+        s->ffade = a[4];
+        s->nflakes = s->d.visual_flakes;
+        const uint64_t key = (uint64_t)s->steps + 1;
+        for (int f = 0; f < s->nflakes; f++) spawn_flake(s, f, true, key);
     }
     s->snow->p.snowfall_mmh = d->snowfall_mmh;
     s->d = *d;

@@ -31,7 +31,8 @@ uniform vec3 u_g;              // HG asymmetry per channel
 uniform vec2 u_g2w2;           // second lobe: asymmetry, weight
 
 layout(location = 0) out vec4 o_bounds; // t_in, t_out, dt, t_clip (m)
-layout(location = 1) out vec4 o_phase;  // phase function toward the eye, per channel (1/sr)
+layout(location = 1) out vec4 o_phase;  // phase function toward the eye, per channel (1/sr);
+                                        // alpha: cos theta (for the octaves)
 
 void main()
 {
@@ -52,7 +53,7 @@ void main()
     o_bounds = vec4(b.x < b.y ? b : vec2(1.0, 0.0), dt, t_clip);
     float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
     vec3 p1 = vec3(vol_hg(cos_theta, u_g.r), vol_hg(cos_theta, u_g.g), vol_hg(cos_theta, u_g.b));
-    o_phase = vec4(mix(p1, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y), 0.0);
+    o_phase = vec4(mix(p1, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y), cos_theta);
     // the farthest point a slice fragment of this ray can stand for: t_out + half a slab
     float t_far = (b.y + 0.5 * dt) * 1.02;
     vec4 c = u_view_proj * vec4(u_cam + dir * min(t_far, 1.0e30), 1.0);

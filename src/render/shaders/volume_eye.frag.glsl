@@ -14,6 +14,10 @@
 // plane cut, phase function) comes from the bounds pass. Compiled with VOL_GREY_EXT 1 when the
 // extinction is the same on every channel (one exponential per transmittance; llvmpipe would
 // evaluate both sides of a branch).
+// Multiple scattering beyond the forward lobe (u_ms_octaves > 0): octaves i = 1..n add
+// E albedo^i b^i (exp(-a^i tau) - exp(-tau)) p_HG(theta, c^i g) to J, tau the sun's optical
+// depth to the point (alpha of the light layer plus the half slab), after Wrenninge et al.
+// 2013 (render_internal.h, sq__volume_ms_weight, explains the form).
 #include "volume_common.glsl"
 
 in vec3 v_world;
@@ -32,6 +36,9 @@ uniform float u_dlambda;       // light slab length spacing / (s . wl) (m)
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_sun_radiance;   // sun irradiance E
 uniform vec3 u_ambient;        // phase-averaged sky + ground radiance J_amb
+uniform int u_ms_octaves;      // multiple-scattering octaves beyond the first (0: none)
+uniform vec3 u_ms_abc;         // per octave: extinction scale a, weight b, asymmetry scale c
+uniform float u_ms_g;          // asymmetry of the first octave (green)
 
 layout(location = 0, index = 0) out vec4 o_color;
 layout(location = 0, index = 1) out vec4 o_trans;
@@ -60,7 +67,8 @@ void main()
 #endif
 
     // sun light reaching this point: the light arriving at the slice, then half a light slab
-    vec3 L = textureLod(u_light, vec3(v_light_uv, v_layer), 0.0).rgb;
+    vec4 light = textureLod(u_light, vec3(v_light_uv, v_layer), 0.0);
+    vec3 L = light.rgb;
     vec2 lb = vec2(max(max(v_back_tmin.x, v_back_tmin.y), v_back_tmin.z),
                    min(min(v_back_tmax.x, v_back_tmax.y), v_back_tmax.z));
     float back = lb.x <= lb.y ? clamp(lb.y, 0.0, 0.5 * u_dlambda) : 0.0;
@@ -69,8 +77,21 @@ void main()
 #else
     L *= exp(-beta * back);
 #endif
-    vec3 phase = texelFetch(u_phase, px, 0).rgb;
-    vec3 J = u_sun_radiance * L * phase + u_ambient;
+    vec4 phase = texelFetch(u_phase, px, 0);
+    vec3 Ls = L * phase.rgb;
+    if (u_ms_octaves > 0) { // uniform: the same side for every fragment
+        float tau = light.a + beta.g * back;
+        float direct = exp(-tau), a = 1.0, b = 1.0, g = u_ms_g;
+        vec3 w = vec3(1.0);
+        for (int i = 0; i < u_ms_octaves; i++) {
+            a *= u_ms_abc.x;
+            b *= u_ms_abc.y;
+            g *= u_ms_abc.z;
+            w *= u_albedo;
+            Ls += w * (b * max(exp(-a * tau) - direct, 0.0) * vol_hg(phase.a, g));
+        }
+    }
+    vec3 J = u_sun_radiance * Ls + u_ambient;
     o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
     o_trans = vec4(T, 1.0);
 }

@@ -19,6 +19,9 @@
 // VOL_LIGHT_STEPS consecutive slabs (8 in modes 0 and 1) and writes each result to its own
 // layer (one colour attachment per layer; unused ones are GL_NONE): fewer passes, and the
 // light stays in registers between slabs. With the ring a pass is one slab.
+// The alpha channel carries the sun's optical depth tau along the ray (green extinction, no
+// in-scatter; 0 in layer 0): the eye pass's multiple-scattering octaves attenuate the sun by
+// exp(-a^i tau) from it (Wrenninge et al. 2013; render_volume.c, vol_ms_weight).
 #include "volume_common.glsl"
 
 layout(binding = 0) uniform sampler3D u_density;
@@ -42,13 +45,16 @@ layout(location = 0) out vec4 o_l[VOL_LIGHT_STEPS];
 void main()
 {
     // the texel's own value: a fetch (bilinear filtering at a texel centre returns it)
-    vec3 L = texelFetch(u_light, ivec3(ivec2(gl_FragCoord.xy), u_src), 0).rgb;
+    vec4 src = texelFetch(u_light, ivec3(ivec2(gl_FragCoord.xy), u_src), 0);
+    vec3 L = src.rgb;
+    float tau = src.a;
     vec2 box = vec2(max(max(v_tmin.x, v_tmin.y), v_tmin.z), min(min(v_tmax.x, v_tmax.y), v_tmax.z));
     for (int i = 0; i < VOL_LIGHT_STEPS; i++) {
         float dl = float(i) * u_dlambda;
         float len = vol_clip_len(v_lambda + dl, 0.5 * u_dlambda, box.x, box.y); // 0: misses
         float rho = vol_density(u_density, v_p + u_wl * dl, u_box_lo, u_box_size);
         vec3 T = exp(-rho * u_sigma_ext * len);
+        tau += rho * u_sigma_ext.g * len;
 #if VOL_LIGHT_MODE == 0
         L = T * L;
 #elif VOL_LIGHT_MODE == 1
@@ -65,6 +71,6 @@ void main()
         }
         L = T * L + u_albedo * (1.0 - T) * u_forward * b;
 #endif
-        o_l[i] = vec4(L, 1.0);
+        o_l[i] = vec4(L, tau);
     }
 }
