@@ -9,9 +9,12 @@
  *                     (occlusion_maps_drawn of frames_timed; ms_occlusion_map_drawn is the cost
  *                     of one drawing, occlusion_share_drawn its share of a frame);
  *   ms_scene          a frame of the same view without snow and flakes (world geometry, shadows);
+ *                     cpu_ms_scene and cpu_ms_no_flakes: CPU time of all threads per such frame
+ *                     (and per frame with snow but no flakes), as cpu_ms_per_frame;
  *   ms_flakes         the flakes: their step and sizing (CPU) plus the particle pass (the frame
  *                     with flakes minus the frame without them);
- * and reported: faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
+ * and reported: shadow_cascades_drawn (cascade maps drawn over the frames_timed frames; a cascade
+ * keeps its map while the view stays in its cell, render_shadow.c), faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
  * the renderer drew over all views / for the camera, after culling and LODs), flakes,
  * flakes_visible, the snow depth, cpu_ms_per_frame (CPU time of all threads per full frame: on a
  * machine shared with other work the wall time says little) and the GL renderer string (llvmpipe
@@ -37,7 +40,7 @@ typedef struct cover_bench {
     sq_camera cam;
     int mode; /* 0 full frame with a step, 1 without snow or flakes, 2 without flakes */
     double ms_occ_sum, ms_step_sum;
-    int frames, occ_drawn;
+    int frames, occ_drawn, cascades_drawn;
     sq_result err;
 } cover_bench;
 
@@ -82,6 +85,7 @@ static int frame(void *user)
         sq_renderer_stats(b->r, &st);
         b->ms_occ_sum += st.ms_occlusion_map;
         b->occ_drawn += st.ms_occlusion_map > 0.0;
+        b->cascades_drawn += st.shadow_cascades_drawn;
         b->frames++;
     }
     return 0;
@@ -180,10 +184,14 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_render_stats st;
     sq_renderer_stats(b.r, &st);
     b.mode = 1;
+    double cpu1 = cpu_ms();
     const sq_bench_stats scene_only = sq_bench_time(frame, &b, 1, a->reps);
+    const double cpu_scene = (cpu_ms() - cpu1) / (double)(1 + a->reps);
     if (b.err != SQ_OK) goto failed;
     b.mode = 2;
+    cpu1 = cpu_ms();
     const sq_bench_stats no_flakes = sq_bench_time(frame, &b, 1, a->reps);
+    const double cpu_no_flakes = (cpu_ms() - cpu1) / (double)(1 + a->reps);
     if (b.err != SQ_OK) goto failed;
     /* the flakes' CPU share: the step of a frame is almost all flakes (the depth grid is a fill) */
     int flakes = 0;
@@ -215,8 +223,11 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_json_num(&j, "ms_occlusion_map_drawn", ms_occ_drawn);
     sq_json_num(&j, "occlusion_share_drawn", ms_occ_drawn / full.median_ms);
     sq_json_num(&j, "ms_scene", scene_only.median_ms);
+    sq_json_num(&j, "cpu_ms_scene", cpu_scene);
+    sq_json_num(&j, "cpu_ms_no_flakes", cpu_no_flakes);
     sq_json_num(&j, "ms_flakes", ms_flakes);
     sq_json_num(&j, "ms_shadow_cpu", st.ms_shadow);
+    sq_json_int(&j, "shadow_cascades_drawn", b.cascades_drawn);
     sq_json_num(&j, "ms_build_scene", ms_build);
     sq_json_end(&j, stdout);
     goto done;

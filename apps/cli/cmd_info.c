@@ -122,9 +122,17 @@ int sq_cmd_scene(int argc, char **argv)
     return SQ_EXIT_OK;
 }
 
-static void print_markdown(const sq_param *t, size_t n, const void *desc)
+/* "live" (applies to a running scene: squall view applies it at once) or "rebuild" (the scene
+ * restarts): the library's rule, the one the viewer's panel follows. */
+static const char *change_of(const sq_param *p, const sq_phen_plugin *plugin)
 {
-    printf("| key | unit | default | range | meaning |\n|---|---|---|---|---|\n");
+    return sq_param_live(p, plugin) ? "live" : "rebuild";
+}
+
+static void print_markdown(const sq_param *t, size_t n, const void *desc,
+                           const sq_phen_plugin *plugin)
+{
+    printf("| key | unit | default | range | change | meaning |\n|---|---|---|---|---|---|\n");
     for (size_t i = 0; i < n; i++) {
         const sq_param *p = &t[i];
         char v[512], range[128] = "";
@@ -137,21 +145,22 @@ static void print_markdown(const sq_param *t, size_t n, const void *desc)
             snprintf(range, sizeof range, "true/false");
         else if (!(p->min == 0 && p->max == 0) && p->type != SQ_PARAM_STRING)
             snprintf(range, sizeof range, "%g … %g", p->min, p->max);
-        printf("| `%s` | %s | `%s` | %s | %s |\n", p->key,
+        printf("| `%s` | %s | `%s` | %s | %s | %s |\n", p->key,
                p->unit && *p->unit && strcmp(p->unit, "1") ? p->unit : "–", v,
-               range[0] ? range : "–", p->doc ? p->doc : "");
+               range[0] ? range : "–", change_of(p, plugin), p->doc ? p->doc : "");
     }
 }
 
 static bool g_markdown;
 
-static void print_table(const char *title, const sq_param *t, size_t n, size_t desc_size, bool yaml)
+static void print_table(const char *title, const sq_param *t, size_t n, size_t desc_size, bool yaml,
+                        const sq_phen_plugin *plugin)
 {
     char *desc = (char *)calloc(1, desc_size > (1u << 16) ? desc_size : (1u << 16));
     if (!desc) return;
     sq_params_defaults(t, n, desc);
     if (g_markdown) {
-        print_markdown(t, n, desc);
+        print_markdown(t, n, desc, plugin);
         free(desc);
         return;
     }
@@ -160,9 +169,10 @@ static void print_table(const char *title, const sq_param *t, size_t n, size_t d
         for (size_t i = 0; i < n; i++) {
             char v[512];
             sq_params_format(&t[i], desc, v, sizeof v);
-            printf("%s: %s    # %s%s%s\n", t[i].key, v, t[i].unit && *t[i].unit && strcmp(t[i].unit, "1") ? "[" : "",
+            printf("%s: %s    # %s%s%s%s\n", t[i].key, v, t[i].unit && *t[i].unit && strcmp(t[i].unit, "1") ? "[" : "",
                    t[i].unit && *t[i].unit && strcmp(t[i].unit, "1") ? t[i].unit : "",
-                   t[i].unit && *t[i].unit && strcmp(t[i].unit, "1") ? "] " : "");
+                   t[i].unit && *t[i].unit && strcmp(t[i].unit, "1") ? "] " : "",
+                   change_of(&t[i], plugin));
             printf("    # %s\n", t[i].doc ? t[i].doc : "");
         }
         free(desc);
@@ -180,7 +190,8 @@ static void print_table(const char *title, const sq_param *t, size_t n, size_t d
         else if (!(p->min == 0 && p->max == 0) && p->type != SQ_PARAM_STRING)
             snprintf(range, sizeof range, "[%g, %g]", p->min, p->max);
         const char *unit = p->unit && *p->unit ? p->unit : "-";
-        printf("  %-32s %-8s default %-14s range %s\n", p->key, unit, v, range[0] ? range : "-");
+        printf("  %-32s %-8s default %-14s range %-20s %s\n", p->key, unit, v,
+               range[0] ? range : "-", change_of(p, plugin));
         printf("      %s\n", p->doc ? p->doc : "");
     }
     free(desc);
@@ -191,7 +202,10 @@ int sq_cmd_params(int argc, char **argv)
     if (sq_cli_flag(argc, argv, "--help")) {
         printf("usage: squall params [LAYER|world|obstacle|mesh|area|camera|camera-key|output] [--yaml|--markdown]\n\n"
                "Prints every parameter with its unit, default, range and meaning. Scene files use\n"
-               "these keys (nested maps or dotted keys); --set layers.NAME.KEY=VALUE overrides.\n");
+               "these keys (nested maps or dotted keys); --set layers.NAME.KEY=VALUE overrides.\n"
+               "The last column says how a change applies in `squall view`: live (to the running\n"
+               "scene, at once; the clock goes on) or rebuild (the scene is made again and\n"
+               "restarts from time 0). The viewer's panel follows the same rule.\n");
         return SQ_EXIT_OK;
     }
     bool yaml = sq_cli_flag(argc, argv, "--yaml");
@@ -206,7 +220,7 @@ int sq_cmd_params(int argc, char **argv)
     size_t n = 0;
     const sq_param *t = sq_scene_section_params(what, &n);
     if (t) {
-        print_table(what, t, n, 0, yaml);
+        print_table(what, t, n, 0, yaml, NULL);
         return SQ_EXIT_OK;
     }
     const sq_phen_plugin *p = sq_plugin_find(what);
@@ -216,6 +230,6 @@ int sq_cmd_params(int argc, char **argv)
     }
     char title[256];
     snprintf(title, sizeof title, "%s — %s", p->name, p->summary);
-    print_table(title, p->params, p->param_count, p->desc_size, yaml);
+    print_table(title, p->params, p->param_count, p->desc_size, yaml, p);
     return SQ_EXIT_OK;
 }

@@ -31,8 +31,8 @@ static void view_usage(void)
            "  --paused             start paused (after the warm-up frame)\n"
            "  --frames N           run N frames (frame 0 = after the warm-up), then exit\n"
            "  --screenshot FILE    with --frames: write the last frame as PNG (safe output)\n"
-           "  --script FILE        timed actions: wait N, set KEY VALUE, screenshot F, save F,\n"
-           "                       panel-keys SECTION F, pause, run, step, quit (docs/viewer.md)\n"
+           "  --script FILE        timed actions: wait N, set KEY VALUE, send KEY VALUE, screenshot F,\n"
+           "                       save F, panel-keys SECTION F, pause, run, step, quit (docs/viewer.md)\n"
            "  --no-panel           hide the parameter panel (P toggles it)\n"
            "  --overwrite          replace existing screenshots and saved files\n"
            "  --threads N          simulation worker threads (default: all cores)\n"
@@ -114,17 +114,6 @@ sq_scene_desc view_scene_desc(const sq_cfg *cfg)
     return sd;
 }
 
-static sq_result scene_from_cfg(viewer *v, sq_scene **out)
-{
-    sq_result r;
-    sq_cfg *copy = view_run_cfg(v, NULL, &r);
-    if (!copy) return r;
-    const sq_scene_desc sd = view_scene_desc(copy);
-    r = sq_scene_create(v->ctx, &sd, out);
-    sq_cfg_destroy(copy);
-    return r;
-}
-
 /* Bounds of the phenomena's fields (for "frame the phenomenon"), read before the thread starts. */
 static void phenomenon_box(viewer *v)
 {
@@ -152,12 +141,23 @@ static void phenomenon_box(viewer *v)
 
 static sq_result start_run(viewer *v)
 {
-    sq_result r = scene_from_cfg(v, &v->scene);
-    if (r != SQ_OK) return r;
+    sq_result r;
+    sq_cfg *copy = view_run_cfg(v, NULL, &r); /* the run's scene: the live changes' base */
+    if (!copy) return r;
+    const sq_scene_desc sd = view_scene_desc(copy);
+    r = sq_scene_create(v->ctx, &sd, &v->scene);
+    if (r != SQ_OK) {
+        sq_cfg_destroy(copy);
+        return r;
+    }
     phenomenon_box(v);
     const sq_scene_output *o = sq_scene_output_settings(v->scene);
     v->sim = view_sim_create(o->fps, o->steps_per_frame);
-    if (!v->sim) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: no memory for the simulation");
+    if (!v->sim) {
+        sq_cfg_destroy(copy);
+        return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: no memory for the simulation");
+    }
+    view_sim_set_scene(v->sim, v->ctx, copy, &sd);
     sq_run_desc rd;
     memset(&rd, 0, sizeof rd);
     rd.scene = v->scene;
@@ -197,6 +197,7 @@ sq_result view_rebuild(viewer *v)
     stop_run(v);
     v->live_pending = false; /* a live change not yet applied went with the old run */
     v->live_held = false;
+    v->live_outstanding = 0;
     const sq_result r = start_run(v);
     if (r != SQ_OK) {
         const char *e = sq_last_error();

@@ -77,15 +77,17 @@ typedef struct viewer {
     int lat_frame0;        /* sq_run_frame_index when applied (-1: the scene restarted) */
     int lat_draws0;        /* draw_count when the change was made */
     char lat_key[200];
-    /* a live change sent to the simulation thread (view_param.c), and how it ended */
-    bool live_pending;
-    char live_assignment[1400];
+    /* live changes sent to the simulation thread (view_param.c), and how the latest ended */
+    bool live_pending;     /* some wait for their results */
+    int live_outstanding;  /* sent, result not taken */
+    char live_assignment[1400]; /* the latest result's change */
     view_live_outcome live_outcome;
     char live_message[800];
     view_live_result live_result; /* taken from the simulation thread */
     bool live_held;        /* live_result waits for the next tick (refusal, rebuild) */
     bool live_show;        /* the panel's status waits for the next tick */
-    bool live_is_cfg;      /* the change is already in cfg (keyframes): no assignment to set */
+    int live_refusals;     /* refused changes so far; the latest: */
+    char live_refused[1400], live_refusal[800]; /* its assignment and message */
     int keyframes;         /* camera keyframes recorded (view_keyframe.c): save keeps the path */
     char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
 

@@ -95,11 +95,13 @@ sq_result view_keyframe_add(viewer *v, int *index, double *t_out)
     sq_result r;
     sq_cfg *copy = view_run_cfg(v, NULL, &r);
     if (!copy) return r;
-    const sq_scene_desc sd = view_scene_desc(copy);
-    view_sim_request_live(v->sim, &sd);
+    char label[64];
+    snprintf(label, sizeof label, "camera.path[%d]=keyframe", n);
+    if (!view_sim_request_live(v->sim, label, copy))
+        return sq_set_error(SQ_ERR_INVALID_ARG, "keyframe: %d changes wait to be applied; try "
+                            "again", VIEW_LIVE_QUEUE);
+    v->live_outstanding++;
     v->live_pending = true;
     v->live_outcome = VIEW_LIVE_NONE;
-    snprintf(v->live_assignment, sizeof v->live_assignment, "camera.path[%d]=keyframe", n);
-    v->live_is_cfg = true;
     return SQ_OK;
 }

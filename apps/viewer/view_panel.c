@@ -16,6 +16,7 @@ typedef struct panel_row {
     viewer *v;
     char full_key[200];
     const sq_param *p;
+    bool live;         /* sq_param_live: applies at once, else rebuilds (asks first) */
     GtkWidget *row, *widget;
     char pending[600]; /* value waiting for the rebuild confirmation */
 } panel_row;
@@ -66,7 +67,7 @@ static void on_confirm(GtkDialog *d, int response, gpointer user)
 
 static void request_value(panel_row *r, const char *value)
 {
-    if ((r->p->flags & SQ_PARAM_LIVE) || !r->v->window) {
+    if (r->live || !r->v->window) {
         apply_value(r, value);
         return;
     }
@@ -172,7 +173,7 @@ static GtkWidget *make_widget(panel_row *r)
     return w;
 }
 
-static void tooltip_of(const sq_param *p, char *buf, size_t size)
+static void tooltip_of(const sq_param *p, bool live, char *buf, size_t size)
 {
     char def[300];
     view_param_default(p, def, sizeof def);
@@ -185,11 +186,11 @@ static void tooltip_of(const sq_param *p, char *buf, size_t size)
         n += (size_t)snprintf(buf + n, size - n, "; range [%g, %g] %s", p->min, p->max, unit);
     if (n < size)
         snprintf(buf + n, size - n, "\n%s",
-                 (p->flags & SQ_PARAM_LIVE) ? "live: applies at once"
-                                            : "rebuild: the scene restarts (asks first)");
+                 live ? "live: applies at once" : "rebuild: the scene restarts (asks first)");
 }
 
-static void add_row(viewer *v, GtkWidget *grid, int y, const char *section, const sq_param *p)
+static void add_row(viewer *v, GtkWidget *grid, int y, const char *section, const sq_param *p,
+                    const sq_phen_plugin *plugin)
 {
     if (v->panel_row_count >= VIEW_MAX_ROWS) return;
     panel_row *r = (panel_row *)calloc(1, sizeof *r);
@@ -197,10 +198,11 @@ static void add_row(viewer *v, GtkWidget *grid, int y, const char *section, cons
     v->panel_rows[v->panel_row_count++] = r;
     r->v = v;
     r->p = p;
+    r->live = sq_param_live(p, plugin);
     if (snprintf(r->full_key, sizeof r->full_key, "%s.%s", section, p->key) >= (int)sizeof r->full_key)
         return; /* a key this long is not in any table */
     char tip[1200];
-    tooltip_of(p, tip, sizeof tip);
+    tooltip_of(p, r->live, tip, sizeof tip);
     GtkWidget *label = gtk_label_new(p->key);
     gtk_widget_set_halign(label, GTK_ALIGN_START);
     gtk_widget_set_tooltip_text(label, tip);
@@ -260,7 +262,7 @@ GtkWidget *view_panel_build(viewer *v)
         GtkWidget *grid = gtk_grid_new();
         gtk_grid_set_column_spacing(GTK_GRID(grid), 6);
         gtk_grid_set_row_spacing(GTK_GRID(grid), 2);
-        for (size_t k = 0; k < g[i].count; k++) add_row(v, grid, (int)k, g[i].section, &g[i].params[k]);
+        for (size_t k = 0; k < g[i].count; k++) add_row(v, grid, (int)k, g[i].section, &g[i].params[k], g[i].plugin);
         gtk_expander_set_child(GTK_EXPANDER(exp), grid);
         gtk_box_append(GTK_BOX(groups), exp);
     }
@@ -282,7 +284,8 @@ int view_panel_keys(const viewer *v, const char *section, char *buf, size_t size
     for (int i = 0; i < v->panel_row_count && len < size; i++) {
         const panel_row *r = (const panel_row *)v->panel_rows[i];
         if (strncmp(r->full_key, section, s) != 0 || r->full_key[s] != '.') continue;
-        len += (size_t)snprintf(buf + len, size - len, "%s\n", r->full_key + s + 1);
+        len += (size_t)snprintf(buf + len, size - len, "%s %s\n", r->full_key + s + 1,
+                                r->live ? "live" : "rebuild");
         n++;
     }
     return n;

@@ -21,6 +21,7 @@ int view_param_groups(const viewer *v, view_group *out, int max)
         snprintf(g->title, sizeof g->title, "%s", sections[i]);
         g->params = t;
         g->count = count;
+        g->plugin = NULL;
     }
     const sq_cfg_node *layers = sq_cfg_get(v->cfg->root, "layers");
     int index = 0;
@@ -38,6 +39,7 @@ int view_param_groups(const viewer *v, view_group *out, int max)
         snprintf(g->title, sizeof g->title, "layer %s (%s)", nm, pl->name);
         g->params = pl->params;
         g->count = pl->param_count;
+        g->plugin = pl;
     }
     return n;
 }
@@ -190,25 +192,36 @@ sq_result view_param_apply(viewer *v, const char *full_key, const char *value, v
     snprintf(assignment, sizeof assignment, "%s=%s", full_key, value);
     view_group g;
     const sq_param *p = view_param_find(v, full_key, &g);
-    const bool live = p && (p->flags & SQ_PARAM_LIVE) && v->run && v->sim &&
+    const bool live = p && sq_param_live(p, g.plugin) && v->run && v->sim &&
                       sq_run_frame_index(v->run) > 0;
     sq_result r;
     if (live && strcmp(g.section, "camera") != 0) {
-        /* to the simulation thread: checked there as the scene loader checks it (the CLI's
-         * message), applied between two steps; view_param_poll takes the outcome */
-        sq_cfg *c = view_run_cfg(v, assignment, &r);
-        if (!c) return r;
-        const sq_scene_desc sd = view_scene_desc(c);
-        view_sim_request_live(v->sim, &sd);
+        /* to the simulation thread: made there to the scene as the changes before it left it,
+         * checked as the scene loader checks it (the CLI's message), applied between two steps;
+         * view_param_poll takes the outcome */
+        if (!view_sim_request_live(v->sim, assignment, NULL))
+            return sq_set_error(SQ_ERR_INVALID_ARG, "%s: %d changes wait to be applied; try "
+                                "again when the simulation has taken them", assignment,
+                                VIEW_LIVE_QUEUE);
+        v->live_outstanding++;
         v->live_pending = true;
         v->live_outcome = VIEW_LIVE_NONE;
-        snprintf(v->live_assignment, sizeof v->live_assignment, "%s", assignment);
-        v->live_is_cfg = false;
         *how = VIEW_CHANGE_PENDING;
         return SQ_OK;
     }
     r = check_assignment(v, assignment);
     if (r != SQ_OK) return r;
+    if (!live && v->live_outstanding > 0 && v->sim) {
+        /* live changes wait for the simulation thread: this one goes after them (it comes back
+         * as a rebuild, made with them), not before (the rebuild would drop them) */
+        if (view_sim_request_live(v->sim, assignment, NULL)) {
+            v->live_outstanding++;
+            v->live_pending = true;
+            v->live_outcome = VIEW_LIVE_NONE;
+            *how = VIEW_CHANGE_PENDING;
+            return SQ_OK;
+        }
+    }
     r = sq_cfg_set(v->cfg, assignment);
     if (r != SQ_OK) return r;
     if (live) { /* camera.*: the viewer's camera at once */
@@ -237,50 +250,96 @@ static void show_outcome(viewer *v)
     view_panel_refresh(v); /* a refused value: the widget shows the scene's value again */
 }
 
-void view_param_poll(viewer *v, bool in_draw)
+/* For scripts: one line per result, "change KEY = VALUE: applied to frame N (C changed)" or
+ * ": refused: MESSAGE", ": scene restarted", ": folded into the restarted scene". */
+static void print_result(const viewer *v, const view_live_result *lr, const char *how)
 {
-    if (v->live_held) {
-        if (in_draw) return;
-    } else {
-        if (!v->live_pending || !v->sim || !view_sim_live_result(v->sim, &v->live_result)) {
-            if (!in_draw && v->live_show) {
-                v->live_show = false;
-                show_outcome(v);
-            }
-            return;
-        }
-        v->live_held = true;
-    }
-    const view_live_result *lr = &v->live_result;
-    if (lr->r == SQ_OK && !lr->res.rebuild) {
-        /* applied: the frame drawn now shows it */
-        v->live_held = false;
-        v->live_pending = false;
-        v->live_outcome = VIEW_LIVE_APPLIED;
-        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment); /* the user's scene now */
-        snprintf(v->live_message, sizeof v->live_message,
-                 "applied to frame %d, %.1f ms after the change", lr->frame - 1,
-                 (lr->t_applied_s - lr->t_request_s) * 1e3);
-        v->lat_armed = true;
-        v->redraw = true;
-        if (in_draw) v->live_show = true;
-        else show_outcome(v);
+    if (!v->script) return;
+    const char *eq = strchr(lr->assignment, '=');
+    printf("change %.*s = %s: %s\n", (int)(eq ? eq - lr->assignment : 0), lr->assignment,
+           eq ? eq + 1 : "", how);
+    fflush(stdout);
+}
+
+/* A change not tried because one before it rebuilds the scene: checked as a rebuild key is and
+ * made to the user's scene, which the rebuild then builds. */
+static void fold_dropped(viewer *v, const view_live_result *lr)
+{
+    const sq_result r = check_assignment(v, lr->assignment);
+    if (r == SQ_OK && sq_cfg_set(v->cfg, lr->assignment) == SQ_OK) {
+        print_result(v, lr, "folded into the restarted scene");
         return;
     }
-    if (in_draw) return; /* a refusal or a rebuild is handled by the next tick */
-    v->live_held = false;
-    v->live_pending = false;
-    if (lr->r != SQ_OK) {
-        v->live_outcome = VIEW_LIVE_REFUSED;
-        snprintf(v->live_message, sizeof v->live_message, "%s", lr->error);
-        v->lat_pending = false;
-    } else {
-        v->live_outcome = VIEW_LIVE_REBUILT;
-        snprintf(v->live_message, sizeof v->live_message, "%s", lr->res.reason);
-        if (!v->live_is_cfg) sq_cfg_set(v->cfg, v->live_assignment);
-        view_rebuild(v);
+    v->live_refusals++;
+    snprintf(v->live_refused, sizeof v->live_refused, "%s", lr->assignment);
+    snprintf(v->live_refusal, sizeof v->live_refusal, "%s", sq_last_error());
+    char how[900];
+    snprintf(how, sizeof how, "refused: %s", v->live_refusal);
+    print_result(v, lr, how);
+}
+
+/* Takes the results of the live changes, in order. An applied change is in the frame drawn now
+ * (in_draw: for the latency) and becomes part of the user's scene; a refusal or a rebuild is
+ * handled by the next tick (never during a draw: GTK is snapshotting then); the changes dropped
+ * after a rebuild are folded into the rebuilt scene. */
+void view_param_poll(viewer *v, bool in_draw)
+{
+    bool rebuild = false, shown = false;
+    for (;;) {
+        if (!v->live_held) {
+            if (!v->sim || v->live_outstanding <= 0 || !view_sim_live_result(v->sim, &v->live_result))
+                break;
+            v->live_outstanding--;
+            v->live_held = true;
+        }
+        const view_live_result *lr = &v->live_result;
+        const bool applied = lr->r == SQ_OK && !lr->res.rebuild && !lr->dropped;
+        if (!applied && in_draw) break; /* the next tick */
+        v->live_held = false;
+        if (lr->dropped) {
+            fold_dropped(v, lr);
+            continue;
+        }
+        snprintf(v->live_assignment, sizeof v->live_assignment, "%s", lr->assignment);
+        char how[1000];
+        if (applied) {
+            v->live_outcome = VIEW_LIVE_APPLIED;
+            if (!lr->whole) sq_cfg_set(v->cfg, lr->assignment); /* the user's scene now */
+            snprintf(v->live_message, sizeof v->live_message,
+                     "applied to frame %d, %.1f ms after the change", lr->frame - 1,
+                     (lr->t_applied_s - lr->t_request_s) * 1e3);
+            snprintf(how, sizeof how, "applied to frame %d (%d changed)", lr->frame - 1,
+                     lr->res.changed);
+            v->lat_armed = true;
+            v->redraw = true;
+        } else if (lr->r != SQ_OK) {
+            v->live_outcome = VIEW_LIVE_REFUSED;
+            snprintf(v->live_message, sizeof v->live_message, "%s", lr->error);
+            v->live_refusals++;
+            snprintf(v->live_refused, sizeof v->live_refused, "%s", lr->assignment);
+            snprintf(v->live_refusal, sizeof v->live_refusal, "%s", lr->error);
+            snprintf(how, sizeof how, "refused: %s", lr->error);
+            v->lat_pending = false;
+        } else {
+            v->live_outcome = VIEW_LIVE_REBUILT;
+            snprintf(v->live_message, sizeof v->live_message, "%s", lr->res.reason);
+            if (!lr->whole) sq_cfg_set(v->cfg, lr->assignment);
+            snprintf(how, sizeof how, "scene restarted");
+            rebuild = true;
+        }
+        print_result(v, lr, how);
+        shown = true;
+    }
+    v->live_pending = v->live_outstanding > 0 || v->live_held;
+    if (rebuild) {
+        view_rebuild(v); /* the changes queued after it went with the old run: folded above */
         v->lat_frame0 = -1;
         v->lat_armed = true;
+        v->live_pending = false;
     }
-    show_outcome(v);
+    if (shown && in_draw) v->live_show = true;
+    else if (shown || (!in_draw && v->live_show)) {
+        v->live_show = false;
+        show_outcome(v);
+    }
 }

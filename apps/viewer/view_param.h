@@ -18,6 +18,7 @@ typedef struct view_group {
     char title[128];       /* "layer storm (sandstorm)" */
     const sq_param *params;
     size_t count;
+    const sq_phen_plugin *plugin; /* a layer's plug-in; NULL for a section */
 } view_group;
 
 #define VIEW_MAX_GROUPS 24
@@ -40,10 +41,12 @@ typedef enum view_change {
 
 /* Applies "full_key=value" to the user's scene. A live key (SQ_PARAM_LIVE) goes to the
  * simulation thread, which checks it exactly as the scene loader (and so `--set`) does and
- * applies it between two steps without restarting (sq_run_apply_live); a refusal comes back with
+ * applies it between two steps without restarting (sq_run_apply_live), after the live changes
+ * sent before it (each made to the scene as those left it); a refusal comes back with
  * the CLI's message, a change that still needs a rebuild (a phenomenon without live changes)
  * restarts the scene. A camera key goes to the viewer's camera at once. Any other key is checked
- * on a copy of the scene (SQ_ERR_* with the CLI's message) and rebuilds the scene. */
+ * on a copy of the scene (SQ_ERR_* with the CLI's message) and rebuilds the scene (after the live
+ * changes still waiting for the simulation thread, when there are: then VIEW_CHANGE_PENDING). */
 sq_result view_param_apply(struct viewer *v, const char *full_key, const char *value,
                            view_change *how);
 

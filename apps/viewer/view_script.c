@@ -5,9 +5,14 @@
  *   wait-end                until the run's last frame is drawn (with --frames N)
  *   set KEY VALUE           as the panel does (no confirmation): KEY = section.key, e.g.
  *                           layers.dust.urban.concentration_kg_m3 or output.exposure
+ *   send KEY VALUE          as set, without waiting: the next set (or the end) waits for it;
+ *                           several changes sent in one display frame all apply, in order;
+ *                           prints "change KEY = VALUE: applied to frame N (C changed)" (or
+ *                           refused, scene restarted) when the simulation thread has taken it
  *   screenshot FILE.png     the next drawn frame (the GL area's pixels)
  *   save FILE.yaml          the scene as edited, as YAML that `squall render` reads
  *   panel-keys SECTION FILE the keys the panel lists for SECTION (e.g. layers.storm), one a line
+ *                           with "live" or "rebuild" after it
  *   record FILE.mp4         start recording every new frame shown (H.264, output.fps)
  *   record-stop             finish the video (also done at the end)
  *   keyframe                the current view as a key of camera.path at the frame's video
@@ -27,7 +32,7 @@
 
 typedef enum act_kind {
     A_WAIT, A_WAIT_END, A_SET, A_SHOT, A_SAVE, A_KEYS, A_PAUSE, A_RUN, A_STEP, A_QUIT, A_REC,
-    A_REC_STOP, A_TIME, A_KEYFRAME
+    A_REC_STOP, A_TIME, A_KEYFRAME, A_SEND
 } act_kind;
 
 typedef struct action {
@@ -44,6 +49,13 @@ struct view_script {
     bool waiting;   /* the current action has started and waits for frames or a draw */
     int target;     /* A_WAIT: drawn frame index to reach */
     int draws0;     /* A_WAIT 0: draws when it started */
+    /* the live changes sent (set, send), to name the line of one refused later */
+    struct {
+        int line;
+        char assignment[2 * VIEW_PATH_MAX + 2];
+    } sent[64];
+    int sent_count;
+    int refusals_seen; /* viewer.live_refusals already reported */
 };
 
 static void script_fail(viewer *v, const view_script *s, int line, int code, const char *msg)
@@ -51,6 +63,29 @@ static void script_fail(viewer *v, const view_script *s, int line, int code, con
     sq_cli_error("%s:%d: %s", s->path, line, msg);
     v->exit_code = code;
     v->quit = true;
+}
+
+static void note_sent(view_script *s, const action *a)
+{
+    const int k = s->sent_count++ % 64;
+    s->sent[k].line = a->line;
+    snprintf(s->sent[k].assignment, sizeof s->sent[k].assignment, "%s=%s", a->a, a->b);
+}
+
+/* A change sent earlier was refused: the script stops with its line and the CLI's message. */
+static bool refused_since(viewer *v, view_script *s, int line)
+{
+    if (v->live_refusals == s->refusals_seen) return false;
+    s->refusals_seen = v->live_refusals;
+    for (int i = 0; i < s->sent_count && i < 64; i++) {
+        const int k = (s->sent_count - 1 - i) % 64;
+        if (strcmp(s->sent[k].assignment, v->live_refused) == 0) {
+            line = s->sent[k].line;
+            break;
+        }
+    }
+    script_fail(v, s, line, SQ_EXIT_USAGE, v->live_refusal);
+    return true;
 }
 
 static sq_result check_output(viewer *v, const char *path)
@@ -87,8 +122,8 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
             if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 0 || a.n > 1000000)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: wait N: N must be a frame count in "
                                  "0..1000000", path, no);
-        } else if (strcmp(cmd, "set") == 0) {
-            a.kind = A_SET;
+        } else if (strcmp(cmd, "set") == 0 || strcmp(cmd, "send") == 0) {
+            a.kind = cmd[1] == 'e' && cmd[2] == 't' ? A_SET : A_SEND;
             int k = 0;
             if (sscanf(rest, "%1023s %n", a.a, &k) < 1 || !rest[k])
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: set KEY VALUE: missing %s", path, no,
@@ -134,7 +169,7 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
         else if (strcmp(cmd, "step") == 0) a.kind = A_STEP;
         else if (strcmp(cmd, "quit") == 0) a.kind = A_QUIT;
         else
-            r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, "
+            r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, send, "
                              "screenshot, save, panel-keys, record, record-stop, keyframe, print-time, pause, run, step, quit)", path, no, cmd);
         if (r != SQ_OK) break;
         if (s->count == cap) {
@@ -174,6 +209,7 @@ void view_script_tick(viewer *v, view_script *s)
             script_fail(v, s, a->line, v->exit_code ? v->exit_code : SQ_EXIT_RUNTIME, v->gl_error);
             return;
         }
+        if (refused_since(v, s, a->line)) return;
         switch (a->kind) {
         case A_WAIT:
             if (!s->waiting) {
@@ -194,6 +230,22 @@ void view_script_tick(viewer *v, view_script *s)
         case A_WAIT_END:
             if (!st.done || v->drawn_frames < st.frames) return;
             break;
+        case A_SEND: {
+            view_change how = VIEW_CHANGE_LIVE;
+            const sq_result r = view_panel_set(v, a->a, a->b, &how);
+            if (r != SQ_OK) {
+                script_fail(v, s, a->line, sq_cli_exit_code(r), sq_last_error());
+                return;
+            }
+            v->redraw = true;
+            if (how == VIEW_CHANGE_PENDING) note_sent(s, a);
+            else {
+                printf("set %s = %s: %s\n", a->a, a->b,
+                       how == VIEW_CHANGE_REBUILT ? "scene restarted" : "live");
+                fflush(stdout);
+            }
+            break;
+        }
         case A_SET: {
             if (!s->waiting) {
                 view_change how = VIEW_CHANGE_LIVE;
@@ -213,6 +265,7 @@ void view_script_tick(viewer *v, view_script *s)
                 v->redraw = true;
                 snprintf(v->lat_key, sizeof v->lat_key, "%.199s", a->a);
                 if (how == VIEW_CHANGE_PENDING) {
+                    note_sent(s, a);
                     s->waiting = true; /* the simulation thread applies it between two steps */
                     return;
                 }
@@ -221,11 +274,8 @@ void view_script_tick(viewer *v, view_script *s)
                 fflush(stdout);
                 break;
             }
-            if (v->live_pending) return;
-            if (v->live_outcome == VIEW_LIVE_REFUSED) {
-                script_fail(v, s, a->line, SQ_EXIT_USAGE, v->live_message);
-                return;
-            }
+            if (v->live_pending) return; /* this change and every one sent before it */
+            if (refused_since(v, s, a->line)) return;
             printf("set %s = %s: %s (%s)\n", a->a, a->b,
                    v->live_outcome == VIEW_LIVE_REBUILT ? "scene restarted" : "live",
                    v->live_message);
@@ -307,5 +357,8 @@ void view_script_tick(viewer *v, view_script *s)
         s->waiting = false;
         s->next++;
     }
-    if (s->next >= s->count) v->quit = true;
+    if (s->next >= s->count && !v->quit) {
+        if (v->live_pending) return; /* the changes sent: their results */
+        if (!refused_since(v, s, s->count ? s->acts[s->count - 1].line : 0)) v->quit = true;
+    }
 }

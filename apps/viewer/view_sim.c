@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "squall/io.h"
+
 struct view_sim {
     sq_run *run;
     thrd_t thread;
@@ -20,12 +22,20 @@ struct view_sim {
     /* steps/s over a sliding window: frames and wall time at the window's start */
     double window_t0;
     int window_f0;
-    /* live change: the request waiting for the thread, and the result for the UI */
-    bool live_req;
-    sq_scene_desc live_desc;   /* cfg owned */
-    double live_t_request;
-    bool live_done;
-    view_live_result live;
+    /* live changes: the requests waiting for the thread, the results for the UI (rings), the
+     * changes requested whose result was not read yet, and what the thread applies them to */
+    struct live_req {
+        char assignment[1400];
+        sq_cfg *whole;     /* owned; NULL: the assignment on run_cfg */
+        double t_request;
+    } req[VIEW_LIVE_QUEUE], batch[VIEW_LIVE_QUEUE];
+    int req_head, req_count;
+    view_live_result res[VIEW_LIVE_QUEUE], batch_res[VIEW_LIVE_QUEUE];
+    int res_head, res_count;
+    int outstanding;
+    sq_context *ctx;
+    sq_cfg *run_cfg;           /* the scene as the run has it now (the thread's) */
+    sq_scene_desc base;        /* loaders; cfg replaced */
 };
 
 static double clampd(double v, double lo, double hi) { return v < lo ? lo : v > hi ? hi : v; }
@@ -94,28 +104,75 @@ static void wait_until(view_sim *s, double t)
     cnd_timedwait(&s->wake, &s->lock, &ts);
 }
 
-/* Applies the waiting live request (lock held on entry and exit, released while applying). */
+/* run_cfg with one more assignment, as a new configuration (NULL with the message in *out). */
+static sq_cfg *edited_cfg(view_sim *s, const char *assignment, view_live_result *out)
+{
+    char *yaml = sq_cfg_to_yaml(s->run_cfg);
+    sq_cfg *copy = NULL;
+    sq_result r = yaml ? sq_cfg_parse(s->ctx, yaml, strlen(yaml), s->run_cfg->source, &copy)
+                       : sq_set_error(SQ_ERR_OUT_OF_MEMORY, "view: cannot copy the scene");
+    free(yaml);
+    if (r == SQ_OK) {
+        snprintf(copy->base_dir, sizeof copy->base_dir, "%s", s->run_cfg->base_dir);
+        r = sq_cfg_set(copy, assignment);
+    }
+    if (r != SQ_OK) {
+        const char *e = sq_last_error(); /* thread-local: read it on this thread */
+        out->r = r;
+        snprintf(out->error, sizeof out->error, "%s", e && *e ? e : sq_result_name(r));
+        sq_cfg_destroy(copy);
+        return NULL;
+    }
+    return copy;
+}
+
+/* Applies the waiting live changes in order (lock held on entry and exit, released while
+ * applying); their results are published together, so that the UI sees a whole batch. */
 static void apply_live(view_sim *s)
 {
-    sq_scene_desc d = s->live_desc;
-    const double t_req = s->live_t_request;
-    s->live_req = false;
-    memset(&s->live_desc, 0, sizeof s->live_desc);
+    const int n = s->req_count;
+    for (int k = 0; k < n; k++) s->batch[k] = s->req[(s->req_head + k) % VIEW_LIVE_QUEUE];
+    s->req_head = (s->req_head + n) % VIEW_LIVE_QUEUE;
+    s->req_count = 0;
     mtx_unlock(&s->lock);
-    view_live_result out;
-    memset(&out, 0, sizeof out);
-    out.r = sq_run_apply_live(s->run, &d, &out.res);
-    if (out.r != SQ_OK) {
-        const char *e = sq_last_error(); /* thread-local: read it on this thread */
-        snprintf(out.error, sizeof out.error, "%s", e && *e ? e : sq_result_name(out.r));
+    bool rebuild = false;
+    for (int k = 0; k < n; k++) {
+        struct live_req *q = &s->batch[k];
+        view_live_result *out = &s->batch_res[k];
+        memset(out, 0, sizeof *out);
+        snprintf(out->assignment, sizeof out->assignment, "%s", q->assignment);
+        out->whole = q->whole != NULL;
+        out->t_request_s = q->t_request;
+        if (rebuild) {
+            out->dropped = true;
+            sq_cfg_destroy(q->whole);
+            continue;
+        }
+        sq_cfg *c = q->whole ? q->whole : edited_cfg(s, q->assignment, out);
+        if (c) {
+            sq_scene_desc d = s->base;
+            d.cfg = c;
+            out->r = sq_run_apply_live(s->run, &d, &out->res);
+            if (out->r != SQ_OK) {
+                const char *e = sq_last_error(); /* thread-local: read it on this thread */
+                snprintf(out->error, sizeof out->error, "%s", e && *e ? e : sq_result_name(out->r));
+            }
+            if (out->r == SQ_OK && !out->res.rebuild) { /* the scene as the run has it now */
+                sq_cfg_destroy(s->run_cfg);
+                s->run_cfg = c;
+            } else {
+                sq_cfg_destroy(c);
+            }
+            rebuild = out->r == SQ_OK && out->res.rebuild;
+        }
+        out->frame = sq_run_frame_index(s->run);
+        out->t_applied_s = sq_time_now();
     }
-    out.frame = sq_run_frame_index(s->run);
-    out.t_request_s = t_req;
-    out.t_applied_s = sq_time_now();
-    sq_cfg_destroy((sq_cfg *)d.cfg);
     mtx_lock(&s->lock);
-    s->live = out;
-    s->live_done = true;
+    for (int k = 0; k < n; k++) {
+        s->res[(s->res_head + s->res_count) % VIEW_LIVE_QUEUE] = s->batch_res[k];
+        s->res_count++;
+    }
 }
 
 static int sim_main(void *arg)
@@ -125,7 +182,7 @@ static int sim_main(void *arg)
     mtx_lock(&s->lock);
     for (;;) {
         if (s->quit) break;
-        if (s->live_req && s->st.frames > 0) {
+        if (s->req_count > 0 && s->st.frames > 0) {
             apply_live(s); /* between two advances, before the next is due */
             continue;
         }
@@ -206,34 +263,53 @@ void view_sim_destroy(view_sim *s)
         mtx_unlock(&s->lock);
         thrd_join(s->thread, NULL);
     }
-    sq_cfg_destroy((sq_cfg *)s->live_desc.cfg);
+    for (int k = 0; k < s->req_count; k++)
+        sq_cfg_destroy(s->req[(s->req_head + k) % VIEW_LIVE_QUEUE].whole);
+    sq_cfg_destroy(s->run_cfg);
     cnd_destroy(&s->wake);
     mtx_destroy(&s->lock);
     free(s);
 }
 
-void view_sim_request_live(view_sim *s, const sq_scene_desc *desc)
+void view_sim_set_scene(view_sim *s, sq_context *ctx, sq_cfg *run_cfg, const sq_scene_desc *base)
+{
+    s->ctx = ctx;
+    sq_cfg_destroy(s->run_cfg);
+    s->run_cfg = run_cfg;
+    s->base = *base;
+    s->base.cfg = NULL;
+}
+
+bool view_sim_request_live(view_sim *s, const char *assignment, sq_cfg *whole)
 {
     mtx_lock(&s->lock);
-    sq_cfg_destroy((sq_cfg *)s->live_desc.cfg); /* a request not yet taken is replaced */
-    s->live_desc = *desc;
-    s->live_req = true;
-    s->live_done = false;
-    s->live_t_request = sq_time_now();
-    cnd_broadcast(&s->wake);
+    const bool room = s->outstanding < VIEW_LIVE_QUEUE && (whole || s->run_cfg);
+    if (room) {
+        struct live_req *q = &s->req[(s->req_head + s->req_count) % VIEW_LIVE_QUEUE];
+        snprintf(q->assignment, sizeof q->assignment, "%s", assignment);
+        q->whole = whole;
+        q->t_request = sq_time_now();
+        s->req_count++;
+        s->outstanding++;
+        cnd_broadcast(&s->wake);
+    }
     mtx_unlock(&s->lock);
+    if (!room) sq_cfg_destroy(whole);
+    return room;
 }
 
 bool view_sim_live_result(view_sim *s, view_live_result *out)
 {
     mtx_lock(&s->lock);
-    const bool done = s->live_done;
-    if (done) {
-        *out = s->live;
-        s->live_done = false;
+    const bool any = s->res_count > 0;
+    if (any) {
+        *out = s->res[s->res_head];
+        s->res_head = (s->res_head + 1) % VIEW_LIVE_QUEUE;
+        s->res_count--;
+        s->outstanding--;
     }
     mtx_unlock(&s->lock);
-    return done;
+    return any;
 }
 
 void view_sim_set_paused(view_sim *s, bool paused)

@@ -54,18 +54,31 @@ void view_sim_set_speed(view_sim *s, double speed); /* clamped to [1/64, 64] */
 double view_sim_speed(view_sim *s);
 void view_sim_stats_get(view_sim *s, view_sim_stats *out);
 
-/* Live changes: the thread applies the request with sq_run_apply_live between two advances (at
- * once when it waits: paused, or between frames), never during a step; the drawing thread is not
- * held. desc->cfg passes to the request (destroyed by it); a newer request replaces one not yet
- * taken. The result is read once with view_sim_live_result. */
+/* Live changes: a queue of changes the thread applies in order with sq_run_apply_live, between
+ * two advances (at once when it waits: paused, or between frames), never during a step; the
+ * drawing thread is not held. Each change is an assignment "section.key=value" made to the scene
+ * as the changes before it left it (the run's configuration, kept by the thread), so that
+ * several changes made within one display frame all apply; or a whole scene (whole != NULL:
+ * keyframes edit the camera path in place), which then becomes the run's configuration. Every
+ * change gets one result, in order. When a change needs a rebuild, the changes queued after it
+ * in the same batch are not tried (dropped: the front end folds them into the rebuilt scene). */
 typedef struct view_live_result {
     sq_result r;              /* SQ_OK, or the refusal (message in error) */
     sq_live_result res;       /* applied (res.changed) or needs a rebuild (res.rebuild) */
     char error[800];
+    char assignment[1400];    /* the change as requested ("section.key=value", or a label) */
+    bool whole;               /* the change was a whole scene */
+    bool dropped;             /* not tried: a change before it needs a rebuild */
     int frame;                /* sq_run_frame_index when applied */
     double t_request_s, t_applied_s; /* wall clock (sq_time_now) */
 } view_live_result;
-void view_sim_request_live(view_sim *s, const sq_scene_desc *desc);
-/* true (once) when the result of the latest request is there. */
+#define VIEW_LIVE_QUEUE 32    /* changes waiting for their result, at most */
+/* The scene the run was built from (owned from now on) and the desc that builds it (its loaders;
+ * cfg is replaced): the base of the assignments; ctx copies it. Before view_sim_start. */
+void view_sim_set_scene(view_sim *s, sq_context *ctx, sq_cfg *run_cfg, const sq_scene_desc *base);
+/* Queues a change (whole: owned by the queue, or NULL for the assignment alone); false (whole
+ * destroyed) when VIEW_LIVE_QUEUE changes already wait for their results. */
+bool view_sim_request_live(view_sim *s, const char *assignment, sq_cfg *whole);
+/* true with the oldest result not yet read, in the order of the requests. */
 bool view_sim_live_result(view_sim *s, view_live_result *out);
 #endif

@@ -121,6 +121,13 @@ typedef struct sq_phen_plugin {
     sq_result (*apply_live)(void *self, const void *desc);
 } sq_phen_plugin;
 
+/* Whether a change of entry p applies to a running scene (sq_scene_apply_live; an interactive
+ * front end applies it at once) or needs a rebuild: its SQ_PARAM_LIVE flag and, for an entry of
+ * a layer's table (plugin not NULL), a plug-in with the apply_live hook. The one rule that
+ * `squall params` lists and the viewer's panel follows. (The sun keys of a world on a WRF
+ * terrain, whose file places the sun, still rebuild: that depends on the scene.) */
+SQ_API bool sq_param_live(const sq_param *p, const sq_phen_plugin *plugin);
+
 /* The phenomena compiled into this library, in a fixed order (sq_plugin_at(0 .. count-1)),
  * and one by name (NULL if there is none of that name). The tables are static. */
 SQ_API int sq_plugin_count(void);

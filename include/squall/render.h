@@ -100,6 +100,7 @@ typedef struct sq_render_stats {
     int64_t faces, instances;
     int64_t camera_faces, camera_instances;
     double ms_shadow, ms_occlusion_map;
+    int shadow_cascades_drawn; /* of the cascades: the others kept the map of an earlier frame */
 } sq_render_stats;
 /* Fills out with the statistics above for the last draw. */
 SQ_API sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out);

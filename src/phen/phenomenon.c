@@ -180,7 +180,7 @@ sq_result sq_phenomenon_apply_live(sq_phenomenon *p, const void *desc, size_t de
     if (r == SQ_OK) {
         const sq_param *fixed = sq_params_first_change(pl->params, pl->param_count, p->desc, d, false);
         const sq_param *live = sq_params_first_change(pl->params, pl->param_count, p->desc, d, true);
-        if (fixed || (live && !pl->apply_live)) {
+        if (fixed || (live && !sq_param_live(live, pl))) {
             res->rebuild = true;
             if (fixed)
                 snprintf(res->reason, sizeof res->reason,

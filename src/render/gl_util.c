@@ -282,8 +282,35 @@ sq_result sq__gl_program_link(sq_context *ctx, const char *label, const GLuint *
     return SQ_OK;
 }
 
+/* text with defines inserted after its first line (the #version line) and a #line 2 that keeps
+ * the driver's line numbers those of the file; NULL without memory */
+static char *with_defines(sq_context *ctx, const char *text, const char *defines)
+{
+    const char *eol = strchr(text, '\n');
+    const size_t head = eol ? (size_t)(eol - text) + 1 : strlen(text);
+    const size_t nd = strlen(defines), nt = strlen(text);
+    char *out = sq_alloc(ctx, nt + nd + 16);
+    if (!out) return NULL;
+    memcpy(out, text, head);
+    size_t k = head;
+    if (!eol) out[k++] = '\n';
+    memcpy(out + k, defines, nd);
+    k += nd;
+    if (nd > 0 && defines[nd - 1] != '\n') out[k++] = '\n';
+    memcpy(out + k, "#line 2\n", 8);
+    k += 8;
+    memcpy(out + k, text + head, nt - head + 1);
+    return out;
+}
+
 sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, const char *frag,
                          GLuint *out)
+{
+    return sq__gl_program_defs(ctx, vert, geom, frag, NULL, out);
+}
+
+sq_result sq__gl_program_defs(sq_context *ctx, const char *vert, const char *geom,
+                              const char *frag, const char *defines, GLuint *out)
 {
     *out = 0;
     const char *names[3] = {vert, geom, frag};
@@ -301,7 +328,14 @@ sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, co
                          names[i], names[i]);
             break;
         }
-        r = sq__gl_shader_compile(ctx, stages[i], names[i], text, &sh[n]);
+        char *text_defs = defines ? with_defines(ctx, text, defines) : NULL;
+        if (defines && !text_defs) {
+            r = sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "render", "no memory for shader %s",
+                         names[i]);
+            break;
+        }
+        r = sq__gl_shader_compile(ctx, stages[i], names[i], text_defs ? text_defs : text, &sh[n]);
+        sq_free(ctx, text_defs);
         if (r == SQ_OK) {
             size_t len = strlen(label);
             snprintf(label + len, sizeof label - len, "%s%s", n ? "+" : "", names[i]);

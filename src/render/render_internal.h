@@ -47,11 +47,17 @@ struct sq_renderer {
     uint64_t world_generation;
     GLuint terrain_vao, terrain_vbo, terrain_ibo;
     GLsizei terrain_index_count;
+    double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
     GLsizei obstacle_vertex_count;
 
     /* programs owned by the base renderer */
     GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_tonemap;
+    /* terrain and obstacles with snow cover (snow_common.glsl): compiled on the first frame with
+     * a snow-cover drawable; prog_terrain and prog_mesh have it compiled out (SQ_NO_SNOW).
+     * snow_on: this frame draws snow cover (sq__snow_pass_prepare) */
+    GLuint prog_terrain_snow, prog_mesh_snow;
+    bool snow_on;
     GLuint prog_target; /* sq_renderer_draw_to: target colour <-> linear frame (target.frag) */
 
     /* Sun shadowing by volumes: the volume pass leaves its final light buffer here (a 2D
@@ -145,6 +151,10 @@ void sq__gl_state_restore(const sq__gl_state *s);
  * with the shader name and line. */
 sq_result sq__gl_program(sq_context *ctx, const char *vert, const char *geom, const char *frag,
                          GLuint *out);
+/* The same with defines ("#define NAME VALUE" lines) inserted after each stage's #version line
+ * (program variants: a feature compiled out where a frame does not use it). */
+sq_result sq__gl_program_defs(sq_context *ctx, const char *vert, const char *geom,
+                              const char *frag, const char *defines, GLuint *out);
 /* Text of an embedded shader file by name (NULL if none). */
 const char *sq__shader_source(const char *name);
 /* Translates glGetError into an sq_result with the place named. */
@@ -258,6 +268,9 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
 /* Box around every instance (any = false when there are none). */
 void sq__mesh_pass_bounds(const sq_renderer *r, sq_vec3 *mn, sq_vec3 *mx, bool *any);
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset);
+/* The instance programs with snow cover (on the first frame that draws snow; the default ones
+ * have it compiled out). */
+sq_result sq__mesh_pass_snow_programs(sq_renderer *r);
 
 sq_result sq__shadow_pass_create(sq_renderer *r);
 void sq__shadow_pass_destroy(sq_renderer *r);
@@ -265,6 +278,10 @@ void sq__shadow_pass_destroy(sq_renderer *r);
  * the map at unit 8). Call after the camera is set and the world caches are up to date.
  * draw = false: no shadows this frame (the block says 0 cascades). */
 sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw);
+/* Whether the world's opaque geometry can shadow any of itself under its sun: obstacles or mesh
+ * instances, or a terrain with a triangle steeper than the sun's elevation. The cascades are
+ * not drawn when not (the picture is the same: nothing would be in shadow). */
+bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w);
 /* Binds the Shadow block and map (or the 1x1 stand-in) for passes that include frame_common. */
 void sq__shadow_bind(sq_renderer *r);
 /* All opaque world geometry (terrain, obstacles, mesh instances) into the bound depth target
@@ -272,7 +289,22 @@ void sq__shadow_bind(sq_renderer *r);
  * binds the framebuffer, sets the viewport and clears depth. */
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
+/* A shadow cascade's slice and its map's box in the sun's frame (x, y across the sun's direction,
+ * z toward it): half-size, centre, depth range. */
+typedef struct sq__cascade_box {
+    float split; /* far end of the slice along the view axis (m) */
+    float texel; /* m */
+    float half, cx, cy, zlo, zhi;
+} sq__cascade_box;
+/* The C cascades' boxes (render_shadow.c) for a camera at cam looking along unit fwd with half
+ * field-of-view tangents tx, ty, near n and shadow distance f; size texels across a slice's
+ * sphere plus margin texels each side (0: no keeping: origins on whole texels); reach (m)
+ * toward the sun beyond the slice. No GL: the map of a cascade is kept while its box is the same. */
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out);
 double sq__shadow_pass_ms(const sq_renderer *r);
+/* Cascades drawn by the last frame (the others kept their maps). */
+int sq__shadow_pass_drawn(const sq_renderer *r);
 
 /* ---- render_snowcover.c: snow lying on the opaque surfaces --------------------------------- */
 sq_result sq__snow_pass_create(sq_renderer *r);
@@ -281,6 +313,9 @@ void sq__snow_pass_destroy(sq_renderer *r);
  * camera, the snow depth texture, the Snow block (UBO 4) and textures (units 11, 12) bound for
  * the opaque shaders. Call after the camera is set and the world caches are up to date. */
 sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow_cover_view *v);
+/* renderer.c: the terrain, obstacle and instance programs with snow cover, compiled once (the
+ * snow pass calls it on the first frame with snow; r->snow_on selects them). */
+sq_result sq__snow_programs(sq_renderer *r);
 /* Time of the last occlusion map, GL finished (ms; 0 without snow). */
 double sq__snow_pass_ms(const sq_renderer *r);
 

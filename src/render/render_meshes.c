@@ -53,6 +53,7 @@ struct sq__mesh_pass {
     uint8_t *lod_of;   /* per instance: chosen LOD (255 = culled) */
     size_t ring_cap, ring_pos; /* in instances */
     GLuint prog_color, prog_cutout, prog_depth; /* colour: opaque / textured (alpha cut-out) */
+    GLuint prog_color_snow, prog_cutout_snow;   /* the same with snow cover (on first use) */
     sq_vec3 bounds_min, bounds_max; /* of all instances */
     sq__mesh_stats stats;
 };
@@ -62,12 +63,25 @@ sq_result sq__mesh_pass_create(sq_renderer *r)
 {
     r->meshes = sq_alloc_zero(r->ctx, sizeof *r->meshes);
     if (!r->meshes) return SQ_ERR_OUT_OF_MEMORY;
-    sq_result res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes.frag", &r->meshes->prog_color);
+    sq_result res = sq__gl_program_defs(r->ctx, "meshes.vert", NULL, "meshes.frag",
+                                        "#define SQ_NO_SNOW 1", &r->meshes->prog_color);
     if (res == SQ_OK)
-        res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
-                             &r->meshes->prog_cutout);
+        res = sq__gl_program_defs(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
+                                  "#define SQ_NO_SNOW 1", &r->meshes->prog_cutout);
     if (res == SQ_OK)
         res = sq__gl_program(r->ctx, "depth_meshes.vert", NULL, "depth.frag", &r->meshes->prog_depth);
+    return res;
+}
+
+sq_result sq__mesh_pass_snow_programs(sq_renderer *r)
+{
+    sq__mesh_pass *m = r->meshes;
+    sq_result res = SQ_OK;
+    if (!m->prog_color_snow)
+        res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes.frag", &m->prog_color_snow);
+    if (res == SQ_OK && !m->prog_cutout_snow)
+        res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
+                             &m->prog_cutout_snow);
     return res;
 }
 
@@ -104,6 +118,8 @@ void sq__mesh_pass_destroy(sq_renderer *r)
     release(r);
     glDeleteProgram(r->meshes->prog_color);
     glDeleteProgram(r->meshes->prog_cutout);
+    glDeleteProgram(r->meshes->prog_color_snow);
+    glDeleteProgram(r->meshes->prog_cutout_snow);
     glDeleteProgram(r->meshes->prog_depth);
     sq_free(r->ctx, r->meshes);
     r->meshes = NULL;
@@ -489,8 +505,10 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const int n = cull(m, &v);
     if (n == 0) return;
     const GLuint base = ring_put(m, n);
-    glUseProgram(m->prog_color);
-    draw_buckets(r, base, true, m->prog_color, m->prog_cutout);
+    const GLuint color = r->snow_on ? m->prog_color_snow : m->prog_color;
+    const GLuint cutout = r->snow_on ? m->prog_cutout_snow : m->prog_cutout;
+    glUseProgram(color);
+    draw_buckets(r, base, true, color, cutout);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)

@@ -9,7 +9,14 @@
  * changes while the camera moves), an orthographic sun view around it whose origin is snapped to
  * whole texels (no shimmer), and a depth render with depth clamping (casters between the slice
  * and the sun outside the box still occlude) and a slope-scaled polygon offset. Surfaces look the
- * cascade up with a normal offset and 3 x 3 percentage-closer filtering (frame_common.glsl). */
+ * cascade up with a normal offset and 3 x 3 percentage-closer filtering (frame_common.glsl).
+ *
+ * Kept between frames: each cascade's map reaches a margin of M = MARGIN x R beyond the slice's
+ * sphere (extra texels of the same size), and its origin (x, y across the sun, z toward it) is
+ * the sphere's centre rounded to a grid of 2M, so the sphere stays inside while its centre stays
+ * in one grid cell. The map is then a function of (cell, texel, sun direction, world generation)
+ * only: it is drawn again when one of them changes, and a kept map is the map a fresh renderer
+ * draws for the same view (`render_meshes.kept_cascades_equal_fresh_ones`). */
 #include <math.h>
 #include <string.h>
 
@@ -17,6 +24,7 @@
 #include "world/world_struct.h"
 
 #define MAX_CASCADES 4
+#define MARGIN 0.25f /* of the slice's sphere radius */
 
 /* std140 mirror of the Shadow block in shaders/frame_common.glsl. */
 typedef struct shadow_block {
@@ -24,12 +32,25 @@ typedef struct shadow_block {
     float split[4], texel[4], params[4];
 } shadow_block;
 
+/* What a cascade's map was drawn for: the same key gives the same map. */
+typedef struct cascade_key {
+    const sq_world *world;
+    uint64_t generation;
+    sq_vec3 sun;
+    float half, cx, cy, zlo, zhi; /* light-frame box */
+    bool valid;
+} cascade_key;
+
 struct sq__shadow_pass {
     GLuint tex, dummy, ubo, prog_world;
     GLuint fbo[MAX_CASCADES];
     int size, cascades;
+    int margin;   /* texels beyond the slice's sphere on each side (0: no keeping) */
+    int tex_size; /* size + 2 margin */
     float distance_m;
     bool enabled;
+    cascade_key key[MAX_CASCADES];
+    int drawn_last;
     double ms_last;
 };
 
@@ -55,8 +76,14 @@ sq_result sq__shadow_pass_create(sq_renderer *r)
     glTextureParameteri(s->dummy, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
     glTextureParameteri(s->dummy, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
     if (s->enabled) {
+        GLint max_size = 0;
+        glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+        s->margin = (int)ceilf(0.5f * MARGIN * (float)s->size);
+        if (s->size + 2 * s->margin > max_size) s->margin = (max_size - s->size) / 2;
+        if (s->margin < 0) s->margin = 0;
+        s->tex_size = s->size + 2 * s->margin;
         glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &s->tex);
-        glTextureStorage3D(s->tex, 1, GL_DEPTH_COMPONENT32F, s->size, s->size, s->cascades);
+        glTextureStorage3D(s->tex, 1, GL_DEPTH_COMPONENT32F, s->tex_size, s->tex_size, s->cascades);
         glTextureParameteri(s->tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
         glTextureParameteri(s->tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
         glTextureParameteri(s->tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
@@ -142,19 +169,70 @@ static sq_mat4 light_matrix(sq_vec3 lx, sq_vec3 ly, sq_vec3 lz, float cx, float 
     return m;
 }
 
+bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w)
+{
+    if (r->obstacle_vertex_count > 0) return true;
+    sq_vec3 mmin, mmax;
+    bool any;
+    sq__mesh_pass_bounds(r, &mmin, &mmax, &any);
+    if (any) return true;
+    /* a heightfield whose every triangle rises by less than the sunlight climbs cannot reach
+     * above a sun ray from any point of it: along the ray's ground track the surface gains at
+     * most max_slope x s while the ray gains tan(elevation) x s */
+    const sq_vec3 sun = sq_v3_norm(w->sun_dir);
+    const double sx = sun.x, sy = sun.y, sz = sun.z;
+    const double horiz = sqrt(sx * sx + sy * sy);
+    const double tan_elev = horiz > 0.0 ? sz / horiz : (double)INFINITY;
+    return r->terrain_index_count > 0 && !(r->terrain_max_slope < tan_elev);
+}
+
+void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, float f, int C,
+                         int size, int margin, sq_vec3 sun, float reach, sq__cascade_box *out)
+{
+    const float k2 = tx * tx + ty * ty;
+    sq_vec3 lx, ly, lz;
+    light_basis(sun, &lx, &ly, &lz);
+    float d0 = n;
+    for (int c = 0; c < C; c++) {
+        const float u = (float)(c + 1) / (float)C;
+        const float d1 = 0.75f * n * powf(f / n, u) + 0.25f * (n + (f - n) * u);
+        /* bounding sphere of the slice's corners: centre on the view axis */
+        float zc = 0.5f * (d0 + d1) * (1.0f + k2);
+        if (zc > d1) zc = d1;
+        float R = sqrtf((zc - d0) * (zc - d0) + k2 * d0 * d0);
+        R = fmaxf(R, sqrtf((d1 - zc) * (d1 - zc) + k2 * d1 * d1));
+        R *= 1.02f;
+        const sq_vec3 centre = sq_v3_add(cam, sq_v3_scale(fwd, zc));
+        const float texel = 2.0f * R / (float)size;
+        const float M = (float)margin * texel, half = R + M;
+        float cx = sq_v3_dot(centre, lx), cy = sq_v3_dot(centre, ly), cz = sq_v3_dot(centre, lz);
+        if (margin > 0) {
+            /* the centre's cell of 2M (whole texels): the sphere stays inside the map */
+            const float g = 2.0f * M;
+            cx = roundf(cx / g) * g;
+            cy = roundf(cy / g) * g;
+            cz = roundf(cz / g) * g;
+        } else {
+            /* snap the light-space origin to whole texels */
+            cx = floorf(cx / texel) * texel;
+            cy = floorf(cy / texel) * texel;
+        }
+        out[c] = (sq__cascade_box){d1, texel, half, cx, cy, cz - half, cz + half + reach};
+        d0 = d1;
+    }
+}
+
 sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
 {
     sq__shadow_pass *s = r->shadow;
     shadow_block blk;
     memset(&blk, 0, sizeof blk);
     const bool sun_up = w->sun_dir.z > 0.0f;
+    if (draw && s->enabled && sun_up && !sq__shadow_casters_possible(r, w)) draw = false;
     if (draw && s->enabled && sun_up) {
         const double t0 = sq_time_now();
         const int C = s->cascades;
         const float n = r->near_m, f = fminf(r->far_m, s->distance_m);
-        /* tangents of the half field of view from the projection */
-        const float ty = 1.0f / r->proj.m[5], tx = 1.0f / r->proj.m[0];
-        const float k2 = tx * tx + ty * ty;
         sq_vec3 lx, ly, lz;
         light_basis(w->sun_dir, &lx, &ly, &lz);
         /* the highest thing in the world, for how far toward the sun to look */
@@ -166,40 +244,40 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
         if (any) top = fmaxf(top, mmax.z);
         for (int i = 0; i < w->obstacle_count; i++)
             top = fmaxf(top, w->obstacles[i].center_m.z + w->obstacles[i].size_m.z + w->obstacles[i].roof_m);
-        float d0 = n;
-        /* the map must not stay bound for sampling while it is rendered into */
-        glBindTextureUnit(8, s->dummy);
-        glViewport(0, 0, s->size, s->size);
+        /* toward the sun beyond the slice: as far as the world's height range reaches along the
+         * sun's direction (a function of the world and the sun only; nearer casters beyond it
+         * still occlude by depth clamping) */
+        const float reach = fminf(fmaxf(0.0f, top - wmin.z) / fmaxf(lz.z, 0.05f), 20000.0f);
+        sq__cascade_box box[MAX_CASCADES];
+        sq__shadow_cascades(r->cam_pos, r->cam_forward, 1.0f / r->proj.m[0], 1.0f / r->proj.m[5], n, f,
+                            C, s->size, s->margin, w->sun_dir, reach, box);
+        int drawn = 0;
         glEnable(GL_POLYGON_OFFSET_FILL);
         glPolygonOffset(2.0f, 2.0f);
         for (int c = 0; c < C; c++) {
-            const float u = (float)(c + 1) / (float)C;
-            const float d1 = 0.75f * n * powf(f / n, u) + 0.25f * (n + (f - n) * u);
-            /* bounding sphere of the slice's corners: centre on the view axis */
-            float zc = 0.5f * (d0 + d1) * (1.0f + k2);
-            if (zc > d1) zc = d1;
-            float R = sqrtf((zc - d0) * (zc - d0) + k2 * d0 * d0);
-            R = fmaxf(R, sqrtf((d1 - zc) * (d1 - zc) + k2 * d1 * d1));
-            R *= 1.02f;
-            const sq_vec3 centre = sq_v3_add(r->cam_pos, sq_v3_scale(r->cam_forward, zc));
-            const float texel = 2.0f * R / (float)s->size;
-            /* snap the light-space origin to whole texels */
-            float cx = sq_v3_dot(centre, lx), cy = sq_v3_dot(centre, ly);
-            cx = floorf(cx / texel) * texel;
-            cy = floorf(cy / texel) * texel;
-            const float cz = sq_v3_dot(centre, lz);
-            /* toward the sun: up to where the highest object can be seen from the slice */
-            const float reach = fmaxf(0.0f, top - (centre.z - R)) / fmaxf(lz.z, 0.05f);
-            const float zlo = cz - R, zhi = cz + R + fminf(reach, 20000.0f);
-            const sq_mat4 vp = light_matrix(lx, ly, lz, cx, cy, R, zlo, zhi);
-                /* lookup: clip -> [0, 1] */
+            const float half = box[c].half, cx = box[c].cx, cy = box[c].cy, zlo = box[c].zlo,
+                        zhi = box[c].zhi, texel = box[c].texel;
+            const sq_mat4 vp = light_matrix(lx, ly, lz, cx, cy, half, zlo, zhi);
+            /* lookup: clip -> [0, 1] */
             sq_mat4 bias = sq_m4_identity();
             bias.m[0] = bias.m[5] = bias.m[10] = 0.5f;
             bias.m[12] = bias.m[13] = bias.m[14] = 0.5f;
             const sq_mat4 look = sq_m4_mul(bias, vp);
             memcpy(blk.matrix[c], look.m, sizeof look.m);
-            blk.split[c] = d1;
+            blk.split[c] = box[c].split;
             blk.texel[c] = texel;
+            const cascade_key key = {w, w->generation, w->sun_dir, half, cx, cy, zlo, zhi, true};
+            const cascade_key *k = &s->key[c];
+            if (s->margin > 0 && k->valid && k->world == key.world &&
+                k->generation == key.generation && k->sun.x == key.sun.x &&
+                k->sun.y == key.sun.y && k->sun.z == key.sun.z && k->half == key.half &&
+                k->cx == key.cx && k->cy == key.cy && k->zlo == key.zlo && k->zhi == key.zhi)
+                continue; /* the map drawn for this key is still there */
+            s->key[c] = key;
+            drawn++;
+            /* the map must not stay bound for sampling while it is rendered into */
+            glBindTextureUnit(8, s->dummy);
+            glViewport(0, 0, s->tex_size, s->tex_size);
             glBindFramebuffer(GL_FRAMEBUFFER, s->fbo[c]);
             glDepthMask(GL_TRUE); /* a clear obeys the depth mask */
             const float one = 1.0f;
@@ -212,14 +290,15 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
             v.lod_pixels = 2.0f;
             v.min_pixels = 1.0f;
             sq__world_depth_draw(r, &v);
-            d0 = d1;
         }
         glDisable(GL_POLYGON_OFFSET_FILL);
         blk.params[0] = (float)C;
-        blk.params[1] = (float)s->size;
+        blk.params[1] = (float)s->tex_size;
         blk.params[2] = 0.85f * f;
+        s->drawn_last = drawn;
         s->ms_last = (sq_time_now() - t0) * 1e3;
     } else {
+        s->drawn_last = 0;
         s->ms_last = 0.0;
     }
     glNamedBufferSubData(s->ubo, 0, sizeof blk, &blk);
@@ -235,3 +314,5 @@ void sq__shadow_bind(sq_renderer *r)
 }
 
 double sq__shadow_pass_ms(const sq_renderer *r) { return r->shadow ? r->shadow->ms_last : 0.0; }
+
+int sq__shadow_pass_drawn(const sq_renderer *r) { return r->shadow ? r->shadow->drawn_last : 0; }

@@ -132,9 +132,11 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
     memset(&b, 0, sizeof b);
     GLuint occ = s->dummy_occ, depth = s->dummy_depth;
     s->ms_map = 0.0;
+    r->snow_on = false;
     if (v && v->depth_m && v->nx > 0 && v->ny > 0) {
         const double t0 = sq_time_now();
-        sq_result res = ensure_map(r, v->map_size);
+        sq_result res = sq__snow_programs(r);
+        if (res == SQ_OK) res = ensure_map(r, v->map_size);
         if (res != SQ_OK) return res;
         upload_depth(r, v);
         float top, bottom;
@@ -192,6 +194,7 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         b.depth_grid[0] = 1.0f / v->dx_m;
         b.depth_grid[1] = 1.0f / v->dy_m;
         b.depth_grid[2] = 1.0f;
+        r->snow_on = true;
         b.depth_grid[3] = v->shell_blend;
         b.depth_org[0] = v->origin_m.x;
         b.depth_org[1] = v->origin_m.y;

@@ -243,10 +243,22 @@ static int mesh_sample(int m, int stride, int n)
     return i < n - 1 ? i : n - 1;
 }
 
+/* Steepest rise of the plane through three mesh vertices (x, y, z first): |grad z|; infinite
+ * for a vertical or degenerate triangle. */
+static double triangle_slope(const float *a, const float *b, const float *c)
+{
+    const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+    const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+    const double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+    const double h = sqrt(nx * nx + ny * ny);
+    return fabs(nz) > 0.0 ? h / fabs(nz) : (h > 0.0 ? (double)INFINITY : 0.0);
+}
+
 static sq_result build_terrain(sq_renderer *r, const sq_world *w)
 {
     sq_context *ctx = r->ctx;
     r->terrain_index_count = 0;
+    r->terrain_max_slope = 0.0;
     if (w->nx < 2 || w->ny < 2 || !w->heights) return SQ_OK; /* nothing to draw */
     const int big = w->nx > w->ny ? w->nx : w->ny;
     const int stride = (big - 1 + SQ_TERRAIN_MAX_SIDE - 2) / (SQ_TERRAIN_MAX_SIDE - 1);
@@ -290,14 +302,19 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
         }
     }
     size_t k = 0;
+    double max_slope = 0.0;
     for (int j = 0; j < ny - 1; j++) {
         for (int i = 0; i < nx - 1; i++) {
             const uint32_t a = (uint32_t)(j * nx + i), b = a + 1;
             const uint32_t c = a + (uint32_t)nx, d = c + 1;
             idx[k++] = a; idx[k++] = b; idx[k++] = d;
             idx[k++] = a; idx[k++] = d; idx[k++] = c;
+            const double sa = triangle_slope(v + 6 * a, v + 6 * b, v + 6 * d);
+            const double sb = triangle_slope(v + 6 * a, v + 6 * d, v + 6 * c);
+            max_slope = fmax(max_slope, fmax(sa, sb));
         }
     }
+    r->terrain_max_slope = max_slope;
     if (!r->terrain_vao) {
         glCreateVertexArrays(1, &r->terrain_vao);
         glEnableVertexArrayAttrib(r->terrain_vao, 0);
@@ -611,22 +628,23 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
     glDepthMask(GL_TRUE);
     sq__mesh_pass_draw(r);
     if (r->obstacle_vertex_count > 0) {
-        glUseProgram(r->prog_mesh);
+        glUseProgram(r->snow_on ? r->prog_mesh_snow : r->prog_mesh);
         glBindVertexArray(r->obstacle_vao);
         glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);
     }
     if (r->terrain_index_count > 0) {
         sq_vec3 flat, steep;
         sq__terrain_albedo(w, &flat, &steep);
-        glProgramUniform3f(r->prog_terrain, 0, flat.x, flat.y, flat.z);
-        glProgramUniform3f(r->prog_terrain, 1, steep.x, steep.y, steep.z);
+        const GLuint pt = r->snow_on ? r->prog_terrain_snow : r->prog_terrain;
+        glProgramUniform3f(pt, 0, flat.x, flat.y, flat.z);
+        glProgramUniform3f(pt, 1, steep.x, steep.y, steep.z);
         /* snow cover: rock from ~45-55 deg (snow holds on the 30-45 deg avalanche slopes), an
          * altitude snow line with meadow/scree below; other covers: rock from ~32-44 deg */
         const bool snow = w->terrain_material == SQ_GROUND_SNOW;
-        glProgramUniform3f(r->prog_terrain, 2, 0.20f, 0.22f, 0.13f);
-        glProgramUniform1f(r->prog_terrain, 3, snow ? w->snow_line_m : 0.0f);
-        glProgramUniform2f(r->prog_terrain, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
-        glUseProgram(r->prog_terrain);
+        glProgramUniform3f(pt, 2, 0.20f, 0.22f, 0.13f);
+        glProgramUniform1f(pt, 3, snow ? w->snow_line_m : 0.0f);
+        glProgramUniform2f(pt, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
+        glUseProgram(pt);
         glBindVertexArray(r->terrain_vao);
         glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
     }
@@ -748,6 +766,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->stats.faces = all.faces;
     r->stats.instances = all.instances;
     r->stats.ms_shadow = sq__shadow_pass_ms(r);
+    r->stats.shadow_cascades_drawn = sq__shadow_pass_drawn(r);
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
     return SQ_OK;
 }
@@ -1221,12 +1240,26 @@ static sq_result create_programs(sq_renderer *r)
     sq_context *ctx = r->ctx;
     sq_result res = sq__gl_program(ctx, "fullscreen.vert", NULL, "sky.frag", &r->prog_sky);
     if (res == SQ_OK)
-        res = sq__gl_program(ctx, "terrain.vert", NULL, "terrain.frag", &r->prog_terrain);
-    if (res == SQ_OK) res = sq__gl_program(ctx, "mesh.vert", NULL, "mesh.frag", &r->prog_mesh);
+        res = sq__gl_program_defs(ctx, "terrain.vert", NULL, "terrain.frag",
+                                  "#define SQ_NO_SNOW 1", &r->prog_terrain);
+    if (res == SQ_OK)
+        res = sq__gl_program_defs(ctx, "mesh.vert", NULL, "mesh.frag", "#define SQ_NO_SNOW 1",
+                                  &r->prog_mesh);
     if (res == SQ_OK)
         res = sq__gl_program(ctx, "surface.vert", NULL, "surface.frag", &r->prog_surface);
     if (res == SQ_OK)
         res = sq__gl_program(ctx, "fullscreen.vert", NULL, "tonemap.frag", &r->prog_tonemap);
+    return res;
+}
+
+sq_result sq__snow_programs(sq_renderer *r)
+{
+    sq_result res = SQ_OK;
+    if (!r->prog_terrain_snow)
+        res = sq__gl_program(r->ctx, "terrain.vert", NULL, "terrain.frag", &r->prog_terrain_snow);
+    if (res == SQ_OK && !r->prog_mesh_snow)
+        res = sq__gl_program(r->ctx, "mesh.vert", NULL, "mesh.frag", &r->prog_mesh_snow);
+    if (res == SQ_OK && r->meshes) res = sq__mesh_pass_snow_programs(r);
     return res;
 }
 
@@ -1314,9 +1347,10 @@ void sq_renderer_destroy(sq_renderer *r)
         sq__volume_pass_destroy(r);
         if (r->base)
             for (int i = 0; i < SQ_MAX_SURFACES; i++) surface_slot_free(&r->base->surfaces[i]);
-        const GLuint progs[6] = {r->prog_sky,     r->prog_terrain, r->prog_mesh,
-                                 r->prog_surface, r->prog_tonemap, r->prog_target};
-        for (int i = 0; i < 6; i++) glDeleteProgram(progs[i]);
+        const GLuint progs[8] = {r->prog_sky,          r->prog_terrain,  r->prog_mesh,
+                                 r->prog_surface,      r->prog_tonemap,  r->prog_target,
+                                 r->prog_terrain_snow, r->prog_mesh_snow};
+        for (int i = 0; i < 8; i++) glDeleteProgram(progs[i]);
         const GLuint bufs[4] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo};
         glDeleteBuffers(4, bufs);
         const GLuint vaos[3] = {r->terrain_vao, r->obstacle_vao, r->empty_vao};

@@ -441,6 +441,11 @@ static void entry_copy(const sq_param *p, void *dst, const void *src)
     memcpy((char *)dst + p->offset, (const char *)src + p->offset, bytes);
 }
 
+bool sq_param_live(const sq_param *p, const sq_phen_plugin *plugin)
+{
+    return p && (p->flags & SQ_PARAM_LIVE) && (!plugin || plugin->apply_live);
+}
+
 const sq_param *sq_params_first_change(const sq_param *table, size_t n, const void *a,
                                        const void *b, bool live)
 {

@@ -1250,7 +1250,7 @@ sq_result sq_scene_apply_live(sq_scene *s, const sq_scene_desc *desc, sq_live_re
         const sq_param *q = sq_params_first_change(pl->params, pl->param_count, da, db, false);
         const sq_param *l = sq_params_first_change(pl->params, pl->param_count, da, db, true);
         char key[200];
-        if (q || (l && !pl->apply_live)) {
+        if (q || (l && !sq_param_live(l, pl))) {
             snprintf(key, sizeof key, "layers.%s.%s", a->name, q ? q->key : l->key);
             set_rebuild(res, q ? "%s changed: it is not a live key, the scene must be rebuilt"
                                : "%s changed: this phenomenon takes no live change, the scene "

@@ -31,13 +31,43 @@ static sq_mesh_material mat(const char *name, float r, float g, float b, sq_mesh
     return m;
 }
 
-/* Finishes a prototype: LOD 0 from lod[0], then the given coarser levels. */
+/* How far the bounding box of level b lies from that of level a on its farthest side (m): a
+ * lower bound of the distance between the two surfaces. */
+static float box_shift(const pg_mesh *a, const pg_mesh *b)
+{
+    float lo[2][3], hi[2][3];
+    const pg_mesh *l[2] = {a, b};
+    for (int k = 0; k < 2; k++) {
+        for (int c = 0; c < 3; c++) {
+            lo[k][c] = 1e30f;
+            hi[k][c] = -1e30f;
+        }
+        for (int v = 0; v < l[k]->nv; v++)
+            for (int c = 0; c < 3; c++) {
+                lo[k][c] = fminf(lo[k][c], l[k]->pos[3 * v + c]);
+                hi[k][c] = fmaxf(hi[k][c], l[k]->pos[3 * v + c]);
+            }
+    }
+    float d = 0.0f;
+    for (int c = 0; c < 3; c++) d = fmaxf(d, fmaxf(fabsf(lo[1][c] - lo[0][c]), fabsf(hi[1][c] - hi[0][c])));
+    return d;
+}
+
+/* Finishes a prototype: LOD 0 from lod[0], then the given coarser levels. A level's error (what
+ * the renderer projects to pixels to pick it) is the hand-set err[i], but never less than how far
+ * its bounding box moved from the full level's (a dropped porch, a shorter crown), and larger
+ * than the level before it. */
 static sq_result finish(sq_context *ctx, const char *name, pg_mesh *lod, const float *err, int n,
                         const sq_mesh_material *mats, int nmat, sq_mesh **out)
 {
     sq_mesh *m = NULL;
     sq_result r = pg_to_mesh(&lod[0], name, mats, nmat, false, &m);
-    for (int i = 1; i < n && r == SQ_OK; i++) r = pg_add_lod(&lod[i], m, err[i]);
+    float prev = 0.0f;
+    for (int i = 1; i < n && r == SQ_OK; i++) {
+        const float e = fmaxf(fmaxf(err[i], box_shift(&lod[0], &lod[i])), 1.01f * prev);
+        r = pg_add_lod(&lod[i], m, e);
+        prev = e;
+    }
     for (int i = 0; i < n; i++) pg_free(&lod[i]);
     if (r != SQ_OK) {
         sq_mesh_destroy(ctx, m);
@@ -163,9 +193,10 @@ static void house_level(pg_mesh *b, const pg_house_spec *s, int lod)
     const float H = (float)s->storeys * s->storey_h + 0.35f;
     const float p = s->pitch_deg * DEG, oh = s->overhang;
     const float door_u = -0.22f * s->width;
-    /* plinth and walls */
-    pg_box(b, &id, sq_v3(-hw - 0.06f, -hd - 0.06f, -0.3f), sq_v3(hw + 0.06f, hd + 0.06f, 0.35f),
-           H_PLINTH);
+    /* plinth (6 cm proud of the walls: not on the coarsest level) and walls */
+    if (lod <= 1)
+        pg_box(b, &id, sq_v3(-hw - 0.06f, -hd - 0.06f, -0.3f), sq_v3(hw + 0.06f, hd + 0.06f, 0.35f),
+               H_PLINTH);
     pg_box(b, &id, sq_v3(-hw, -hd, 0.0f), sq_v3(hw, hd, H), H_WALL);
     if (lod <= 1) {
         wall_windows(b, lod, false, -hd, -1, hw, s->storeys, s->storey_h, door_u, 1.2f);
@@ -191,8 +222,9 @@ static void house_level(pg_mesh *b, const pg_house_spec *s, int lod)
     if (s->garage) {
         const float gx0 = hw, gx1 = hw + 3.6f, gy0 = -hd - 0.5f, gy1 = gy0 + 6.2f;
         pg_box(b, &id, sq_v3(gx0 - 0.1f, gy0, 0.0f), sq_v3(gx1, gy1, 2.7f), H_WALL);
-        pg_box(b, &id, sq_v3(gx0 - 0.2f, gy0 - 0.3f, 2.7f), sq_v3(gx1 + 0.3f, gy1 + 0.2f, 2.95f),
-               H_TRIM);
+        if (lod <= 1) /* its eave trim, 0.3 m proud */
+            pg_box(b, &id, sq_v3(gx0 - 0.2f, gy0 - 0.3f, 2.7f), sq_v3(gx1 + 0.3f, gy1 + 0.2f, 2.95f),
+                   H_TRIM);
         if (lod <= 1)
             pg_box(b, &id, sq_v3(gx0 + 0.4f, gy0 - 0.04f, 0.0f), sq_v3(gx1 - 0.4f, gy0 + 0.02f, 2.25f),
                    H_GARAGE);
@@ -255,16 +287,21 @@ sq_result pg_make_house(sq_context *ctx, const pg_house_spec *s, sq_mesh **out)
 /* ---- trees -------------------------------------------------------------------------------- */
 enum { T_BARK, T_LEAF, T_NMAT };
 
-/* A conifer: trunk and `tiers` drooping foliage cones (concave underside), top tier a spire. */
+/* A conifer: trunk and `tiers` drooping foliage cones (concave underside), top tier a spire.
+ * CONIFER_TIERS on the full level; the coarser levels' spire ends at the full level's tip. */
+#define CONIFER_TIERS 7
 static void conifer(pg_mesh *b, float h, uint64_t seed, int tiers, int sides)
 {
-    pg_cylinder(b, sq_v3(0, 0, -0.2f), sq_v3(0, 0, 0.92f * h), 0.028f * h, 0.008f * h, sides > 6 ? 6 : 4,
-                T_BARK);
+    pg_cylinder(b, sq_v3(0, 0, -0.2f), sq_v3(0, 0, 0.92f * h), 0.028f * h, 0.008f * h,
+                sides > 6 ? 6 : (sides > 4 ? 4 : 3), T_BARK);
     const float base = 0.14f * h, top = h;
+    const float tip = base + (top - base) * ((float)(CONIFER_TIERS - 1) / CONIFER_TIERS * 0.92f +
+                                             2.2f / CONIFER_TIERS);
     for (int k = 0; k < tiers; k++) {
         const float f = (float)k / (float)tiers;
         const float z0 = base + (top - base) * f * 0.92f;
-        const float th = (top - base) / (float)tiers * (k == tiers - 1 ? 2.2f : 1.75f);
+        float th = (top - base) / (float)tiers * (k == tiers - 1 ? 2.2f : 1.75f);
+        if (k == tiers - 1 && tiers != CONIFER_TIERS) th = tip - z0;
         const float r = 0.36f * h * (1.0f - 0.88f * f) * (0.9f + 0.2f * pg_rand(seed, 10, (uint64_t)k));
         const float rad[3] = {0.25f * r, r, 0.0f};
         const float zz[3] = {z0 + 0.22f * th, z0, z0 + th};
@@ -316,9 +353,33 @@ static int broadleaf_branches(float h, uint64_t seed, int orders, branch *out, i
     return n;
 }
 
+/* The far level of a broadleaf tree (lod 3): the trunk and one foliage blob over the box of the
+ * coarse level's clumps, so the crown keeps its size and place when it is a few pixels wide. */
+static void broadleaf_far(pg_mesh *b, float h, uint64_t seed)
+{
+    branch br[64];
+    const int n = broadleaf_branches(h, seed, 1, br, 64);
+    pg_cylinder(b, br[0].a, br[0].c, br[0].ra, br[0].rc, 3, T_BARK);
+    const float rc = 0.26f * h;
+    sq_vec3 lo = sq_v3(-rc, -rc, 0.74f * h - 0.75f * rc), hi = sq_v3(rc, rc, 0.74f * h + 0.75f * rc);
+    for (int i = 1; i < n; i++) {
+        const float r = 0.2f * h * (0.85f + 0.3f * pg_rand(seed, 30, (uint64_t)i));
+        lo = sq_v3(fminf(lo.x, br[i].c.x - r), fminf(lo.y, br[i].c.y - r), fminf(lo.z, br[i].c.z - 0.8f * r));
+        hi = sq_v3(fmaxf(hi.x, br[i].c.x + r), fmaxf(hi.y, br[i].c.y + r), fmaxf(hi.z, br[i].c.z + 0.8f * r));
+    }
+    /* the blob's equator ring lies at 0.95 of its radii (rings 3): reach the box's sides */
+    const sq_vec3 c = sq_v3_scale(sq_v3_add(lo, hi), 0.5f);
+    const sq_vec3 r = sq_v3(0.5f * (hi.x - lo.x), 0.5f * (hi.y - lo.y), 0.5f * (hi.z - lo.z));
+    pg_blob(b, c, r, 3, 6, 0.0f, seed * 7u + 3u, T_LEAF);
+}
+
 static void broadleaf(pg_mesh *b, float h, uint64_t seed, int lod, bool bare)
 {
     branch br[64];
+    if (lod == 3 && !bare) {
+        broadleaf_far(b, h, seed);
+        return;
+    }
     const int orders = bare ? (lod == 0 ? 3 : lod == 1 ? 2 : 1) : (lod == 0 ? 2 : 1);
     const int n = broadleaf_branches(h, seed, orders, br, 64);
     const int sides = lod == 0 ? 6 : (lod == 1 ? 4 : 3);
@@ -346,11 +407,15 @@ sq_result pg_make_tree(sq_context *ctx, pg_tree_kind kind, float h, uint64_t see
     };
     if (kind == PG_TREE_CONIFER) m[T_LEAF].base_color = sq_v3(0.025f, 0.075f, 0.035f);
     if (kind == PG_TREE_BARE) m[T_BARK].base_color = sq_v3(0.16f, 0.13f, 0.10f);
-    pg_mesh lod[3];
-    for (int i = 0; i < 3; i++) {
+    /* levels: full, coarse, coarser, far (conifer: one tier; broadleaf: one crown; a bare tree
+     * keeps three levels, its coarsest is already the trunk and main branches) */
+    const int levels = kind == PG_TREE_BARE ? 3 : 4;
+    pg_mesh lod[4];
+    for (int i = 0; i < levels; i++) {
         pg_init(&lod[i], ctx);
         if (kind == PG_TREE_CONIFER)
-            conifer(&lod[i], h, seed, i == 0 ? 7 : (i == 1 ? 4 : 2), i == 0 ? 9 : (i == 1 ? 6 : 5));
+            conifer(&lod[i], h, seed, i == 0 ? CONIFER_TIERS : (i == 1 ? 4 : i == 2 ? 2 : 1),
+                    i == 0 ? 9 : (i == 1 ? 6 : i == 2 ? 5 : 4));
         else
             broadleaf(&lod[i], h, seed, i, kind == PG_TREE_BARE);
     }
@@ -358,8 +423,8 @@ sq_result pg_make_tree(sq_context *ctx, pg_tree_kind kind, float h, uint64_t see
     snprintf(name, sizeof name, "%s tree %.0f m",
              kind == PG_TREE_CONIFER ? "conifer" : kind == PG_TREE_BROADLEAF ? "broadleaf" : "bare",
              (double)h);
-    const float err[3] = {0.0f, 0.05f * h, 0.14f * h};
-    return finish(ctx, name, lod, err, 3, m, T_NMAT, out);
+    const float err[4] = {0.0f, 0.05f * h, 0.14f * h, 0.3f * h};
+    return finish(ctx, name, lod, err, levels, m, T_NMAT, out);
 }
 
 /* ---- cars --------------------------------------------------------------------------------- */
@@ -470,7 +535,12 @@ sq_result pg_make_fence(sq_context *ctx, float length, bool picket, sq_mesh **ou
     }
     pg_box(&lod[2], &id, sq_v3(0.0f, -0.05f, 0.0f), sq_v3(length, 0.12f, h), F_WOOD);
     const float err[3] = {0.0f, 0.08f, 0.3f};
-    return finish(ctx, picket ? "picket fence" : "board fence", lod, err, 3, m, F_NMAT, out);
+    if (!picket) { /* the boards are one box already: no middle level */
+        pg_free(&lod[1]);
+        lod[1] = lod[2];
+        return finish(ctx, "board fence", lod, (const float[2]){0.0f, err[2]}, 2, m, F_NMAT, out);
+    }
+    return finish(ctx, "picket fence", lod, err, 3, m, F_NMAT, out);
 }
 
 sq_result pg_make_hedge(sq_context *ctx, float length, uint64_t seed, sq_mesh **out)

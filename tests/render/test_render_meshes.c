@@ -186,3 +186,216 @@ SQ_TEST(box_shadows_the_ground_under_a_high_sun)
     sq_mesh_destroy(ctx, box);
     sq_context_destroy(ctx);
 }
+
+/* Flat 400 m world with the sun placed by date and hour (sq_world_set_sky can move it). */
+static sq_world *dated_world(sq_context *ctx, float hour)
+{
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_FLAT;
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 400.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 33;
+    d.terrain.material = SQ_GROUND_ROCK;
+    d.sun.day_of_year = 20;
+    d.sun.hour_solar = hour;
+    d.sun.hour_set = true;
+    d.sun.latitude_deg = 45.0f;
+    d.sky.turbidity = 2.0f;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
+        fprintf(stderr, "world: %s\n", sq_last_error());
+        exit(1);
+    }
+    return w;
+}
+
+/* 5 x 5 boxes (6 m tall, 12 m apart), shifted by dx: shadows in every cascade. */
+static void place_boxes(sq_context *ctx, sq_world *w, const sq_mesh *box, float dx)
+{
+    sq_mesh_instance in[25];
+    memset(in, 0, sizeof in);
+    for (int k = 0; k < 25; k++) {
+        in[k].position_m = sq_v3(dx + 12.0f * (float)(k % 5 - 2), 40.0f + 12.0f * (float)(k / 5), NAN);
+        in[k].scale = sq_v3(1, 1, 1);
+    }
+    const sq_mesh *list[1] = {box};
+    if (sq_world_set_meshes(ctx, w, list, 1, in, 25) != SQ_OK) {
+        fprintf(stderr, "meshes: %s\n", sq_last_error());
+        exit(1);
+    }
+}
+
+static sq_renderer *cascade_renderer_opt(sq_context *ctx, bool shadows)
+{
+    sq_render_desc d;
+    memset(&d, 0, sizeof d);
+    d.shadows_off = !shadows;
+    d.width = W;
+    d.height = H;
+    d.shadow_cascades = 2;
+    d.shadow_map_size = 512;
+    d.shadow_distance_m = 150.0f;
+    sq_renderer *r = NULL;
+    if (sq_renderer_create(ctx, &d, &r) != SQ_OK) {
+        fprintf(stderr, "renderer: %s\n", sq_last_error());
+        exit(1);
+    }
+    return r;
+}
+
+static sq_renderer *cascade_renderer(sq_context *ctx) { return cascade_renderer_opt(ctx, true); }
+
+/* Pixels of renderer r's last frame that differ from the frame of camera c without shadows. */
+static size_t pixels_shadowed(sq_context *ctx, sq_renderer *r, const sq_world *w, const sq_camera *c)
+{
+    uint8_t *a = malloc((size_t)W * H * 4), *b = malloc((size_t)W * H * 4);
+    sq_renderer *plain = cascade_renderer_opt(ctx, false);
+    SQ_CHECK(sq_renderer_read_rgba8(r, a) == SQ_OK);
+    SQ_CHECK(sq_renderer_draw(plain, w, c, NULL, 0, 0.0) == SQ_OK && sq_renderer_read_rgba8(plain, b) == SQ_OK);
+    size_t n = 0;
+    for (size_t i = 0; i < (size_t)W * H; i++)
+        n += abs(a[4 * i] - b[4 * i]) + abs(a[4 * i + 1] - b[4 * i + 1]) + abs(a[4 * i + 2] - b[4 * i + 2]) > 12;
+    sq_renderer_destroy(plain);
+    free(a);
+    free(b);
+    return n;
+}
+
+/* The frame of renderer r (which may keep cascades from its earlier frames) and the frame of a
+ * fresh renderer for the same world and camera: the same bytes. Returns the cascades r drew. */
+static int frame_equals_fresh(sq_context *ctx, sq_renderer *r, const sq_world *w, const sq_camera *c,
+                              const char *what)
+{
+    uint8_t *a = malloc((size_t)W * H * 4), *b = malloc((size_t)W * H * 4);
+    sq_renderer *fresh = cascade_renderer(ctx);
+    SQ_CHECK(sq_renderer_draw(r, w, c, NULL, 0, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, a) == SQ_OK);
+    sq_render_stats st;
+    SQ_CHECK(sq_renderer_stats(r, &st) == SQ_OK);
+    SQ_CHECK(sq_renderer_draw(fresh, w, c, NULL, 0, 0.0) == SQ_OK &&
+             sq_renderer_read_rgba8(fresh, b) == SQ_OK);
+    size_t differ = 0;
+    for (size_t i = 0; i < (size_t)W * H * 4; i++) differ += a[i] != b[i];
+    printf("%s: %d cascades drawn, %zu bytes differ from a fresh renderer's frame\n", what,
+           st.shadow_cascades_drawn, differ);
+    SQ_CHECK_MSG(differ == 0, "%s: %zu bytes differ from a fresh renderer's frame", what, differ);
+    sq_renderer_destroy(fresh);
+    free(a);
+    free(b);
+    return st.shadow_cascades_drawn;
+}
+
+/* Shadow cascades kept between frames (render_shadow.c): while the camera moves within the
+ * cascades' cells under a static sun over static geometry no cascade is drawn again, and every
+ * frame — kept, or after the sun moved, the boxes moved or the camera left the cells — is the
+ * frame a fresh renderer draws, byte for byte (a stale map would leave the old shadows). */
+SQ_TEST(kept_cascades_equal_fresh_ones)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = dated_world(ctx, 13.5f);
+    sq_mesh *box = box_mesh(ctx, sq_v3(-2, -2, 0), sq_v3(2, 2, 6), sq_v3(0.5f, 0.5f, 0.5f), SQ_TINT_NONE);
+    place_boxes(ctx, w, box, 0.0f);
+    sq_renderer *r = cascade_renderer(ctx);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(3.0f, -20.0f, 12.0f);
+    cam.target_m = sq_v3(0.0f, 60.0f, 0.0f);
+    cam.fov_y_deg = 50.0f;
+    SQ_CHECK(frame_equals_fresh(ctx, r, w, &cam, "first frame") == 2);
+    /* the boxes cast shadows that a stale map would put elsewhere */
+    const size_t shadowed = pixels_shadowed(ctx, r, w, &cam);
+    SQ_CHECK_MSG(shadowed > (size_t)W * H / 100, "only %zu pixels in the boxes' shadows", shadowed);
+    /* a step of 10 cm: inside the cells */
+    cam.position_m.x += 0.1f;
+    cam.target_m.x += 0.1f;
+    SQ_CHECK(frame_equals_fresh(ctx, r, w, &cam, "camera 10 cm on") == 0);
+    /* the sun an hour later */
+    sq_world_set_sky(w, 20, 14.5f, 45.0f, 1.0, 2.0f, 1000.0f);
+    SQ_CHECK(frame_equals_fresh(ctx, r, w, &cam, "sun an hour later") == 2);
+    /* the boxes 3 m east (a new world generation) */
+    place_boxes(ctx, w, box, 3.0f);
+    SQ_CHECK(frame_equals_fresh(ctx, r, w, &cam, "boxes moved") == 2);
+    /* the camera 60 m on: out of the near cascade's cell at least */
+    cam.position_m.y += 60.0f;
+    cam.target_m.y += 60.0f;
+    SQ_CHECK(frame_equals_fresh(ctx, r, w, &cam, "camera 60 m on") >= 1);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, box);
+    sq_context_destroy(ctx);
+}
+
+/* A straight ridge along y at x = 0 (grid terrain, crest h above the plain, flanks of slope s),
+ * the sun in the east (+x) at elevation el, clean air. */
+static sq_world *ridge_world(sq_context *ctx, float h, float s, float el)
+{
+    enum { N = 81 };
+    static float z[N * N];
+    const float dx = 2.5f, x0 = -100.0f;
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++) z[j * N + i] = fmaxf(0.0f, h - s * fabsf(x0 + (float)i * dx));
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_GRID;
+    d.terrain.material = SQ_GROUND_ROCK;
+    d.terrain.grid_heights_m = z;
+    d.terrain.grid_w = d.terrain.grid_h = N;
+    d.terrain.grid_dx_m = d.terrain.grid_dy_m = dx;
+    d.terrain.origin_m[0] = d.terrain.origin_m[1] = x0;
+    d.terrain.origin_set = true;
+    d.sun.direction = sq_v3(cosf(el), 0.0f, sinf(el));
+    d.sky.turbidity = 2.0f;
+    sq_world *w = NULL;
+    if (sq_world_create(ctx, &d, &w) != SQ_OK) {
+        fprintf(stderr, "world: %s\n", sq_last_error());
+        exit(1);
+    }
+    return w;
+}
+
+/* The terrain shadows itself where a flank is steeper than the sun is high: a 20 m ridge with
+ * 45-degree flanks under a sun 30 degrees up throws its shadow to x = -20 / tan 30 = -34.6 m, so
+ * the plain at x = -27 m is dark; under a sun 60 degrees up (steeper than the flanks) and for a
+ * ridge of slope 0.5 under the 30-degree sun (tan 30 = 0.577) no point can be shaded, and the
+ * renderer skips its shadow cascades there: the same picture as without shadows. */
+SQ_TEST(terrain_shadows_itself_only_where_steeper_than_the_sun)
+{
+    sq_context *ctx = make_ctx();
+    sq_renderer *r = make_renderer(ctx);
+    sq_render_desc od;
+    memset(&od, 0, sizeof od);
+    od.width = W;
+    od.height = H;
+    od.shadows_off = true;
+    sq_renderer *off = NULL;
+    SQ_CHECK(sq_renderer_create(ctx, &od, &off) == SQ_OK);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(-27.0f, -70.0f, 45.0f);
+    cam.target_m = sq_v3(-27.0f, 0.0f, 0.0f);
+    cam.fov_y_deg = 40.0f;
+    const sq_vec3 plain = sq_v3(-27.0f, 0.0f, 0.0f), foot = sq_v3(-21.0f, 0.0f, 0.0f);
+    const float deg = SQ_PI_F / 180.0f;
+    struct { float h, s, el; bool shaded; } cases[3] = {
+        {20.0f, 1.0f, 30.0f, true}, {20.0f, 1.0f, 60.0f, false}, {10.0f, 0.5f, 30.0f, false}};
+    for (int c = 0; c < 3; c++) {
+        sq_world *w = ridge_world(ctx, cases[c].h, cases[c].s, cases[c].el * deg);
+        float *on = render_linear(r, w, &cam), *ref = render_linear(off, w, &cam);
+        const double a = radiance_at(on, &cam, plain), a0 = radiance_at(ref, &cam, plain);
+        const double b = radiance_at(on, &cam, foot), b0 = radiance_at(ref, &cam, foot);
+        printf("slope %.1f sun %.0f deg: plain %.4f (no shadows %.4f), foot %.4f (%.4f)\n",
+               (double)cases[c].s, (double)cases[c].el, a, a0, b, b0);
+        if (cases[c].shaded) {
+            SQ_CHECK_MSG(a < 0.6 * a0, "plain behind the ridge %.4f, unshadowed %.4f", a, a0);
+            SQ_CHECK_MSG(b < 0.6 * b0, "foot of the lee flank %.4f, unshadowed %.4f", b, b0);
+        } else {
+            SQ_CHECK_MSG(fabs(a - a0) <= 0.01 * a0, "plain %.4f vs %.4f without shadows", a, a0);
+            SQ_CHECK_MSG(fabs(b - b0) <= 0.01 * b0, "foot %.4f vs %.4f without shadows", b, b0);
+        }
+        free(on);
+        free(ref);
+        sq_world_destroy(ctx, w);
+    }
+    sq_renderer_destroy(off);
+    sq_renderer_destroy(r);
+    sq_context_destroy(ctx);
+}

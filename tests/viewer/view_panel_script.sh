@@ -1,7 +1,9 @@
 #!/bin/bash
 # label: smoke
 # The parameter panel and --script in a real window: the panel lists every key of
-# `squall params <layer>` and of `squall params output` (it is generated from the same tables);
+# `squall params <layer>` and of `squall params output` (it is generated from the same tables),
+# each with the same live / rebuild flag (sq_param_live: one rule for both; a phenomenon without
+# live changes, the snow cover, lists and shows every key as rebuild);
 # a value the CLI refuses is refused with the CLI's message; a rebuild key restarts the scene, a
 # live key (the camera, the urban dust concentration) does not; more dust (urban.concentration_kg_m3 from 6.4e-6 to 6e-5 kg/m3,
 # visibility ~600 m -> ~60 m) lowers the picture's contrast as Koschmieder's law says it must
@@ -14,11 +16,33 @@ panel-keys layers.dust dust_keys.txt
 panel-keys output output_keys.txt
 S
 view urban-dust --size 160x96 --script keys.txt > out.txt 2> err.txt || fail "keys script exited $?: $(cat err.txt)"
-"$SQ" params sandstorm | awk '/^  [a-z]/ {print $1}' > want_dust.txt
-"$SQ" params output | awk '/^  [a-z]/ {print $1}' > want_output.txt
+"$SQ" params sandstorm | awk '/^  [a-z]/ {print $1, $NF}' > want_dust.txt
+"$SQ" params output | awk '/^  [a-z]/ {print $1, $NF}' > want_output.txt
 [ -s want_dust.txt ] || fail "squall params sandstorm listed no keys"
+grep -q " live$" want_dust.txt && grep -q " rebuild$" want_dust.txt ||
+    fail "squall params sandstorm: expected live and rebuild keys: $(cat want_dust.txt)"
+grep -q "^wind.speed_mps live$" want_dust.txt || fail "sandstorm wind.speed_mps is live (docs/viewer.md)"
+grep -q "^domain.nx rebuild$" want_dust.txt || fail "sandstorm domain.nx needs a rebuild"
 diff want_dust.txt dust_keys.txt > /dev/null || fail "panel keys of layers.dust differ from squall params sandstorm: $(diff want_dust.txt dust_keys.txt | head -5)"
 diff want_output.txt output_keys.txt > /dev/null || fail "panel keys of output differ from squall params output: $(diff want_output.txt output_keys.txt | head -5)"
+if "$SQ" params snowcover > /dev/null 2>&1; then
+    # a phenomenon without the apply_live hook: its table's live entries rebuild, in both
+    cat > cover.yaml <<'Y'
+name: cover
+world:
+  terrain: {kind: flat, size_m: [400, 400], resolution: [21, 21]}
+layers:
+  - type: snowcover
+    name: snow
+    flakes: {count: 100}
+output: {width: 64, height: 36, video: ""}
+Y
+    printf 'panel-keys layers.snow cover_keys.txt\n' > cover.txt
+    view cover.yaml --size 96x64 --script cover.txt > /dev/null 2> err.txt || fail "cover script exited $?: $(cat err.txt)"
+    "$SQ" params snowcover | awk '/^  [a-z]/ {print $1, $NF}' > want_cover.txt
+    [ -s want_cover.txt ] || fail "squall params snowcover listed no keys"
+    diff want_cover.txt cover_keys.txt > /dev/null || fail "panel keys of the snow cover differ from squall params snowcover: $(diff want_cover.txt cover_keys.txt | head -5)"
+fi
 
 # a refused value: the CLI's message, exit 2, nothing written
 cli_msg=$("$SQ" simulate urban-dust --frames 1 --set layers.dust.wind.speed_mps=-5 2>&1 >/dev/null | sed 's/^squall: //')

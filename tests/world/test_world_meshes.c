@@ -383,6 +383,57 @@ SQ_TEST(places_deterministic_from_seed)
     sq_context_destroy(ctx);
 }
 
+static void lod_box(const sq_mesh_lod *L, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = 1e30;
+        hi[a] = -1e30;
+    }
+    for (int v = 0; v < L->vertex_count; v++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fmin(lo[a], (double)L->positions[3 * v + a]);
+            hi[a] = fmax(hi[a], (double)L->positions[3 * v + a]);
+        }
+}
+
+/* The hand-made levels of the procedural prototypes (chosen per instance by the renderer when
+ * their error_m projects below output.lod_pixels): each level has fewer faces and a larger error
+ * than the one before, and its bounding box stays within its error of the full level's box on
+ * every side (a tree does not grow or shrink when it changes level); the trees have a far level
+ * (one crown / one cone) of at most half the faces of the level before it. */
+SQ_TEST(procedural_levels_shrink_within_their_error)
+{
+    sq_context *ctx = make_ctx();
+    sq_place *p = make_place(ctx, SQ_PLACE_SUBURB, 600.0f, 42);
+    int far_trees = 0;
+    for (int i = 0; i < p->mesh_count; i++) {
+        const sq_mesh *m = p->meshes[i];
+        if (strncmp(m->name, "ground", 6) == 0) continue; /* vertex-clustered: tested above */
+        double lo0[3], hi0[3];
+        lod_box(&m->lods[0], lo0, hi0);
+        for (int l = 1; l < m->lod_count; l++) {
+            const int64_t f0 = sq_mesh_face_count(m, l - 1), f1 = sq_mesh_face_count(m, l);
+            SQ_CHECK_MSG(f1 < f0, "%s: LOD %d has %lld faces, LOD %d %lld", m->name, l, (long long)f1,
+                         l - 1, (long long)f0);
+            SQ_CHECK_MSG(m->lods[l].error_m > m->lods[l - 1].error_m, "%s: LOD %d error %g m", m->name,
+                         l, (double)m->lods[l].error_m);
+            double lo[3], hi[3], worst = 0.0;
+            lod_box(&m->lods[l], lo, hi);
+            for (int a = 0; a < 3; a++) worst = fmax(worst, fmax(fabs(lo[a] - lo0[a]), fabs(hi[a] - hi0[a])));
+            SQ_CHECK_MSG(worst <= (double)m->lods[l].error_m, "%s: LOD %d box %.3f m off LOD 0's (error %.3f m)",
+                         m->name, l, worst, (double)m->lods[l].error_m);
+        }
+        if (strstr(m->name, "tree") && m->lod_count == 4) {
+            far_trees++;
+            SQ_CHECK_MSG(sq_mesh_face_count(m, 3) * 2 <= sq_mesh_face_count(m, 2), "%s: far level %lld faces, coarse %lld",
+                         m->name, (long long)sq_mesh_face_count(m, 3), (long long)sq_mesh_face_count(m, 2));
+        }
+    }
+    SQ_CHECK_MSG(far_trees >= 4, "%d trees with a far level", far_trees);
+    sq_place_destroy(ctx, p);
+    sq_context_destroy(ctx);
+}
+
 /* S2 reports a 4 km x 4 km suburb of more than 1 M faces and a town of more than 7 M; the issue
  * asks >= 1 M and >= 5 M. Every generated prototype is a closed solid. */
 SQ_TEST(places_reach_their_face_counts)

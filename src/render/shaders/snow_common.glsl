@@ -18,7 +18,14 @@ layout(std140, binding = 4) uniform Snow {
 layout(binding = 11) uniform sampler2D u_snow_occ;
 layout(binding = 12) uniform sampler2D u_snow_depth;
 
+// Programs compiled with SQ_NO_SNOW (the renderer's variants for frames without a snow-cover
+// drawable) have the snow compiled out: a software rasteriser (llvmpipe) runs the code of a
+// branch not taken under an execution mask, so a uniform "no snow" still cost every pixel it.
+#ifdef SQ_NO_SNOW
+bool sq_snow_on() { return false; }
+#else
 bool sq_snow_on() { return u_snow_depth_grid.z > 0.5; }
+#endif
 
 // Snow depth (m) at world (x, y): bilinear between cell centres, edge cells beyond the grid.
 float sq_snow_depth_at(vec2 xy)
