@@ -32,8 +32,11 @@ static void view_usage(void)
            "  --frames N           run N frames (frame 0 = after the warm-up), then exit\n"
            "  --screenshot FILE    with --frames: write the last frame as PNG (safe output)\n"
            "  --script FILE        timed actions: wait N, set KEY VALUE, send KEY VALUE, screenshot F,\n"
-           "                       save F, panel-keys SECTION F, pause, run, step, quit (docs/viewer.md)\n"
+           "                       save F, panel-keys SECTION F, orbit N, pause, run, step, quit\n"
+           "                       (docs/viewer.md)\n"
            "  --no-panel           hide the parameter panel (P toggles it)\n"
+           "  --full-res           always draw at full size (default: while the camera moves or\n"
+           "                       a live change is made, draw smaller and scale up; still: full)\n"
            "  --overwrite          replace existing screenshots and saved files\n"
            "  --threads N          simulation worker threads (default: all cores)\n"
            "  --json               at exit, one JSON line: draw and simulation rates of the run\n"
@@ -59,7 +62,8 @@ static bool takes_value(const char *a)
 static bool known_option(const char *a)
 {
     const char *v[] = {"--size", "--set", "--frames", "--screenshot", "--threads", "--overwrite",
-                       "--quiet", "--verbose", "--paused", "--script", "--no-panel", "--json", NULL};
+                       "--quiet", "--verbose", "--paused", "--script", "--no-panel", "--json", "--full-res",
+                       NULL};
     for (int i = 0; v[i]; i++)
         if (strcmp(a, v[i]) == 0 || (strncmp(a, v[i], strlen(v[i])) == 0 && a[strlen(v[i])] == '='))
             return true;
@@ -183,8 +187,10 @@ static void stop_run(viewer *v)
     view_sim_destroy(v->sim);
     v->sim = NULL;
     if (v->run) {
-        if (v->area && gtk_widget_get_realized(v->area))
+        if (v->area && gtk_widget_get_realized(v->area)) {
             gtk_gl_area_make_current(GTK_GL_AREA(v->area));
+            view_dynres_free(v);
+        }
         sq_run_destroy(v->run);
         v->run = NULL;
     }
@@ -249,14 +255,28 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
     }
     GLint fbo = 0;
     glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &fbo);
-    sq_render_target t = {(unsigned)fbo, v->fb_width, v->fb_height, SQ_TARGET_FRAME,
-                          SQ_TARGET_DISPLAY};
     const double t0 = sq_time_now();
+    /* moving: a reduced draw scaled up (view_dynres.c); still, a screenshot or recording: full */
+    const float scale = view_dynres_scale(v, t0);
+    unsigned dfbo = 0;
+    int dw = 0, dh = 0;
+    const bool reduced = scale < 1.0f && view_dynres_target(v, scale, &dfbo, &dw, &dh);
+    sq_render_target t = {reduced ? dfbo : (unsigned)fbo, reduced ? dw : v->fb_width,
+                          reduced ? dh : v->fb_height, SQ_TARGET_FRAME, SQ_TARGET_DISPLAY};
     /* the renderer writes colour, never alpha: GTK composites the area's texture with its
      * alpha, so it must be opaque */
     glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    if (reduced) {
+        const float black[4] = {0.0f, 0.0f, 0.0f, 1.0f};
+        glClearNamedFramebufferfv(dfbo, GL_COLOR, 0, black);
+        glClearNamedFramebufferfi(dfbo, GL_DEPTH_STENCIL, 0, 1.0f, 0);
+    }
     const sq_result r = sq_run_draw_to(v->run, &t);
+    if (r == SQ_OK && reduced) {
+        view_dynres_finish(v, (unsigned)fbo);
+        glBindFramebuffer(GL_FRAMEBUFFER, (GLuint)fbo);
+    }
     if (r != SQ_OK) {
         const char *e = sq_last_error();
         snprintf(v->gl_error, sizeof v->gl_error, "drawing frame %d: %s", frames - 1,
@@ -273,6 +293,8 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
             v->exit_code = sq_cli_exit_code(s);
         } else {
             v->shot_done = true;
+            v->shot_scale = reduced ? scale : 1.0f;
+            v->shot_as_shown = false;
         }
     }
     glFinish(); /* the draw time below is the GL work, not only its submission */
@@ -288,6 +310,16 @@ static gboolean on_render(GtkGLArea *area, GdkGLContext *context, gpointer user)
         fflush(stdout);
     }
     v->draw_ms = v->draw_ms > 0 ? 0.8 * v->draw_ms + 0.2 * ms : ms;
+    v->last_scale = reduced ? scale : 1.0f;
+    v->dyn_refine = reduced;
+    if (reduced) {
+        v->draw_count_reduced++;
+        v->draw_ms_sum_reduced += ms;
+        v->dyn_scale_sum += (double)scale;
+        view_dynres_adapt(v, ms);
+    } else {
+        v->draw_ms_full = v->draw_ms_full > 0 ? 0.8 * v->draw_ms_full + 0.2 * ms : ms;
+    }
     v->drawn_frames = frames;
     v->fps_count++;
     (void)area;
@@ -303,7 +335,10 @@ static gboolean on_tick(GtkWidget *w, GdkFrameClock *clock, gpointer user)
     const double now = sq_time_now();
     view_param_poll(v, false); /* a live change's outcome: panel, refusal, rebuild */
     view_input_tick(v, now);
-    if (v->run && (v->redraw || sq_run_frame_index(v->run) != v->drawn_frames)) {
+    /* still again after reduced draws: once more at full size */
+    const bool refine = v->dyn_refine && view_dynres_scale(v, now) >= 1.0f;
+    if (v->run && (v->redraw || refine || sq_run_frame_index(v->run) != v->drawn_frames)) {
+        v->dyn_refine = false;
         v->redraw = false;
         gtk_gl_area_queue_render(GTK_GL_AREA(v->area));
     }
@@ -445,6 +480,16 @@ static void print_json(viewer *v)
     sq_json_num(&j, "sim_steps_per_busy_s", st.busy_s > 0 ? sim_frames * st.steps_per_frame / st.busy_s : (double)NAN);
     sq_json_num(&j, "sim_frames_per_s", st.t_last_s > st.t_frame0_s ? sim_frames / (st.t_last_s - st.t_frame0_s) : (double)NAN);
     sq_json_num(&j, "scene_fps", (double)sq_scene_output_settings(v->scene)->fps);
+    const int full = v->draw_count - v->draw_count_reduced;
+    sq_json_int(&j, "draws_full", full);
+    sq_json_num(&j, "draw_ms_full_mean",
+                full > 0 ? (v->draw_ms_sum - v->draw_ms_sum_reduced) / full : (double)NAN);
+    sq_json_int(&j, "draws_reduced", v->draw_count_reduced);
+    sq_json_num(&j, "draw_ms_reduced_mean",
+                v->draw_count_reduced ? v->draw_ms_sum_reduced / v->draw_count_reduced : (double)NAN);
+    sq_json_num(&j, "reduced_scale_mean",
+                v->draw_count_reduced ? v->dyn_scale_sum / v->draw_count_reduced : (double)NAN);
+    sq_json_num(&j, "shot_scale", v->shot_done ? (double)v->shot_scale : (double)NAN);
     sq_json_end(&j, stdout);
 }
 
@@ -478,6 +523,7 @@ static int parse_args(viewer *v, int argc, char **argv)
     v->script_path = sq_cli_value(argc, argv, "--script");
     v->panel_on = !sq_cli_flag(argc, argv, "--no-panel");
     v->json = sq_cli_flag(argc, argv, "--json");
+    v->dynres = !sq_cli_flag(argc, argv, "--full-res");
     if (!sq_cli_int(argc, argv, "--frames", 0, 1, VIEW_INTERACTIVE_FRAMES, &v->frames))
         return SQ_EXIT_USAGE;
     if (v->screenshot && v->frames == 0) {

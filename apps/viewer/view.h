@@ -89,6 +89,18 @@ typedef struct viewer {
     int live_refusals;     /* refused changes so far; the latest: */
     char live_refused[1400], live_refusal[800]; /* its assignment and message */
     int keyframes;         /* camera keyframes recorded (view_keyframe.c): save keeps the path */
+    /* dynamic resolution (view_dynres.c): while the camera moves or live changes are made, the
+     * scene is drawn at a reduced size and scaled up; when still, drawn again at full size */
+    bool dynres;           /* on (default; --full-res turns it off) */
+    double motion_t_s;     /* sq_time_now of the latest camera move or live change */
+    float dyn_scale;       /* linear scale of the next reduced draw, in [VIEW_DYN_MIN, 1) */
+    float last_scale;      /* scale of the latest draw (1: full size) */
+    bool dyn_refine;       /* the latest draw was reduced: draw again at full size when still */
+    unsigned dyn_fbo, dyn_color, dyn_depth;
+    int dyn_w, dyn_h;
+    int draw_count_reduced;
+    double draw_ms_sum_reduced, dyn_scale_sum;
+    double draw_ms_full;   /* smoothed time of a full-size draw (ms); 0: none yet */
     char gl_error[512];    /* non-empty: drawing failed (shown; --frames exits with 1) */
 
     /* screenshot: written by the next draw showing frame >= shot_frame */
@@ -96,6 +108,8 @@ typedef struct viewer {
     int shot_frame;
     char shot_path[VIEW_PATH_MAX];
     bool shot_done;
+    float shot_scale;      /* scale of the draw the screenshot was read from (1: full size) */
+    bool shot_as_shown;    /* the screenshot is the picture as shown (a reduced draw allowed) */
 
     /* parameter panel (view_panel.c) and script (view_script.c) */
     GtkWidget *panel, *panel_status;
@@ -145,6 +159,24 @@ sq_result view_record_start(viewer *v, const char *path);
 void view_record_frame(viewer *v, int frame);   /* in the GL callback, after the draw */
 sq_result view_record_stop(viewer *v);           /* closes and renames; no-op when not recording */
 void view_record_abort(viewer *v);
+
+/* view_dynres.c: dynamic resolution. view_dynres_motion marks a camera move or a live change;
+ * view_dynres_scale says whether the coming draw is reduced (1: full size; never for a
+ * screenshot or while recording); view_dynres_target gives the framebuffer to draw a reduced
+ * frame into (scale x the area's size), view_dynres_finish scales it up into the area's
+ * framebuffer, view_dynres_adapt sets the next scale from the time it took; view_dynres_free releases
+ * the GL objects (the area's context current). */
+#define VIEW_DYN_MIN 0.25f
+#define VIEW_DYN_HOLD_S 0.3       /* still for this long: the next draw is at full size */
+#define VIEW_DYN_TARGET_MS 100.0  /* a reduced draw aims at this time */
+void view_dynres_motion(viewer *v);
+float view_dynres_scale(const viewer *v, double now_s);
+bool view_dynres_target(viewer *v, float scale, unsigned *fbo, int *w, int *h);
+void view_dynres_finish(viewer *v, unsigned area_fbo);
+void view_dynres_adapt(viewer *v, double ms); /* after a reduced draw that took ms */
+void view_dynres_free(viewer *v);
+/* view_input.c: turns the camera as a mouse drag of (dx, dy) pixels would (scripts). */
+void view_input_turn(viewer *v, double dx_px, double dy_px);
 
 /* view_keyframe.c: the current view as a key of camera.path at the shown frame's video time
  * (see the file); *index and *t of the key. */

@@ -31,6 +31,14 @@ static void apply_camera(viewer *v)
     const sq_camera c = view_camera_get(&v->cam);
     sq_run_set_camera(v->run, &c);
     v->redraw = true;
+    view_dynres_motion(v); /* moving: reduced draws until still */
+}
+
+void view_input_turn(viewer *v, double dx_px, double dy_px)
+{
+    if (v->cam.mode == VIEW_CAM_PATH) take_camera(v, VIEW_CAM_ORBIT);
+    view_camera_drag(&v->cam, dx_px, dy_px);
+    apply_camera(v);
 }
 
 /* Ctrl+S: view-saved.yaml in the working directory (then -1, -2 ... if it exists). */
@@ -238,10 +246,11 @@ void view_hud_update(viewer *v)
     const char *state = st.error[0] ? "STOPPED" : st.done ? "done" : st.paused ? "paused" : "running";
     n += (size_t)snprintf(text + n, sizeof text - n,
                           "%s%s  frame %d  t = %.2f s  speed x%g\n"
-                          "draw %.1f fps (%.1f ms/draw, %dx%d)  sim %.1f steps/s\n"
+                          "draw %.1f fps (%.1f ms/draw, %dx%d%s)  sim %.1f steps/s\n"
                           "camera: %s",
                           v->rec ? "REC " : "", state, st.frames > 0 ? st.frames - 1 : 0, st.sim_time_s, st.speed,
                           v->fps, v->draw_ms, v->fb_width, v->fb_height,
+                          v->last_scale > 0.0f && v->last_scale < 1.0f ? " reduced" : "",
                           st.paused ? 0.0 : st.steps_per_s,
                           v->cam.mode == VIEW_CAM_PATH    ? "scene path"
                           : v->cam.mode == VIEW_CAM_ORBIT ? "orbit"

@@ -183,6 +183,7 @@ static void apply_camera_key(viewer *v, const char *key, const char *value)
     const sq_camera now = view_camera_get(&v->cam);
     sq_run_set_camera(v->run, &now);
     v->redraw = true;
+    view_dynres_motion(v);
 }
 
 sq_result view_param_apply(viewer *v, const char *full_key, const char *value, view_change *how)
@@ -206,6 +207,7 @@ sq_result view_param_apply(viewer *v, const char *full_key, const char *value, v
         v->live_outstanding++;
         v->live_pending = true;
         v->live_outcome = VIEW_LIVE_NONE;
+        view_dynres_motion(v); /* being changed: reduced draws until still */
         *how = VIEW_CHANGE_PENDING;
         return SQ_OK;
     }

@@ -17,6 +17,9 @@
  *   record-stop             finish the video (also done at the end)
  *   keyframe                the current view as a key of camera.path at the frame's video
  *                           time (as key K); prints "keyframe N at t = T s"
+ *   orbit N [FILE.png]      turns the camera (orbit) before each of the next N draws, as a
+ *                           mouse drag would: the view moves (reduced draws, view_dynres.c);
+ *                           FILE: the last of them as shown (reduced and scaled up)
  *   print-time              prints "time: frame N, simulated T s" (the latest frame advanced)
  *   pause | run | step      the simulation thread
  *   quit                    exit 0 (also at the end of the script)
@@ -32,7 +35,7 @@
 
 typedef enum act_kind {
     A_WAIT, A_WAIT_END, A_SET, A_SHOT, A_SAVE, A_KEYS, A_PAUSE, A_RUN, A_STEP, A_QUIT, A_REC,
-    A_REC_STOP, A_TIME, A_KEYFRAME, A_SEND
+    A_REC_STOP, A_TIME, A_KEYFRAME, A_SEND, A_ORBIT
 } act_kind;
 
 typedef struct action {
@@ -48,7 +51,8 @@ struct view_script {
     int count, next;
     bool waiting;   /* the current action has started and waits for frames or a draw */
     int target;     /* A_WAIT: drawn frame index to reach */
-    int draws0;     /* A_WAIT 0: draws when it started */
+    int draws0;     /* A_WAIT 0, A_ORBIT: draws when it started */
+    int turned;     /* A_ORBIT: draw_count at the latest turn */
     /* the live changes sent (set, send), to name the line of one refused later */
     struct {
         int line;
@@ -122,6 +126,17 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
             if (sscanf(rest, "%d %7s", &a.n, extra) != 1 || a.n < 0 || a.n > 1000000)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: wait N: N must be a frame count in "
                                  "0..1000000", path, no);
+        } else if (strcmp(cmd, "orbit") == 0) {
+            a.kind = A_ORBIT;
+            const int got = sscanf(rest, "%d %1023s %7s", &a.n, a.a, extra);
+            if (got < 1 || got > 2 || a.n < 1 || a.n > 100000)
+                r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: orbit N [FILE.png]: N must be a draw "
+                                 "count in 1..100000", path, no);
+            else if (got == 2 && (r = check_output(v, a.a)) != SQ_OK) {
+                char m[700];
+                snprintf(m, sizeof m, "%s", sq_last_error());
+                r = sq_set_error(r, "%s:%d: %s", path, no, m);
+            }
         } else if (strcmp(cmd, "set") == 0 || strcmp(cmd, "send") == 0) {
             a.kind = cmd[1] == 'e' && cmd[2] == 't' ? A_SET : A_SEND;
             int k = 0;
@@ -169,7 +184,7 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
         else if (strcmp(cmd, "step") == 0) a.kind = A_STEP;
         else if (strcmp(cmd, "quit") == 0) a.kind = A_QUIT;
         else
-            r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, send, "
+            r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: unknown action '%s' (wait, wait-end, set, send, orbit, "
                              "screenshot, save, panel-keys, record, record-stop, keyframe, print-time, pause, run, step, quit)", path, no, cmd);
         if (r != SQ_OK) break;
         if (s->count == cap) {
@@ -224,6 +239,33 @@ void view_script_tick(viewer *v, view_script *s)
             }
             if (v->drawn_frames < s->target) {
                 if (st.done && v->drawn_frames >= st.frames) script_fail(v, s, a->line, SQ_EXIT_USAGE, "wait: the run has no more frames");
+                return;
+            }
+            break;
+        case A_ORBIT:
+            /* the camera turns 12 px of mouse drag before each of n draws (deterministic: by
+             * draws, not by time), as a user dragging */
+            if (!s->waiting) {
+                s->waiting = true;
+                s->draws0 = s->turned = v->draw_count;
+            } else {
+                if (v->draw_count == s->turned) return;
+                s->turned = v->draw_count;
+            }
+            if (v->draw_count - s->draws0 < a->n) {
+                if (a->a[0] && v->draw_count - s->draws0 == a->n - 1) {
+                    /* the last draw of the turn, as it is shown (reduced while moving) */
+                    snprintf(v->shot_path, sizeof v->shot_path, "%s", a->a);
+                    v->shot_frame = v->run ? sq_run_frame_index(v->run) : 1;
+                    if (v->shot_frame < 1) v->shot_frame = 1;
+                    v->shot_pending = v->shot_as_shown = true;
+                }
+                view_input_turn(v, 12.0, 0.0);
+                return;
+            }
+            if (v->shot_pending) return;
+            if (v->exit_code) {
+                v->quit = true;
                 return;
             }
             break;
@@ -289,6 +331,7 @@ void view_script_tick(viewer *v, view_script *s)
                 v->shot_frame = v->run ? sq_run_frame_index(v->run) : 1;
                 if (v->shot_frame < 1) v->shot_frame = 1;
                 v->shot_pending = true;
+                v->shot_as_shown = false; /* full size, also while the view moves */
                 v->redraw = true;
             }
             if (v->shot_pending) return;
