@@ -101,6 +101,8 @@ struct sq_renderer {
     GLuint white_tex;           /* 1x1 white RGBA8: bound at unit 7 when no sun shadow */
     struct sq__base_cache *base; /* renderer.c: surface textures, validation cache */
     sq_render_stats stats;      /* of the last frame (sq_renderer_stats) */
+    bool cancelled;             /* the context was cancelled during this frame (sticky) */
+    GLsync part_fence;          /* the last part of a long pass in flight (sq__render_part_done) */
 };
 
 /* ---- gl_context.c ---------------------------------------------------------------------- */
@@ -260,6 +262,22 @@ typedef struct sq__depth_view {
     float shell_max_m;    /* perspective, snow: the deepest shell (m); instances on which it moves
                            * no vertex by half a pixel are drawn without it (0 = all with it) */
 } sq__depth_view;
+
+/* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of
+ * the frame. Passes that issue much work check it between draw calls and stop issuing; the
+ * frame then ends with SQ_ERR_CANCELLED (renderer.c). */
+bool sq__render_cancelled(sq_renderer *r);
+/* Between the parts of a long pass (a volume's slices, batches of particles or instances): the
+ * part just issued is flushed and the one before it waited for, so one part stays in flight.
+ * A software rasteriser otherwise defers a whole pass to the end of the frame, where Ctrl-C
+ * could not reach it; this way it is answered within about two parts. Returns
+ * sq__render_cancelled(r): stop issuing when true. */
+bool sq__render_part_done(sq_renderer *r);
+/* Draws `vertices` vertices of the bound VAO as triangles in SQ_RENDER_PARTS consecutive draws with sq__render_part_done between them:
+ * the same picture, and Ctrl-C reaches a pass of seconds (a surface of 10^6 triangles). The
+ * terrain (sq__terrain_draw) is drawn in as many parts of its visible tiles. */
+#define SQ_RENDER_PARTS 8
+void sq__render_triangles_in_parts(sq_renderer *r, int vertices);
 
 typedef struct sq__mesh_stats {
     int64_t instances, faces; /* drawn since the last reset, over all views */

@@ -455,6 +455,17 @@ static GLuint ring_put(sq__mesh_pass *m, int count)
     return at;
 }
 
+/* A part (sq__render_part_done) is about this many faces: one draw call holds at most this many,
+ * and a part ends after the draw that reaches it. A software rasteriser (llvmpipe) spends
+ * seconds on 10^7 faces; Ctrl-C is answered between parts. */
+#define DRAW_CHUNK_FACES (1 << 20)
+
+static int instance_chunk(int faces_per_instance)
+{
+    const int f = faces_per_instance > 0 ? faces_per_instance : 1;
+    return f >= DRAW_CHUNK_FACES ? 1 : DRAW_CHUNK_FACES / f;
+}
+
 /* Draws the culled instances with the bound program; materials: set the colour uniforms and
  * textures per part (the colour program's locations 0, 1, 2 and unit 10), textured parts with
  * prog_cutout (which may discard), the others with prog; the slots without the shell with
@@ -467,6 +478,7 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
     glBindVertexArray(m->vao);
     glBindTextureUnit(9, m->inst_tex);
     bool cull_on = false;
+    int64_t unpolled = 0; /* faces issued since the last part ended */
     for (int mi = 0; mi < m->mesh_count; mi++) {
         const gpu_mesh *g = &m->mesh[mi];
         const sq_mesh *s = m->world->meshes[mi];
@@ -474,8 +486,8 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
             const int l = slot % SQ_MESH_MAX_LODS;
             if (l >= g->lod_count) continue;
             const int b = mi * SLOTS + slot;
-            const int n = m->bucket[b + 1] - m->bucket[b];
-            if (n <= 0) continue;
+            const int n_all = m->bucket[b + 1] - m->bucket[b];
+            if (n_all <= 0) continue;
             const bool with_shell = slot < SQ_MESH_MAX_LODS;
             const GLuint prog = with_shell ? prog_near : far[0];
             const GLuint prog_cutout = with_shell ? cutout_near : far[1];
@@ -486,34 +498,45 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
                 else glDisable(GL_CULL_FACE);
             }
             const gpu_lod *L = &g->lod[l];
-            const GLuint first = base + (GLuint)m->bucket[b];
-            m->stats.instances += n;
-            if (!materials) {
-                glDrawElementsInstancedBaseVertexBaseInstance(
-                    GL_TRIANGLES, L->index_count, GL_UNSIGNED_INT,
-                    (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n, L->base_vertex,
-                    first);
-                m->stats.faces += (int64_t)n * (L->index_count / 3);
-                continue;
-            }
-            const sq_mesh_lod *SL = &s->lods[l];
-            for (int p = 0; p < SL->part_count; p++) {
-                const sq_mesh_part *part = &SL->parts[p];
-                const gpu_material *mt = &m->mat[g->material0 + part->material];
-                const GLuint use = mt->texture ? prog_cutout : prog;
-                if (use != bound) glUseProgram(bound = use);
-                glProgramUniform3f(use, 0, mt->color.x, mt->color.y, mt->color.z);
-                glProgramUniform1i(use, 1, mt->tint);
-                glProgramUniform1i(use, 2, mt->texture ? 1 : 0);
-                if (mt->texture) glBindTextureUnit(10, mt->texture);
-                glDrawElementsInstancedBaseVertexBaseInstance(
-                    GL_TRIANGLES, (GLsizei)part->index_count, GL_UNSIGNED_INT,
-                    (const void *)(uintptr_t)((L->first_index + part->first_index) * sizeof(uint32_t)),
-                    n, L->base_vertex, first);
-                m->stats.faces += (int64_t)n * (part->index_count / 3);
+            const int chunk = instance_chunk(L->index_count / 3);
+            for (int i0 = 0; i0 < n_all; i0 += chunk) {
+                if (unpolled >= (materials ? 1 : DRAW_CHUNK_FACES)) {
+                    unpolled = 0;
+                    if (sq__render_part_done(r)) goto done;
+                }
+                const int n = n_all - i0 < chunk ? n_all - i0 : chunk;
+                const GLuint first = base + (GLuint)(m->bucket[b] + i0);
+                m->stats.instances += n;
+                if (!materials) {
+                    glDrawElementsInstancedBaseVertexBaseInstance(
+                        GL_TRIANGLES, L->index_count, GL_UNSIGNED_INT,
+                        (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n,
+                        L->base_vertex, first);
+                    m->stats.faces += (int64_t)n * (L->index_count / 3);
+                    unpolled += (int64_t)n * (L->index_count / 3);
+                    continue;
+                }
+                const sq_mesh_lod *SL = &s->lods[l];
+                for (int p = 0; p < SL->part_count; p++) {
+                    const sq_mesh_part *part = &SL->parts[p];
+                    const gpu_material *mt = &m->mat[g->material0 + part->material];
+                    const GLuint use = mt->texture ? prog_cutout : prog;
+                    if (use != bound) glUseProgram(bound = use);
+                    glProgramUniform3f(use, 0, mt->color.x, mt->color.y, mt->color.z);
+                    glProgramUniform1i(use, 1, mt->tint);
+                    glProgramUniform1i(use, 2, mt->texture ? 1 : 0);
+                    if (mt->texture) glBindTextureUnit(10, mt->texture);
+                    glDrawElementsInstancedBaseVertexBaseInstance(
+                        GL_TRIANGLES, (GLsizei)part->index_count, GL_UNSIGNED_INT,
+                        (const void *)(uintptr_t)((L->first_index + part->first_index) * sizeof(uint32_t)),
+                        n, L->base_vertex, first);
+                    m->stats.faces += (int64_t)n * (part->index_count / 3);
+                    unpolled += (int64_t)n * (part->index_count / 3);
+                }
             }
         }
     }
+done:
     if (cull_on) glDisable(GL_CULL_FACE);
 }
 
