@@ -157,8 +157,11 @@ float sq_snow_far_density(vec3 p)
     return clamp(0.8 + 0.4 * (f1 * n1 + f2 * n2) - 0.2, 0.0, 1.0);
 }
 
-// f_p (eq 2.1) at p with unit normal n, blended into the far field beyond the map.
-float sq_snow_cover(vec3 p, vec3 n)
+// f_p (eq 2.1) at p with unit normal n, blended into the far field beyond the map. full_m: the
+// depth from which thin snow covers the surface whole (SQ_SNOW_FULL_GROUND on the terrain, whose
+// grass and rough ground poke through; SQ_SNOW_FULL_BUILT on roofs, walls and other meshes).
+const float SQ_SNOW_FULL_GROUND = 0.16, SQ_SNOW_FULL_BUILT = 0.06;
+float sq_snow_cover(vec3 p, vec3 n, float full_m)
 {
     if (!sq_snow_on()) return 0.0;
     float inc = sq_snow_inclination(n, p);
@@ -167,10 +170,11 @@ float sq_snow_cover(vec3 p, vec3 n)
     float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z) * inc : 0.0;
     float far_fp = inc * sq_snow_far_density(p);
     float depth = sq_snow_depth_at(p.xy);
-    // thin snow covers partly, in patches (grass and rough ground poke through): the covered
-    // fraction grows with depth / 8 cm times a noise in [0.5, 1.5]; full from about 16 cm
+    // thin snow covers partly, in patches: the covered fraction grows with depth / (full_m / 2)
+    // times a noise in [0.5, 1.5]; whole from about full_m (16 cm on the ground, 6 cm on a
+    // smooth roof, where 16 cm left a wind-scoured roof's few centimetres as blotches)
     float patchy = sq_snow_noise3(vec3(p.xy / 1.5, 0.37)) * 0.7 + sq_snow_noise3(vec3(p.xy / 0.4, 5.1)) * 0.3;
-    float cover = clamp(depth / 0.08 * (0.5 + patchy), 0.0, 1.0);
+    float cover = clamp(depth / (0.5 * full_m) * (0.5 + patchy), 0.0, 1.0);
     return cover * mix(far_fp, near_fp, w);
 }
 
