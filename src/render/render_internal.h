@@ -58,7 +58,8 @@ struct sq_renderer {
     int terrain_tile_count;
     GLsizei *tile_counts;   /* scratch of the multi-draw: per visible run of tiles */
     const void **tile_offsets;
-    float terrain_pad_m;    /* how far the snow shell may move a terrain vertex (m) */
+    float shell_max_m;      /* how far the snow shell may move a vertex this frame (m) */
+    bool shell_everywhere;  /* tests: every instance drawn with the shell (no far slots) */
     int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
     double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
@@ -258,6 +259,8 @@ typedef struct sq__depth_view {
     float lod_pixels;   /* largest projected LOD error (px); 0 -> 1 */
     float min_pixels;   /* instances with a smaller projected radius are skipped; 0 -> 0.5 */
     float max_distance_m; /* perspective: instances farther from the eye are skipped; 0 = none */
+    float shell_max_m;    /* perspective, snow: the deepest shell (m); instances on which it moves
+                           * no vertex by half a pixel are drawn without it (0 = all with it) */
 } sq__depth_view;
 
 /* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of
@@ -292,7 +295,7 @@ void sq__frustum_planes(const sq_mat4 *vp, float pl[6][4]);
 /* Whether the box lo..hi, grown by pad on every side, is not wholly outside one of the planes
  * 0..last (an orthographic view drawn with depth clamping: last = 3, no near/far). */
 bool sq__box_may_be_seen(float pl[6][4], int last, const float lo[3], const float hi[3], float pad);
-/* The terrain tiles view_proj may see (grown by terrain_pad_m for the snow shell) with the bound
+/* The terrain tiles view_proj may see (grown by shell_max_m for the snow shell) with the bound
  * program, in one multi-draw; counts the triangles in r->terrain_faces. */
 void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho);
 /* Lit, shadowed instances for the camera into the bound HDR target (the Frame block bound). */

@@ -377,7 +377,7 @@ void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho)
     GLsizei next = -1; /* where the last run ends: tiles next to each other in the buffer join */
     for (int i = 0; i < r->terrain_tile_count; i++) {
         const sq__terrain_tile *t = &r->terrain_tiles[i];
-        if (!sq__box_may_be_seen(pl, ortho ? 3 : 5, t->lo, t->hi, r->terrain_pad_m)) continue;
+        if (!sq__box_may_be_seen(pl, ortho ? 3 : 5, t->lo, t->hi, r->shell_max_m)) continue;
         r->terrain_faces += t->count / 3;
         if (runs > 0 && t->first == next) {
             r->tile_counts[runs - 1] += t->count;
@@ -818,7 +818,7 @@ static sq_result draw_passes(sq_renderer *r, const sq_world *world, const sq_cam
     (void)sq__mesh_pass_stats(r, true);
     memset(&r->stats, 0, sizeof r->stats);
     r->terrain_faces = 0;
-    r->terrain_pad_m = 0.0f; /* the snow pass sets it for the camera's shell */
+    r->shell_max_m = 0.0f; /* the snow pass sets it for the camera's shell */
     /* volume light passes first: the opaque passes are shadowed by their light buffer */
     r->sun_shadow_tex = 0;
     r->sun_shadow_matrix = sq_m4_identity();
