@@ -15,7 +15,8 @@
  *                     with flakes minus the frame without them);
  * and reported: shadow_cascades_drawn (cascade maps drawn over the frames_timed frames; a cascade
  * keeps its map while the view stays in its cell, render_shadow.c), faces (LOD-0 triangles of the world's meshes), faces_drawn and camera_faces (what
- * the renderer drew over all views / for the camera, after culling and LODs), flakes,
+ * the renderer drew over all views / for the camera, after culling and LODs; the terrain's
+ * triangles in terrain_faces_drawn / camera_terrain_faces, culled by tiles), flakes,
  * flakes_visible, the snow depth, cpu_ms_per_frame (CPU time of all threads per full frame: on a
  * machine shared with other work the wall time says little) and the GL renderer string (llvmpipe
  * and GPU figures are not comparable). One JSON line. */
@@ -211,6 +212,8 @@ int sq_bench_snowcover(const sq_bench_args *a)
     sq_json_int(&j, "instances", sq_world_mesh_instances(world, NULL, NULL, NULL));
     sq_json_int(&j, "faces_drawn", (long long)st.faces);
     sq_json_int(&j, "camera_faces", (long long)st.camera_faces);
+    sq_json_int(&j, "terrain_faces_drawn", (long long)st.terrain_faces);
+    sq_json_int(&j, "camera_terrain_faces", (long long)st.camera_terrain_faces);
     sq_json_int(&j, "flakes", flakes);
     sq_json_num(&j, "flakes_visible", metric(b.scene, "flakes_visible"));
     sq_json_num(&j, "snow_depth_m", metric(b.scene, "snow_depth_m"));

@@ -20,6 +20,12 @@ typedef struct sq__mesh_pass sq__mesh_pass;         /* render_meshes.c */
 typedef struct sq__shadow_pass sq__shadow_pass;     /* render_shadow.c */
 typedef struct sq__snow_pass sq__snow_pass;         /* render_snowcover.c */
 
+/* A tile of the terrain mesh: its indices (first, count) and its bounding box. */
+typedef struct sq__terrain_tile {
+    GLsizei first, count;
+    float lo[3], hi[3];
+} sq__terrain_tile;
+
 struct sq_renderer {
     sq_context *ctx;
     sq_render_desc desc;  /* resolved */
@@ -47,6 +53,13 @@ struct sq_renderer {
     uint64_t world_generation;
     GLuint terrain_vao, terrain_vbo, terrain_ibo;
     GLsizei terrain_index_count;
+    /* the terrain's triangles in tiles (renderer.c build_terrain), culled per view */
+    sq__terrain_tile *terrain_tiles;
+    int terrain_tile_count;
+    GLsizei *tile_counts;   /* scratch of the multi-draw: per visible run of tiles */
+    const void **tile_offsets;
+    float terrain_pad_m;    /* how far the snow shell may move a terrain vertex (m) */
+    int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
     double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
     GLsizei obstacle_vertex_count;
@@ -255,6 +268,15 @@ void sq__mesh_pass_destroy(sq_renderer *r);
 sq_result sq__mesh_pass_update(sq_renderer *r, const sq_world *w);
 /* The camera's view as a depth view (after the camera is set up). */
 sq__depth_view sq__depth_view_camera(const sq_renderer *r);
+/* Planes (a, b, c, d; a x + b y + c z + d >= 0 inside) of a view-projection: left, right,
+ * bottom, top, near, far (Gribb & Hartmann). */
+void sq__frustum_planes(const sq_mat4 *vp, float pl[6][4]);
+/* Whether the box lo..hi, grown by pad on every side, is not wholly outside one of the planes
+ * 0..last (an orthographic view drawn with depth clamping: last = 3, no near/far). */
+bool sq__box_may_be_seen(float pl[6][4], int last, const float lo[3], const float hi[3], float pad);
+/* The terrain tiles view_proj may see (grown by terrain_pad_m for the snow shell) with the bound
+ * program, in one multi-draw; counts the triangles in r->terrain_faces. */
+void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho);
 /* Lit, shadowed instances for the camera into the bound HDR target (the Frame block bound). */
 void sq__mesh_pass_draw(sq_renderer *r);
 /* Depth only, with v's view-projection, into the bound target. */

@@ -348,9 +348,7 @@ void sq__mesh_pass_bounds(const sq_renderer *r, sq_vec3 *mn, sq_vec3 *mx, bool *
 }
 
 /* ---- culling and LOD ------------------------------------------------------------------------ */
-/* Planes (a, b, c, d with a x + b y + c z + d >= 0 inside) of a view-projection matrix: left,
- * right, bottom, top, near, far (Gribb & Hartmann). */
-static void frustum_planes(const sq_mat4 *vp, float pl[6][4])
+void sq__frustum_planes(const sq_mat4 *vp, float pl[6][4])
 {
     const float *m = vp->m;
     for (int k = 0; k < 6; k++) {
@@ -364,12 +362,24 @@ static void frustum_planes(const sq_mat4 *vp, float pl[6][4])
     }
 }
 
+bool sq__box_may_be_seen(float pl[6][4], int last, const float lo[3], const float hi[3], float pad)
+{
+    for (int k = 0; k <= last; k++) {
+        /* the box's corner farthest along the plane's normal */
+        const float x = pl[k][0] >= 0.0f ? hi[0] + pad : lo[0] - pad;
+        const float y = pl[k][1] >= 0.0f ? hi[1] + pad : lo[1] - pad;
+        const float z = pl[k][2] >= 0.0f ? hi[2] + pad : lo[2] - pad;
+        if (pl[k][0] * x + pl[k][1] * y + pl[k][2] * z + pl[k][3] < 0.0f) return false;
+    }
+    return true;
+}
+
 /* Culls and buckets the instances for view v; returns the number visible. Fills m->bucket with
  * offsets (size mesh_count * LODS + 1) and m->visible. */
 static int cull(sq__mesh_pass *m, const sq__depth_view *v)
 {
     float pl[6][4];
-    frustum_planes(&v->view_proj, pl);
+    sq__frustum_planes(&v->view_proj, pl);
     const int nb = m->mesh_count * SQ_MESH_MAX_LODS;
     memset(m->bucket, 0, ((size_t)nb + 1) * sizeof(int));
     const float min_px = v->min_pixels > 0.0f ? v->min_pixels : 0.5f;

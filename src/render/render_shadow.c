@@ -128,10 +128,7 @@ void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v)
     if (v->ortho) glEnable(GL_DEPTH_CLAMP);
     glProgramUniformMatrix4fv(s->prog_world, 0, 1, GL_FALSE, v->view_proj.m);
     glUseProgram(s->prog_world);
-    if (r->terrain_index_count > 0) {
-        glBindVertexArray(r->terrain_vao);
-        glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
-    }
+    sq__terrain_draw(r, &v->view_proj, v->ortho);
     if (r->obstacle_vertex_count > 0) {
         glBindVertexArray(r->obstacle_vao);
         glDrawArrays(GL_TRIANGLES, 0, r->obstacle_vertex_count);

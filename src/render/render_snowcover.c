@@ -24,6 +24,7 @@ struct sq__snow_pass {
     int occ_size, depth_nx, depth_ny;
     uint64_t depth_version;
     const float *depth_ptr;
+    float depth_max; /* of the uploaded depth grid (m) */
     sq__snow_map_geom geom; /* of the map drawn last */
     const sq_world *map_world;
     uint64_t map_generation;
@@ -91,6 +92,10 @@ static void upload_depth(sq_renderer *r, const sq_snow_cover_view *v)
     }
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glTextureSubImage2D(s->depth_tex, 0, 0, 0, v->nx, v->ny, GL_RED, GL_FLOAT, v->depth_m);
+    float mx = 0.0f;
+    for (size_t i = 0; i < (size_t)v->nx * (size_t)v->ny; i++)
+        if (v->depth_m[i] > mx) mx = v->depth_m[i]; /* NaN never raises it */
+    s->depth_max = mx;
     s->depth_version = v->version;
     s->depth_ptr = v->depth_m;
 }
@@ -182,6 +187,8 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         }
         occ = s->occ_tex;
         depth = s->depth_tex;
+        /* the shell moves a vertex by at most the depth: terrain tiles are culled that much wider */
+        r->terrain_pad_m = s->depth_max;
         const sq__snow_map_geom *g = &s->geom;
         b.map[0] = (float)g->origin[0];
         b.map[1] = (float)g->origin[1];

@@ -235,6 +235,7 @@ static sq_result check_drawables(sq_renderer *r, const sq_drawable *ds, int coun
 /* Terrain mesh: at most SQ_TERRAIN_MAX_SIDE vertices per side (a larger heightfield, e.g. a big
  * heightmap, is sampled every `stride` samples, always including the last row and column). */
 #define SQ_TERRAIN_MAX_SIDE 1025
+#define TERRAIN_TILE 32 /* cells per side of a culling tile */
 
 /* Sample index of mesh vertex m along an axis of n samples taken every stride. */
 static int mesh_sample(int m, int stride, int n)
@@ -301,19 +302,48 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
             }
         }
     }
+    /* triangles tile by tile (TERRAIN_TILE cells a side), each tile with its bounding box */
+    const int tx = (nx - 1 + TERRAIN_TILE - 1) / TERRAIN_TILE, ty = (ny - 1 + TERRAIN_TILE - 1) / TERRAIN_TILE;
+    sq_free(ctx, r->terrain_tiles);
+    sq_free(ctx, r->tile_counts);
+    sq_free(ctx, (void *)r->tile_offsets);
+    r->terrain_tile_count = 0;
+    r->terrain_tiles = sq_alloc(ctx, (size_t)tx * (size_t)ty * sizeof *r->terrain_tiles);
+    r->tile_counts = sq_alloc(ctx, (size_t)tx * (size_t)ty * sizeof *r->tile_counts);
+    r->tile_offsets = sq_alloc(ctx, (size_t)tx * (size_t)ty * sizeof *r->tile_offsets);
+    if (!r->terrain_tiles || !r->tile_counts || !r->tile_offsets) {
+        sq_free(ctx, v);
+        sq_free(ctx, idx);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
     size_t k = 0;
     double max_slope = 0.0;
-    for (int j = 0; j < ny - 1; j++) {
-        for (int i = 0; i < nx - 1; i++) {
-            const uint32_t a = (uint32_t)(j * nx + i), b = a + 1;
-            const uint32_t c = a + (uint32_t)nx, d = c + 1;
-            idx[k++] = a; idx[k++] = b; idx[k++] = d;
-            idx[k++] = a; idx[k++] = d; idx[k++] = c;
-            const double sa = triangle_slope(v + 6 * a, v + 6 * b, v + 6 * d);
-            const double sb = triangle_slope(v + 6 * a, v + 6 * d, v + 6 * c);
-            max_slope = fmax(max_slope, fmax(sa, sb));
+    for (int tj = 0; tj < ty; tj++)
+        for (int ti = 0; ti < tx; ti++) {
+            sq__terrain_tile *t = &r->terrain_tiles[r->terrain_tile_count++];
+            t->first = (GLsizei)k;
+            for (int a = 0; a < 3; a++) {
+                t->lo[a] = 1e30f;
+                t->hi[a] = -1e30f;
+            }
+            for (int j = tj * TERRAIN_TILE; j < (tj + 1) * TERRAIN_TILE && j < ny - 1; j++)
+                for (int i = ti * TERRAIN_TILE; i < (ti + 1) * TERRAIN_TILE && i < nx - 1; i++) {
+                    const uint32_t a = (uint32_t)(j * nx + i), b = a + 1;
+                    const uint32_t c = a + (uint32_t)nx, d = c + 1;
+                    idx[k++] = a; idx[k++] = b; idx[k++] = d;
+                    idx[k++] = a; idx[k++] = d; idx[k++] = c;
+                    const double sa = triangle_slope(v + 6 * a, v + 6 * b, v + 6 * d);
+                    const double sb = triangle_slope(v + 6 * a, v + 6 * d, v + 6 * c);
+                    max_slope = fmax(max_slope, fmax(sa, sb));
+                    const uint32_t corner[4] = {a, b, c, d};
+                    for (int q = 0; q < 4; q++)
+                        for (int e = 0; e < 3; e++) {
+                            t->lo[e] = fminf(t->lo[e], v[6 * corner[q] + e]);
+                            t->hi[e] = fmaxf(t->hi[e], v[6 * corner[q] + e]);
+                        }
+                }
+            t->count = (GLsizei)k - t->first;
         }
-    }
     r->terrain_max_slope = max_slope;
     if (!r->terrain_vao) {
         glCreateVertexArrays(1, &r->terrain_vao);
@@ -336,6 +366,31 @@ static sq_result build_terrain(sq_renderer *r, const sq_world *w)
     sq_free(ctx, v);
     sq_free(ctx, idx);
     return sq__gl_check(ctx, "terrain mesh upload");
+}
+
+void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho)
+{
+    if (r->terrain_index_count <= 0) return;
+    float pl[6][4];
+    sq__frustum_planes(view_proj, pl);
+    int runs = 0;
+    GLsizei next = -1; /* where the last run ends: tiles next to each other in the buffer join */
+    for (int i = 0; i < r->terrain_tile_count; i++) {
+        const sq__terrain_tile *t = &r->terrain_tiles[i];
+        if (!sq__box_may_be_seen(pl, ortho ? 3 : 5, t->lo, t->hi, r->terrain_pad_m)) continue;
+        r->terrain_faces += t->count / 3;
+        if (runs > 0 && t->first == next) {
+            r->tile_counts[runs - 1] += t->count;
+        } else {
+            r->tile_counts[runs] = t->count;
+            r->tile_offsets[runs] = (const void *)((uintptr_t)t->first * sizeof(uint32_t));
+            runs++;
+        }
+        next = t->first + t->count;
+    }
+    if (runs == 0) return;
+    glBindVertexArray(r->terrain_vao);
+    glMultiDrawElements(GL_TRIANGLES, r->tile_counts, GL_UNSIGNED_INT, r->tile_offsets, runs);
 }
 
 /* Obstacle mesh building: local frame centred on the footprint, base at z = 0, ridge along x;
@@ -645,8 +700,7 @@ static void pass_opaque(sq_renderer *r, const sq_world *w)
         glProgramUniform1f(pt, 3, snow ? w->snow_line_m : 0.0f);
         glProgramUniform2f(pt, 4, snow ? 0.57f : 0.72f, snow ? 0.70f : 0.85f);
         glUseProgram(pt);
-        glBindVertexArray(r->terrain_vao);
-        glDrawElements(GL_TRIANGLES, r->terrain_index_count, GL_UNSIGNED_INT, NULL);
+        sq__terrain_draw(r, &r->view_proj, false);
     }
 }
 
@@ -705,6 +759,8 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
 
     (void)sq__mesh_pass_stats(r, true);
     memset(&r->stats, 0, sizeof r->stats);
+    r->terrain_faces = 0;
+    r->terrain_pad_m = 0.0f; /* the snow pass sets it for the camera's shell */
     /* volume light passes first: the opaque passes are shadowed by their light buffer */
     r->sun_shadow_tex = 0;
     r->sun_shadow_matrix = sq_m4_identity();
@@ -738,7 +794,9 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         glClearNamedFramebufferfv(r->hdr_fbo, GL_DEPTH, 0, &clear_depth);
         pass_sky(r);
         const sq__mesh_stats before = sq__mesh_pass_stats(r, false);
+        const int64_t terrain_before = r->terrain_faces;
         pass_opaque(r, world);
+        r->stats.camera_terrain_faces = r->terrain_faces - terrain_before;
         const sq__mesh_stats after = sq__mesh_pass_stats(r, false);
         r->stats.camera_faces = after.faces - before.faces;
         r->stats.camera_instances = after.instances - before.instances;
@@ -767,6 +825,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->stats.instances = all.instances;
     r->stats.ms_shadow = sq__shadow_pass_ms(r);
     r->stats.shadow_cascades_drawn = sq__shadow_pass_drawn(r);
+    r->stats.terrain_faces = r->terrain_faces;
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
     return SQ_OK;
 }
@@ -1362,6 +1421,9 @@ void sq_renderer_destroy(sq_renderer *r)
         gl_leave(r, &saved);
     }
     sq__gl_context_destroy(r->gl);
+    sq_free(ctx, r->terrain_tiles);
+    sq_free(ctx, r->tile_counts);
+    sq_free(ctx, (void *)r->tile_offsets);
     sq_free(ctx, r->base);
     sq_free(ctx, r);
 }

@@ -324,6 +324,68 @@ SQ_TEST(kept_cascades_equal_fresh_ones)
     sq_context_destroy(ctx);
 }
 
+/* The terrain drawn by tiles (renderer.c: 32 x 32 cells each, culled per view): a camera over
+ * hills that sees part of the terrain draws fewer than all its triangles, in its own view and in
+ * the shadow cascades, and its frame is byte for byte the frame drawn with every tile (boxes made
+ * infinite, the cascades drawn again after the sun moved): no tile a view needs is culled and the
+ * multi-draw's runs address the right triangles. */
+SQ_TEST(terrain_tiles_culled_without_changing_the_frame)
+{
+    sq_context *ctx = make_ctx();
+    sq_world_desc d;
+    memset(&d, 0, sizeof d);
+    d.terrain.kind = SQ_TERRAIN_HILLS;
+    d.terrain.size_m[0] = d.terrain.size_m[1] = 2000.0f;
+    d.terrain.resolution[0] = d.terrain.resolution[1] = 257;
+    d.terrain.relief_m = 80.0f;
+    d.terrain.feature_m = 500.0f;
+    d.terrain.seed = 3;
+    d.terrain.material = SQ_GROUND_ROCK;
+    d.sun.day_of_year = 172;
+    d.sun.hour_solar = 6.0f; /* low: the hills shadow themselves */
+    d.sun.hour_set = true;
+    d.sun.latitude_deg = 45.0f;
+    sq_world *w = NULL;
+    SQ_CHECK(sq_world_create(ctx, &d, &w) == SQ_OK);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(-300.0f, -500.0f, 160.0f);
+    cam.target_m = sq_v3(100.0f, 200.0f, 0.0f);
+    cam.fov_y_deg = 50.0f;
+    uint8_t *a = malloc((size_t)W * H * 4), *b = malloc((size_t)W * H * 4);
+    sq_renderer *all = cascade_renderer(ctx);
+    SQ_CHECK(sq_renderer_draw(all, w, &cam, NULL, 0, 0.0) == SQ_OK); /* builds the tiles */
+    const int64_t total = (int64_t)all->terrain_index_count / 3;
+    SQ_CHECK_MSG(all->terrain_tile_count == 64, "%d tiles", all->terrain_tile_count);
+    for (int i = 0; i < all->terrain_tile_count; i++)
+        for (int e = 0; e < 3; e++) {
+            all->terrain_tiles[i].lo[e] = -1e30f;
+            all->terrain_tiles[i].hi[e] = 1e30f;
+        }
+    sq_world_set_sky(w, 172, 6.5f, 45.0f, 1.0, 3.0f, 1000.0f); /* the cascades drawn again */
+    sq_render_stats st;
+    SQ_CHECK(sq_renderer_draw(all, w, &cam, NULL, 0, 0.0) == SQ_OK && sq_renderer_read_rgba8(all, b) == SQ_OK);
+    SQ_CHECK(sq_renderer_stats(all, &st) == SQ_OK);
+    SQ_CHECK(st.shadow_cascades_drawn == 2 && st.camera_terrain_faces == total && st.terrain_faces == 3 * total);
+    sq_renderer *r = cascade_renderer(ctx);
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, a) == SQ_OK);
+    SQ_CHECK(sq_renderer_stats(r, &st) == SQ_OK);
+    printf("camera: %lld of %lld terrain triangles; camera and 2 cascades %lld of %lld\n",
+           (long long)st.camera_terrain_faces, (long long)total, (long long)st.terrain_faces,
+           (long long)(3 * total));
+    SQ_CHECK(st.camera_terrain_faces > 0 && st.camera_terrain_faces < total * 3 / 4);
+    SQ_CHECK(st.terrain_faces - st.camera_terrain_faces < total);
+    size_t differ = 0;
+    for (size_t i = 0; i < (size_t)W * H * 4; i++) differ += a[i] != b[i];
+    SQ_CHECK_MSG(differ == 0, "%zu bytes differ from the frame with every tile", differ);
+    free(a);
+    free(b);
+    sq_renderer_destroy(r);
+    sq_renderer_destroy(all);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
 /* A straight ridge along y at x = 0 (grid terrain, crest h above the plain, flanks of slope s),
  * the sun in the east (+x) at elevation el, clean air. */
 static sq_world *ridge_world(sq_context *ctx, float h, float s, float el)
