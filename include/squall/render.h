@@ -101,6 +101,8 @@ typedef struct sq_render_stats {
     int64_t camera_faces, camera_instances;
     double ms_shadow, ms_occlusion_map;
     int shadow_cascades_drawn; /* of the cascades: the others kept the map of an earlier frame */
+    int cloud_impostors_rendered; /* cloud impostors (re-)rendered in this draw (the others
+                                     were drawn from their texture of an earlier frame) */
     int64_t terrain_faces, camera_terrain_faces; /* terrain triangles drawn (tiles in view) */
 } sq_render_stats;
 /* Fills out with the statistics above for the last draw. */

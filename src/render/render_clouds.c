@@ -272,8 +272,8 @@ static void set_common_uniforms(sq_renderer *r, const sq_clouds_view *v, GLuint 
 {
     const sq_world *w = r->world;
     const sq_vec3 sun = sq_v3_norm(w->sun_dir);
-    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun_dir"), sun.x, sun.y, sun.z);
-    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun_radiance"), w->sun_radiance.x,
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun"), sun.x, sun.y, sun.z);
+    glProgramUniform3f(prog, glGetUniformLocation(prog, "u_sun_E"), w->sun_radiance.x,
                        w->sun_radiance.y, w->sun_radiance.z);
     glProgramUniform1f(prog, glGetUniformLocation(prog, "u_albedo"), v->albedo);
     glProgramUniform1i(prog, glGetUniformLocation(prog, "u_splat_opacity"), v->splat_opacity);
@@ -286,7 +286,7 @@ static void set_common_uniforms(sq_renderer *r, const sq_clouds_view *v, GLuint 
 static void set_camera_uniforms(GLuint prog, const sq_mat4 *view_proj, sq_vec3 cam, sq_vec3 right,
                                 sq_vec3 up, sq_vec3 fwd, const sq_mat4 *proj, bool use_depth)
 {
-    glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_view_proj"), 1, GL_FALSE,
+    glProgramUniformMatrix4fv(prog, glGetUniformLocation(prog, "u_bb_view_proj"), 1, GL_FALSE,
                               view_proj->m);
     const sq_vec3 v3[4] = {cam, right, up, fwd};
     const char *n3[4] = {"u_cam", "u_right", "u_up", "u_forward"};

@@ -815,11 +815,15 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         bind_scene_state(r);
         if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
     }
+    sq__clouds_pass_stats cs0, cs1;
+    sq__clouds_pass_get_stats(r, &cs0);
     for (int i = 0; i < count; i++) {
         if (drawables[i].kind != SQ_DRAWABLE_CLOUDS) continue;
         bind_scene_state(r);
         if ((res = sq__clouds_pass_draw(r, &drawables[i].u.clouds)) != SQ_OK) return res;
     }
+    sq__clouds_pass_get_stats(r, &cs1);
+    r->stats.cloud_impostors_rendered = (int)(cs1.impostor_renders - cs0.impostor_renders);
     const sq__mesh_stats all = sq__mesh_pass_stats(r, false);
     r->stats.faces = all.faces;
     r->stats.instances = all.instances;

@@ -2,7 +2,8 @@
  * single absorbing particle's opacity across the frame against 1 - exp(-tau eta(t)), eta the
  * Hermite falloff with |t|), and the impostor cross-fade (a camera approaching a cloud through
  * dist_impostor and dist_3d: impostors beyond, particles within, and no step between
- * consecutive frames larger than the steady change of the approach — nothing pops). */
+ * consecutive frames larger than the steady change of the approach — nothing pops), and the
+ * aerial haze on far particles (the terrain's law). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,10 +39,29 @@ static sq_world *new_world(sq_context *ctx)
     return w;
 }
 
+/* Mean of exp(-z / H) along a straight path between heights z0 and z1 (m). */
+static double profile_mean(double z0, double z1, double H)
+{
+    const double d = fabs(z1 - z0) / H, low = exp(-fmin(z0, z1) / H);
+    return d < 1e-9 ? low : low * (1.0 - exp(-d)) / d;
+}
+
+/* Fraction of the view toward a point at distance dist (m) between heights z0 and z1 that the
+ * renderer's aerial haze replaces by sky (docs/phen/clouds.md, frame_common.glsl): 1 - exp(-tau),
+ * tau = dist (1e-5 mean(exp(-z / 8 km)) + 2e-5 (T - 1) mean(exp(-z / 1.5 km))), T the turbidity. */
+static double haze_fraction(double dist, double z0, double z1, double turbidity)
+{
+    const double tau = dist * (1e-5 * profile_mean(z0, z1, 8000.0) +
+                               2e-5 * (turbidity - 1.0) * profile_mean(z0, z1, 1500.0));
+    return 1.0 - exp(-tau);
+}
+
 /* One absorbing particle (albedo 0: it only dims what lies behind it) of radius 100 m and
  * optical depth 2 at its centre, 1 km in front of the camera against the sky, no texture noise:
  * along a row through its centre the transmittance L / L_sky equals exp(-2 eta(t)) with
- * eta(t) = 2t³ - 3t² + 1, within 0.02 (8-bit-free linear read-back; pixel centres sample t). */
+ * eta(t) = 2t³ - 3t² + 1, plus the haze in front of it (the share f of the sky light that the
+ * air between camera and particle scatters in, over the particle's opacity), within 0.02
+ * (8-bit-free linear read-back; pixel centres sample t). */
 SQ_TEST(splat_falloff_in_the_frame)
 {
     sq_context *ctx = new_ctx();
@@ -81,6 +101,7 @@ SQ_TEST(splat_falloff_in_the_frame)
     const double d_m = sqrt(1000.0 * 1000.0 + 200.0 * 200.0);
     const double px_m = 2.0 * d_m * tan(8.0 * 3.14159265358979 / 180.0) / H;
     const int cy = H / 2, cx = W / 2;
+    const double f_haze = haze_fraction(d_m, 500.0, 700.0, 3.0); /* the world's turbidity 3 */
     double worst = 0.0;
     int inside = 0;
     for (int x = 0; x < W; x++) {
@@ -88,15 +109,86 @@ SQ_TEST(splat_falloff_in_the_frame)
         const double T = (double)img[q] / (double)sky[q];
         const double t = fabs((double)(x - cx)) * px_m / 100.0;
         const double eta = t < 1.0 ? (2.0 * t - 3.0) * t * t + 1.0 : 0.0;
-        const double want = exp(-2.0 * eta);
+        const double want = exp(-2.0 * eta) + (1.0 - exp(-2.0 * eta)) * f_haze;
         worst = fmax(worst, fabs(T - want));
         inside += t < 1.0;
     }
-    printf("splat row: %d pixels inside the disc, worst |T - exp(-tau eta)| = %.4f\n", inside,
-           worst);
+    printf("splat row: %d pixels inside the disc, haze %.4f, worst |T - want| = %.4f\n", inside,
+           f_haze, worst);
     SQ_CHECK(inside > 20);
     SQ_CHECK(worst <= 0.02);
     free(sky);
+    free(img);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* Aerial perspective on cloud particles: one opaque white particle (tau 50, albedo 1) on a ray
+ * rising 3 degrees from a camera 1 km up, at 2, 10, 30 and 60 km (its radius growing with the
+ * distance, so it covers the same pixels). Its centre pixel is L(d) = (1 - f(d)) L_0 + f(d) S,
+ * S the sky behind it (the frame without it), f the terrain's haze law (haze_fraction above)
+ * for the path: L_0 follows from the 2 km frame, and the farther frames must match the
+ * prediction within 2 % of the contrast |L_0 - S| (unhazed particles miss it at 60 km by f, 0.6
+ * of the contrast). The cloud fades into the horizon sky as the terrain does. */
+SQ_TEST(far_particle_hazes_like_the_terrain)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx);
+    const int W = 129, H = 129;
+    sq_render_desc rd = {0};
+    rd.width = W;
+    rd.height = H;
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &rd, &r));
+    if (!r) return;
+    const double el = 3.0 * 3.14159265358979 / 180.0, z0 = 1000.0;
+    sq_camera cam = {0};
+    cam.position_m = sq_v3(0.0f, 0.0f, (float)z0);
+    cam.target_m = sq_v3(0.0f, (float)(1000.0 * cos(el)), (float)(z0 + 1000.0 * sin(el)));
+    cam.fov_y_deg = 16.0f;
+    cam.near_m = 10.0f;
+    cam.far_m = 200000.0f; /* the far-plane blend starts at 100 km: not reached */
+    float *img = malloc(sizeof(float) * W * H * 3);
+    SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0));
+    SQ_CHECK_OK(sq_renderer_read_linear(r, img));
+    const size_t centre = ((size_t)(H / 2) * W + (size_t)(W / 2)) * 3 + 1; /* green */
+    const double S = img[centre];
+    const double dist[4] = {2000.0, 10000.0, 30000.0, 60000.0};
+    double L[4], f[4];
+    for (int k = 0; k < 4; k++) {
+        const float pos[3] = {0.0f, (float)(dist[k] * cos(el)), (float)(z0 + dist[k] * sin(el))};
+        const float rad[1] = {(float)(0.02 * dist[k])}, tau[1] = {50.0f};
+        sq_drawable d;
+        memset(&d, 0, sizeof d);
+        d.kind = SQ_DRAWABLE_CLOUDS;
+        sq_clouds_view *v = &d.u.clouds;
+        v->count = 1;
+        v->position = pos;
+        v->radius_m = rad;
+        v->tau = tau;
+        v->g_default = 0.85f;
+        v->albedo = 1.0f;
+        v->gamma_sr = 0.09f;
+        v->multiple_scattering = true;
+        v->version = (uint64_t)k + 1;
+        SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0));
+        SQ_CHECK_OK(sq_renderer_read_linear(r, img));
+        L[k] = img[centre];
+        f[k] = haze_fraction(dist[k], z0, z0 + dist[k] * sin(el), 3.0);
+    }
+    const double L0 = (L[0] - f[0] * S) / (1.0 - f[0]);
+    const double contrast = fabs(L0 - S);
+    printf("sky %.4f, particle unhazed %.4f\n", S, L0);
+    SQ_CHECK_MSG(contrast > 0.05 * S, "the particle %.4f hardly differs from the sky %.4f", L0, S);
+    for (int k = 1; k < 4; k++) {
+        const double want = (1.0 - f[k]) * L0 + f[k] * S;
+        printf("%5.0f m: L %.4f, haze law %.4f (f %.3f), error %.2f %% of the contrast\n",
+               dist[k], L[k], want, f[k], 100.0 * fabs(L[k] - want) / contrast);
+        SQ_CHECK_MSG(fabs(L[k] - want) <= 0.02 * contrast, "at %.0f m: %.4f, the haze law %.4f",
+                     dist[k], L[k], want);
+    }
+    SQ_CHECK(f[3] > 0.5);
     free(img);
     sq_renderer_destroy(r);
     sq_world_destroy(ctx, w);

@@ -8,7 +8,8 @@
 // with I_k the multiple-forward-scattering light of the particle (CPU sweep), p the view-
 // dependent phase (Henyey–Greenstein, or Rayleigh for the seed), theta between the sunlight's
 // and the eye ray's propagation directions, J_amb the diffuse sun and sky light (CPU). Output is
-// premultiplied (ONE, ONE_MINUS_SRC_ALPHA), drawn back to front. Against the opaque scene the
+// premultiplied (ONE, ONE_MINUS_SRC_ALPHA), drawn back to front; L is hazed toward the sky as
+// the terrain is at the particle's distance (v_haze, from the vertex shader). Against the opaque scene the
 // particle fades over half its radius of depth (soft particles) and is dropped behind it; when
 // rendering impostors there is no scene (u_use_depth = 0).
 in vec2 v_local;
@@ -18,14 +19,15 @@ flat in vec3 v_ambient;
 flat in float v_depth;
 flat in float v_radius;
 flat in float v_center_seed;
+flat in vec4 v_haze;
 
 layout(binding = 2) uniform sampler2D u_depth;
 
 uniform vec3 u_cam;
 uniform vec2 u_proj_z;         // projection m[10], m[14]: linear depth = m14 / (ndc_z + m10)
 uniform int u_use_depth;
-uniform vec3 u_sun_dir;        // toward the sun
-uniform vec3 u_sun_radiance;
+uniform vec3 u_sun;            // toward the sun
+uniform vec3 u_sun_E;          // sun radiance scale (the world's sun_radiance)
 uniform float u_albedo;
 uniform int u_splat_opacity;
 uniform float u_splat_peak;    // (1 - exp(-tau_splat)) eta_1
@@ -89,6 +91,6 @@ void main()
     }
     if (alpha <= 0.0) discard;
     vec3 dir = normalize(v_world - u_cam);
-    vec3 J = PI * u_sun_radiance * I * phase(dot(u_sun_dir, dir), g) + v_ambient;
-    o_color = vec4(u_albedo * J * alpha, alpha);
+    vec3 J = PI * u_sun_E * I * phase(dot(u_sun, dir), g) + v_ambient;
+    o_color = vec4(mix(u_albedo * J, v_haze.rgb, v_haze.a) * alpha, alpha);
 }

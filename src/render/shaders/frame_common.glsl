@@ -181,16 +181,22 @@ float sq_haze_optical_depth(vec3 p)
 // also goes to 1: a terrain that reaches beyond the far plane then meets the sky drawn behind it
 // (the horizon colour just below the horizon) without a step where it is clipped, instead of
 // ending in a bright edge.
-vec3 sq_haze(vec3 L, vec3 p)
+// The blend weight toward the sky, and the sky radiance blended to, for world point p.
+float sq_haze_fraction(vec3 p)
+{
+    float dist = length(p - u_cam_pos.xyz);
+    float far = u_sky_horizon.w;
+    return max(1.0 - exp(-sq_haze_optical_depth(p)), smoothstep(0.5 * far, far, dist));
+}
+
+vec3 sq_haze_inscatter(vec3 p)
 {
     vec3 v = p - u_cam_pos.xyz;
-    float dist = length(v);
-    float far = u_sky_horizon.w;
-    float f = max(1.0 - exp(-sq_haze_optical_depth(p)), smoothstep(0.5 * far, far, dist));
-    vec3 d = v / max(dist, 1e-3);
-    vec3 inscatter = sq_sky_radiance(normalize(vec3(d.xy, max(d.z, 0.02))), false);
-    return mix(L, inscatter, f);
+    vec3 d = v / max(length(v), 1e-3);
+    return sq_sky_radiance(normalize(vec3(d.xy, max(d.z, 0.02))), false);
 }
+
+vec3 sq_haze(vec3 L, vec3 p) { return mix(L, sq_haze_inscatter(p), sq_haze_fraction(p)); }
 
 // Integer-hash value noise in [0, 1] (smooth, period-free).
 float sq_hash(ivec2 q)
