@@ -1,4 +1,4 @@
-/* bench_sandstorm.c — `squall bench sandstorm --grid 64|128|NXxNYxNZ [--world dunes|flat]`:
+/* bench_sandstorm.c — `squall bench sandstorm --grid 64|128|NXxNYxNZ [--world dunes|flat] [--detail M]`:
  * the full two-phase desert-sandstorm step (sq_sandstorm_step: MacCormack wind advection, dust
  * loading, buoyancy, helicity confinement, mixing-length diffusion, MGPCG projection to the
  * desc's tolerance 1e-3, emission, inflow dust, MacCormack transport of 4 dust bins and the
@@ -10,7 +10,9 @@
  * min, max). One JSON line: the common keys plus the per-stage means over the timed steps from
  * sq_sandstorm_get_stats (ms_advect: wind and scalar advection; ms_forces: dust loading,
  * buoyancy, confinement; ms_diffuse; ms_project; ms_emission; ms_dust: inflow, outflow, mass
- * fix, settling; the stats are read outside the timed calls), the last projection's residual
+ * fix, settling; ms_detail: with --detail M, the flow-following detail's advection of its
+ * noise coordinates, display only, amplitude M metres; the stats are read outside the timed
+ * calls), the last projection's residual
  * and iterations, and the memory per cell. SPEC §1.11 (step recipe). */
 #include <math.h>
 #include <stdio.h>
@@ -20,7 +22,7 @@
 #include "squall/sandstorm.h"
 #include "squall/world.h"
 
-enum { ST_ADVECT, ST_FORCES, ST_DIFFUSE, ST_PROJECT, ST_EMISSION, ST_DUST, ST_COUNT };
+enum { ST_ADVECT, ST_FORCES, ST_DIFFUSE, ST_PROJECT, ST_EMISSION, ST_DUST, ST_DETAIL, ST_COUNT };
 
 typedef struct sand_bench {
     sq_sandstorm *s;
@@ -35,6 +37,7 @@ static void stage_ms(const sq_sandstorm_stats *st, double out[ST_COUNT])
     out[ST_PROJECT] = st->ms_project;
     out[ST_EMISSION] = st->ms_emission;
     out[ST_DUST] = st->ms_dust;
+    out[ST_DETAIL] = st->ms_detail;
 }
 
 /* one frame step at 0.95 of the CFL limit (never sub-stepped) */
@@ -86,8 +89,9 @@ int sq_bench_sandstorm(const sq_bench_args *a)
         sq_cli_error("--world %s: expected dunes or flat", wname);
         return SQ_EXIT_USAGE;
     }
-    int spinup;
+    int spinup, detail_m;
     if (!sq_cli_int(a->argc, a->argv, "--spinup", 10, 0, 100000, &spinup)) return SQ_EXIT_USAGE;
+    if (!sq_cli_int(a->argc, a->argv, "--detail", 0, 0, 10000, &detail_m)) return SQ_EXIT_USAGE;
 
     /* a domain 2560 m wide at any resolution (40 m cells at 64), over a 4 km world */
     const double h = 2560.0 / n[0];
@@ -129,6 +133,7 @@ int sq_bench_sandstorm(const sq_bench_args *a)
     d.buoyancy_gain = 1.0;
     d.confinement = 0.15;
     d.pressure_tolerance = 1e-3;
+    d.detail_amplitude_m = detail_m;
     sand_bench b;
     memset(&b, 0, sizeof b);
     r = sq_sandstorm_create(a->ctx, &d, world, &b.s);
@@ -159,7 +164,8 @@ int sq_bench_sandstorm(const sq_bench_args *a)
             char grid[64];
             snprintf(grid, sizeof grid, "%dx%dx%d", n[0], n[1], n[2]);
             static const char *const keys[ST_COUNT] = {"ms_advect",  "ms_forces",   "ms_diffuse",
-                                                       "ms_project", "ms_emission", "ms_dust"};
+                                                       "ms_project", "ms_emission", "ms_dust",
+                                                       "ms_detail"};
             sq_json j;
             sq_json_begin(&j);
             sq_bench_json_common(&j, "sandstorm", a, &st);

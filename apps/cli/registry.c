@@ -31,7 +31,7 @@ const sq_cli_case sq_cli_bench_cases[] = {
             "z slabs, per-rank figures, bytes sent)",
      "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
-     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10", sq_bench_sandstorm, NULL, NULL},
+     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10 --detail 0", sq_bench_sandstorm, NULL, NULL},
     {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",
      "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL, NULL},
     {"snowdrift", "village-snowdrift frame (1/24 s): D3Q15 wind, u*, snow transport/deposition/"

@@ -118,6 +118,10 @@ typedef struct sq_sandstorm_desc {
     int urban_conc_count;
     double urban_stage_s;           /* time at each severity; 0 -> 4 s */
     double urban_height_m;          /* depth of the dust layer; 0 -> 400 m */
+    /* flow-following detail of the rendered dust (display only; docs/phen/sandstorm.md) */
+    double detail_amplitude_m;      /* largest displacement; 0 = off */
+    double detail_scale_m;          /* noise feature size; 0 -> 4 cells */
+    double detail_period_s;         /* re-seeding period of the advected coordinates; 0 -> 20 s */
     /* near-field soft particles (S3) */
     bool near_field;
     int near_particles;            /* 0 -> 4000 */
@@ -137,6 +141,7 @@ typedef struct sq_sandstorm_budget {
 typedef struct sq_sandstorm_stats {
     int64_t steps;
     double ms_advect, ms_forces, ms_diffuse, ms_project, ms_emission, ms_dust;
+    double ms_detail;               /* flow-following detail: advection and lookup (display) */
     double pressure_residual;
     int pressure_iterations;
     double max_wind_mps, max_u_star_mps, emitting_fraction;

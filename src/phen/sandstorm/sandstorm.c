@@ -403,6 +403,15 @@ sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, co
         s->urban_conc = d.urban_conc_kg_m3[0];
     }
     if (r == SQ_OK) r = create_near_field(s);
+    if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0) {
+        r = sq__sand_detail_init(&s->detail, ctx, s->nx, s->ny, s->nz, s->h, d.detail_amplitude_m,
+                                 d.detail_scale_m, d.detail_period_s, d.seed);
+        s->detail_out = r == SQ_OK
+                            ? sq_alloc(ctx, (size_t)s->nx * s->ny * s->nz * sizeof(float))
+                            : NULL;
+        if (r == SQ_OK && !s->detail_out)
+            r = sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "sandstorm", "no memory for the detail");
+    }
     if (r != SQ_OK) {
         sq_sandstorm_destroy(s);
         return r;
@@ -427,6 +436,8 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->row_acc);
     sq_free(ctx, s->plane_mass);
     sq_free(ctx, s->density);
+    sq__sand_detail_free(&s->detail, ctx);
+    sq_free(ctx, s->detail_out);
     for (int v = 0; v < SQ_SANDSTORM_MAX_VIS; v++) sq_free(ctx, s->vis[v]);
     for (int e = 0; e < 6; e++) sq_free(ctx, s->export_buf[e]);
     float *pp[] = {s->p_pos, s->p_radius, s->p_rot, s->p_spin, s->p_tau, s->p_fade, s->p_age};
@@ -913,6 +924,11 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
             r = step_desert(s, dt / n);
             s->step++;
             s->stats.steps++;
+            if (r == SQ_OK && s->detail.enabled) { /* display only: the detail follows the wind */
+                const double t0 = sq_time_now();
+                sq__sand_detail_advect(&s->detail, s->grid, dt / n, sq_context_threads(s->ctx));
+                s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
+            }
         }
     } else {
         s->time_s += dt;
@@ -1018,6 +1034,13 @@ static void update_derived(sq_sandstorm *s)
             const float v = s->density[(size_t)k0 * plane + col];
             for (int k = 0; k < k0; k++) s->density[(size_t)k * plane + col] = v;
         }
+    /* Display only: the flow-following detail (sandstorm_detail.c) */
+    if (s->detail.enabled) {
+        const double t0 = sq_time_now();
+        sq__sand_detail_apply(&s->detail, s->density, s->detail_out, nt);
+        memcpy(s->density, s->detail_out, (size_t)nx * ny * nz * sizeof(float));
+        s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
+    }
     float mx = 0.0f;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : mx))
     for (int kk = 0; kk < nz; kk++)

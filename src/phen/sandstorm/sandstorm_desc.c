@@ -58,6 +58,8 @@ sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_de
     DEF(d.near_radius_m, 80.0);
     DEF(d.near_particle_radius_m, 4.0);
     DEF(d.near_fraction, 0.3);
+    DEF(d.detail_scale_m, 4.0 * d.cell_size_m);
+    DEF(d.detail_period_s, 20.0);
     if (out) *out = d;
     return SQ_OK;
 }
@@ -118,6 +120,15 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
             "(m = n + ik, k >= 0 absorbs)", P, (double)d.n_imag);
     if (d.bins < 1 || d.bins > SQ_SANDSTORM_MAX_BINS)
         BAD("%sdust.bins = %d; must be 1..%d", P, d.bins, SQ_SANDSTORM_MAX_BINS);
+    if (d.detail_amplitude_m < 0.0 || !isfinite(d.detail_amplitude_m))
+        BAD("%sdetail.amplitude_m = %g; a displacement must be >= 0 m (0 = off)", P,
+            (double)d.detail_amplitude_m);
+    if (!(d.detail_scale_m > 0.0) || !isfinite(d.detail_scale_m))
+        BAD("%sdetail.scale_m = %g; the noise feature size must be > 0 m", P,
+            (double)d.detail_scale_m);
+    if (!(d.detail_period_s > 0.0) || !isfinite(d.detail_period_s))
+        BAD("%sdetail.period_s = %g; the re-seeding period must be > 0 s", P,
+            (double)d.detail_period_s);
     if (d.inflow_dust_kg_m3 < 0.0)
         BAD("%sdust.inflow_kg_m3 = %g; a concentration must be >= 0", P, (double)d.inflow_dust_kg_m3);
     for (int i = 0; i < d.urban_conc_count; i++)
@@ -159,5 +170,7 @@ uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *in)
     return sq_grid_memory_bytes(&g) + n * 4u * (2u + 6u) + cols * 12u + (uint64_t)d.cells[2] * 4u +
            (uint64_t)d.cells[1] * d.cells[2] * 4u +
            cols * 4u * (uint64_t)d.vis_height_count + (uint64_t)d.near_particles * 40u +
-           (uint64_t)d.cells[1] * 32u + (uint64_t)d.cells[2] * 8u * SQ_SANDSTORM_MAX_BINS;
+           (uint64_t)d.cells[1] * 32u + (uint64_t)d.cells[2] * 8u * SQ_SANDSTORM_MAX_BINS +
+           /* detail: two coordinate fields, scratch, cell velocity (3 each), amplitude, output */
+           (d.detail_amplitude_m > 0.0 ? n * 4u * 14u : 0u);
 }

@@ -4,6 +4,7 @@
 
 #include "core/core_internal.h"
 #include "squall/grid.h"
+#include "squall/noise.h"
 #include "squall/optics.h"
 #include "squall/sandstorm.h"
 
@@ -40,6 +41,31 @@
 #define SQ_SAND_G_DUST_650 0.68
 #define SQ_SAND_G_DUST_550 0.69
 #define SQ_SAND_G_DUST_450 0.70
+
+/* Flow-following detail of the rendered dust (sandstorm_detail.c; display only). */
+typedef struct sq__sand_detail {
+    bool enabled;
+    int nx, ny, nz;
+    double h, amplitude_m, scale_cells, period_s;
+    double age[2];    /* time since each phase's coordinates were re-seeded (s) */
+    float *coord[2];  /* 3 per cell: advected noise-texture coordinates of each phase (cells) */
+    float *tmp;       /* 3 per cell: scratch */
+    float *vel;       /* 3 per cell: cell-centre wind (cells/s) */
+    float *amp;       /* per cell: displacement amplitude (cells), from the vorticity */
+    sq_noise noise;
+} sq__sand_detail;
+
+sq_result sq__sand_detail_init(sq__sand_detail *d, sq_context *ctx, int nx, int ny, int nz,
+                               double h, double amplitude_m, double scale_m, double period_s,
+                               uint64_t seed);
+void sq__sand_detail_free(sq__sand_detail *d, sq_context *ctx);
+void sq__sand_detail_reseed(sq__sand_detail *d, int phase);
+/* advects both coordinate fields by the grid's wind over dt and re-seeds expired phases */
+void sq__sand_detail_advect(sq__sand_detail *d, const sq_grid *g, double dt, int threads);
+/* blend weight of a phase of this age: 1 - |1 - 2 age / period| */
+double sq__sand_detail_weight(double age, double period);
+/* out = in looked up at the detail-displaced points (nx*ny*nz, x fastest; out != in) */
+void sq__sand_detail_apply(const sq__sand_detail *d, const float *in, float *out, int threads);
 
 struct sq_sandstorm {
     sq_context *ctx;
@@ -90,6 +116,9 @@ struct sq_sandstorm {
     int32_t front_n, front_head;
     int32_t warned;                 /* bit 0: wind > 100 m/s, bit 1: dust > 1 kg/m3 (logged once) */
     sq_sandstorm_stats stats;
+    /* flow-following detail of the drawable (display only) */
+    sq__sand_detail detail;
+    float *detail_out; /* nx*ny*nz: the drawable's extinction with the detail */
     /* near field */
     int np;
     float *p_pos, *p_radius, *p_rot, *p_spin, *p_tau, *p_fade, *p_age;

@@ -129,6 +129,16 @@ static const sq_param params[] = {
      "Urban mode: dust mass concentration; several values are shown one after another."},
     D("urban.stage_s", urban_stage_s, "s", 4, 0.01, 1e6, L, "Urban mode: time per severity."),
     D("urban.height_m", urban_height_m, "m", 400, 1, 1e5, L, "Urban mode: depth of the dust layer."),
+    D("detail.amplitude_m", detail_amplitude_m, "m", 0, 0, 1e4, Z,
+      "Flow-following detail of the rendered dust (display only; metrics and fields keep the "
+      "simulated dust): the largest displacement of the point where the extinction is looked "
+      "up, reached where the resolved flow turns (vorticity >> 0.1 1/s); the noise's texture "
+      "coordinates are advected by the simulated wind. 0 = off."),
+    D("detail.scale_m", detail_scale_m, "m", 0, 0, 1e5, Z,
+      "Feature size of the detail noise; 0 = 4 cells."),
+    D("detail.period_s", detail_period_s, "s", 20, 0.01, 1e5, 0,
+      "Re-seeding period of the advected noise coordinates (two phases half a period apart, "
+      "blended, so the flow's shear never stretches the pattern for longer than this)."),
     B("near.enabled", near_field, "Soft-particle near field around the camera (S3)."),
     I("near.particles", near_particles, "1", 4000, 1, 1000000, "Near-field particle count."),
     D("near.radius_m", near_radius_m, "m", 80, 1, 1e4, 0, "Radius of the region around the camera."),

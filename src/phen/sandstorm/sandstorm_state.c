@@ -2,7 +2,8 @@
  * grid (sq_grid_save_state: velocity, dust bins and temperature as scalars, pressure, inflow),
  * the clock and step count, the dust budget and statistics, the urban volume, and the
  * near-field particles around the camera with their spawn counter, the background potential
- * temperature, the cold-pool front history (issue 12). Derived buffers
+ * temperature, the cold-pool front history (issue 12), the flow-following detail's advected
+ * coordinates. Derived buffers
  * (extinction, visibility planes, exports) are recomputed from these. */
 #include <string.h>
 
@@ -35,6 +36,13 @@ sq_result sq__sandstorm_save_state(const void *self, sq_state_writer *w)
         sq_state_put(w, "sandstorm/p_pos", s->p_pos, n * 3 * sizeof(float));
         const float *arr[6] = {s->p_radius, s->p_rot, s->p_spin, s->p_tau, s->p_fade, s->p_age};
         for (int k = 0; k < 6; k++) sq_state_put(w, "sandstorm/p", arr[k], n * sizeof(float));
+    }
+    if (s->detail.enabled) { /* flow-following detail: its phases and their coordinates */
+        const size_t n = (size_t)s->nx * s->ny * s->nz * 3 * sizeof(float);
+        sq_state_put(w, "sandstorm/detail_age", s->detail.age, sizeof s->detail.age);
+        sq_state_put(w, "sandstorm/detail_x0", s->detail.coord[0], n);
+        sq_state_put(w, "sandstorm/detail_x1", s->detail.coord[1], n);
+        sq_state_put(w, "sandstorm/detail_amp", s->detail.amp, n / 3);
     }
     if (w->status != SQ_OK || !s->grid) return w->status;
     return sq_grid_save_state(s->grid, w);
@@ -73,6 +81,13 @@ sq_result sq__sandstorm_load_state(void *self, sq_state_reader *r)
         sq_state_get(r, "sandstorm/p_pos", s->p_pos, n * 3 * sizeof(float));
         float *arr[6] = {s->p_radius, s->p_rot, s->p_spin, s->p_tau, s->p_fade, s->p_age};
         for (int k = 0; k < 6; k++) sq_state_get(r, "sandstorm/p", arr[k], n * sizeof(float));
+    }
+    if (s->detail.enabled) {
+        const size_t n = (size_t)s->nx * s->ny * s->nz * 3 * sizeof(float);
+        sq_state_get(r, "sandstorm/detail_age", s->detail.age, sizeof s->detail.age);
+        sq_state_get(r, "sandstorm/detail_x0", s->detail.coord[0], n);
+        sq_state_get(r, "sandstorm/detail_x1", s->detail.coord[1], n);
+        sq_state_get(r, "sandstorm/detail_amp", s->detail.amp, n / 3);
     }
     if (r->status != SQ_OK) return r->status;
     s->have_camera = cam != 0;
