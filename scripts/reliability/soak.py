@@ -13,6 +13,8 @@ per case, as one JSON line:
                          mass: particles are never created or lost)
               clouds     |particles - particles at frame 1| / particles (structured particles
                          are recycled, never leaked)
+              snowcover  the worse of |water lying - rate x t x speedup| / (rate x t x speedup)
+                         (open flat ground) and |flakes - flakes at frame 1| / flakes
   rss_mb      RSS at 10, 25, 50, 75 and 100 % of the run; growth_mb = end - 50 % value (the
               first half includes the warm-up: pages first touched as dust, snow or particles
               spread, and buffers that grow to the scene's steady size)
@@ -48,6 +50,20 @@ layers:
 output: {fps: 24}
 """
 
+SNOWCOVER_YAML = """seed: 3
+world:
+  terrain: {kind: flat, size_m: [200, 200], resolution: [33, 33]}
+  obstacles:
+    - {kind: house, center: [0, 0], size: [10, 8, 5], roof_m: 2}
+layers:
+  - type: snowcover
+    name: cover
+    snowfall: {rate_mmh: 2, speedup: 100}
+    flakes: {count: 2000}
+output: {fps: 24}
+"""
+SNOWCOVER_RATE_MMH, SNOWCOVER_SPEEDUP = 2.0, 100.0
+
 # name: (scene arguments, frames, solver steps per frame or the metric that counts them)
 CASES = {
     "sandstorm": (["haboob", "--set", "layers.storm.domain.nx=24", "--set",
@@ -60,6 +76,7 @@ CASES = {
     "avalanche": ([os.path.join(SRC, "tests/cli/data/slope-avalanche.yaml"), "--set",
                    "layers.slide.particles.spacing_m=1.5"], 2000, "slide.substeps"),
     "clouds": (["wrf-clouds", "--set", "layers.clouds.particles.count=2000"], 10000, 1),
+    "snowcover": (["@snowcover.yaml"], 10000, 1),
 }
 
 
@@ -83,6 +100,11 @@ def budget(name, rows):
         return max(abs(f[k] - (a[k] + d[k] + l[k])) / f[k] for k in range(len(rows)) if f[k] > 0)
     if name == "avalanche":
         return max(abs(m) for m in column(rows, "slide.mass_balance"))
+    if name == "snowcover":
+        t, w, fl = (column(rows, c) for c in ("time_s", "cover.snow_water_mm", "cover.flakes"))
+        exact = [SNOWCOVER_RATE_MMH * SNOWCOVER_SPEEDUP * x / 3600.0 for x in t]
+        water = max(abs(w[k] - exact[k]) / exact[k] for k in range(len(rows)) if exact[k] > 0)
+        return max(water, max(abs(x - fl[0]) / fl[0] for x in fl))
     p = column(rows, "clouds.particles")
     return max(abs(x - p[0]) / p[0] for x in p)
 
@@ -143,6 +165,8 @@ def main():
     with tempfile.TemporaryDirectory(prefix="squall-soak-") as work:
         with open(os.path.join(work, "snow.yaml"), "w") as f:
             f.write(SNOW_YAML)
+        with open(os.path.join(work, "snowcover.yaml"), "w") as f:
+            f.write(SNOWCOVER_YAML)
         for name in names:
             r = run(squall, name, work)
             print(json.dumps(r), flush=True)

@@ -58,7 +58,8 @@ struct sq_renderer {
     int terrain_tile_count;
     GLsizei *tile_counts;   /* scratch of the multi-draw: per visible run of tiles */
     const void **tile_offsets;
-    float terrain_pad_m;    /* how far the snow shell may move a terrain vertex (m) */
+    float shell_max_m;      /* how far the snow shell may move a vertex this frame (m) */
+    bool shell_everywhere;  /* tests: every instance drawn with the shell (no far slots) */
     int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
     double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
@@ -100,6 +101,8 @@ struct sq_renderer {
     GLuint white_tex;           /* 1x1 white RGBA8: bound at unit 7 when no sun shadow */
     struct sq__base_cache *base; /* renderer.c: surface textures, validation cache */
     sq_render_stats stats;      /* of the last frame (sq_renderer_stats) */
+    bool cancelled;             /* the context was cancelled during this frame (sticky) */
+    GLsync part_fence;          /* the last part of a long pass in flight (sq__render_part_done) */
 };
 
 /* ---- gl_context.c ---------------------------------------------------------------------- */
@@ -256,7 +259,25 @@ typedef struct sq__depth_view {
     float lod_pixels;   /* largest projected LOD error (px); 0 -> 1 */
     float min_pixels;   /* instances with a smaller projected radius are skipped; 0 -> 0.5 */
     float max_distance_m; /* perspective: instances farther from the eye are skipped; 0 = none */
+    float shell_max_m;    /* perspective, snow: the deepest shell (m); instances on which it moves
+                           * no vertex by half a pixel are drawn without it (0 = all with it) */
 } sq__depth_view;
+
+/* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of
+ * the frame. Passes that issue much work check it between draw calls and stop issuing; the
+ * frame then ends with SQ_ERR_CANCELLED (renderer.c). */
+bool sq__render_cancelled(sq_renderer *r);
+/* Between the parts of a long pass (a volume's slices, batches of particles or instances): the
+ * part just issued is flushed and the one before it waited for, so one part stays in flight.
+ * A software rasteriser otherwise defers a whole pass to the end of the frame, where Ctrl-C
+ * could not reach it; this way it is answered within about two parts. Returns
+ * sq__render_cancelled(r): stop issuing when true. */
+bool sq__render_part_done(sq_renderer *r);
+/* Draws `vertices` vertices of the bound VAO as triangles in SQ_RENDER_PARTS consecutive draws with sq__render_part_done between them:
+ * the same picture, and Ctrl-C reaches a pass of seconds (a surface of 10^6 triangles). The
+ * terrain (sq__terrain_draw) is drawn in as many parts of its visible tiles. */
+#define SQ_RENDER_PARTS 8
+void sq__render_triangles_in_parts(sq_renderer *r, int vertices);
 
 typedef struct sq__mesh_stats {
     int64_t instances, faces; /* drawn since the last reset, over all views */
@@ -274,7 +295,7 @@ void sq__frustum_planes(const sq_mat4 *vp, float pl[6][4]);
 /* Whether the box lo..hi, grown by pad on every side, is not wholly outside one of the planes
  * 0..last (an orthographic view drawn with depth clamping: last = 3, no near/far). */
 bool sq__box_may_be_seen(float pl[6][4], int last, const float lo[3], const float hi[3], float pad);
-/* The terrain tiles view_proj may see (grown by terrain_pad_m for the snow shell) with the bound
+/* The terrain tiles view_proj may see (grown by shell_max_m for the snow shell) with the bound
  * program, in one multi-draw; counts the triangles in r->terrain_faces. */
 void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho);
 /* Lit, shadowed instances for the camera into the bound HDR target (the Frame block bound). */

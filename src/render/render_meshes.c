@@ -15,6 +15,7 @@
 #include "world/world_struct.h"
 
 #define RING_VIEWS 8 /* views per frame before the ring wraps (camera + cascades + snow) */
+#define SLOTS (2 * SQ_MESH_MAX_LODS) /* per mesh: its levels with the snow shell, then without */
 
 typedef struct gpu_lod {
     GLint base_vertex;
@@ -49,11 +50,12 @@ struct sq__mesh_pass {
     float *sphere;     /* 4 per instance: world centre, radius */
     float *err_scale;  /* per instance: largest scale factor */
     uint32_t *visible; /* per view: instance indices grouped by (mesh, lod) */
-    int *bucket;       /* (mesh * SQ_MESH_MAX_LODS + lod) counts, then offsets */
-    uint8_t *lod_of;   /* per instance: chosen LOD (255 = culled) */
+    int *bucket;       /* (mesh * SLOTS + slot) counts, then offsets */
+    uint8_t *lod_of;   /* per instance: chosen slot, LOD + SQ_MESH_MAX_LODS without the shell (255 = culled) */
     size_t ring_cap, ring_pos; /* in instances */
     GLuint prog_color, prog_cutout, prog_depth; /* colour: opaque / textured (alpha cut-out) */
     GLuint prog_color_snow, prog_cutout_snow;   /* the same with snow cover (on first use) */
+    GLuint prog_color_far, prog_cutout_far;     /* snow cover without the shell (SQ_NO_SHELL) */
     sq_vec3 bounds_min, bounds_max; /* of all instances */
     sq__mesh_stats stats;
 };
@@ -82,6 +84,12 @@ sq_result sq__mesh_pass_snow_programs(sq_renderer *r)
     if (res == SQ_OK && !m->prog_cutout_snow)
         res = sq__gl_program(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
                              &m->prog_cutout_snow);
+    if (res == SQ_OK && !m->prog_color_far)
+        res = sq__gl_program_defs(r->ctx, "meshes.vert", NULL, "meshes.frag",
+                                  "#define SQ_NO_SHELL 1", &m->prog_color_far);
+    if (res == SQ_OK && !m->prog_cutout_far)
+        res = sq__gl_program_defs(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
+                                  "#define SQ_NO_SHELL 1", &m->prog_cutout_far);
     return res;
 }
 
@@ -120,6 +128,8 @@ void sq__mesh_pass_destroy(sq_renderer *r)
     glDeleteProgram(r->meshes->prog_cutout);
     glDeleteProgram(r->meshes->prog_color_snow);
     glDeleteProgram(r->meshes->prog_cutout_snow);
+    glDeleteProgram(r->meshes->prog_color_far);
+    glDeleteProgram(r->meshes->prog_cutout_far);
     glDeleteProgram(r->meshes->prog_depth);
     sq_free(r->ctx, r->meshes);
     r->meshes = NULL;
@@ -193,7 +203,7 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     m->err_scale = sq_alloc(ctx, (size_t)ni * sizeof(float));
     m->visible = sq_alloc(ctx, (size_t)ni * sizeof(uint32_t));
     m->lod_of = sq_alloc(ctx, (size_t)ni);
-    m->bucket = sq_alloc(ctx, ((size_t)nm * SQ_MESH_MAX_LODS + 1) * sizeof(int));
+    m->bucket = sq_alloc(ctx, ((size_t)nm * SLOTS + 1) * sizeof(int));
     float *vb = sq_alloc(ctx, (nv > 0 ? nv : 1) * 8 * sizeof(float));
     uint32_t *ib = sq_alloc(ctx, (nidx > 0 ? nidx : 1) * sizeof(uint32_t));
     float *inst = sq_alloc(ctx, (size_t)ni * 16 * sizeof(float));
@@ -375,13 +385,17 @@ bool sq__box_may_be_seen(float pl[6][4], int last, const float lo[3], const floa
 }
 
 /* Culls and buckets the instances for view v; returns the number visible. Fills m->bucket with
- * offsets (size mesh_count * LODS + 1) and m->visible. */
+ * offsets (size mesh_count * SLOTS + 1) and m->visible. With v->shell_max_m > 0 an instance whose
+ * nearest point is so far that the deepest snow shell would move it by less than half a pixel
+ * goes to the slots without the shell (llvmpipe runs a shader's branches for every vertex, so
+ * the shell's occlusion-map taps are left out by another program, not by a branch). */
 static int cull(sq__mesh_pass *m, const sq__depth_view *v)
 {
     float pl[6][4];
     sq__frustum_planes(&v->view_proj, pl);
-    const int nb = m->mesh_count * SQ_MESH_MAX_LODS;
+    const int nb = m->mesh_count * SLOTS;
     memset(m->bucket, 0, ((size_t)nb + 1) * sizeof(int));
+    const float shell_far = 2.0f * v->shell_max_m * v->px_per_m; /* 0.5 px at this distance */
     const float min_px = v->min_pixels > 0.0f ? v->min_pixels : 0.5f;
     const float lod_px = v->lod_pixels > 0.0f ? v->lod_pixels : 1.0f;
     const int first_plane = 0, last_plane = v->ortho ? 3 : 5; /* ortho: near/far unbounded (depth clamp) */
@@ -394,11 +408,13 @@ static int cull(sq__mesh_pass *m, const sq__depth_view *v)
         if (!in) continue;
         /* pixels per metre at the instance */
         float ppm = v->px_per_m;
+        bool far = false;
         if (!v->ortho) {
             const float dx = s[0] - v->eye.x, dy = s[1] - v->eye.y, dz = s[2] - v->eye.z;
             const float d = sqrtf(dx * dx + dy * dy + dz * dz) - s[3];
             ppm = d > 0.5f ? v->px_per_m / d : v->px_per_m / 0.5f;
             if (v->max_distance_m > 0.0f && d > v->max_distance_m) continue;
+            far = v->shell_max_m > 0.0f && d > shell_far;
         }
         if (s[3] * ppm < min_px) continue;
         const int mi = m->world->mesh_instances[i].mesh;
@@ -409,15 +425,16 @@ static int cull(sq__mesh_pass *m, const sq__depth_view *v)
                 lod = l;
                 break;
             }
-        m->lod_of[i] = (uint8_t)lod;
-        m->bucket[mi * SQ_MESH_MAX_LODS + lod + 1]++;
+        const int slot = lod + (far ? SQ_MESH_MAX_LODS : 0);
+        m->lod_of[i] = (uint8_t)slot;
+        m->bucket[mi * SLOTS + slot + 1]++;
     }
     for (int b = 0; b < nb; b++) m->bucket[b + 1] += m->bucket[b];
     const int total = m->bucket[nb];
     /* fill (bucket[b] becomes the end of bucket b; its start is recomputed by the caller) */
     for (int i = 0; i < m->instance_count; i++) {
         if (m->lod_of[i] == 255) continue;
-        const int b = m->world->mesh_instances[i].mesh * SQ_MESH_MAX_LODS + m->lod_of[i];
+        const int b = m->world->mesh_instances[i].mesh * SLOTS + m->lod_of[i];
         m->visible[m->bucket[b]++] = (uint32_t)i;
     }
     /* shift back: bucket[b] = start of b */
@@ -438,58 +455,88 @@ static GLuint ring_put(sq__mesh_pass *m, int count)
     return at;
 }
 
+/* A part (sq__render_part_done) is about this many faces: one draw call holds at most this many,
+ * and a part ends after the draw that reaches it. A software rasteriser (llvmpipe) spends
+ * seconds on 10^7 faces; Ctrl-C is answered between parts. */
+#define DRAW_CHUNK_FACES (1 << 20)
+
+static int instance_chunk(int faces_per_instance)
+{
+    const int f = faces_per_instance > 0 ? faces_per_instance : 1;
+    return f >= DRAW_CHUNK_FACES ? 1 : DRAW_CHUNK_FACES / f;
+}
+
 /* Draws the culled instances with the bound program; materials: set the colour uniforms and
  * textures per part (the colour program's locations 0, 1, 2 and unit 10), textured parts with
- * prog_cutout (which may discard), the others with prog. */
-static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog,
-                         GLuint prog_cutout)
+ * prog_cutout (which may discard), the others with prog; the slots without the shell with
+ * far[0] (far[1] textured). */
+static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog_near,
+                         GLuint cutout_near, const GLuint far[2])
 {
-    GLuint bound = prog;
+    GLuint bound = prog_near;
     sq__mesh_pass *m = r->meshes;
     glBindVertexArray(m->vao);
     glBindTextureUnit(9, m->inst_tex);
     bool cull_on = false;
+    int64_t unpolled = 0; /* faces issued since the last part ended */
     for (int mi = 0; mi < m->mesh_count; mi++) {
         const gpu_mesh *g = &m->mesh[mi];
         const sq_mesh *s = m->world->meshes[mi];
-        for (int l = 0; l < g->lod_count; l++) {
-            const int b = mi * SQ_MESH_MAX_LODS + l;
-            const int n = m->bucket[b + 1] - m->bucket[b];
-            if (n <= 0) continue;
+        for (int slot = 0; slot < SLOTS; slot++) {
+            const int l = slot % SQ_MESH_MAX_LODS;
+            if (l >= g->lod_count) continue;
+            const int b = mi * SLOTS + slot;
+            const int n_all = m->bucket[b + 1] - m->bucket[b];
+            if (n_all <= 0) continue;
+            const bool with_shell = slot < SQ_MESH_MAX_LODS;
+            const GLuint prog = with_shell ? prog_near : far[0];
+            const GLuint prog_cutout = with_shell ? cutout_near : far[1];
+            if (!materials && prog != bound) glUseProgram(bound = prog);
             if (materials && g->closed != cull_on) {
                 cull_on = g->closed;
                 if (cull_on) glEnable(GL_CULL_FACE);
                 else glDisable(GL_CULL_FACE);
             }
             const gpu_lod *L = &g->lod[l];
-            const GLuint first = base + (GLuint)m->bucket[b];
-            m->stats.instances += n;
-            if (!materials) {
-                glDrawElementsInstancedBaseVertexBaseInstance(
-                    GL_TRIANGLES, L->index_count, GL_UNSIGNED_INT,
-                    (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n, L->base_vertex,
-                    first);
-                m->stats.faces += (int64_t)n * (L->index_count / 3);
-                continue;
-            }
-            const sq_mesh_lod *SL = &s->lods[l];
-            for (int p = 0; p < SL->part_count; p++) {
-                const sq_mesh_part *part = &SL->parts[p];
-                const gpu_material *mt = &m->mat[g->material0 + part->material];
-                const GLuint use = mt->texture ? prog_cutout : prog;
-                if (use != bound) glUseProgram(bound = use);
-                glProgramUniform3f(use, 0, mt->color.x, mt->color.y, mt->color.z);
-                glProgramUniform1i(use, 1, mt->tint);
-                glProgramUniform1i(use, 2, mt->texture ? 1 : 0);
-                if (mt->texture) glBindTextureUnit(10, mt->texture);
-                glDrawElementsInstancedBaseVertexBaseInstance(
-                    GL_TRIANGLES, (GLsizei)part->index_count, GL_UNSIGNED_INT,
-                    (const void *)(uintptr_t)((L->first_index + part->first_index) * sizeof(uint32_t)),
-                    n, L->base_vertex, first);
-                m->stats.faces += (int64_t)n * (part->index_count / 3);
+            const int chunk = instance_chunk(L->index_count / 3);
+            for (int i0 = 0; i0 < n_all; i0 += chunk) {
+                if (unpolled >= (materials ? 1 : DRAW_CHUNK_FACES)) {
+                    unpolled = 0;
+                    if (sq__render_part_done(r)) goto done;
+                }
+                const int n = n_all - i0 < chunk ? n_all - i0 : chunk;
+                const GLuint first = base + (GLuint)(m->bucket[b] + i0);
+                m->stats.instances += n;
+                if (!materials) {
+                    glDrawElementsInstancedBaseVertexBaseInstance(
+                        GL_TRIANGLES, L->index_count, GL_UNSIGNED_INT,
+                        (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n,
+                        L->base_vertex, first);
+                    m->stats.faces += (int64_t)n * (L->index_count / 3);
+                    unpolled += (int64_t)n * (L->index_count / 3);
+                    continue;
+                }
+                const sq_mesh_lod *SL = &s->lods[l];
+                for (int p = 0; p < SL->part_count; p++) {
+                    const sq_mesh_part *part = &SL->parts[p];
+                    const gpu_material *mt = &m->mat[g->material0 + part->material];
+                    const GLuint use = mt->texture ? prog_cutout : prog;
+                    if (use != bound) glUseProgram(bound = use);
+                    glProgramUniform3f(use, 0, mt->color.x, mt->color.y, mt->color.z);
+                    glProgramUniform1i(use, 1, mt->tint);
+                    glProgramUniform1i(use, 2, mt->texture ? 1 : 0);
+                    if (mt->texture) glBindTextureUnit(10, mt->texture);
+                    glDrawElementsInstancedBaseVertexBaseInstance(
+                        GL_TRIANGLES, (GLsizei)part->index_count, GL_UNSIGNED_INT,
+                        (const void *)(uintptr_t)((L->first_index + part->first_index) * sizeof(uint32_t)),
+                        n, L->base_vertex, first);
+                    m->stats.faces += (int64_t)n * (part->index_count / 3);
+                    unpolled += (int64_t)n * (part->index_count / 3);
+                }
             }
         }
     }
+done:
     if (cull_on) glDisable(GL_CULL_FACE);
 }
 
@@ -504,6 +551,7 @@ sq__depth_view sq__depth_view_camera(const sq_renderer *r)
     v.lod_pixels = r->desc.lod_pixels;
     v.min_pixels = r->desc.cull_pixels;
     v.max_distance_m = r->desc.mesh_distance_m;
+    v.shell_max_m = r->snow_on && !r->shell_everywhere ? r->shell_max_m : 0.0f;
     return v;
 }
 
@@ -517,8 +565,10 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const GLuint base = ring_put(m, n);
     const GLuint color = r->snow_on ? m->prog_color_snow : m->prog_color;
     const GLuint cutout = r->snow_on ? m->prog_cutout_snow : m->prog_cutout;
+    const GLuint far[2] = {r->snow_on ? m->prog_color_far : m->prog_color,
+                           r->snow_on ? m->prog_cutout_far : m->prog_cutout};
     glUseProgram(color);
-    draw_buckets(r, base, true, color, cutout);
+    draw_buckets(r, base, true, color, cutout, far);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -530,7 +580,8 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     const GLuint base = ring_put(m, n);
     glUseProgram(m->prog_depth);
     glProgramUniformMatrix4fv(m->prog_depth, 0, 1, GL_FALSE, v->view_proj.m);
-    draw_buckets(r, base, false, m->prog_depth, m->prog_depth);
+    const GLuint same[2] = {m->prog_depth, m->prog_depth};
+    draw_buckets(r, base, false, m->prog_depth, m->prog_depth, same);
 }
 
 void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
@@ -542,7 +593,8 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     if (n == 0) return;
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
-    draw_buckets(r, base, materials, program, program);
+    const GLuint same[2] = {program, program};
+    draw_buckets(r, base, materials, program, program, same);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

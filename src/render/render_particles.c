@@ -344,6 +344,7 @@ sq_result sq__particle_pass_draw(sq_renderer *r, const sq_particles_view *p)
     for (size_t first = 0; first < m; first += PART_BATCH) {
         const size_t n = m - first < PART_BATCH ? m - first : PART_BATCH;
         glDrawArraysInstancedBaseInstance(GL_TRIANGLE_STRIP, 0, 4, (GLsizei)n, (GLuint)first);
+        if (sq__render_part_done(r)) break; /* Ctrl-C: the frame ends (renderer.c) */
     }
 
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)saved_fbo);

@@ -188,7 +188,7 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         occ = s->occ_tex;
         depth = s->depth_tex;
         /* the shell moves a vertex by at most the depth: terrain tiles are culled that much wider */
-        r->terrain_pad_m = s->depth_max;
+        r->shell_max_m = s->depth_max;
         const sq__snow_map_geom *g = &s->geom;
         b.map[0] = (float)g->origin[0];
         b.map[1] = (float)g->origin[1];

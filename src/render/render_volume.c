@@ -960,8 +960,9 @@ static void light_pass(sq__volume_pass *vp, const vol_plan *p, int k, int n, int
  * bound by the caller), up to light_steps consecutive in-box slabs per pass. With store_next,
  * the light after the chunk becomes checkpoint c + 1. Returns the layer holding the light
  * after the chunk. */
-static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store_next)
+static int sweep_chunk(sq_renderer *r, const vol_plan *p, int c, bool store_next)
 {
+    sq__volume_pass *vp = r->volume;
     int src = c, steps = 0;
     const int end = chunk_end(vp, p, c);
     for (int k = chunk_first(vp, c); k < end;) {
@@ -973,6 +974,7 @@ static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store
         while (n < vp->light_steps && k + n < end && slab_in_box(p, k + n)) n++;
         const int dst = vp->chunks + steps;
         light_pass(vp, p, k, n, src, dst);
+        if (sq__render_part_done(r)) break; /* Ctrl-C: the frame ends (renderer.c) */
         steps += n;
         src = dst + n - 1;
         k += n;
@@ -982,8 +984,22 @@ static int sweep_chunk(sq__volume_pass *vp, const vol_plan *p, int c, bool store
         glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, src, vp->light_arr,
                            GL_TEXTURE_2D_ARRAY, 0, 0, 0, c + 1, n, n, 1);
     }
-    vp->resident = c;
+    vp->resident = sq__render_cancelled(r) ? -1 : c; /* a chunk cut short is not resident */
     return src;
+}
+
+/* The eye pass over the slice triangles [first, last): in VOL_EYE_PARTS consecutive draws (the
+ * same order, the same picture), so that Ctrl-C reaches a pass of seconds on llvmpipe. */
+#define VOL_EYE_PARTS 16
+static void draw_slices_in_parts(sq_renderer *r, int first, int last)
+{
+    const int tris = (last - first) / 3;
+    const int per = (tris + VOL_EYE_PARTS - 1) / VOL_EYE_PARTS;
+    for (int t = 0; t < tris; t += per) {
+        const int n = tris - t < per ? tris - t : per;
+        glDrawArrays(GL_TRIANGLES, first + 3 * t, 3 * n);
+        if (sq__render_part_done(r)) return;
+    }
 }
 
 static void bind_light_pass(sq__volume_pass *vp, GLuint density)
@@ -1028,7 +1044,10 @@ static sq_result sweep_light(sq_renderer *r, const sq_volume_view *v, const vol_
     if ((res = set_light_uniforms(r, v, p)) != SQ_OK) return res;
     bind_light_pass(vp, density);
     int last = 0;
-    for (int c = 0; c < vp->chunks; c++) last = sweep_chunk(vp, p, c, true);
+    for (int c = 0; c < vp->chunks; c++) {
+        last = sweep_chunk(r, p, c, true);
+        if (sq__render_cancelled(r)) return SQ_OK; /* the key stays invalid; the frame ends */
+    }
     const int n = vp->light_size;
     glCopyImageSubData(vp->light_arr, GL_TEXTURE_2D_ARRAY, 0, 0, 0, last, vp->shadow_tex,
                        GL_TEXTURE_2D, 0, 0, 0, 0, n, n, 1);
@@ -1151,12 +1170,12 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
                            r->height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
 
     /* slices back to front, chunk by chunk (one chunk unless the light array is chunked) */
-    for (int i = 0; i < vp->chunks; i++) {
+    for (int i = 0; i < vp->chunks && !sq__render_cancelled(r); i++) {
         const int c = p.front_to_back ? vp->chunks - 1 - i : i;
         if (vp->resident != c) {
             state_set_plain();
             bind_light_pass(vp, density);
-            sweep_chunk(vp, &p, c, false);
+            sweep_chunk(r, &p, c, false);
         }
         int first = vp->vfirst[chunk_first(vp, c)], last = first;
         for (int k = chunk_first(vp, c); k < chunk_end(vp, &p, c); k++) {
@@ -1178,7 +1197,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glEnable(GL_DEPTH_TEST); /* early rejection behind the per-pixel bound; no writes */
         glDepthFunc(GL_LEQUAL);
         glDepthMask(GL_FALSE);
-        glDrawArrays(GL_TRIANGLES, first, last - first);
+        draw_slices_in_parts(r, first, last);
     }
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);

@@ -377,7 +377,7 @@ void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho)
     GLsizei next = -1; /* where the last run ends: tiles next to each other in the buffer join */
     for (int i = 0; i < r->terrain_tile_count; i++) {
         const sq__terrain_tile *t = &r->terrain_tiles[i];
-        if (!sq__box_may_be_seen(pl, ortho ? 3 : 5, t->lo, t->hi, r->terrain_pad_m)) continue;
+        if (!sq__box_may_be_seen(pl, ortho ? 3 : 5, t->lo, t->hi, r->shell_max_m)) continue;
         r->terrain_faces += t->count / 3;
         if (runs > 0 && t->first == next) {
             r->tile_counts[runs - 1] += t->count;
@@ -390,7 +390,20 @@ void sq__terrain_draw(sq_renderer *r, const sq_mat4 *view_proj, bool ortho)
     }
     if (runs == 0) return;
     glBindVertexArray(r->terrain_vao);
-    glMultiDrawElements(GL_TRIANGLES, r->tile_counts, GL_UNSIGNED_INT, r->tile_offsets, runs);
+    /* in SQ_RENDER_PARTS parts of about equal faces: Ctrl-C reaches the pass between them */
+    int64_t total = 0;
+    for (int k = 0; k < runs; k++) total += r->tile_counts[k];
+    const int64_t per = total / SQ_RENDER_PARTS + 1;
+    int64_t acc = 0;
+    for (int a = 0, k = 0; k < runs; k++) {
+        acc += r->tile_counts[k];
+        if (acc < per && k + 1 < runs) continue;
+        glMultiDrawElements(GL_TRIANGLES, r->tile_counts + a, GL_UNSIGNED_INT, r->tile_offsets + a,
+                            k + 1 - a);
+        a = k + 1;
+        acc = 0;
+        if (sq__render_part_done(r)) return;
+    }
 }
 
 /* Obstacle mesh building: local frame centred on the footprint, base at z = 0, ridge along x;
@@ -614,7 +627,7 @@ static void draw_surface(sq_renderer *r, surface_slot *s, const sq_surface_view 
     glBindTextureUnit(2, s->coverage_tex);
     glUseProgram(p);
     glBindVertexArray(r->empty_vao);
-    glDrawArrays(GL_TRIANGLES, 0, (GLsizei)((v->nx - 1) * (v->ny - 1) * 6));
+    sq__render_triangles_in_parts(r, (v->nx - 1) * (v->ny - 1) * 6);
 }
 
 /* ---- frame ------------------------------------------------------------------------------ */
@@ -676,6 +689,17 @@ static void pass_sky(sq_renderer *r)
 /* Nearest first where it is cheap to know: the meshes (houses, trees in front of the ground), then
  * the obstacles, then the terrain, so that the depth test rejects hidden ground before its
  * (snow) shading runs. */
+void sq__render_triangles_in_parts(sq_renderer *r, int vertices)
+{
+    const int tris = vertices / 3;
+    const int per = (tris + SQ_RENDER_PARTS - 1) / SQ_RENDER_PARTS;
+    for (int t = 0; t < tris; t += per) {
+        const int n = tris - t < per ? tris - t : per;
+        glDrawArrays(GL_TRIANGLES, 3 * t, 3 * n);
+        if (sq__render_part_done(r)) return;
+    }
+}
+
 static void pass_opaque(sq_renderer *r, const sq_world *w)
 {
     glEnable(GL_DEPTH_TEST);
@@ -743,9 +767,40 @@ static void pass_tonemap(sq_renderer *r)
 
 /* The frame into hdr_fbo. world_geometry: clear, then sky, terrain and obstacles; otherwise
  * hdr_fbo already holds the caller's colour and depth and only drawables are added. */
-static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_camera *camera,
-                            const sq_drawable *drawables, int count, double time_s,
-                            bool world_geometry)
+bool sq__render_cancelled(sq_renderer *r)
+{
+    if (!r->cancelled && sq__cancelled(r->ctx)) r->cancelled = true;
+    return r->cancelled;
+}
+
+static void drop_part_fence(sq_renderer *r)
+{
+    if (r->part_fence) glDeleteSync(r->part_fence);
+    r->part_fence = NULL;
+}
+
+bool sq__render_part_done(sq_renderer *r)
+{
+    GLsync issued = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    glFlush();
+    /* the part before: waited for in steps of 20 ms, polling Ctrl-C between them */
+    while (r->part_fence && !sq__render_cancelled(r)) {
+        const GLenum w = glClientWaitSync(r->part_fence, 0, 20u * 1000u * 1000u);
+        if (w != GL_TIMEOUT_EXPIRED) break; /* signalled, or an error: do not wait forever */
+    }
+    drop_part_fence(r);
+    r->part_fence = issued;
+    return sq__render_cancelled(r);
+}
+
+static sq_result frame_cancelled(sq_renderer *r)
+{
+    return sq__fail_cancelled(r->ctx, "render", "while drawing a frame");
+}
+
+static sq_result draw_passes(sq_renderer *r, const sq_world *world, const sq_camera *camera,
+                             const sq_drawable *drawables, int count, double time_s,
+                             bool world_geometry)
 {
     sq_context *ctx = r->ctx;
     sq_result res = setup_camera(r, camera);
@@ -756,11 +811,14 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     if (world_geometry && (res = sq__mesh_pass_update(r, world)) != SQ_OK) return res;
     r->world = world;
     r->time_s = time_s;
+    r->cancelled = false;
+    /* Ctrl-C: polled between the passes and between the draw calls of the long ones */
+    if (sq__render_cancelled(r)) return frame_cancelled(r);
 
     (void)sq__mesh_pass_stats(r, true);
     memset(&r->stats, 0, sizeof r->stats);
     r->terrain_faces = 0;
-    r->terrain_pad_m = 0.0f; /* the snow pass sets it for the camera's shell */
+    r->shell_max_m = 0.0f; /* the snow pass sets it for the camera's shell */
     /* volume light passes first: the opaque passes are shadowed by their light buffer */
     r->sun_shadow_tex = 0;
     r->sun_shadow_matrix = sq_m4_identity();
@@ -770,20 +828,24 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         if (drawables[i].kind != SQ_DRAWABLE_VOLUME) continue;
         if ((res = sq__volume_pass_prepare_shadow(r, &drawables[i].u.volume)) != SQ_OK)
             return res;
+        if (sq__render_cancelled(r)) return frame_cancelled(r);
     }
     for (int i = 0; i < count; i++)
         if (drawables[i].kind == SQ_DRAWABLE_CLOUDS &&
             (res = sq__clouds_pass_prepare(r, &drawables[i].u.clouds)) != SQ_OK)
             return res;
+    if (sq__render_cancelled(r)) return frame_cancelled(r);
     upload_frame_block(r, world); /* with the sun shadow, if any */
     /* opaque sun shadows of the world's geometry (none when only drawables are added over the
      * caller's picture: its geometry is not known) */
     if ((res = sq__shadow_pass_prepare(r, world, world_geometry)) != SQ_OK) return res;
+    if (sq__render_cancelled(r)) return frame_cancelled(r);
     /* snow lying on the world's surfaces: the occlusion map for this view */
     const sq_snow_cover_view *snow = NULL;
     for (int i = 0; i < count && world_geometry; i++)
         if (drawables[i].kind == SQ_DRAWABLE_SNOW_COVER && !snow) snow = &drawables[i].u.snow_cover;
     if ((res = sq__snow_pass_prepare(r, world, snow)) != SQ_OK) return res;
+    if (sq__render_cancelled(r)) return frame_cancelled(r);
 
     bind_scene_state(r);
     glDepthMask(GL_TRUE);
@@ -804,16 +866,19 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     pass_surfaces(r, drawables, count);
     if ((res = sq__gl_check(ctx, "the opaque passes (sky, terrain, obstacles, surfaces)")) != SQ_OK)
         return res;
+    if (sq__render_cancelled(r)) return frame_cancelled(r);
 
     for (int i = 0; i < count; i++) {
         if (drawables[i].kind != SQ_DRAWABLE_VOLUME) continue;
         bind_scene_state(r);
         if ((res = sq__volume_pass_draw(r, &drawables[i].u.volume)) != SQ_OK) return res;
+        if (sq__render_cancelled(r)) return frame_cancelled(r);
     }
     for (int i = 0; i < count; i++) {
         if (drawables[i].kind != SQ_DRAWABLE_PARTICLES) continue;
         bind_scene_state(r);
         if ((res = sq__particle_pass_draw(r, &drawables[i].u.particles)) != SQ_OK) return res;
+        if (sq__render_cancelled(r)) return frame_cancelled(r);
     }
     sq__clouds_pass_stats cs0, cs1;
     sq__clouds_pass_get_stats(r, &cs0);
@@ -821,6 +886,7 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
         if (drawables[i].kind != SQ_DRAWABLE_CLOUDS) continue;
         bind_scene_state(r);
         if ((res = sq__clouds_pass_draw(r, &drawables[i].u.clouds)) != SQ_OK) return res;
+        if (sq__render_cancelled(r)) return frame_cancelled(r);
     }
     sq__clouds_pass_get_stats(r, &cs1);
     r->stats.cloud_impostors_rendered = (int)(cs1.impostor_renders - cs0.impostor_renders);
@@ -832,6 +898,15 @@ static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_came
     r->stats.terrain_faces = r->terrain_faces;
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
     return SQ_OK;
+}
+
+static sq_result draw_frame(sq_renderer *r, const sq_world *world, const sq_camera *camera,
+                            const sq_drawable *drawables, int count, double time_s,
+                            bool world_geometry)
+{
+    const sq_result res = draw_passes(r, world, camera, drawables, count, time_s, world_geometry);
+    drop_part_fence(r); /* the frame's end waits for everything anyway (read-back, swap) */
+    return res;
 }
 
 sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out)

@@ -800,6 +800,80 @@ SQ_TEST(volume_nan_refused)
     sq_context_destroy(ctx);
 }
 
+/* Ctrl-C reaches a frame being drawn: the renderer polls the context between its passes and
+ * between the parts of its long ones (terrain rows, volume slices), stops issuing work at the
+ * first poll that asks to stop, and fails with SQ_ERR_CANCELLED; the next frame draws the same
+ * picture as before. */
+typedef struct poll_counter {
+    int calls;
+    int stop_at; /* the call that asks to stop; 0: never */
+} poll_counter;
+
+static bool count_polls(void *user)
+{
+    poll_counter *p = (poll_counter *)user;
+    p->calls++;
+    return p->stop_at > 0 && p->calls >= p->stop_at;
+}
+
+SQ_TEST(frame_answers_interrupt_between_parts)
+{
+    poll_counter pc = {0, 0};
+    sq_context *ctx = NULL;
+    sq_context_desc cd;
+    memset(&cd, 0, sizeof cd);
+    cd.threads = 1;
+    cd.interrupt = count_polls;
+    cd.interrupt_user = &pc;
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    sq_world *w = make_world(129, 400.0f, 0.0f);
+    sq_renderer *r = make_renderer(ctx, 64, 36);
+    const sq_camera cam = north_camera(0.0f, -50.0f, 10.0f);
+    float dens[8 * 8 * 8];
+    for (int i = 0; i < 512; i++) dens[i] = 0.5f;
+    sq_drawable d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_DRAWABLE_VOLUME;
+    d.name = "dust";
+    sq_volume_view *v = &d.u.volume;
+    v->density = dens;
+    v->nx = v->ny = v->nz = 8;
+    v->origin_m = sq_v3(-20.0f, 0.0f, 0.0f);
+    v->size_m = sq_v3(40.0f, 40.0f, 40.0f);
+    for (int c = 0; c < 3; c++) {
+        v->sigma_ext[c] = 0.01f;
+        v->albedo[c] = 0.9f;
+        v->g[c] = 0.5f;
+    }
+    v->density_max = 0.5f;
+    v->version = 1;
+    float *before = render_linear(r, w, &cam, &d, 1, 64, 36);
+    /* the terrain (8 parts) and the volume's slices (16 parts) each poll after every part */
+    const int polls = pc.calls;
+    SQ_CHECK_MSG(polls >= 24, "one frame polled the interrupt %d times (>= 24: passes and parts)",
+                 polls);
+    const int stops[] = {1, 6, 20};
+    for (int k = 0; k < 3; k++) {
+        pc.calls = 0;
+        pc.stop_at = stops[k];
+        SQ_CHECK_ERR(sq_renderer_draw(r, w, &cam, &d, 1, 0.0), SQ_ERR_CANCELLED,
+                     "interrupted while drawing a frame");
+        /* nothing more was issued (nor polled) once it asked to stop */
+        SQ_CHECK_MSG(pc.calls == stops[k], "asked to stop at poll %d, polled %d times", stops[k],
+                     pc.calls);
+    }
+    pc.calls = 0;
+    pc.stop_at = 0;
+    float *after = render_linear(r, w, &cam, &d, 1, 64, 36);
+    SQ_CHECK_MSG(memcmp(before, after, 64 * 36 * 3 * sizeof(float)) == 0,
+                 "the frame after the interrupted ones differs from the first");
+    free(before);
+    free(after);
+    sq_renderer_destroy(r);
+    free_world(w);
+    sq_context_destroy(ctx);
+}
+
 /* Compile errors name the shader and the line, also after an #include (whose lines must not
  * shift the including file's numbering). */
 SQ_TEST(broken_shader_names_file_and_line)

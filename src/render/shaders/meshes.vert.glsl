@@ -26,7 +26,9 @@ void main()
     if (u_tint == 2 && max(t1.r, max(t1.g, t1.b)) > 0.0) a = t1;
     v_albedo = a;
     v_base = p;
+#ifndef SQ_NO_SHELL /* instances too far for the shell to move them by half a pixel (render_meshes.c) */
     if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_smooth_normal());
+#endif
     v_pos = p;
     v_normal = n;
     v_uv = a_uv;
