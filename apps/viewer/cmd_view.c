@@ -181,26 +181,53 @@ static sq_result start_run(viewer *v)
     return SQ_OK;
 }
 
-/* Stops the thread, then destroys the run (its renderer in the GL area's context) and scene. */
-static void stop_run(viewer *v)
+/* Destroys a run whose thread has stopped: the run (its renderer in the GL area's context), then
+ * its scene. */
+static void free_run(viewer *v, view_sim *sim, sq_run *run, sq_scene *scene)
 {
-    view_sim_destroy(v->sim);
-    v->sim = NULL;
-    if (v->run) {
-        if (v->area && gtk_widget_get_realized(v->area)) {
+    view_sim_destroy(sim);
+    if (run) {
+        if (v->area && gtk_widget_get_realized(v->area))
             gtk_gl_area_make_current(GTK_GL_AREA(v->area));
-            view_dynres_free(v);
-        }
-        sq_run_destroy(v->run);
-        v->run = NULL;
+        sq_run_destroy(run);
     }
-    sq_scene_destroy(v->scene);
+    sq_scene_destroy(scene);
+}
+
+/* Frees the given-up runs whose threads have finished their step (all: waits for them). */
+static void reap_retired(viewer *v, bool all)
+{
+    int kept = 0;
+    for (int i = 0; i < v->retired_count; i++) {
+        struct view_retired *r = &v->retired[i];
+        if (all || view_sim_stopped(r->sim)) free_run(v, r->sim, r->run, r->scene);
+        else v->retired[kept++] = *r;
+    }
+    v->retired_count = kept;
+}
+
+/* Gives up the run: its thread is asked to stop after the step under way and the run is freed by
+ * a later tick (wait: now, waiting for the step; at exit, or when 8 wait already). */
+static void stop_run(viewer *v, bool wait)
+{
+    if (v->area && gtk_widget_get_realized(v->area)) {
+        gtk_gl_area_make_current(GTK_GL_AREA(v->area));
+        view_dynres_free(v);
+    }
+    if (!wait && v->sim && v->retired_count < (int)(sizeof v->retired / sizeof v->retired[0])) {
+        view_sim_stop(v->sim);
+        v->retired[v->retired_count++] = (struct view_retired){v->sim, v->run, v->scene};
+    } else {
+        free_run(v, v->sim, v->run, v->scene);
+    }
+    v->sim = NULL;
+    v->run = NULL;
     v->scene = NULL;
 }
 
 sq_result view_rebuild(viewer *v)
 {
-    stop_run(v);
+    stop_run(v, false); /* the old thread finishes its step on its own: no wait here */
     v->live_pending = false; /* a live change not yet applied went with the old run */
     v->live_held = false;
     v->live_outstanding = 0;
@@ -334,6 +361,7 @@ static gboolean on_tick(GtkWidget *w, GdkFrameClock *clock, gpointer user)
     viewer *v = (viewer *)user;
     const double now = sq_time_now();
     view_param_poll(v, false); /* a live change's outcome: panel, refusal, rebuild */
+    if (v->retired_count) reap_retired(v, false);
     view_input_tick(v, now);
     /* still again after reduced draws: once more at full size */
     const bool refine = v->dyn_refine && view_dynres_scale(v, now) >= 1.0f;
@@ -618,7 +646,8 @@ int sq_cmd_view(int argc, char **argv)
         const sq_result rr = view_record_stop(v);
         if (rr != SQ_OK && rc == SQ_EXIT_OK) rc = fail(rr);
     }
-    stop_run(v);
+    stop_run(v, true);
+    reap_retired(v, true);
     gtk_window_destroy(GTK_WINDOW(v->window));
     view_panel_free(v);
     while (g_main_context_pending(NULL)) g_main_context_iteration(NULL, FALSE);

@@ -43,6 +43,14 @@ typedef struct viewer {
     sq_scene *scene;
     sq_run *run;
     view_sim *sim;
+    /* runs given up (rebuild, reset) whose simulation thread finishes the step under way: freed
+     * by the tick once it has (the UI thread never waits for a step) */
+    struct view_retired {
+        view_sim *sim;
+        sq_run *run;
+        sq_scene *scene;
+    } retired[8];
+    int retired_count;
     bool have_box;         /* bounds of the phenomena (for "frame the phenomenon") */
     sq_vec3 box_lo, box_hi;
 

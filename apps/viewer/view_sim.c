@@ -12,6 +12,7 @@ struct view_sim {
     sq_run *run;
     thrd_t thread;
     bool started;
+    bool exited;         /* the thread has returned (under lock) */
     mtx_t lock;
     cnd_t wake;
     bool quit;
@@ -239,8 +240,27 @@ static int sim_main(void *arg)
         next_due += s->frame_wall_s / s->st.speed;
         if (next_due < now) next_due = now;
     }
+    s->exited = true;
     mtx_unlock(&s->lock);
     return 0;
+}
+
+void view_sim_stop(view_sim *s)
+{
+    if (!s) return;
+    mtx_lock(&s->lock);
+    s->quit = true;
+    cnd_broadcast(&s->wake);
+    mtx_unlock(&s->lock);
+}
+
+bool view_sim_stopped(view_sim *s)
+{
+    if (!s || !s->started) return true;
+    mtx_lock(&s->lock);
+    const bool e = s->exited;
+    mtx_unlock(&s->lock);
+    return e;
 }
 
 bool view_sim_start(view_sim *s, sq_run *run, bool paused)

@@ -46,6 +46,10 @@ sq_run_sinks view_sim_sinks(view_sim *s);
 bool view_sim_start(view_sim *s, sq_run *run, bool paused);
 /* Stops the thread (after the step that is running) and frees everything. */
 void view_sim_destroy(view_sim *s);
+/* Asks the thread to stop after the step that is running, without waiting for it; true from
+ * view_sim_stopped once it has returned (then view_sim_destroy does not wait). */
+void view_sim_stop(view_sim *s);
+bool view_sim_stopped(view_sim *s);
 
 void view_sim_set_paused(view_sim *s, bool paused);
 void view_sim_toggle_pause(view_sim *s);

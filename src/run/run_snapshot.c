@@ -77,6 +77,27 @@ sq_result sq__run_snapshot(sq_context *ctx, sq__run_frame_slot *slot, const sq_d
             d.u.snow_cover.depth_m = put(b, &at, s->depth_m, need);
             break;
         }
+        case SQ_DRAWABLE_CLOUDS: {
+            /* the groups (ints and floats, 4 bytes each) first, then the particles' arrays */
+            const sq_clouds_view *c = &d.u.clouds;
+            const size_t m = c->count > 0 ? (size_t)c->count : 0;
+            const size_t gn = c->groups && c->group_count > 0 ? (size_t)c->group_count : 0;
+            const size_t gf = (gn * sizeof(sq_cloud_group) + sizeof(float) - 1) / sizeof(float);
+            need = gf + (c->position ? 3 * m : 0) + (c->radius_m ? m : 0) + (c->tau ? m : 0) +
+                   (c->g ? m : 0);
+            float *b = reserve(ctx, slot, k, need);
+            if (need && !b) return SQ_ERR_OUT_OF_MEMORY;
+            if (gn) {
+                memcpy(b, c->groups, gn * sizeof(sq_cloud_group));
+                d.u.clouds.groups = (const sq_cloud_group *)(void *)b;
+                at = gf;
+            }
+            d.u.clouds.position = put(b, &at, c->position, 3 * m);
+            d.u.clouds.radius_m = put(b, &at, c->radius_m, m);
+            d.u.clouds.tau = put(b, &at, c->tau, m);
+            d.u.clouds.g = put(b, &at, c->g, m);
+            break;
+        }
         default: break;
         }
         slot->drawables[slot->count++] = d;
