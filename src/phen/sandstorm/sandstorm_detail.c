@@ -9,12 +9,14 @@
  * coordinate field is stretched by the flow's shear over time, so there are two, re-seeded
  * (X = x) alternately every `detail.period_s`, half a period apart, and blended with the weights
  * w(age) = 1 - |1 - 2 age / period| (zero when a phase is re-seeded; w_0 + w_1 = 1),
- * normalised by sqrt(w_0^2 + w_1^2) to keep the noise's contrast. The noise is a vector of
- * three gradient-noise fBm fields (two octaves) at the coordinates X / scale; it displaces the
- * point at which the drawable's extinction is looked up,
- *     beta'(x) = beta(x + A(x) n(X)),   A = detail.amplitude_m (1 - exp(-|omega| / omega_ref)),
+ * normalised by sqrt(w_0^2 + w_1^2) to keep the noise's contrast. The noise at X / scale is a
+ * vector n of three gradient-noise fBm fields (two octaves) and a modulation m (one octave); n
+ * displaces the point at which the drawable's extinction is looked up, m modulates it,
+ *     beta'(x) = beta(x + A n) max(0, 1 + 0.7 (A / A_max) m),
+ *     A = A_max (1 - exp(-|omega| / omega_ref)),   A_max = detail.amplitude_m,
  * so dust edges get lobes and clefts where the resolved flow turns (|omega| the vorticity at the
  * cell centre, omega_ref = SQ_SAND_DETAIL_OMEGA_REF) and calm dust keeps its simulated shape.
+ * Cells farther than the largest displacement from any dust are copied (the noise is the cost).
  * Metrics, fields and visibility use the simulated extinction, never this one. Deterministic:
  * fixed traversal order, no random numbers beyond the seeded noise table. */
 #include <math.h>
@@ -29,6 +31,9 @@
 #define SQ_SAND_DETAIL_OMEGA_REF 0.1
 /* Largest relative modulation of the extinction (lobes and clefts) at full amplitude. */
 #define SQ_SAND_DETAIL_CONTRAST 0.7f
+/* Extinction (1/m) below which a cell counts as clear for the detail: over the 6 km of a view
+ * it adds an optical depth of 0.006. */
+#define SQ_SAND_DETAIL_BETA_MIN 1.0e-6f
 
 static inline size_t cell(const sq__sand_detail *d, int i, int j, int k)
 {
@@ -83,7 +88,10 @@ sq_result sq__sand_detail_init(sq__sand_detail *d, sq_context *ctx, int nx, int 
     d->tmp = sq_alloc(ctx, n * 3 * sizeof(float));
     d->vel = sq_alloc(ctx, n * 3 * sizeof(float));
     d->amp = sq_alloc_zero(ctx, n * sizeof(float)); /* no detail before the first step */
-    if (!d->coord[0] || !d->coord[1] || !d->tmp || !d->vel || !d->amp) {
+    d->near[0] = sq_alloc(ctx, n);
+    d->near[1] = sq_alloc(ctx, n);
+    if (!d->coord[0] || !d->coord[1] || !d->tmp || !d->vel || !d->amp || !d->near[0] ||
+        !d->near[1]) {
         sq__sand_detail_free(d, ctx);
         return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "sandstorm",
                         "no memory for the flow-following detail (%zu cells)", n);
@@ -104,6 +112,8 @@ void sq__sand_detail_free(sq__sand_detail *d, sq_context *ctx)
     sq_free(ctx, d->tmp);
     sq_free(ctx, d->vel);
     sq_free(ctx, d->amp);
+    sq_free(ctx, d->near[0]);
+    sq_free(ctx, d->near[1]);
     memset(d, 0, sizeof *d);
 }
 
@@ -199,21 +209,57 @@ double sq__sand_detail_weight(double age, double period)
     return w < 0.0 ? 0.0 : w;
 }
 
-/* Noise vector in [-1, 1]^3 (roughly) at coordinates q: two octaves of gradient noise per
- * component, the components decorrelated by offsets. */
+/* Noise at coordinates q, roughly in [-1, 1]: a displacement vector (two octaves of gradient
+ * noise per component) and a modulation (one octave), decorrelated by offsets. */
 static void noise_vec(const sq_noise *n, const float q[3], float out[4])
 {
     static const float off[4][3] = {{0.0f, 0.0f, 0.0f}, {31.7f, 17.3f, 7.1f}, {11.9f, 53.1f, 29.3f},
                                     {71.3f, 5.9f, 43.7f}};
-    for (int c = 0; c < 4; c++) {
+    for (int c = 0; c < 3; c++) {
         const float x = q[0] + off[c][0], y = q[1] + off[c][1], z = q[2] + off[c][2];
         out[c] = 0.67f * sq_noise3(n, x, y, z) + 0.33f * sq_noise3(n, 2.03f * x, 2.03f * y, 2.03f * z);
     }
+    out[3] = sq_noise3(n, q[0] + off[3][0], q[1] + off[3][1], q[2] + off[3][2]);
+}
+
+/* One axis of the dilation: dst[c] = 1 if src is set within r cells of c along the axis
+ * (running count over a window, clipped at the faces). */
+static void dilate_axis(const sq__sand_detail *d, const uint8_t *src, uint8_t *dst, int axis,
+                        int r, int threads)
+{
+    (void)threads; /* unused without OpenMP */
+    const int n[3] = {d->nx, d->ny, d->nz};
+    const size_t stride[3] = {1, (size_t)d->nx, (size_t)d->nx * d->ny};
+    const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2; /* the other two axes */
+    const int len = n[axis];
+    SQ_OMP(omp parallel for schedule(static) num_threads(threads))
+    for (int q = 0; q < n[a2]; q++)
+        for (int p = 0; p < n[a1]; p++) {
+            const size_t base = (size_t)p * stride[a1] + (size_t)q * stride[a2];
+            const size_t st = stride[axis];
+            int count = 0;
+            for (int c = 0; c < r && c < len; c++) count += src[base + (size_t)c * st];
+            for (int c = 0; c < len; c++) {
+                if (c + r < len) count += src[base + (size_t)(c + r) * st];
+                dst[base + (size_t)c * st] = count > 0;
+                if (c - r >= 0) count -= src[base + (size_t)(c - r) * st];
+            }
+        }
 }
 
 void sq__sand_detail_apply(const sq__sand_detail *d, const float *in, float *out, int threads)
 {
     (void)threads; /* unused without OpenMP */
+    /* Only cells that can reach dust (extinction above SQ_SAND_DETAIL_BETA_MIN within the
+     * largest displacement, |A n| <= 1.5 A_max, plus the trilinear neighbour) are detailed; the
+     * rest is copied. */
+    const size_t ncell = (size_t)d->nx * d->ny * d->nz;
+    const int reach = (int)ceil(1.5 * d->amplitude_m / d->h) + 1;
+    for (size_t c = 0; c < ncell; c++) d->near[0][c] = in[c] > SQ_SAND_DETAIL_BETA_MIN;
+    dilate_axis(d, d->near[0], d->near[1], 0, reach, threads);
+    dilate_axis(d, d->near[1], d->near[0], 1, reach, threads);
+    dilate_axis(d, d->near[0], d->near[1], 2, reach, threads);
+    const uint8_t *near = d->near[1];
     const size_t plane = (size_t)d->nx * d->ny;
     const double w0 = sq__sand_detail_weight(d->age[0], d->period_s),
                  w1 = sq__sand_detail_weight(d->age[1], d->period_s);
@@ -227,7 +273,7 @@ void sq__sand_detail_apply(const sq__sand_detail *d, const float *in, float *out
             for (int i = 0; i < d->nx; i++) {
                 const size_t id = cell(d, i, j, k);
                 const float A = d->amp[id];
-                if (A <= 0.0f) {
+                if (A <= 0.0f || !near[id]) {
                     out[id] = in[id];
                     continue;
                 }

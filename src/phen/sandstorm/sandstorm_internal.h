@@ -52,6 +52,7 @@ typedef struct sq__sand_detail {
     float *tmp;       /* 3 per cell: scratch */
     float *vel;       /* 3 per cell: cell-centre wind (cells/s) */
     float *amp;       /* per cell: displacement amplitude (cells), from the vorticity */
+    uint8_t *near[2]; /* per cell: dust within reach of the displacement (and scratch) */
     sq_noise noise;
 } sq__sand_detail;
 
