@@ -1422,6 +1422,13 @@ static sq_result check_current_context(sq_context *ctx)
     return SQ_OK;
 }
 
+static sq_result creation_poll(sq_renderer *r)
+{
+    return sq__cancelled(r->ctx)
+               ? sq__fail_cancelled(r->ctx, "render", "while compiling the renderer's shaders")
+               : SQ_OK;
+}
+
 sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_renderer **out)
 {
     if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "sq_renderer_create: out is NULL");
@@ -1451,12 +1458,19 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
         sq__gl_query_info(&r->info);
         res = check_limits(r);
         if (res == SQ_OK) res = create_targets(r);
+        /* compiling the passes' programs takes seconds on llvmpipe: Ctrl-C between them */
         if (res == SQ_OK) res = create_programs(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__volume_pass_create(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__particle_pass_create(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__clouds_pass_create(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__mesh_pass_create(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__shadow_pass_create(r);
+        if (res == SQ_OK) res = creation_poll(r);
         if (res == SQ_OK) res = sq__snow_pass_create(r);
         if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
         gl_leave(r, &saved);

@@ -61,6 +61,8 @@ static float ground(const gen *g, float x, float y)
 
 static int add_mesh(gen *g, sq_result r, sq_mesh *m)
 {
+    if (g->err == SQ_OK && r == SQ_OK && sq__cancelled(g->ctx)) /* Ctrl-C: once per mesh */
+        g->err = sq__fail_cancelled(g->ctx, "place", "while generating the place's meshes");
     if (g->err != SQ_OK) {
         sq_mesh_destroy(g->ctx, m);
         return -1;

@@ -12,6 +12,7 @@
 #include "fuzz/fuzz_util.h"
 #include "sq_test.h"
 #include "squall/io.h"
+#include "squall/mesh.h"
 #include "squall/plugin.h"
 #include "squall/scene.h"
 
@@ -231,6 +232,28 @@ SQ_TEST(non_regular_inputs_refused)
     alarm(0);
     unlink(fifo);
     rmdir(dir);
+    sq_context_destroy(ctx);
+}
+
+/* Ctrl-C reaches the generation of a procedural place (seconds for a town of millions of faces):
+ * it stops at the next mesh, leaks nothing and returns no place; cleared, the same desc
+ * generates. */
+SQ_TEST(cancel_stops_place_generation)
+{
+    sq_context *ctx = mkctx();
+    sq_place_desc d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_PLACE_SUBURB;
+    d.size_m[0] = d.size_m[1] = 300.0f;
+    sq_place *p = NULL;
+    sq_context_cancel(ctx);
+    SQ_CHECK_ERR(sq_place_generate(ctx, &d, &p), SQ_ERR_CANCELLED,
+                 "interrupted while generating the place's meshes");
+    SQ_CHECK(p == NULL);
+    sq_context_cancel_clear(ctx);
+    SQ_CHECK_OK(sq_place_generate(ctx, &d, &p));
+    SQ_CHECK(p && p->mesh_count > 0 && p->houses > 0);
+    sq_place_destroy(ctx, p);
     sq_context_destroy(ctx);
 }
 

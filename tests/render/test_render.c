@@ -874,6 +874,28 @@ SQ_TEST(frame_answers_interrupt_between_parts)
     sq_context_destroy(ctx);
 }
 
+/* Ctrl-C reaches the creation of a renderer (compiling its programs takes seconds on llvmpipe):
+ * with the context cancelled it fails with SQ_ERR_CANCELLED and returns no renderer; cleared,
+ * it is created. */
+SQ_TEST(renderer_creation_answers_interrupt)
+{
+    sq_context *ctx = make_ctx();
+    sq_render_desc d;
+    memset(&d, 0, sizeof d);
+    d.width = 64;
+    d.height = 36;
+    sq_renderer *r = NULL;
+    sq_context_cancel(ctx);
+    SQ_CHECK_ERR(sq_renderer_create(ctx, &d, &r), SQ_ERR_CANCELLED,
+                 "interrupted while compiling the renderer's shaders");
+    SQ_CHECK(r == NULL);
+    sq_context_cancel_clear(ctx);
+    SQ_CHECK_OK(sq_renderer_create(ctx, &d, &r));
+    SQ_CHECK(r != NULL);
+    sq_renderer_destroy(r);
+    sq_context_destroy(ctx);
+}
+
 /* Compile errors name the shader and the line, also after an #include (whose lines must not
  * shift the including file's numbering). */
 SQ_TEST(broken_shader_names_file_and_line)
