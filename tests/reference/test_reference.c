@@ -718,23 +718,30 @@ SQ_TEST(sky_matches_gl_sky_function)
     SQ_CHECK_OK(sq__ref_scene_create(ctx, w, NULL, 0, false, &s));
     if (!s) return;
     double L[3];
-    sq__ref_sky(s, sq__dv(0, 0, 1), false, L);
+    sq__ref_sky(s, sq__dv(0, 0, 1), 0.0, false, L);
     SQ_CHECK_NEAR(L[0], 0.2, 1e-7);
-    sq__ref_sky(s, sq__dv(0, 1, 0), false, L);
+    sq__ref_sky(s, sq__dv(0, 1, 0), 0.0, false, L);
     SQ_CHECK_NEAR(L[2], 0.8, 1e-7);
-    sq__ref_sky(s, sq__dv_norm(sq__dv(0, sqrt(3.0), 1)), false, L); /* d.z = 0.5: weight 1/8 */
+    sq__ref_sky(s, sq__dv_norm(sq__dv(0, sqrt(3.0), 1)), 0.0, false, L); /* d.z = 0.5: weight 1/8 */
     SQ_CHECK_NEAR(L[0], 0.2 + 0.8 / 8.0, 1e-7);
-    sq__ref_sky(s, sq__dv_norm(sq__dv(0, 1, -1)), false, L); /* ground: 0.5 (2 * 0.5 + mean sky) */
+    sq__ref_sky(s, sq__dv_norm(sq__dv(0, 1, -1)), 0.0, false, L); /* ground: 0.5 (2 * 0.5 + mean sky) */
     SQ_CHECK_NEAR(L[1], 0.5 * (2.0 * 0.5 + 0.5 * (0.4 + 0.9)), 1e-6);
     double glow0[3], glow3[3];
     sq__dv3 near_sun = sq__dv_norm(sq__dv(cos(0.5), 0.1, sin(0.5)));
-    sq__ref_sky(s, near_sun, false, glow0);
+    sq__ref_sky(s, near_sun, 0.0, false, glow0);
     s->turbidity = 3.0;
-    sq__ref_sky(s, near_sun, false, glow3);
+    sq__ref_sky(s, near_sun, 0.0, false, glow3);
     SQ_CHECK(glow3[0] > glow0[0] + 0.01);
+    /* seen from 3 km up the glow is that of the aerosol above: optical depth 0.05 (T - 1)
+     * exp(-3 km / 1.5 km) along the zenith (frame_common.glsl sq_haze_depth_above_camera) */
+    double glow3z[3];
+    sq__ref_sky(s, near_sun, 3000.0, false, glow3z);
+    const double tau0 = 0.1 / near_sun.z, tau3 = tau0 * exp(-2.0);
+    SQ_CHECK_NEAR((glow3z[0] - glow0[0]) / (glow3[0] - glow0[0]), -expm1(-tau3) / -expm1(-tau0),
+                  1e-9);
     double disc[3];
-    sq__ref_sky(s, s->sun_dir, true, disc);
-    sq__ref_sky(s, s->sun_dir, false, L);
+    sq__ref_sky(s, s->sun_dir, 0.0, true, disc);
+    sq__ref_sky(s, s->sun_dir, 0.0, false, L);
     SQ_CHECK(disc[0] > L[0] + 1000.0);
     sq__ref_scene_destroy(s);
     /* camera rays see it: top row (nearer the zenith) bluer than the bottom row */

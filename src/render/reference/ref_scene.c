@@ -23,7 +23,7 @@ static double smoothstep(double e0, double e1, double x)
     return t * t * (3.0 - 2.0 * t);
 }
 
-void sq__ref_sky(const sq__ref_scene *s, sq__dv3 d, bool with_sun, double out[3])
+void sq__ref_sky(const sq__ref_scene *s, sq__dv3 d, double z_m, bool with_sun, double out[3])
 {
     const sq__dv3 sd = s->sun_dir;
     const double mu = d.z, h = mu > 0.0 ? mu : 0.0;
@@ -34,7 +34,8 @@ void sq__ref_sky(const sq__ref_scene *s, sq__dv3 d, bool with_sun, double out[3]
         for (int c = 0; c < 3; c++) out[c] = s->horizon[c] + (s->ground[c] - s->horizon[c]) * f;
     }
     const double cth = sq__dv_dot(d, sd);
-    const double haze = 0.05 * (s->turbidity - 1.0 > 0.0 ? s->turbidity - 1.0 : 0.0);
+    const double haze = 0.05 * (s->turbidity - 1.0 > 0.0 ? s->turbidity - 1.0 : 0.0) *
+                        exp(-fmax(z_m * s->inv_exaggeration, 0.0) / 1500.0);
     if (haze > 0.0 && sd.z >= -0.02) {
         double tau = haze / (h > 0.05 ? h : 0.05);
         double glow = SQ_PI * sq__hg_eval(0.75, cth) * -expm1(-tau) * 0.5;
@@ -950,6 +951,8 @@ sq_result sq__ref_scene_create(sq_context *ctx, const sq_world *world,
         s->ground[c] = vc(world->ground_albedo, c) *
                        (s->sun_rad[c] * mu_sun + 0.5 * (s->zenith[c] + s->horizon[c]));
     s->turbidity = (double)world->turbidity;
+    s->inv_exaggeration =
+        world->vertical_exaggeration > 0.0f ? 1.0 / (double)world->vertical_exaggeration : 1.0;
     s->sun_on = (s->sun_rad[0] > 0.0 || s->sun_rad[1] > 0.0 || s->sun_rad[2] > 0.0) &&
                 sq__dv_dot(s->sun_dir, s->sun_dir) > 0.5;
     s->eps_scale = 1e-7 * extent;

@@ -189,7 +189,8 @@ static void trace_path(const sq__ref_scene *s, const trace_opts *opt, sq__dv3 o,
         if (ev == TRACK_DEAD) return;
         if (ev == TRACK_NONE && !surf) { /* escaped to the sky */
             double sky[3];
-            sq__ref_sky(s, d, bounce == 0, sky); /* the sun disc only for camera rays */
+            /* seen from the ray's origin; the sun disc only for camera rays */
+            sq__ref_sky(s, d, o.z, bounce == 0, sky);
             for (int c = 0; c < 3; c++) L[c] += w[c] * hero_weight(P, c) * sky[c];
             return;
         }

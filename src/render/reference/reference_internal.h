@@ -145,6 +145,7 @@ typedef struct sq__ref_scene {
     bool sun_on;
     double zenith[3], horizon[3], ground[3];
     double turbidity;
+    double inv_exaggeration; /* 1 / the world's vertical exaggeration */
     double eps_scale;    /* ray offset length for this scene */
     sq_context *ctx;
 } sq__ref_scene;
@@ -166,9 +167,10 @@ sq_result sq__ref_scene_create(sq_context *ctx, const sq_world *world,
 void sq__ref_scene_destroy(sq__ref_scene *s);
 
 /* The analytic sky of the GL renderer (shaders/frame_common.glsl sq_sky_radiance, line for
- * line): zenith/horizon gradient, haze glow around the sun from the turbidity, ground light
- * below the horizon and, with with_sun, the sun disc (0.27 deg radius). */
-void sq__ref_sky(const sq__ref_scene *s, sq__dv3 d, bool with_sun, double out[3]);
+ * line) seen from world height z_m: zenith/horizon gradient, haze glow around the sun from the
+ * turbidity's aerosol above z_m (scale height 1.5 km above sea level, physical heights), ground
+ * light below the horizon and, with with_sun, the sun disc (0.27 deg radius). */
+void sq__ref_sky(const sq__ref_scene *s, sq__dv3 d, double z_m, bool with_sun, double out[3]);
 
 /* Terrain albedo at a point with unit shading normal n, as terrain.frag. */
 void sq__ref_terrain_albedo(const double flat[3], const double steep[3], sq__dv3 p, sq__dv3 n,

@@ -91,12 +91,21 @@ float sq_hg(float cos_theta, float g)
     return (1.0 - g * g) / (4.0 * SQ_PI * d * sqrt(d));
 }
 
-// Optical depth of the haze aerosol along the zenith from the turbidity (T = 1: clean air).
+// Optical depth of the haze aerosol along the zenith from sea level, from the turbidity (T = 1:
+// clean air), and the part of it above the camera: the aerosol thins out with a scale height of
+// 1.5 km above sea level (as the aerial haze below; world heights are the physical ones times
+// the vertical exaggeration, u_params.y = 1 / exaggeration).
 float sq_haze_depth() { return 0.05 * max(u_sun_radiance.w - 1.0, 0.0); }
+float sq_haze_depth_above_camera()
+{
+    float inv_e = u_params.y > 0.0 ? u_params.y : 1.0;
+    return sq_haze_depth() * exp(-max(u_cam_pos.z * inv_e, 0.0) / 1500.0);
+}
 
-// Sky radiance seen along unit direction d: gradient between zenith and horizon (weight
-// (1 - d.z)^3), a forward-scattering haze glow around the sun (Henyey–Greenstein g = 0.75,
-// single scattering of the aerosol optical depth along the view path), optionally the sun disc.
+// Sky radiance seen from the camera along unit direction d: gradient between zenith and horizon
+// (weight (1 - d.z)^3), a forward-scattering haze glow around the sun (Henyey–Greenstein g = 0.75,
+// single scattering of the aerosol optical depth above the camera along the view path: it fades
+// as the camera climbs out of the haze), optionally the sun disc.
 // Below the horizon the sky fades to light reflected by the ground.
 vec3 sq_sky_radiance(vec3 d, bool with_sun)
 {
@@ -112,7 +121,7 @@ vec3 sq_sky_radiance(vec3 d, bool with_sun)
         L = mix(u_sky_horizon.xyz, ground, smoothstep(0.0, 0.15, -mu));
     }
     float c = dot(d, s);
-    float tau = sq_haze_depth() / max(h, 0.05);
+    float tau = sq_haze_depth_above_camera() / max(h, 0.05);
     // single scattering: irradiance (pi E) x scattered fraction x phase; 0.5 for the aerosol
     // light lost before it reaches the eye
     L += SQ_PI * E * sq_hg(c, 0.75) * (1.0 - exp(-tau)) * 0.5 * step(-0.02, s.z);
