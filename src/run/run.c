@@ -434,6 +434,8 @@ static sq_result draw_slot(sq_run *run, const sq__run_frame_slot *s)
     sq_result r = create_renderer(run, &s->look);
     if (r == SQ_OK)
         r = sq_renderer_draw(run->renderer, world, &s->camera, s->drawables, s->count, s->time_s);
+    /* Ctrl-C inside the renderer's creation or a frame: the run's own message, like between frames */
+    if (r == SQ_ERR_CANCELLED) return interrupted(run);
     if (r == SQ_OK) r = sq_renderer_read_rgba8(run->renderer, run->rgba);
     return r;
 }
@@ -485,7 +487,7 @@ sq_result sq_run_draw_to(sq_run *run, const sq_render_target *target)
         r = sq_renderer_draw_to(run->renderer, target, slot_world(run, s), &cam,
                                 s->drawables, s->count, s->time_s);
     release_slot(run);
-    return r;
+    return r == SQ_ERR_CANCELLED ? interrupted(run) : r;
 }
 
 sq_result sq_run_execute(sq_run *run)
