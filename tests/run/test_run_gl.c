@@ -124,6 +124,7 @@ SQ_TEST(interrupt_inside_a_frame_ends_the_run_as_between_frames)
     SQ_CHECK_MSG(log.frames_seen == 1, "%d frames delivered; the interrupted one must not be",
                  log.frames_seen);
 done:
+    free(log.last_rgba);
     sq_run_destroy(run);
     sq_scene_destroy(s);
     sq_context_destroy(ctx);
