@@ -1459,19 +1459,14 @@ sq_result sq_renderer_create(sq_context *ctx, const sq_render_desc *desc, sq_ren
         res = check_limits(r);
         if (res == SQ_OK) res = create_targets(r);
         /* compiling the passes' programs takes seconds on llvmpipe: Ctrl-C between them */
-        if (res == SQ_OK) res = create_programs(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__volume_pass_create(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__particle_pass_create(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__clouds_pass_create(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__mesh_pass_create(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__shadow_pass_create(r);
-        if (res == SQ_OK) res = creation_poll(r);
-        if (res == SQ_OK) res = sq__snow_pass_create(r);
+        sq_result (*const create[])(sq_renderer *) = {
+            create_programs, sq__volume_pass_create, sq__particle_pass_create,
+            sq__clouds_pass_create, sq__mesh_pass_create, sq__shadow_pass_create,
+            sq__snow_pass_create};
+        for (size_t i = 0; i < sizeof create / sizeof create[0] && res == SQ_OK; i++) {
+            if (i > 0) res = creation_poll(r);
+            if (res == SQ_OK) res = create[i](r);
+        }
         if (res == SQ_OK) res = sq__gl_check(ctx, "renderer creation");
         gl_leave(r, &saved);
     }
