@@ -58,6 +58,12 @@ typedef struct sq_render_desc {
      * after each call (see "GL state" below). width/height 0 are allowed: the internal frame
      * takes the size of each sq_renderer_draw_to target. */
     bool use_current_context;
+    /* interruption besides the context's (sq_context_cancel, sq_context_desc.interrupt): polled
+     * with it between the passes of a frame and the parts of its long ones (and between the
+     * passes' creation in sq_renderer_create); returning true ends the call with
+     * SQ_ERR_CANCELLED, the frame not finished. Called on the drawing thread. NULL: none. */
+    bool (*cancel)(void *user);
+    void *cancel_user;
 } sq_render_desc;
 
 typedef struct sq_render_info {
