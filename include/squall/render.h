@@ -33,6 +33,11 @@ typedef struct sq_render_desc {
      * plus the light buffer's forward in-scatter) included: 0 -> 3; 1 = none; at most 8
      * (docs/validation.md, "Multiple-scattering octaves") */
     int volume_octaves;
+    /* ambient (sky and ground) light in volumes: false (default) = attenuated by the medium
+     * itself toward the sky and the ground (dark bases and insides; docs/validation.md,
+     * "Ambient light inside the medium"); true = the same everywhere (a uniformly lit
+     * medium, the hypothesis of Koschmieder's law) */
+    bool volume_ambient_uniform;
     uint64_t seed;         /* slice jitter */
     /* sun shadows of opaque geometry (cascaded shadow maps fitted to the view) */
     bool shadows_off;      /* no opaque shadows */
