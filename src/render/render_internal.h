@@ -60,6 +60,7 @@ struct sq_renderer {
     const void **tile_offsets;
     float shell_max_m;      /* how far the snow shell may move a vertex this frame (m) */
     bool shell_everywhere;  /* tests: every instance drawn with the shell (no far slots) */
+    bool depth_cull_off;    /* tests: depth views draw the back faces of closed meshes too */
     int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
     double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
@@ -359,7 +360,13 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
 /* renderer.c: the terrain, obstacle and instance programs with snow cover, compiled once (the
  * snow pass calls it on the first frame with snow; r->snow_on selects them). */
 sq_result sq__snow_programs(sq_renderer *r);
-/* Time of the last occlusion map, GL finished (ms; 0 without snow). */
+/* Time of this frame's occlusion map: from the GL work before it finished to the map's finished
+ * (ms; 0 when the last map served or without snow). */
 double sq__snow_pass_ms(const sq_renderer *r);
+/* The occlusion map in use (tests): its placement in *g (NULL: no map yet) and, when height is
+ * not NULL, g->size² heights of the highest surface at the texel centres (top - depth x span,
+ * row j = y index), the form sq__snow_map_fill gives on the CPU. */
+struct sq__snow_map_geom;
+bool sq__snow_pass_map(sq_renderer *r, struct sq__snow_map_geom *g, float *height);
 
 #endif

@@ -469,9 +469,13 @@ static int instance_chunk(int faces_per_instance)
 /* Draws the culled instances with the bound program; materials: set the colour uniforms and
  * textures per part (the colour program's locations 0, 1, 2 and unit 10), textured parts with
  * prog_cutout (which may discard), the others with prog; the slots without the shell with
- * far[0] (far[1] textured). */
-static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog_near,
-                         GLuint cutout_near, const GLuint far[2])
+ * far[0] (far[1] textured). With materials or cull_closed, the back faces of closed meshes are
+ * culled: every generated or imported solid is a union of closed, outward-oriented parts, so the
+ * first surface a view's ray meets on it is where the ray enters a part, a front face — a depth
+ * view (shadow cascade, occlusion map) keeps the same nearest depth and rasterises about half
+ * the triangles. */
+static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_closed,
+                         GLuint prog_near, GLuint cutout_near, const GLuint far[2])
 {
     GLuint bound = prog_near;
     sq__mesh_pass *m = r->meshes;
@@ -492,7 +496,7 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
             const GLuint prog = with_shell ? prog_near : far[0];
             const GLuint prog_cutout = with_shell ? cutout_near : far[1];
             if (!materials && prog != bound) glUseProgram(bound = prog);
-            if (materials && g->closed != cull_on) {
+            if ((materials || cull_closed) && g->closed != cull_on) {
                 cull_on = g->closed;
                 if (cull_on) glEnable(GL_CULL_FACE);
                 else glDisable(GL_CULL_FACE);
@@ -568,7 +572,7 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const GLuint far[2] = {r->snow_on ? m->prog_color_far : m->prog_color,
                            r->snow_on ? m->prog_cutout_far : m->prog_cutout};
     glUseProgram(color);
-    draw_buckets(r, base, true, color, cutout, far);
+    draw_buckets(r, base, true, true, color, cutout, far);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -581,7 +585,7 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     glUseProgram(m->prog_depth);
     glProgramUniformMatrix4fv(m->prog_depth, 0, 1, GL_FALSE, v->view_proj.m);
     const GLuint same[2] = {m->prog_depth, m->prog_depth};
-    draw_buckets(r, base, false, m->prog_depth, m->prog_depth, same);
+    draw_buckets(r, base, false, !r->depth_cull_off, m->prog_depth, m->prog_depth, same);
 }
 
 void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
@@ -594,7 +598,7 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
     const GLuint same[2] = {program, program};
-    draw_buckets(r, base, materials, program, program, same);
+    draw_buckets(r, base, materials, materials, program, program, same);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

@@ -139,7 +139,6 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
     s->ms_map = 0.0;
     r->snow_on = false;
     if (v && v->depth_m && v->nx > 0 && v->ny > 0) {
-        const double t0 = sq_time_now();
         sq_result res = sq__snow_programs(r);
         if (res == SQ_OK) res = ensure_map(r, v->map_size);
         if (res != SQ_OK) return res;
@@ -161,6 +160,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
          * footprint stays inside it (same texels, so the same exposures) */
         if (!(s->map_valid && s->map_world == w && s->map_generation == w->generation &&
               sq__snow_map_serves(&s->geom, &need))) {
+            /* timed alone: the GL work queued before (shadow cascades) finished first */
+            glFinish();
+            const double t0 = sq_time_now();
             s->geom = need;
             /* the map must not stay bound for sampling while it is rendered into */
             glBindTextureUnit(11, s->dummy_occ);
@@ -230,3 +232,18 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
 }
 
 double sq__snow_pass_ms(const sq_renderer *r) { return r->snow ? r->snow->ms_map : 0.0; }
+
+bool sq__snow_pass_map(sq_renderer *r, sq__snow_map_geom *g, float *height)
+{
+    const sq__snow_pass *s = r->snow;
+    if (!s || !s->map_valid) return false;
+    *g = s->geom;
+    if (!height) return true;
+    if (r->gl && sq__gl_context_make_current(r->gl) != SQ_OK) return false;
+    const size_t n = (size_t)s->geom.size * (size_t)s->geom.size;
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glGetTextureImage(s->occ_tex, 0, GL_DEPTH_COMPONENT, GL_FLOAT, (GLsizei)(n * sizeof(float)), height);
+    const float span = s->geom.top_z - s->geom.bottom_z;
+    for (size_t i = 0; i < n; i++) height[i] = s->geom.top_z - height[i] * span;
+    return true;
+}
