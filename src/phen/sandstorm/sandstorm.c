@@ -301,6 +301,16 @@ static sq_result create_grid(sq_sandstorm *s)
                                  d->buoyancy_gain > 0.0 ? s->temp_idx : -1,
                                  SQ_SAND_GRAVITY * d->buoyancy_gain);
     if (r != SQ_OK) return r;
+    /* or the Smagorinsky-Lilly subgrid closure (grid_sgs.c) with the same Pr_t and the log-law
+     * stress of the ground's roughness */
+    memset(&s->sgs, 0, sizeof s->sgs);
+    s->sgs.smagorinsky_c = d->smagorinsky_c;
+    s->sgs.prandtl_t = SQ_SAND_PRANDTL_T;
+    s->sgs.kappa = SQ_SAND_KARMAN;
+    s->sgs.roughness_m = d->roughness_m;
+    s->sgs.stratified = d->buoyancy_gain > 0.0;
+    s->sgs.theta_idx = s->temp_idx;
+    s->sgs.gravity_mps2 = SQ_SAND_GRAVITY * d->buoyancy_gain;
     /* solid cells: terrain, obstacles and closed meshes at cell centres */
     size_t n = (size_t)s->nx * s->ny * s->nz, cols = (size_t)s->nx * s->ny;
     uint8_t *mask = (uint8_t *)sq_alloc_zero(s->ctx, n);
@@ -796,7 +806,9 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     if (r == SQ_OK && s->d.confinement > 0.0)                              /* helicity confinement */
         r = sq_grid_confine_vorticity(s->grid, s->d.confinement, !s->d.plain_confinement, dt);
     double t2 = sq_time_now();
-    if (r == SQ_OK) r = sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt); /* mixing length */
+    if (r == SQ_OK)                                                        /* turbulence */
+        r = s->d.turbulence == 1 ? sq_grid_diffuse_sgs(s->grid, &s->sgs, dt) /* subgrid (LES) */
+                                 : sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt);
     double t3 = sq_time_now();
     sq_grid_project_stats ps;
     memset(&ps, 0, sizeof ps);
