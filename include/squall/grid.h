@@ -133,6 +133,10 @@ typedef struct sq_grid_desc {
     double confinement_max_cells; /* the confinement force may move a parcel at most this
                                      many cells in one step: |f| dt^2 <= c h; 0 = 0.25 */
     double mixing_length_max_m;  /* cap on the mixing length kappa d; 0 = no cap */
+    double wall_roughness_m;     /* > 0: the mixing-length closure's stress on the ground (a
+                                    solid or no-slip bottom below) is the log law's, u*^2 =
+                                    (kappa |u_h| / ln(h / 2 z0))^2 with this z0 (as
+                                    sq_grid_diffuse_sgs); 0 = the wind 0 half a cell below */
     int diffusion_iterations;    /* Gauss-Seidel sweeps of the implicit molecular diffusion
                                     (used only when nu_mol dt / h^2 > 1/6); 0 = 3 */
 } sq_grid_desc;

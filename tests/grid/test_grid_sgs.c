@@ -304,3 +304,36 @@ SQ_TEST(bad_input_is_refused)
     sq_grid_destroy(g);
     sq_context_destroy(ctx);
 }
+
+/* The mixing-length closure with sq_grid_desc.wall_roughness_m: the ground's stress is the same
+ * log law (the layer above keeps U: no shear), where S0's no-slip wall half a cell below takes
+ * (kappa U)^2, ln(z1/z0)^2 times more. */
+SQ_TEST(mixing_length_ground_stress_is_the_log_law)
+{
+    sq_context *ctx = make_ctx();
+    const double h = 40.0, z0 = 5e-4, U = 15.0, dt = 0.5, kappa = 0.4;
+    double first[2];
+    for (int c = 0; c < 2; c++) {
+        sq_grid_desc d = {.cells = {8, 8, 8}, .cell_size_m = h, .wall_roughness_m = c ? z0 : 0.0,
+                          .mixing_length_max_m = 100.0};
+        for (int f = 0; f < 4; f++) d.boundary[f] = SQ_BOUNDARY_PERIODIC;
+        d.boundary[SQ_FACE_ZMIN] = SQ_BOUNDARY_NO_SLIP;
+        d.boundary[SQ_FACE_ZMAX] = SQ_BOUNDARY_OPEN;
+        sq_grid *g = make_grid(ctx, &d);
+        sq_field3 *u = sq_grid_velocity_field(g, 0);
+        for (size_t q = 0; q < u->count; q++) u->base[q] = (float)U;
+        sq_grid_apply_boundary(g);
+        SQ_CHECK_OK(sq_grid_diffuse_eddy(g, 0.0, kappa, dt));
+        first[c] = *sq_field3_at(u, 3, 3, 0);
+        if (c) SQ_CHECK_REL(*sq_field3_at(u, 3, 3, 2), U, 1e-6);
+        sq_grid_destroy(g);
+    }
+    const double ln = log(0.5 * h / z0), expect = U / (1.0 + dt * pow(kappa / ln, 2.0) * U / h);
+    const double us_law = (U - first[1]) * h / dt, us_noslip = (U - first[0]) * h / dt;
+    printf("first layer: log law %.7f (expected %.7f), no-slip %.5f; stress %.4f vs %.3f "
+           "(ratio %.0f, ln(z1/z0)^2 = %.0f)\n", first[1], expect, first[0], us_law, us_noslip,
+           us_noslip / us_law, ln * ln);
+    SQ_CHECK_REL(first[1], expect, 1e-5);
+    SQ_CHECK(us_noslip > 30.0 * us_law);
+    sq_context_destroy(ctx);
+}

@@ -290,6 +290,8 @@ static sq_result create_grid(sq_sandstorm *s)
     g.tolerance = d->pressure_tolerance;
     g.advection = d->advection == 1 ? SQ_ADVECT_SEMI_LAGRANGIAN : SQ_ADVECT_MACCORMACK;
     g.mixing_length_max_m = SQ_SAND_MIXING_LENGTH_MAX;
+    /* the mixing length's ground: the wind 0 half a cell below (S0), or the log law's stress */
+    g.wall_roughness_m = d->log_law_ground ? d->roughness_m : 0.0;
     g.scalar_count = s->nbins + 1;
     g.scalar_nonnegative = (1ull << (s->nbins + 1)) - 1ull;
     s->temp_idx = s->nbins;

@@ -89,6 +89,12 @@ static const sq_param params[] = {
       "nu_t = (C_s h)^2 |S| sqrt(1 - Ri/Pr_t) from the full strain rate, on all three wind "
       "components, the heat and the dust in all directions, with the log-law stress at the "
       "ground (for cells much smaller than the storm's big eddies: a haboob's head)."),
+    B("solver.log_law_ground", log_law_ground,
+      "Mixing-length closure: the ground's stress on the wind is the log law's, u*^2 = "
+      "(kappa |u_h| / ln(z1/z0))^2 at the first cell centre z1 = h/2 (the wall law of the "
+      "emission's u*), instead of S0's wind 0 half a cell below, whose stress (kappa u)^2 is "
+      "ln(z1/z0)^2 ~ 100x larger over desert roughness and brakes the near-ground wind. "
+      "The smagorinsky closure always uses the log law."),
     D("solver.smagorinsky_c", smagorinsky_c, "1", 0.18, 0.05, 0.5, 0,
       "Smagorinsky constant C_s of solver.turbulence = smagorinsky (Lilly 1967: 0.17-0.18 for "
       "an inertial range; 0.1-0.23 in use)."),

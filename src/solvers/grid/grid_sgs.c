@@ -275,10 +275,10 @@ static void diffuse_field(sq_grid *g, const lattice *L, float *base, size_t coun
 
 /* Log-law wall stress on the horizontal wind of the first fluid layer above a solid or a
  * no-slip ground (implicit drag, see the header). */
-static void wall_stress(sq_grid *g, const sq_grid_sgs_desc *d, float dt)
+void sq__grid_wall_stress(sq_grid *g, double kappa, double z0, float dt)
 {
     const float h = g->h, z1 = 0.5f * h;
-    const float cd = (float)pow(d->kappa / log((double)z1 / d->roughness_m), 2.0);
+    const float cd = (float)pow(kappa / log((double)z1 / z0), 2.0);
     const bool ground_wall = g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP;
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
@@ -358,7 +358,7 @@ sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double d
                           SQ__L_CELL, sidx);
         }
     }
-    if (d.roughness_m > 0.0) wall_stress(g, &d, (float)dt_s);
+    if (d.roughness_m > 0.0) sq__grid_wall_stress(g, d.kappa, d.roughness_m, (float)dt_s);
     g->trace_valid = false; /* scratch 4..6 (the cached trace) were used */
     g->vel_version++;
     sq__grid_enforce_velocity(g);
