@@ -703,3 +703,30 @@ done:
     sq_grid_destroy(g);
     sq_context_destroy(ctx);
 }
+
+/* The wall's top seen from ahead: in 3 of 5 rows a block of dust 4 cells long (beta 0.1 1/m,
+ * optical depth 4 along x at h = 10 m) up to level 3 under a thinner layer (beta 0.05: depth 2,
+ * below ln(1/0.05) = 3.0) at levels 4-5: the top is level 3's, 3.5 h + z1 above the ground;
+ * one dense column higher up in one row (depth 1) and the two empty rows do not move the
+ * median; with contrast 0.2 (ln 5 = 1.6) the thinner layer counts. */
+SQ_TEST(wall_seen_is_where_the_dust_hides_the_sky)
+{
+    enum { NX = 10, NY = 5, NZ = 8 };
+    static float beta[NZ * NY * NX];
+    int gk[NY * NX];
+    float z1[NY * NX];
+    double rows[NY];
+    for (int c = 0; c < NY * NX; c++) {
+        gk[c] = 0;
+        z1[c] = 5.0f;
+    }
+    for (int j = 1; j < 4; j++)
+        for (int k = 0; k < 6; k++)
+            for (int i = 2; i < 6; i++) beta[(k * NY + j) * NX + i] = k <= 3 ? 0.1f : 0.05f;
+    beta[(7 * NY + 2) * NX + 5] = 0.1f;
+    const double top = sq__sand_wall_seen(beta, NX, NY, NZ, gk, z1, 10.0f, 0.05, rows);
+    const double top2 = sq__sand_wall_seen(beta, NX, NY, NZ, gk, z1, 10.0f, 0.2, rows);
+    printf("  wall seen: %.1f m (expected 40), with contrast 0.2 %.1f m (expected 60)\n", top, top2);
+    SQ_CHECK_NEAR(top, 40.0, 1e-9);
+    SQ_CHECK_NEAR(top2, 60.0, 1e-9);
+}

@@ -1035,6 +1035,9 @@ static void update_derived(sq_sandstorm *s)
                 }
         }
     s->wall_height_m = wall;
+    /* and its top as seen from ahead: where the dust along the line of sight hides the sky */
+    s->wall_seen_m = sq__sand_wall_seen(s->density, nx, ny, nz, s->ground_k, s->ground_z1,
+                                        (float)s->h, s->d.contrast, s->row_acc);
     /* Display only: the ground cells below each column's first fluid cell hold the value of that
      * cell, so that trilinear sampling between the last solid and the first fluid cell centre
      * does not thin the densest, near-ground dust toward zero (the opaque terrain hides what is
@@ -1213,6 +1216,7 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
         PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
         PUT("wall_height_m", s->wall_height_m, "m");
+        PUT("wall_top_seen_m", s->wall_seen_m, "m");
         if (s->d.coldpool_delta_t_k > 0.0) {
             PUT("front_m", s->stats.front_m, "m");
             PUT("front_speed_mps", s->stats.front_speed_mps, "m/s");
