@@ -33,6 +33,11 @@ typedef struct sq_render_desc {
      * plus the light buffer's forward in-scatter) included: 0 -> 3; 1 = none; at most 8
      * (docs/validation.md, "Multiple-scattering octaves") */
     int volume_octaves;
+    /* ambient (sky and ground) light in volumes: false (default) = attenuated by the medium
+     * itself toward the sky and the ground (dark bases and insides; docs/validation.md,
+     * "Ambient light inside the medium"); true = the same everywhere (a uniformly lit
+     * medium, the hypothesis of Koschmieder's law) */
+    bool volume_ambient_uniform;
     uint64_t seed;         /* slice jitter */
     /* sun shadows of opaque geometry (cascaded shadow maps fitted to the view) */
     bool shadows_off;      /* no opaque shadows */
@@ -53,6 +58,12 @@ typedef struct sq_render_desc {
      * after each call (see "GL state" below). width/height 0 are allowed: the internal frame
      * takes the size of each sq_renderer_draw_to target. */
     bool use_current_context;
+    /* interruption besides the context's (sq_context_cancel, sq_context_desc.interrupt): polled
+     * with it between the passes of a frame and the parts of its long ones (and between the
+     * passes' creation in sq_renderer_create); returning true ends the call with
+     * SQ_ERR_CANCELLED, the frame not finished. Called on the drawing thread. NULL: none. */
+    bool (*cancel)(void *user);
+    void *cancel_user;
 } sq_render_desc;
 
 typedef struct sq_render_info {

@@ -22,7 +22,8 @@
  * frames of this run in a directory it created). Inputs are never written.
  *
  * Interruption: cancel_flag / cancel are polled before every scene step, before every draw,
- * encode and field write, and within reference path-traced frames; a cancelled call returns
+ * encode and field write, inside GL frames between the renderer's passes and parts (on the
+ * drawing thread), and within reference path-traced frames; a cancelled call returns
  * SQ_ERR_CANCELLED ("interrupted at frame N of M") and leaves nothing but temporaries, which
  * sq_run_destroy removes.
  *

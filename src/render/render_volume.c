@@ -41,6 +41,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "render/volume_sky.h"
 #include "squall/rng.h"
 #include "world/world_struct.h"
 
@@ -128,6 +129,17 @@ struct sq__volume_pass {
     GLuint phase_tex;   /* per pixel: phase function toward the eye (bounds pass) */
     int eye_w, eye_h;
     int max_3d;
+    /* ambient light inside the medium (volume_sky.c): per voxel the sky's and the ground's
+     * visibility (two RGB32F textures), recomputed when the density or its optics change;
+     * with render_desc.volume_ambient_uniform a single texel (1, 1, 1) */
+    GLuint sky_tex[2], sky_one_tex;
+    float *sky_buf, *sky_work;
+    size_t sky_cap, sky_work_cap;
+    bool sky_valid;
+    const float *sky_data;
+    uint64_t sky_version;
+    int sky_dims[3];
+    double sky_key[6]; /* attenuation per channel, cell sizes */
     float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
     int *vfirst, *vcount; /* per plane: its triangles in the vertex buffer */
     int plane_cap;
@@ -561,6 +573,12 @@ sq_result sq__volume_pass_create(sq_renderer *r)
 
     res = make_noise_texture(r, vp);
     if (res == SQ_OK) make_shadow_texture(r, vp);
+    /* uniform ambient: every point sees the whole sky and ground */
+    const float one[3] = {1.0f, 1.0f, 1.0f};
+    glCreateTextures(GL_TEXTURE_3D, 1, &vp->sky_one_tex);
+    glTextureStorage3D(vp->sky_one_tex, 1, GL_RGB32F, 1, 1, 1);
+    glTextureSubImage3D(vp->sky_one_tex, 0, 0, 0, 0, 1, 1, 1, GL_RGB, GL_FLOAT, one);
+    set_linear_clamp(vp->sky_one_tex);
     if (res == SQ_OK) res = sq__gl_check(r->ctx, "volume pass create");
     return res;
 }
@@ -577,15 +595,18 @@ void sq__volume_pass_destroy(sq_renderer *r)
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
-    GLuint tex[9] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
-                     vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth, vp->phase_tex};
-    glDeleteTextures(9, tex);
+    GLuint tex[12] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
+                      vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth, vp->phase_tex,
+                      vp->sky_tex[0], vp->sky_tex[1], vp->sky_one_tex};
+    glDeleteTextures(12, tex);
     GLuint fbo[4] = {vp->light_fbo, vp->acc_fbo, vp->comp_fbo, vp->bounds_fbo};
     glDeleteFramebuffers(4, fbo);
     sq_free(r->ctx, vp->verts);
     sq_free(r->ctx, vp->vfirst);
     sq_free(r->ctx, vp->vcount);
     sq_free(r->ctx, vp->slot);
+    sq_free(r->ctx, vp->sky_buf);
+    sq_free(r->ctx, vp->sky_work);
     sq_free(r->ctx, vp);
     r->volume = NULL;
 }
@@ -680,6 +701,86 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
     vp->dny = v->ny;
     vp->dnz = v->nz;
     return sq__gl_check(r->ctx, "volume density upload (glTextureSubImage3D)");
+}
+
+/* The diffuse light's attenuation per density unit and channel (volume_sky.c): sigma_ext times
+ * the diffusion decay constant sqrt(3 (1 - albedo)(1 - albedo <cos>)), <cos> the phase
+ * function's mean cosine. */
+static void diffuse_sigma(const sq_renderer *r, const sq_volume_view *v, double out[3])
+{
+    for (int c = 0; c < 3; c++) {
+        const double g = r->desc.isotropic_phase
+                             ? 0.0
+                             : (1.0 - (double)v->w2) * (double)v->g[c] + (double)v->w2 * (double)v->g2;
+        const double a = (double)v->albedo[c];
+        out[c] = (double)v->sigma_ext[c] * sqrt(fmax(3.0 * (1.0 - a) * (1.0 - a * g), 0.0));
+    }
+}
+
+/* The ambient visibility textures of the view (volume_sky.c: the sky's and the ground's, RGB),
+ * recomputed when the density, its size or its optics changed; with
+ * render_desc.volume_ambient_uniform a single texel (1, 1, 1) for both. */
+static sq_result sky_visibility(sq_renderer *r, const sq_volume_view *v, GLuint tex[2])
+{
+    sq__volume_pass *vp = r->volume;
+    tex[0] = tex[1] = vp->sky_one_tex;
+    if (r->desc.volume_ambient_uniform) return SQ_OK;
+    double key[6];
+    diffuse_sigma(r, v, key);
+    key[3] = (double)v->size_m.x / v->nx;
+    key[4] = (double)v->size_m.y / v->ny;
+    key[5] = (double)v->size_m.z / v->nz;
+    const bool same_dims = vp->sky_dims[0] == v->nx && vp->sky_dims[1] == v->ny &&
+                           vp->sky_dims[2] == v->nz;
+    if (vp->sky_valid && same_dims && vp->sky_data == v->density &&
+        vp->sky_version == v->version && memcmp(key, vp->sky_key, sizeof key) == 0) {
+        tex[0] = vp->sky_tex[0];
+        tex[1] = vp->sky_tex[1];
+        return SQ_OK;
+    }
+    const size_t n = (size_t)v->nx * (size_t)v->ny * (size_t)v->nz;
+    const size_t nw = sq__volume_sky_work_floats(v->nx, v->ny);
+    if (vp->sky_cap < 6 * n) {
+        sq_free(r->ctx, vp->sky_buf);
+        vp->sky_cap = 0;
+        if (!(vp->sky_buf = sq_alloc(r->ctx, sizeof(float) * 6 * n)))
+            return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                            "volume pass: no memory for the ambient visibility of %zu voxels", n);
+        vp->sky_cap = 6 * n;
+    }
+    if (vp->sky_work_cap < nw) {
+        sq_free(r->ctx, vp->sky_work);
+        vp->sky_work_cap = 0;
+        if (!(vp->sky_work = sq_alloc(r->ctx, sizeof(float) * nw)))
+            return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                            "volume pass: no memory for the ambient visibility sweep");
+        vp->sky_work_cap = nw;
+    }
+    sq__volume_sky_visibility(v->density, v->nx, v->ny, v->nz, key + 3, key, vp->sky_work,
+                              vp->sky_buf);
+    for (int t = 0; t < 2; t++) {
+        if (!vp->sky_tex[t] || !same_dims) {
+            if (vp->sky_tex[t]) glDeleteTextures(1, &vp->sky_tex[t]);
+            glCreateTextures(GL_TEXTURE_3D, 1, &vp->sky_tex[t]);
+            glTextureStorage3D(vp->sky_tex[t], 1, GL_RGB32F, v->nx, v->ny, v->nz);
+            set_linear_clamp(vp->sky_tex[t]);
+        }
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+        glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
+        glTextureSubImage3D(vp->sky_tex[t], 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RGB, GL_FLOAT,
+                            vp->sky_buf + (size_t)t * 3 * n);
+    }
+    vp->sky_valid = true;
+    vp->sky_data = v->density;
+    vp->sky_version = v->version;
+    vp->sky_dims[0] = v->nx;
+    vp->sky_dims[1] = v->ny;
+    vp->sky_dims[2] = v->nz;
+    memcpy(vp->sky_key, key, sizeof key);
+    tex[0] = vp->sky_tex[0];
+    tex[1] = vp->sky_tex[1];
+    return sq__gl_check(r->ctx, "volume ambient visibility upload");
 }
 
 /* ---- passes ----------------------------------------------------------------------------- */
@@ -789,14 +890,15 @@ static sq_vec3 sun_irradiance(const sq_world *w) { return sq_v3_scale(w->sun_rad
  * Same units as sq_ambient() of frame_common.glsl, with no factor pi in either: under a
  * uniform environment of radiance L a white Lambertian surface receives pi L and reflects
  * radiance L, and a scattering medium of albedo 1 in-scatters integral L p dω = L. */
-static sq_vec3 ambient_radiance(const sq_world *w)
+static void ambient_radiance(const sq_world *w, sq_vec3 *from_sky, sq_vec3 *from_ground)
 {
     const sq_vec3 sky = sq_v3_lerp(w->sky_horizon, w->sky_zenith, 0.35f);
     const sq_vec3 sun = sq_v3_norm(w->sun_dir);
     const float mu = sun.z > 0.0f ? sun.z : 0.0f;
     const sq_vec3 ground =
         sq_v3_mul(w->ground_albedo, sq_v3_add(sq_v3_scale(w->sun_radiance, mu), sky));
-    return sq_v3_scale(sq_v3_add(sky, ground), 0.5f);
+    *from_sky = sq_v3_scale(sky, 0.5f);
+    *from_ground = sq_v3_scale(ground, 0.5f);
 }
 
 /* Selects (compiling on first use) the eye program for the medium (one exponential per
@@ -826,7 +928,10 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
         inv_back[c] = fabsf(wl[c]) > 1e-10f ? -1.0f / wl[c] : (wl[c] > 0.0f ? -1e10f : 1e10f);
     u3a(prog, "u_inv_back", inv_back);
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
-    u3(prog, "u_ambient", ambient_radiance(r->world));
+    sq_vec3 amb_sky, amb_ground;
+    ambient_radiance(r->world, &amb_sky, &amb_ground);
+    u3(prog, "u_ambient_sky", amb_sky);
+    u3(prog, "u_ambient_ground", amb_ground);
     /* multiple-scattering octaves (render_internal.h, sq__volume_ms_weight) */
     glProgramUniform1i(prog, glGetUniformLocation(prog, "u_ms_octaves"),
                        r->desc.volume_octaves - 1);
@@ -1133,6 +1238,11 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     state_save(&saved);
     state_set_plain();
     const GLuint density = shading_density(r, v, &p);
+    GLuint sky[2] = {0, 0};
+    if ((res = sky_visibility(r, v, sky)) != SQ_OK) {
+        state_restore(&saved);
+        return res;
+    }
     /* the light of this plan is normally left by prepare_shadow; another volume drawn in
      * between (or a draw without it) needs the sweep again */
     const vol_key key = make_key(r, v, &p);
@@ -1191,6 +1301,8 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glBindTextureUnit(1, vp->light_arr);
         glBindTextureUnit(2, vp->bounds_tex);
         glBindTextureUnit(3, vp->phase_tex);
+        glBindTextureUnit(4, sky[0]);
+        glBindTextureUnit(6, sky[1]);
         glEnable(GL_BLEND);
         glBlendEquation(GL_FUNC_ADD);
         glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);

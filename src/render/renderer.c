@@ -767,9 +767,15 @@ static void pass_tonemap(sq_renderer *r)
 
 /* The frame into hdr_fbo. world_geometry: clear, then sky, terrain and obstacles; otherwise
  * hdr_fbo already holds the caller's colour and depth and only drawables are added. */
+/* The context's interrupt (Ctrl-C) or the caller's own (sq_render_desc.cancel). */
+static bool interrupt_asked(const sq_renderer *r)
+{
+    return sq__cancelled(r->ctx) || (r->desc.cancel && r->desc.cancel(r->desc.cancel_user));
+}
+
 bool sq__render_cancelled(sq_renderer *r)
 {
-    if (!r->cancelled && sq__cancelled(r->ctx)) r->cancelled = true;
+    if (!r->cancelled && interrupt_asked(r)) r->cancelled = true;
     return r->cancelled;
 }
 
@@ -1424,7 +1430,7 @@ static sq_result check_current_context(sq_context *ctx)
 
 static sq_result creation_poll(sq_renderer *r)
 {
-    return sq__cancelled(r->ctx)
+    return interrupt_asked(r)
                ? sq__fail_cancelled(r->ctx, "render", "while compiling the renderer's shaders")
                : SQ_OK;
 }

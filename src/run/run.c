@@ -23,6 +23,14 @@ static bool cancelled(const sq_run *run)
     return d->cancel && d->cancel(d->user);
 }
 
+/* The renderer polls the run's cancel_flag / cancel inside a frame (between its passes and
+ * parts) as it polls the context. */
+static bool renderer_cancel(void *user)
+{
+    const sq_run_desc *d = &((const sq_run *)user)->desc;
+    return (d->cancel_flag && *d->cancel_flag) || (d->cancel && d->cancel(d->user));
+}
+
 static sq_result interrupted(sq_run *run)
 {
     return sq__fail(run->ctx, SQ_ERR_CANCELLED, "run", "interrupted at frame %d of %d", run->next,
@@ -91,6 +99,8 @@ static sq_result create_renderer(sq_run *run, const sq__run_look *look)
     rd.mesh_distance_m = run->out->mesh_distance_m;
     rd.seed = sq_scene_seed(run->scene);
     rd.use_current_context = run->desc.render == SQ_RUN_GL_CURRENT_CONTEXT;
+    rd.cancel = renderer_cancel;
+    rd.cancel_user = run;
     const sq_result r = sq_renderer_create(run->ctx, &rd, &run->renderer);
     if (r == SQ_OK) run->renderer_look = l;
     return r;

@@ -874,6 +874,49 @@ SQ_TEST(frame_answers_interrupt_between_parts)
     sq_context_destroy(ctx);
 }
 
+/* The caller's own interrupt (sq_render_desc.cancel, e.g. an engine's "abort frame") is polled
+ * where the context's is: between passes and parts; asked to stop at poll k, the draw fails with
+ * SQ_ERR_CANCELLED after exactly k polls. */
+SQ_TEST(frame_answers_the_desc_cancel_between_parts)
+{
+    poll_counter pc = {0, 0};
+    sq_context *ctx = make_ctx();
+    sq_world *w = make_world(129, 400.0f, 0.0f);
+    sq_render_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.width = 64;
+    rd.height = 36;
+    rd.cancel = count_polls;
+    rd.cancel_user = &pc;
+    sq_renderer *r = NULL;
+    SQ_CHECK_OK(sq_renderer_create(ctx, &rd, &r));
+    if (!r) goto done;
+    const sq_camera cam = north_camera(0.0f, -50.0f, 10.0f);
+    const int creation_polls = pc.calls;
+    SQ_CHECK_MSG(creation_polls >= 1, "creation polled the desc's cancel %d times",
+                 creation_polls);
+    pc.calls = 0;
+    SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0));
+    const int polls = pc.calls;
+    SQ_CHECK_MSG(polls >= 8, "one frame polled the desc's cancel %d times (>= 8: terrain parts)",
+                 polls);
+    const int stops[] = {1, 5};
+    for (int k = 0; k < 2; k++) {
+        pc.calls = 0;
+        pc.stop_at = stops[k];
+        SQ_CHECK_ERR(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0), SQ_ERR_CANCELLED,
+                     "interrupted while drawing a frame");
+        SQ_CHECK_MSG(pc.calls == stops[k], "asked to stop at poll %d, polled %d times", stops[k],
+                     pc.calls);
+    }
+    pc.stop_at = 0;
+    SQ_CHECK_OK(sq_renderer_draw(r, w, &cam, NULL, 0, 0.0));
+done:
+    sq_renderer_destroy(r);
+    free_world(w);
+    sq_context_destroy(ctx);
+}
+
 /* Ctrl-C reaches the creation of a renderer (compiling its programs takes seconds on llvmpipe):
  * with the context cancelled it fails with SQ_ERR_CANCELLED and returns no renderer; cleared,
  * it is created. */
