@@ -133,6 +133,10 @@ typedef struct sq_grid_desc {
     double confinement_max_cells; /* the confinement force may move a parcel at most this
                                      many cells in one step: |f| dt^2 <= c h; 0 = 0.25 */
     double mixing_length_max_m;  /* cap on the mixing length kappa d; 0 = no cap */
+    double wall_roughness_m;     /* > 0: the mixing-length closure's stress on the ground (a
+                                    solid or no-slip bottom below) is the log law's, u*^2 =
+                                    (kappa |u_h| / ln(h / 2 z0))^2 with this z0 (as
+                                    sq_grid_diffuse_sgs); 0 = the wind 0 half a cell below */
     int diffusion_iterations;    /* Gauss-Seidel sweeps of the implicit molecular diffusion
                                     (used only when nu_mol dt / h^2 > 1/6); 0 = 3 */
 } sq_grid_desc;
@@ -284,6 +288,29 @@ SQ_API sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol_m2ps, double kap
  * prandtl_t in [0.1, 10] (neutral surface layer 0.74, Businger et al. 1971); gravity > 0. */
 SQ_API sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
                                           double gravity_mps2);
+/* Smagorinsky-Lilly subgrid closure (grid_sgs.c, SPEC §1.5), an alternative to the mixing
+ * length above for large-eddy resolutions (cells much smaller than the flow's big eddies):
+ *   nu_t = l^2 sqrt(max(0, |S|^2 - N^2 / Pr_t)), |S| = sqrt(2 S_ij S_ij) (all nine gradients),
+ *   1 / l^2 = 1 / (C_s h)^2 + 1 / (kappa (z + z0))^2 (Mason & Thomson 1992; z above the ground),
+ *   du_i/dt = div (nu_t grad u_i) for u, v, w; dc/dt = div (K grad c), K = nu_t / Pr_t for every
+ *   scalar (no flux through solids, the ground or the domain's faces), and with roughness_m > 0
+ *   the log-law stress u*^2, u* = kappa |u_h| / ln(h / 2 z0), on the horizontal wind of the
+ *   first fluid cells above a solid or a no-slip ground. Explicit, sub-stepped to a diffusion
+ *   number <= 1/6 (conservative, no new extrema). */
+typedef struct sq_grid_sgs_desc {
+    double smagorinsky_c; /* C_s; 0 = 0.18 (Lilly 1967) */
+    double prandtl_t;     /* Pr_t = nu_t / K, also the critical Richardson number; 0 = 0.74 */
+    double kappa;         /* von Karman constant of the wall length and stress; 0 = 0.4 */
+    double roughness_m;   /* z0 of the wall stress; 0 = no wall stress (no flux) */
+    bool stratified;      /* theta_idx is a potential temperature (K): N^2 enters nu_t */
+    int theta_idx;
+    double gravity_mps2;  /* g of N^2 = (g / theta) d theta / dz, with stratified */
+} sq_grid_sgs_desc;
+SQ_API sq_grid_sgs_desc sq_grid_sgs_desc_resolve(const sq_grid_sgs_desc *desc);
+SQ_API sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double dt_s);
+/* The closure's nu_t (m^2/s) per cell of the current wind, nx*ny*nz floats (x fastest;
+ * solids 0), e.g. for tests and diagnostics. */
+SQ_API sq_result sq_grid_sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *desc, float *nu_out);
 /* Makes the velocity divergence-free: solves A phi = -h^2 div u* for phi = p dt / rho to the
  * relative residual tolerance (warm-started from the previous pressure), then u -= grad phi.
  * The residual reported equals h^2 |div u|_2 / h^2 |div u*|_2 after the correction. Fluid

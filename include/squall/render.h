@@ -115,6 +115,8 @@ typedef struct sq_render_stats {
     int cloud_impostors_rendered; /* cloud impostors (re-)rendered in this draw (the others
                                      were drawn from their texture of an earlier frame) */
     int64_t terrain_faces, camera_terrain_faces; /* terrain triangles drawn (tiles in view) */
+    double cpu_ms_occlusion_map; /* CPU time of the process (all threads: a software rasteriser's
+                                    too) while the occlusion map was drawn; 0 when none was */
 } sq_render_stats;
 /* Fills out with the statistics above for the last draw. */
 SQ_API sq_result sq_renderer_stats(const sq_renderer *r, sq_render_stats *out);

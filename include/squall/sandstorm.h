@@ -90,6 +90,10 @@ typedef struct sq_sandstorm_desc {
     int jacobi_iterations;         /* 0 -> 40 (S0) */
     double pressure_tolerance;      /* relative residual; 0 -> 1e-3 */
     int advection;                 /* 0 maccormack, 1 semi-lagrangian */
+    int turbulence;                /* 0 mixing length (S0), 1 Smagorinsky-Lilly subgrid closure */
+    double smagorinsky_c;           /* C_s of the subgrid closure; 0 -> 0.18 (Lilly 1967) */
+    bool log_law_ground;           /* mixing length: the ground's stress from the log law (the
+                                       subgrid closure always uses it); false: no-slip (S0) */
     double confinement;             /* ε_h; 0 is physical (off) */
     bool plain_confinement;        /* false: helicity-adaptive (S0); true: Fedkiw's constant eps */
     double cfl;                     /* max |u| dt / h per sub-step; 0 -> 2 */

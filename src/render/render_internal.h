@@ -60,6 +60,9 @@ struct sq_renderer {
     const void **tile_offsets;
     float shell_max_m;      /* how far the snow shell may move a vertex this frame (m) */
     bool shell_everywhere;  /* tests: every instance drawn with the shell (no far slots) */
+    bool depth_cull_off;    /* tests: depth views draw the back faces of closed meshes too */
+    float map_lod_pixels;   /* tests: the occlusion map's level choice (0: render_snowcover.c's rule) */
+    bool map_no_sink;       /* tests: the occlusion map's levels not sunk by their error */
     int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
     double terrain_max_slope; /* steepest triangle of the terrain mesh, |grad z| */
     GLuint obstacle_vao, obstacle_vbo;
@@ -261,6 +264,8 @@ typedef struct sq__depth_view {
     float max_distance_m; /* perspective: instances farther from the eye are skipped; 0 = none */
     float shell_max_m;    /* perspective, snow: the deepest shell (m); instances on which it moves
                            * no vertex by half a pixel are drawn without it (0 = all with it) */
+    bool sink;            /* the snow occlusion map: each instance's level sunk by its error
+                           * (shaders/depth_meshes.vert SQ_SINK) */
 } sq__depth_view;
 
 /* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of
@@ -359,7 +364,15 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
 /* renderer.c: the terrain, obstacle and instance programs with snow cover, compiled once (the
  * snow pass calls it on the first frame with snow; r->snow_on selects them). */
 sq_result sq__snow_programs(sq_renderer *r);
-/* Time of the last occlusion map, GL finished (ms; 0 without snow). */
+/* Time of this frame's occlusion map: from the GL work before it finished to the map's finished
+ * (ms; 0 when the last map served or without snow). */
 double sq__snow_pass_ms(const sq_renderer *r);
+/* The process's CPU time (all threads) while it was drawn (ms). */
+double sq__snow_pass_cpu_ms(const sq_renderer *r);
+/* The occlusion map in use (tests): its placement in *g (NULL: no map yet) and, when height is
+ * not NULL, g->size² heights of the highest surface at the texel centres (top - depth x span,
+ * row j = y index), the form sq__snow_map_fill gives on the CPU. */
+struct sq__snow_map_geom;
+bool sq__snow_pass_map(sq_renderer *r, struct sq__snow_map_geom *g, float *height);
 
 #endif

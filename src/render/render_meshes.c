@@ -54,6 +54,7 @@ struct sq__mesh_pass {
     uint8_t *lod_of;   /* per instance: chosen slot, LOD + SQ_MESH_MAX_LODS without the shell (255 = culled) */
     size_t ring_cap, ring_pos; /* in instances */
     GLuint prog_color, prog_cutout, prog_depth; /* colour: opaque / textured (alpha cut-out) */
+    GLuint prog_depth_sunk; /* depth, each level sunk by its error (SQ_SINK; on first use) */
     GLuint prog_color_snow, prog_cutout_snow;   /* the same with snow cover (on first use) */
     GLuint prog_color_far, prog_cutout_far;     /* snow cover without the shell (SQ_NO_SHELL) */
     sq_vec3 bounds_min, bounds_max; /* of all instances */
@@ -90,6 +91,9 @@ sq_result sq__mesh_pass_snow_programs(sq_renderer *r)
     if (res == SQ_OK && !m->prog_cutout_far)
         res = sq__gl_program_defs(r->ctx, "meshes.vert", NULL, "meshes_cutout.frag",
                                   "#define SQ_NO_SHELL 1", &m->prog_cutout_far);
+    if (res == SQ_OK && !m->prog_depth_sunk)
+        res = sq__gl_program_defs(r->ctx, "depth_meshes.vert", NULL, "depth.frag",
+                                  "#define SQ_SINK 1", &m->prog_depth_sunk);
     return res;
 }
 
@@ -131,6 +135,7 @@ void sq__mesh_pass_destroy(sq_renderer *r)
     glDeleteProgram(r->meshes->prog_color_far);
     glDeleteProgram(r->meshes->prog_cutout_far);
     glDeleteProgram(r->meshes->prog_depth);
+    glDeleteProgram(r->meshes->prog_depth_sunk);
     sq_free(r->ctx, r->meshes);
     r->meshes = NULL;
 }
@@ -469,9 +474,13 @@ static int instance_chunk(int faces_per_instance)
 /* Draws the culled instances with the bound program; materials: set the colour uniforms and
  * textures per part (the colour program's locations 0, 1, 2 and unit 10), textured parts with
  * prog_cutout (which may discard), the others with prog; the slots without the shell with
- * far[0] (far[1] textured). */
-static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint prog_near,
-                         GLuint cutout_near, const GLuint far[2])
+ * far[0] (far[1] textured). With materials or cull_closed, the back faces of closed meshes are
+ * culled: every generated or imported solid is a union of closed, outward-oriented parts, so the
+ * first surface a view's ray meets on it is where the ray enters a part, a front face — a depth
+ * view (shadow cascade, occlusion map) keeps the same nearest depth and rasterises about half
+ * the triangles. sink: the program's location 1 gets each level's error (sq__depth_view.sink). */
+static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_closed, bool sink,
+                         GLuint prog_near, GLuint cutout_near, const GLuint far[2])
 {
     GLuint bound = prog_near;
     sq__mesh_pass *m = r->meshes;
@@ -492,12 +501,13 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, GLuint pro
             const GLuint prog = with_shell ? prog_near : far[0];
             const GLuint prog_cutout = with_shell ? cutout_near : far[1];
             if (!materials && prog != bound) glUseProgram(bound = prog);
-            if (materials && g->closed != cull_on) {
+            if ((materials || cull_closed) && g->closed != cull_on) {
                 cull_on = g->closed;
                 if (cull_on) glEnable(GL_CULL_FACE);
                 else glDisable(GL_CULL_FACE);
             }
             const gpu_lod *L = &g->lod[l];
+            if (sink) glProgramUniform1f(bound, 1, L->error_m);
             const int chunk = instance_chunk(L->index_count / 3);
             for (int i0 = 0; i0 < n_all; i0 += chunk) {
                 if (unpolled >= (materials ? 1 : DRAW_CHUNK_FACES)) {
@@ -568,7 +578,7 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const GLuint far[2] = {r->snow_on ? m->prog_color_far : m->prog_color,
                            r->snow_on ? m->prog_cutout_far : m->prog_cutout};
     glUseProgram(color);
-    draw_buckets(r, base, true, color, cutout, far);
+    draw_buckets(r, base, true, true, false, color, cutout, far);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -578,10 +588,11 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     const int n = cull(m, v);
     if (n == 0) return;
     const GLuint base = ring_put(m, n);
-    glUseProgram(m->prog_depth);
-    glProgramUniformMatrix4fv(m->prog_depth, 0, 1, GL_FALSE, v->view_proj.m);
-    const GLuint same[2] = {m->prog_depth, m->prog_depth};
-    draw_buckets(r, base, false, m->prog_depth, m->prog_depth, same);
+    const GLuint prog = v->sink && m->prog_depth_sunk ? m->prog_depth_sunk : m->prog_depth;
+    glUseProgram(prog);
+    glProgramUniformMatrix4fv(prog, 0, 1, GL_FALSE, v->view_proj.m);
+    const GLuint same[2] = {prog, prog};
+    draw_buckets(r, base, false, !r->depth_cull_off, prog == m->prog_depth_sunk, prog, prog, same);
 }
 
 void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
@@ -594,7 +605,7 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
     const GLuint same[2] = {program, program};
-    draw_buckets(r, base, materials, program, program, same);
+    draw_buckets(r, base, materials, materials, false, program, program, same);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

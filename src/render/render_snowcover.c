@@ -9,6 +9,7 @@
  * (steps 2–3, shaders/snow_common.glsl). Without a snow-cover view the block says "off". */
 #include <math.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #include "render/render_internal.h"
 #include "render/snow_map.h"
@@ -30,7 +31,17 @@ struct sq__snow_pass {
     uint64_t map_generation;
     bool map_valid;
     double ms_map; /* this frame's occlusion map (CPU + GL, finished); 0 when the last one served */
+    double cpu_ms_map; /* the process's CPU time (all threads) meanwhile */
 };
+
+/* CPU time of the process, all threads (ms). */
+static double cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * ((double)u.ru_utime.tv_sec + (double)u.ru_stime.tv_sec) +
+           1e-3 * ((double)u.ru_utime.tv_usec + (double)u.ru_stime.tv_usec);
+}
 
 sq_result sq__snow_pass_create(sq_renderer *r)
 {
@@ -136,10 +147,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
     snow_block b;
     memset(&b, 0, sizeof b);
     GLuint occ = s->dummy_occ, depth = s->dummy_depth;
-    s->ms_map = 0.0;
+    s->ms_map = s->cpu_ms_map = 0.0;
     r->snow_on = false;
     if (v && v->depth_m && v->nx > 0 && v->ny > 0) {
-        const double t0 = sq_time_now();
         sq_result res = sq__snow_programs(r);
         if (res == SQ_OK) res = ensure_map(r, v->map_size);
         if (res != SQ_OK) return res;
@@ -161,6 +171,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
          * footprint stays inside it (same texels, so the same exposures) */
         if (!(s->map_valid && s->map_world == w && s->map_generation == w->generation &&
               sq__snow_map_serves(&s->geom, &need))) {
+            /* timed alone: the GL work queued before (shadow cascades) finished first */
+            glFinish();
+            const double t0 = sq_time_now(), c0 = cpu_ms();
             s->geom = need;
             /* the map must not stay bound for sampling while it is rendered into */
             glBindTextureUnit(11, s->dummy_occ);
@@ -174,13 +187,16 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
             dv.view_proj = sky_matrix(&s->geom);
             dv.ortho = true;
             dv.px_per_m = (float)(1.0 / s->geom.texel_m);
-            /* fine levels: a coarse level's surface above the camera's finer one would shade
-             * the true surface as occluded; the map's level error stays within the depth bias */
-            dv.lod_pixels = fmaxf(0.05f, (float)((double)v->depth_bias_m / s->geom.texel_m));
+            /* levels of an error up to half a texel (the exposure's edges move by less than the
+             * map resolves), sunk by it (dv.sink): no level's top lies above the finest surface */
+            dv.lod_pixels = fmaxf(0.5f, (float)((double)v->depth_bias_m / s->geom.texel_m));
+            if (r->map_lod_pixels > 0.0f) dv.lod_pixels = r->map_lod_pixels;
+            dv.sink = !r->map_no_sink;
             dv.min_pixels = 0.5f;
             sq__world_depth_draw(r, &dv);
             glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
             s->ms_map = (sq_time_now() - t0) * 1e3;
+            s->cpu_ms_map = cpu_ms() - c0;
             s->map_world = w;
             s->map_generation = w->generation;
             s->map_valid = true;
@@ -230,3 +246,20 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
 }
 
 double sq__snow_pass_ms(const sq_renderer *r) { return r->snow ? r->snow->ms_map : 0.0; }
+
+double sq__snow_pass_cpu_ms(const sq_renderer *r) { return r->snow ? r->snow->cpu_ms_map : 0.0; }
+
+bool sq__snow_pass_map(sq_renderer *r, sq__snow_map_geom *g, float *height)
+{
+    const sq__snow_pass *s = r->snow;
+    if (!s || !s->map_valid) return false;
+    *g = s->geom;
+    if (!height) return true;
+    if (r->gl && sq__gl_context_make_current(r->gl) != SQ_OK) return false;
+    const size_t n = (size_t)s->geom.size * (size_t)s->geom.size;
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glGetTextureImage(s->occ_tex, 0, GL_DEPTH_COMPONENT, GL_FLOAT, (GLsizei)(n * sizeof(float)), height);
+    const float span = s->geom.top_z - s->geom.bottom_z;
+    for (size_t i = 0; i < n; i++) height[i] = s->geom.top_z - height[i] * span;
+    return true;
+}

@@ -903,6 +903,7 @@ static sq_result draw_passes(sq_renderer *r, const sq_world *world, const sq_cam
     r->stats.shadow_cascades_drawn = sq__shadow_pass_drawn(r);
     r->stats.terrain_faces = r->terrain_faces;
     r->stats.ms_occlusion_map = sq__snow_pass_ms(r);
+    r->stats.cpu_ms_occlusion_map = sq__snow_pass_cpu_ms(r);
     return SQ_OK;
 }
 

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "render/render_internal.h"
+#include "render/snow_map.h"
 #include "sq_test.h"
 #include "squall/mesh.h"
 #include "squall/render.h"
@@ -532,5 +533,240 @@ SQ_TEST(far_instances_without_the_shell_look_the_same)
     sq_renderer_destroy(all);
     sq_world_destroy(ctx, w);
     sq_mesh_destroy(ctx, box);
+    sq_context_destroy(ctx);
+}
+
+/* ---- the snow occlusion map over a generated place -------------------------------------------- */
+
+/* A snow-cover drawable of uniform depth over the 400 m flat world (map_size texels). */
+static sq_drawable snow_view(float *depth, int n, int map_size)
+{
+    for (int i = 0; i < n * n; i++) depth[i] = 0.3f;
+    sq_drawable d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_DRAWABLE_SNOW_COVER;
+    d.name = "snow";
+    sq_snow_cover_view *v = &d.u.snow_cover;
+    v->nx = v->ny = n;
+    v->origin_m = sq_v3(-200.0f, -200.0f, 0.0f);
+    v->dx_m = v->dy_m = 400.0f / (float)n;
+    v->depth_m = depth;
+    v->detail_distance_m = 120.0f;
+    v->map_size = map_size;
+    v->taps = 4;
+    v->tap_radius_texels = 1.0f;
+    v->depth_bias_m = 0.05f;
+    v->noise_amplitude = 0.3f;
+    v->noise_scale_m = 2.0f;
+    v->shell_blend = 0.5f;
+    v->brdf = SQ_SNOW_BRDF_PHYSICAL;
+    v->albedo = sq_v3(0.9f, 0.9f, 0.9f);
+    v->sparkle = 0.5f;
+    v->shininess = 24.0f;
+    v->version = 1;
+    return d;
+}
+
+/* A 300 m procedural suburb (houses with eaves, trees, cars, fences) on the flat world. */
+static sq_place *suburb_on(sq_context *ctx, sq_world *w)
+{
+    sq_place_desc pd;
+    memset(&pd, 0, sizeof pd);
+    pd.kind = SQ_PLACE_SUBURB;
+    pd.size_m[0] = pd.size_m[1] = 300.0f;
+    pd.seed = 7;
+    sq_place *p = NULL;
+    if (sq_place_generate(ctx, &pd, &p) != SQ_OK ||
+        sq_world_set_meshes(ctx, w, (const sq_mesh *const *)p->meshes, p->mesh_count, p->instances,
+                            p->instance_count) != SQ_OK) {
+        fprintf(stderr, "place: %s\n", sq_last_error());
+        exit(1);
+    }
+    printf("place: %d houses, %d trees, %d cars, %d instances\n", p->houses, p->trees, p->cars,
+           p->instance_count);
+    return p;
+}
+
+/* The GL occlusion map of renderer r's last frame as heights, and its placement. */
+static float *gl_map(sq_renderer *r, sq__snow_map_geom *g)
+{
+    SQ_CHECK(sq__snow_pass_map(r, g, NULL));
+    float *h = malloc((size_t)g->size * (size_t)g->size * sizeof(float));
+    SQ_CHECK(h && sq__snow_pass_map(r, g, h));
+    return h;
+}
+
+/* The occlusion map (render_snowcover.c) is the highest surface at each texel centre: drawn with
+ * the finest levels over a generated suburb it equals the CPU map (sq__snow_map_fill: sq_world_surface_at on the meshes'
+ * finest level) within the depth bias at all but 1 % of the texels on meshes (those whose centre
+ * lies on an edge of a roof, a crown), and drawing the back faces of the closed meshes too (as
+ * before they were culled) changes at most 0.1 % of them and none toward the CPU's top: a back
+ * face is never the top (the few it changes are edge-on slivers). A map drawn with the wrong
+ * faces culled (the bottoms) is off at every texel on a mesh. */
+SQ_TEST(occlusion_map_is_the_top_surface)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = dated_world(ctx, 12.0f);
+    sq_place *place = suburb_on(ctx, w);
+    enum { N = 16, MAP = 512 };
+    float depth[N * N];
+    sq_drawable d = snow_view(depth, N, MAP);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(0.0f, -70.0f, 40.0f);
+    cam.target_m = sq_v3(0.0f, 0.0f, 0.0f);
+    cam.fov_y_deg = 50.0f;
+    sq_renderer *culled = cascade_renderer(ctx), *both = cascade_renderer(ctx);
+    both->depth_cull_off = true;
+    /* the finest levels, not sunk (the levels' rule: the next test) */
+    culled->map_lod_pixels = both->map_lod_pixels = 0.1f;
+    culled->map_no_sink = both->map_no_sink = true;
+    SQ_CHECK(sq_renderer_draw(culled, w, &cam, &d, 1, 0.0) == SQ_OK);
+    SQ_CHECK(sq_renderer_draw(both, w, &cam, &d, 1, 0.0) == SQ_OK);
+    sq__snow_map_geom g, g2;
+    float *a = gl_map(culled, &g), *b = gl_map(both, &g2);
+    SQ_CHECK(g.size == MAP && g2.texel_m == g.texel_m && g2.origin[0] == g.origin[0] &&
+             g2.origin[1] == g.origin[1]);
+    float *cpu = malloc((size_t)MAP * MAP * sizeof(float));
+    sq__snow_map_fill(w, &g, cpu);
+    size_t raised = 0, off = 0, culled_differ = 0, culled_worse = 0, on_meshes = 0;
+    for (size_t i = 0; i < (size_t)MAP * MAP; i++) {
+        on_meshes += cpu[i] > 0.2f;
+        culled_differ += fabsf(a[i] - b[i]) > 1e-3f;
+        culled_worse += fabsf(a[i] - cpu[i]) > fabsf(b[i] - cpu[i]) + 1e-3f;
+        off += fabsf(a[i] - cpu[i]) > 0.05f;
+        raised += a[i] > cpu[i] + 0.05f;
+    }
+    printf("map %d texels of %.3f m: %zu on meshes; GL vs CPU off by > 5 cm at %zu (%zu raised), "
+           "back faces change %zu (%zu nearer the CPU's)\n",
+           MAP, g.texel_m, on_meshes, off, raised, culled_differ, culled_worse);
+    SQ_CHECK_MSG(on_meshes > (size_t)MAP * MAP / 20, "only %zu texels on meshes", on_meshes);
+    SQ_CHECK_MSG(off <= on_meshes / 100, "%zu texels off the CPU map by more than 5 cm", off);
+    SQ_CHECK_MSG(culled_differ <= on_meshes / 1000, "%zu texels changed by the back faces", culled_differ);
+    SQ_CHECK_MSG(culled_worse == 0, "%zu texels nearer the CPU's top with the back faces", culled_worse);
+    free(a);
+    free(b);
+    free(cpu);
+    sq_renderer_destroy(culled);
+    sq_renderer_destroy(both);
+    sq_world_destroy(ctx, w);
+    sq_place_destroy(ctx, place);
+    sq_context_destroy(ctx);
+}
+
+typedef struct exposure_diff {
+    size_t compared, self_occluded, leaked; /* leaked: occluded on the fine map, exposed here */
+} exposure_diff;
+
+/* Exposure (sq__snow_exposure: 4 taps at 1 texel, 5 cm bias) of points on the finest surface at
+ * a quarter texel off every texel centre of g, on the GL map `map` against the CPU map `cpu`
+ * (sq_world_surface_at: the meshes' finest level). Points are compared where the surface is a
+ * plane around them (its slope from the CPU top at ±5 cm) and the CPU exposure is the same at
+ * the point and at its 8 neighbours a texel away, and with a bias 1 cm smaller or larger: away
+ * from the edges of roofs and crowns, where the exposure is a transition over a texel and the
+ * tap radius in any case, and from occluders as high as the bias (5 cm kerbs). */
+static exposure_diff compare_exposure(const sq_world *w, const sq__snow_map_geom *g,
+                                      const float *map, const float *cpu)
+{
+    exposure_diff d = {0, 0, 0};
+    const double t = g->texel_m;
+    const float e = 0.05f;
+    for (int j = 4; j < g->size - 4; j++)
+        for (int i = 4; i < g->size - 4; i++) {
+            const float x = (float)(g->origin[0] + (i + 0.75) * t), y = (float)(g->origin[1] + (j + 0.75) * t);
+            const float z = sq_world_surface_at(w, x, y);
+            const float zx0 = sq_world_surface_at(w, x - e, y), zx1 = sq_world_surface_at(w, x + e, y);
+            const float zy0 = sq_world_surface_at(w, x, y - e), zy1 = sq_world_surface_at(w, x, y + e);
+            if (fabsf(zx0 + zx1 - 2.0f * z) > 1e-3f || fabsf(zy0 + zy1 - 2.0f * z) > 1e-3f) continue;
+            const float gx = (zx1 - zx0) / (2.0f * e), gy = (zy1 - zy0) / (2.0f * e);
+            const float nz = 1.0f / sqrtf(1.0f + gx * gx + gy * gy);
+            const sq_vec3 p = sq_v3(x, y, z);
+            const float fine = sq__snow_exposure(cpu, g, p, nz, 4, 1.0f, 0.05f);
+            /* and not a tie: an occluder within a centimetre of the bias (a 5 cm kerb) */
+            bool uniform = (fine == 0.0f || fine == 1.0f) &&
+                           sq__snow_exposure(cpu, g, p, nz, 4, 1.0f, 0.04f) == fine &&
+                           sq__snow_exposure(cpu, g, p, nz, 4, 1.0f, 0.06f) == fine;
+            for (int q = 0; q < 9 && uniform; q++) {
+                const sq_vec3 pq = sq_v3(x + (float)((q % 3 - 1) * t), y + (float)((q / 3 - 1) * t), z);
+                uniform = sq__snow_exposure(cpu, g, pq, nz, 4, 1.0f, 0.05f) == fine;
+            }
+            if (!uniform) continue;
+            const float got = sq__snow_exposure(map, g, p, nz, 4, 1.0f, 0.05f);
+            d.compared++;
+            d.self_occluded += fine == 1.0f && got < 0.75f;
+            d.leaked += fine == 0.0f && got > 0.25f;
+        }
+    return d;
+}
+
+/* The occlusion map's levels of detail (render_snowcover.c): each instance drawn at the coarsest
+ * level whose error is at most half a texel, sunk by that error over its faces' inclination
+ * (shaders/depth_meshes.vert). Over a generated suburb, points on the finest surface (what the
+ * camera draws near by; a coarser camera level is the shader's own term) get the exposure the
+ * finest map gives (the CPU map): none of the exposed ones (roofs, bonnets, crowns, open ground)
+ * self-occluded, at most 0.2 % of the occluded ones (ground under eaves and trees) exposed; the
+ * map draws fewer triangles than at the finest levels, and the sinking only lowers it. (Levels
+ * of up to a texel's error are not allowed: a fence's solid far level covers texel centres its
+ * boards miss, and the ground along it is then occluded half a metre wide.) */
+SQ_TEST(coarse_occlusion_map_levels_keep_the_exposure)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = dated_world(ctx, 12.0f);
+    sq_place *place = suburb_on(ctx, w);
+    enum { N = 16, MAP = 512 };
+    float depth[N * N];
+    sq_drawable d = snow_view(depth, N, MAP);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(0.0f, -70.0f, 40.0f);
+    cam.target_m = sq_v3(0.0f, 0.0f, 0.0f);
+    cam.fov_y_deg = 50.0f;
+    /* the rule; the finest levels (errors within the 5 cm bias, as before); the rule's levels
+     * not sunk */
+    sq_renderer *rule = cascade_renderer(ctx), *fine = cascade_renderer(ctx), *unsunk = cascade_renderer(ctx);
+    fine->map_lod_pixels = 0.1f;
+    fine->map_no_sink = true;
+    unsunk->map_no_sink = true;
+    sq_renderer *rs[3] = {rule, fine, unsunk};
+    const char *name[3] = {"rule", "finest", "not sunk"};
+    float *map[3];
+    int64_t faces[3];
+    sq__snow_map_geom g;
+    for (int k = 0; k < 3; k++) {
+        SQ_CHECK(sq_renderer_draw(rs[k], w, &cam, &d, 1, 0.0) == SQ_OK);
+        /* this frame's faces over all views: the same camera and cascades, only the map differs */
+        sq_render_stats st;
+        SQ_CHECK(sq_renderer_stats(rs[k], &st) == SQ_OK);
+        faces[k] = st.faces;
+        map[k] = gl_map(rs[k], &g);
+    }
+    float *cpu = malloc((size_t)MAP * MAP * sizeof(float));
+    sq__snow_map_fill(w, &g, cpu);
+    exposure_diff e[3];
+    for (int k = 0; k < 3; k++) {
+        e[k] = compare_exposure(w, &g, map[k], cpu);
+        printf("%-8s: %lld faces drawn (all views); of %zu points %zu self-occluded, %zu leaked\n",
+               name[k], (long long)faces[k], e[k].compared, e[k].self_occluded, e[k].leaked);
+    }
+    /* sinking only lowers the map, where a level coarser than the finest is drawn */
+    size_t lower = 0, higher = 0;
+    for (size_t i = 0; i < (size_t)MAP * MAP; i++) {
+        lower += map[0][i] < map[2][i] - 1e-3f;
+        higher += map[0][i] > map[2][i] + 1e-4f;
+    }
+    printf("sunk map: %zu texels lower than not sunk, %zu higher\n", lower, higher);
+    SQ_CHECK_MSG(e[0].compared > (size_t)MAP * MAP / 2, "only %zu points compared", e[0].compared);
+    SQ_CHECK_MSG(e[0].self_occluded == 0, "%zu exposed points self-occluded", e[0].self_occluded);
+    SQ_CHECK_MSG(e[0].leaked * 500 <= e[0].compared, "%zu occluded points exposed", e[0].leaked);
+    SQ_CHECK_MSG(faces[0] < faces[1], "the rule draws %lld faces, the finest levels %lld",
+                 (long long)faces[0], (long long)faces[1]);
+    SQ_CHECK_MSG(lower > 0 && higher == 0, "sunk map: %zu texels lower, %zu higher", lower, higher);
+    for (int k = 0; k < 3; k++) {
+        free(map[k]);
+        sq_renderer_destroy(rs[k]);
+    }
+    free(cpu);
+    sq_world_destroy(ctx, w);
+    sq_place_destroy(ctx, place);
     sq_context_destroy(ctx);
 }

@@ -236,7 +236,7 @@ static double max_theta_anomaly(sq_sandstorm *s)
  *     is the stable air's restoring force, physics).
  * The old constant-temperature inflow was 2.6 K (stable) or 3.9 K (neutral) too warm 400 m
  * up: a buoyancy of ~0.1 m/s^2 there, an updraft of metres per second. */
-SQ_TEST(stratified_atmosphere_stays_at_rest)
+static void atmosphere_at_rest(int turbulence)
 {
     sq_context *ctx = mkctx();
     sq_world *w = flat_world(ctx);
@@ -248,6 +248,7 @@ SQ_TEST(stratified_atmosphere_stays_at_rest)
         d.wind_speed_mps = speed[c];
         d.lapse_k_per_m = lapse[c];
         d.buoyancy_gain = gain[c];
+        d.turbulence = turbulence;
         SQ_CHECK_OK(sq_sandstorm_create(ctx, &d, w, &s[c]));
     }
     double calm = 0.0, diff = 0.0, anomaly = 0.0;
@@ -266,6 +267,13 @@ SQ_TEST(stratified_atmosphere_stays_at_rest)
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
 }
+
+SQ_TEST(stratified_atmosphere_stays_at_rest) { atmosphere_at_rest(0); }
+
+/* The same bounds with the Smagorinsky-Lilly subgrid closure (solver.turbulence = smagorinsky):
+ * its strain-rate viscosity, the log-law wall stress and the 3D heat flux must not make an
+ * updraft of their own either. */
+SQ_TEST(stratified_atmosphere_stays_at_rest_with_the_subgrid_closure) { atmosphere_at_rest(1); }
 
 /* The stated non-spherical asymmetry parameter reaches the drawable, inside the SPEC §2.6
  * band for mineral dust (0.65-0.75) and below what Mie spheres of the same sizes give. */
@@ -694,4 +702,31 @@ done:
     sq__sand_detail_free(&d, ctx);
     sq_grid_destroy(g);
     sq_context_destroy(ctx);
+}
+
+/* The wall's top seen from ahead: in 3 of 5 rows a block of dust 4 cells long (beta 0.1 1/m,
+ * optical depth 4 along x at h = 10 m) up to level 3 under a thinner layer (beta 0.05: depth 2,
+ * below ln(1/0.05) = 3.0) at levels 4-5: the top is level 3's, 3.5 h + z1 above the ground;
+ * one dense column higher up in one row (depth 1) and the two empty rows do not move the
+ * median; with contrast 0.2 (ln 5 = 1.6) the thinner layer counts. */
+SQ_TEST(wall_seen_is_where_the_dust_hides_the_sky)
+{
+    enum { NX = 10, NY = 5, NZ = 8 };
+    static float beta[NZ * NY * NX];
+    int gk[NY * NX];
+    float z1[NY * NX];
+    double rows[NY];
+    for (int c = 0; c < NY * NX; c++) {
+        gk[c] = 0;
+        z1[c] = 5.0f;
+    }
+    for (int j = 1; j < 4; j++)
+        for (int k = 0; k < 6; k++)
+            for (int i = 2; i < 6; i++) beta[(k * NY + j) * NX + i] = k <= 3 ? 0.1f : 0.05f;
+    beta[(7 * NY + 2) * NX + 5] = 0.1f;
+    const double top = sq__sand_wall_seen(beta, NX, NY, NZ, gk, z1, 10.0f, 0.05, rows);
+    const double top2 = sq__sand_wall_seen(beta, NX, NY, NZ, gk, z1, 10.0f, 0.2, rows);
+    printf("  wall seen: %.1f m (expected 40), with contrast 0.2 %.1f m (expected 60)\n", top, top2);
+    SQ_CHECK_NEAR(top, 40.0, 1e-9);
+    SQ_CHECK_NEAR(top2, 60.0, 1e-9);
 }

@@ -290,6 +290,8 @@ static sq_result create_grid(sq_sandstorm *s)
     g.tolerance = d->pressure_tolerance;
     g.advection = d->advection == 1 ? SQ_ADVECT_SEMI_LAGRANGIAN : SQ_ADVECT_MACCORMACK;
     g.mixing_length_max_m = SQ_SAND_MIXING_LENGTH_MAX;
+    /* the mixing length's ground: the wind 0 half a cell below (S0), or the log law's stress */
+    g.wall_roughness_m = d->log_law_ground ? d->roughness_m : 0.0;
     g.scalar_count = s->nbins + 1;
     g.scalar_nonnegative = (1ull << (s->nbins + 1)) - 1ull;
     s->temp_idx = s->nbins;
@@ -301,6 +303,16 @@ static sq_result create_grid(sq_sandstorm *s)
                                  d->buoyancy_gain > 0.0 ? s->temp_idx : -1,
                                  SQ_SAND_GRAVITY * d->buoyancy_gain);
     if (r != SQ_OK) return r;
+    /* or the Smagorinsky-Lilly subgrid closure (grid_sgs.c) with the same Pr_t and the log-law
+     * stress of the ground's roughness */
+    memset(&s->sgs, 0, sizeof s->sgs);
+    s->sgs.smagorinsky_c = d->smagorinsky_c;
+    s->sgs.prandtl_t = SQ_SAND_PRANDTL_T;
+    s->sgs.kappa = SQ_SAND_KARMAN;
+    s->sgs.roughness_m = d->roughness_m;
+    s->sgs.stratified = d->buoyancy_gain > 0.0;
+    s->sgs.theta_idx = s->temp_idx;
+    s->sgs.gravity_mps2 = SQ_SAND_GRAVITY * d->buoyancy_gain;
     /* solid cells: terrain, obstacles and closed meshes at cell centres */
     size_t n = (size_t)s->nx * s->ny * s->nz, cols = (size_t)s->nx * s->ny;
     uint8_t *mask = (uint8_t *)sq_alloc_zero(s->ctx, n);
@@ -796,7 +808,9 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     if (r == SQ_OK && s->d.confinement > 0.0)                              /* helicity confinement */
         r = sq_grid_confine_vorticity(s->grid, s->d.confinement, !s->d.plain_confinement, dt);
     double t2 = sq_time_now();
-    if (r == SQ_OK) r = sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt); /* mixing length */
+    if (r == SQ_OK)                                                        /* turbulence */
+        r = s->d.turbulence == 1 ? sq_grid_diffuse_sgs(s->grid, &s->sgs, dt) /* subgrid (LES) */
+                                 : sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt);
     double t3 = sq_time_now();
     sq_grid_project_stats ps;
     memset(&ps, 0, sizeof ps);
@@ -1021,6 +1035,9 @@ static void update_derived(sq_sandstorm *s)
                 }
         }
     s->wall_height_m = wall;
+    /* and its top as seen from ahead: where the dust along the line of sight hides the sky */
+    s->wall_seen_m = sq__sand_wall_seen(s->density, nx, ny, nz, s->ground_k, s->ground_z1,
+                                        (float)s->h, s->d.contrast, s->row_acc);
     /* Display only: the ground cells below each column's first fluid cell hold the value of that
      * cell, so that trilinear sampling between the last solid and the first fluid cell centre
      * does not thin the densest, near-ground dust toward zero (the opaque terrain hides what is
@@ -1199,6 +1216,7 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
         PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
         PUT("wall_height_m", s->wall_height_m, "m");
+        PUT("wall_top_seen_m", s->wall_seen_m, "m");
         if (s->d.coldpool_delta_t_k > 0.0) {
             PUT("front_m", s->stats.front_m, "m");
             PUT("front_speed_mps", s->stats.front_speed_mps, "m/s");

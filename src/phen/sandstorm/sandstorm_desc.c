@@ -32,6 +32,7 @@ sq_result sq_sandstorm_desc_resolve(const sq_sandstorm_desc *in, sq_sandstorm_de
     DEF(d.jacobi_iterations, 40);
     DEF(d.pressure_tolerance, 1e-3);
     DEF(d.cfl, 2.0);
+    DEF(d.smagorinsky_c, 0.18);
     DEF(d.median_radius_m, 5e-6);
     DEF(d.sigma_g, 2.0);
     DEF(d.grain_density_kg_m3, 2650.0);

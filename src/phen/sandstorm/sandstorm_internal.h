@@ -78,6 +78,7 @@ struct sq_sandstorm {
     int nx, ny, nz;
     double h;
     double origin[3];
+    sq_grid_sgs_desc sgs; /* the subgrid closure (solver.turbulence = smagorinsky) */
     int temp_idx;     /* the scalar holding potential temperature theta (K) */
     float *theta_ref; /* nz: background potential temperature per level (K) */
     int *ground_k;    /* nx*ny: first fluid cell above the ground in each column (-1: none) */
@@ -99,6 +100,7 @@ struct sq_sandstorm {
     float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
     float density_max;
     double wall_height_m;                    /* highest dust with beta >= SQ_SAND_WALL_BETA */
+    double wall_seen_m;                      /* the wall's top seen from ahead (sq__sand_wall_seen) */
     float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */
     char vis_names[SQ_SANDSTORM_MAX_VIS][40];
     float *export_buf[6];                    /* fields for export (conc, u, v, w, T, beta) */
@@ -147,6 +149,10 @@ double sq__sand_column_settle(float *c, ptrdiff_t cs, const uint8_t *solid, ptrd
 void sq__sand_block_settle(float *c, ptrdiff_t cy, ptrdiff_t cs, const uint8_t *solid,
                            ptrdiff_t sy, ptrdiff_t ss, int nx, int nrows, int nz, float scale,
                            int substeps, double frac, double *dep);
+/* The dust wall's top seen from ahead (median over rows of the highest level whose optical
+ * depth along x reaches ln(1/contrast)); rows: ny doubles of scratch. */
+double sq__sand_wall_seen(const float *beta, int nx, int ny, int nz, const int *ground_k,
+                          const float *ground_z1, float h, double contrast, double *rows);
 void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
                                const float *ground_z1, float h, float height_m, double contrast,
                                float *out);

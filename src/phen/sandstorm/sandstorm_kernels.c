@@ -150,3 +150,47 @@ void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const 
             out[col] = (float)(lnc / (b + SQ_SAND_BETA_AIR_550));
         }
 }
+
+/* The wall's top as seen from ahead, looking along x (the storm's motion) through the whole
+ * domain: per row j the optical depth at 550 nm of each level, tau(j, k) = sum_i beta h over
+ * the level's fluid cells (k at or above the column's ground); the row's wall top is the top of
+ * the highest level with tau >= ln(1 / contrast), where the dust hides what is behind it
+ * (Koschmieder's contrast threshold, as for the visibility), as a height above the row's lowest
+ * ground. Returns the median over the rows (rows without such a level count as 0), so a few
+ * dense columns do not make a wall. */
+double sq__sand_wall_seen(const float *beta, int nx, int ny, int nz, const int *ground_k,
+                          const float *ground_z1, float h, double contrast, double *rows)
+{
+    const double tau_min = log(1.0 / contrast);
+    const size_t plane = (size_t)nx * (size_t)ny;
+    for (int j = 0; j < ny; j++) {
+        int kg = nz;
+        float z1 = 0.5f * h;
+        for (int i = 0; i < nx; i++) {
+            const int k0 = ground_k[(size_t)j * nx + i];
+            if (k0 >= 0 && k0 < kg) {
+                kg = k0;
+                z1 = ground_z1[(size_t)j * nx + i];
+            }
+        }
+        double top = 0.0;
+        for (int k = nz - 1; k >= kg && top == 0.0; k--) {
+            double tau = 0.0;
+            for (int i = 0; i < nx; i++) {
+                const size_t col = (size_t)j * nx + i;
+                if (ground_k[col] >= 0 && k >= ground_k[col])
+                    tau += (double)beta[(size_t)k * plane + col] * (double)h;
+            }
+            if (tau >= tau_min) top = (k - kg + 0.5) * (double)h + (double)z1;
+        }
+        rows[j] = top;
+    }
+    /* median (insertion sort: ny is at most a few hundred) */
+    for (int a = 1; a < ny; a++)
+        for (int b = a; b > 0 && rows[b] < rows[b - 1]; b--) {
+            const double t = rows[b];
+            rows[b] = rows[b - 1];
+            rows[b - 1] = t;
+        }
+    return ny % 2 ? rows[ny / 2] : 0.5 * (rows[ny / 2 - 1] + rows[ny / 2]);
+}

@@ -82,6 +82,22 @@ static const sq_param params[] = {
       "Relative residual the pressure solve converges to."),
     E("solver.advection", advection, "maccormack|semi-lagrangian",
       "Advection: MacCormack with Selle's limiter (S0 + SPEC §1.4) or semi-Lagrangian."),
+    E("solver.turbulence", turbulence, "mixing-length|smagorinsky",
+      "Turbulence closure. mixing-length: S0's nu_t = (kappa d)^2 |du_h/dz| on the horizontal "
+      "wind and the vertical flux of the scalars (a boundary-layer closure for coarse cells); "
+      "smagorinsky: the Smagorinsky-Lilly subgrid closure of a large-eddy simulation, "
+      "nu_t = (C_s h)^2 |S| sqrt(1 - Ri/Pr_t) from the full strain rate, on all three wind "
+      "components, the heat and the dust in all directions, with the log-law stress at the "
+      "ground (for cells much smaller than the storm's big eddies: a haboob's head)."),
+    B("solver.log_law_ground", log_law_ground,
+      "Mixing-length closure: the ground's stress on the wind is the log law's, u*^2 = "
+      "(kappa |u_h| / ln(z1/z0))^2 at the first cell centre z1 = h/2 (the wall law of the "
+      "emission's u*), instead of S0's wind 0 half a cell below, whose stress (kappa u)^2 is "
+      "ln(z1/z0)^2 ~ 100x larger over desert roughness and brakes the near-ground wind. "
+      "The smagorinsky closure always uses the log law."),
+    D("solver.smagorinsky_c", smagorinsky_c, "1", 0.18, 0.05, 0.5, 0,
+      "Smagorinsky constant C_s of solver.turbulence = smagorinsky (Lilly 1967: 0.17-0.18 for "
+      "an inertial range; 0.1-0.23 in use)."),
     D("solver.confinement", confinement, "1", 0, 0, 2, Z,
       "Vorticity-confinement strength eps_h (S0 eq. 2.15); 0 = off."),
     B("solver.plain_confinement", plain_confinement,

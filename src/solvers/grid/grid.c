@@ -108,6 +108,10 @@ static sq_result validate(sq_context *ctx, const sq_grid_desc *d)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
                         "confinement_max_cells = %g; must be in (0, 10] (0 = 0.25)",
                         d->confinement_max_cells);
+    if (!(d->wall_roughness_m >= 0.0 && d->wall_roughness_m < 0.5 * d->cell_size_m))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "wall_roughness_m = %g; must be >= 0 (0 = no-slip) and below half a cell "
+                        "(%g m)", d->wall_roughness_m, 0.5 * d->cell_size_m);
     if (!(d->mixing_length_max_m >= 0.0) || !isfinite(d->mixing_length_max_m))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
                         "mixing_length_max_m = %g; must be >= 0 (0 = no cap)",

@@ -167,6 +167,7 @@ typedef struct vi_par {
     float s, nu_mol;
     int32_t bottom, top;     /* masks: this is plane 0 / plane nz - 1 */
     int32_t wall_bot, wall_top; /* masks: no-slip domain bottom / top */
+    int32_t ground_link;        /* mask: the ground below is a link (0: the log-law stress) */
 } vi_par;
 
 /* Forward elimination of one row of faces of plane k (see vertical_implicit). u, cp, dp: face
@@ -178,7 +179,8 @@ static void vi_forward_row(const vi_par *p, const float *restrict u, float *rest
                            const float *restrict nh, ptrdiff_t sz, int n)
 {
     const float s = p->s, nu_mol = p->nu_mol;
-    const int32_t bottom = p->bottom, top = p->top, wb = p->wall_bot, wt = p->wall_top;
+    const int32_t bottom = p->bottom, top = p->top, wb = p->wall_bot, wt = p->wall_top,
+                  gl = p->ground_link;
     for (int i = 0; i < n; i++) {
         const int32_t fixed = -(int32_t)(((fo[i] | fh[i]) & SQ__CF_FIXED) != 0);
         const float nf = nu_mol + 0.5f * (no[i] + nh[i]);
@@ -186,7 +188,7 @@ static void vi_forward_row(const vi_par *p, const float *restrict u, float *rest
         const uint8_t flb = fo[i - sz] | fh[i - sz];
         const int32_t fxl = bottom | -(int32_t)((flb & SQ__CF_FIXED) != 0);
         const int32_t wall_l = (bottom & wb) | (~bottom & -(int32_t)((flb & SQ__CF_SOLID) != 0));
-        const float alo = sq__fselm(fxl, sq__fselm(wall_l, 2.0f * s * nf, 0.0f),
+        const float alo = sq__fselm(fxl, sq__fselm(wall_l & gl, 2.0f * s * nf, 0.0f),
                                     s * 0.5f * (nf + nu_mol + 0.5f * (no[i - sz] + nh[i - sz])));
         /* link above */
         const uint8_t fla = fo[i + sz] | fh[i + sz];
@@ -228,6 +230,7 @@ static void vertical_implicit(sq_grid *g, int c, const float *nu, float nu_mol, 
     par.nu_mol = nu_mol;
     par.wall_bot = -(int32_t)(g->d.boundary[SQ_FACE_ZMIN] == SQ_BOUNDARY_NO_SLIP);
     par.wall_top = -(int32_t)(g->d.boundary[SQ_FACE_ZMAX] == SQ_BOUNDARY_NO_SLIP);
+    par.ground_link = -(int32_t)(g->d.wall_roughness_m <= 0.0);
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -445,6 +448,8 @@ sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double d
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
         }
     }
+    if (ntmax > 0.0f && g->d.wall_roughness_m > 0.0) /* the ground's log-law stress */
+        sq__grid_wall_stress(g, kappa, g->d.wall_roughness_m, (float)dt_s);
     if (ntmax > 0.0f && g->eddy_scalars && g->d.scalar_count > 0)
         scalars_vertical_implicit(g, nu, s / g->eddy_prandtl, g->scratch[3], g->scratch[1],
                                   g->scratch[2]);

@@ -202,6 +202,11 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
 float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
                       float X, float Y, float Z);
 
+/* ---- grid_sgs.c --------------------------------------------------------------------------- */
+/* Log-law stress of the ground on the horizontal wind of the first fluid layer above a solid or
+ * a no-slip bottom: u_h /= 1 + dt C_d |u_h| / h, C_d = (kappa / ln(h / 2 z0))^2 (implicit). */
+void sq__grid_wall_stress(sq_grid *g, double kappa, double z0, float dt);
+
 /* ---- grid_project.c ----------------------------------------------------------------------- */
 sq_result sq__grid_build_multigrid(sq_grid *g);
 void sq__grid_free_multigrid(sq_grid *g);
