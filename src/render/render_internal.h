@@ -369,10 +369,13 @@ sq_result sq__snow_programs(sq_renderer *r);
 double sq__snow_pass_ms(const sq_renderer *r);
 /* The process's CPU time (all threads) while it was drawn (ms). */
 double sq__snow_pass_cpu_ms(const sq_renderer *r);
-/* The occlusion map in use (tests): its placement in *g (NULL: no map yet) and, when height is
- * not NULL, g->size² heights of the highest surface at the texel centres (top - depth x span,
- * row j = y index), the form sq__snow_map_fill gives on the CPU. */
+/* The occlusion map in use (tests): its placement in *g (need_lo / need_hi: the box of the texels
+ * drawn for the world's generation) and, when height is not NULL, g->size² heights of the
+ * highest surface at the texel centres (top - depth x span, row j = y index), the form
+ * sq__snow_map_fill gives on the CPU; false when there is no map yet. */
 struct sq__snow_map_geom;
 bool sq__snow_pass_map(sq_renderer *r, struct sq__snow_map_geom *g, float *height);
+/* Rectangles of texels this frame drew into the occlusion map (0: the last map served whole). */
+int sq__snow_pass_bands(const sq_renderer *r);
 
 #endif

@@ -27,11 +27,14 @@ struct sq__snow_pass {
     const float *depth_ptr;
     float depth_max; /* of the uploaded depth grid (m) */
     sq__snow_map_geom geom; /* of the map drawn last */
+    sq__texel_rect valid;   /* its texels drawn for this world generation (the others: cleared
+                             * to "no occluder", or drawn for an earlier view: still right) */
     const sq_world *map_world;
     uint64_t map_generation;
     bool map_valid;
     double ms_map; /* this frame's occlusion map (CPU + GL, finished); 0 when the last one served */
     double cpu_ms_map; /* the process's CPU time (all threads) meanwhile */
+    int bands_drawn;   /* by the last drawing (tests) */
 };
 
 /* CPU time of the process, all threads (ms). */
@@ -126,19 +129,47 @@ static void vertical_range(const sq_renderer *r, const sq_world *w, float *top, 
     *bottom = wmin.z - 1.0f;
 }
 
-/* World -> clip of the sky camera: x, y of the map to [-1, 1], depth 0 at top .. 1 at bottom. */
-static sq_mat4 sky_matrix(const sq__snow_map_geom *g)
+/* World -> clip of the sky camera over the texels t of map g: their x, y to [-1, 1], depth 0 at
+ * top .. 1 at bottom (the same for every t: a texel's depth does not depend on the band). */
+static sq_mat4 sky_matrix(const sq__snow_map_geom *g, sq__texel_rect t)
 {
-    const float ext = (float)(g->size * g->texel_m);
+    const double x0 = g->origin[0] + t.lo[0] * g->texel_m, y0 = g->origin[1] + t.lo[1] * g->texel_m;
+    const double ex = (t.hi[0] - t.lo[0]) * g->texel_m, ey = (t.hi[1] - t.lo[1]) * g->texel_m;
     const float span = g->top_z - g->bottom_z;
     sq_mat4 m = sq_m4_identity();
-    m.m[0] = 2.0f / ext;
-    m.m[12] = (float)(-2.0 * g->origin[0] / (double)ext) - 1.0f;
-    m.m[5] = 2.0f / ext;
-    m.m[13] = (float)(-2.0 * g->origin[1] / (double)ext) - 1.0f;
+    m.m[0] = (float)(2.0 / ex);
+    m.m[12] = (float)(-2.0 * x0 / ex - 1.0);
+    m.m[5] = (float)(2.0 / ey);
+    m.m[13] = (float)(-2.0 * y0 / ey - 1.0);
     m.m[10] = -2.0f / span;  /* clip z = 2 (top - z) / span - 1 */
     m.m[14] = 2.0f * g->top_z / span - 1.0f;
     return m;
+}
+
+/* Texels beyond the view's box drawn with it (each side): a vertex of a triangle the camera sees
+ * may lie outside the frustum (a terrain cell of 16 m); and the view may move this far before
+ * a band is drawn again. */
+#define MAP_GROW_TEXELS 32
+
+/* Draws the texels t of the map (bound framebuffer): a viewport and scissor on them and the
+ * sky camera over them, so that the instances and terrain tiles outside are culled. */
+static void draw_texels(sq_renderer *r, const sq_snow_cover_view *v, sq__texel_rect t)
+{
+    const sq__snow_map_geom *g = &r->snow->geom;
+    glViewport(t.lo[0], t.lo[1], t.hi[0] - t.lo[0], t.hi[1] - t.lo[1]);
+    glScissor(t.lo[0], t.lo[1], t.hi[0] - t.lo[0], t.hi[1] - t.lo[1]);
+    sq__depth_view dv;
+    memset(&dv, 0, sizeof dv);
+    dv.view_proj = sky_matrix(g, t);
+    dv.ortho = true;
+    dv.px_per_m = (float)(1.0 / g->texel_m);
+    /* levels of an error up to half a texel (the exposure's edges move by less than the map
+     * resolves), sunk by it (dv.sink): no level's top lies above the finest surface */
+    dv.lod_pixels = fmaxf(0.5f, (float)((double)v->depth_bias_m / g->texel_m));
+    if (r->map_lod_pixels > 0.0f) dv.lod_pixels = r->map_lod_pixels;
+    dv.sink = !r->map_no_sink;
+    dv.min_pixels = 0.5f;
+    sq__world_depth_draw(r, &dv);
 }
 
 sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow_cover_view *v)
@@ -148,6 +179,7 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
     memset(&b, 0, sizeof b);
     GLuint occ = s->dummy_occ, depth = s->dummy_depth;
     s->ms_map = s->cpu_ms_map = 0.0;
+    s->bands_drawn = 0;
     r->snow_on = false;
     if (v && v->depth_m && v->nx > 0 && v->ny > 0) {
         sq_result res = sq__snow_programs(r);
@@ -167,33 +199,37 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         const sq__snow_map_geom need = sq__snow_map_region(
             &cam, (float)r->width / (float)r->height, v->detail_distance_m, v->map_size, 4, top,
             bottom);
-        /* the world is static between generations: the last map serves while the view's
-         * footprint stays inside it (same texels, so the same exposures) */
-        if (!(s->map_valid && s->map_world == w && s->map_generation == w->generation &&
-              sq__snow_map_serves(&s->geom, &need))) {
+        /* the world is static between generations and the map's texels are the world's: the
+         * map stays while the view's box is inside it (the same texels, so the same
+         * exposures), and only the texels the view reads are drawn -- its box and
+         * MAP_GROW_TEXELS around it, the first time; then, as the view moves, the bands it
+         * newly reads (the texels drawn before are still right) */
+        const bool keep = s->map_valid && s->map_world == w && s->map_generation == w->generation &&
+                          sq__snow_map_serves(&s->geom, &need);
+        const sq__snow_map_geom *at = keep ? &s->geom : &need;
+        const sq__texel_rect reads = sq__snow_map_rect(at, &need, 0);
+        if (!keep || !sq__texel_rect_inside(reads, s->valid)) {
             /* timed alone: the GL work queued before (shadow cascades) finished first */
             glFinish();
             const double t0 = sq_time_now(), c0 = cpu_ms();
-            s->geom = need;
             /* the map must not stay bound for sampling while it is rendered into */
             glBindTextureUnit(11, s->dummy_occ);
             glBindFramebuffer(GL_FRAMEBUFFER, s->fbo);
-            glViewport(0, 0, v->map_size, v->map_size);
             glDepthMask(GL_TRUE);
-            const float one = 1.0f;
-            glClearNamedFramebufferfv(s->fbo, GL_DEPTH, 0, &one);
-            sq__depth_view dv;
-            memset(&dv, 0, sizeof dv);
-            dv.view_proj = sky_matrix(&s->geom);
-            dv.ortho = true;
-            dv.px_per_m = (float)(1.0 / s->geom.texel_m);
-            /* levels of an error up to half a texel (the exposure's edges move by less than the
-             * map resolves), sunk by it (dv.sink): no level's top lies above the finest surface */
-            dv.lod_pixels = fmaxf(0.5f, (float)((double)v->depth_bias_m / s->geom.texel_m));
-            if (r->map_lod_pixels > 0.0f) dv.lod_pixels = r->map_lod_pixels;
-            dv.sink = !r->map_no_sink;
-            dv.min_pixels = 0.5f;
-            sq__world_depth_draw(r, &dv);
+            if (!keep) {
+                s->geom = need;
+                memset(&s->valid, 0, sizeof s->valid);
+                const float one = 1.0f; /* no occluder */
+                glClearNamedFramebufferfv(s->fbo, GL_DEPTH, 0, &one);
+            }
+            const sq__texel_rect want = sq__snow_map_rect(&s->geom, &need, MAP_GROW_TEXELS);
+            sq__texel_rect band[4];
+            const int nb = sq__texel_rect_minus(want, s->valid, band);
+            glEnable(GL_SCISSOR_TEST);
+            for (int k = 0; k < nb; k++) draw_texels(r, v, band[k]);
+            glDisable(GL_SCISSOR_TEST);
+            s->valid = want;
+            s->bands_drawn = nb;
             glFinish(); /* the map's cost is measured whole (`squall bench snow-cover`) */
             s->ms_map = (sq_time_now() - t0) * 1e3;
             s->cpu_ms_map = cpu_ms() - c0;
@@ -249,11 +285,17 @@ double sq__snow_pass_ms(const sq_renderer *r) { return r->snow ? r->snow->ms_map
 
 double sq__snow_pass_cpu_ms(const sq_renderer *r) { return r->snow ? r->snow->cpu_ms_map : 0.0; }
 
+int sq__snow_pass_bands(const sq_renderer *r) { return r->snow ? r->snow->bands_drawn : 0; }
+
 bool sq__snow_pass_map(sq_renderer *r, sq__snow_map_geom *g, float *height)
 {
     const sq__snow_pass *s = r->snow;
     if (!s || !s->map_valid) return false;
     *g = s->geom;
+    g->need_lo[0] = s->geom.origin[0] + s->valid.lo[0] * s->geom.texel_m;
+    g->need_lo[1] = s->geom.origin[1] + s->valid.lo[1] * s->geom.texel_m;
+    g->need_hi[0] = s->geom.origin[0] + s->valid.hi[0] * s->geom.texel_m;
+    g->need_hi[1] = s->geom.origin[1] + s->valid.hi[1] * s->geom.texel_m;
     if (!height) return true;
     if (r->gl && sq__gl_context_make_current(r->gl) != SQ_OK) return false;
     const size_t n = (size_t)s->geom.size * (size_t)s->geom.size;

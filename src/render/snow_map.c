@@ -62,6 +62,50 @@ bool sq__snow_map_serves(const sq__snow_map_geom *have, const sq__snow_map_geom 
     return true;
 }
 
+sq__texel_rect sq__snow_map_rect(const sq__snow_map_geom *g, const sq__snow_map_geom *need, int grow)
+{
+    sq__texel_rect t;
+    for (int a = 0; a < 2; a++) {
+        const double lo = floor((need->need_lo[a] - g->origin[a]) / g->texel_m) - grow;
+        const double hi = ceil((need->need_hi[a] - g->origin[a]) / g->texel_m) + grow;
+        t.lo[a] = (int)fmin(fmax(lo, 0.0), (double)g->size);
+        t.hi[a] = (int)fmin(fmax(hi, 0.0), (double)g->size);
+    }
+    return t;
+}
+
+static bool rect_empty(sq__texel_rect a) { return a.hi[0] <= a.lo[0] || a.hi[1] <= a.lo[1]; }
+
+bool sq__texel_rect_inside(sq__texel_rect a, sq__texel_rect b)
+{
+    return rect_empty(a) || (!rect_empty(b) && a.lo[0] >= b.lo[0] && a.lo[1] >= b.lo[1] &&
+                             a.hi[0] <= b.hi[0] && a.hi[1] <= b.hi[1]);
+}
+
+int sq__texel_rect_minus(sq__texel_rect want, sq__texel_rect have, sq__texel_rect out[4])
+{
+    if (rect_empty(want)) return 0;
+    sq__texel_rect o;
+    for (int a = 0; a < 2; a++) {
+        o.lo[a] = want.lo[a] > have.lo[a] ? want.lo[a] : have.lo[a];
+        o.hi[a] = want.hi[a] < have.hi[a] ? want.hi[a] : have.hi[a];
+    }
+    if (rect_empty(o)) {
+        out[0] = want;
+        return 1;
+    }
+    int n = 0;
+    const sq__texel_rect band[4] = {
+        {{want.lo[0], want.lo[1]}, {want.hi[0], o.lo[1]}}, /* below the overlap, full width */
+        {{want.lo[0], o.hi[1]}, {want.hi[0], want.hi[1]}}, /* above */
+        {{want.lo[0], o.lo[1]}, {o.lo[0], o.hi[1]}},       /* left of it, its height */
+        {{o.hi[0], o.lo[1]}, {want.hi[0], o.hi[1]}},       /* right */
+    };
+    for (int k = 0; k < 4; k++)
+        if (!rect_empty(band[k])) out[n++] = band[k];
+    return n;
+}
+
 void sq__snow_map_fill(const sq_world *w, const sq__snow_map_geom *g, float *height)
 {
     for (int j = 0; j < g->size; j++)

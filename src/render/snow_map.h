@@ -47,6 +47,19 @@ sq__snow_map_geom sq__snow_map_region(const sq_camera *camera, float aspect, flo
  * texels), so a static world's map is drawn again only when the view leaves it. */
 bool sq__snow_map_serves(const sq__snow_map_geom *have, const sq__snow_map_geom *need);
 
+/* A rectangle of a map's texels: i in [lo[0], hi[0]), j in [lo[1], hi[1]); empty when a hi <= lo. */
+typedef struct sq__texel_rect {
+    int lo[2], hi[2];
+} sq__texel_rect;
+
+/* The texels of map g that the view of `need` reads (need's box, need_lo..need_hi, rounded out
+ * to whole texels) grown by grow texels on each side, within the map. */
+sq__texel_rect sq__snow_map_rect(const sq__snow_map_geom *g, const sq__snow_map_geom *need, int grow);
+bool sq__texel_rect_inside(sq__texel_rect a, sq__texel_rect b); /* a within b (empty a: true) */
+/* want minus have as at most 4 disjoint rectangles (bands below, above, left, right of their
+ * overlap; want itself when they do not overlap). Returns the count. */
+int sq__texel_rect_minus(sq__texel_rect want, sq__texel_rect have, sq__texel_rect out[4]);
+
 /* Height of the highest surface at every texel centre of g (size² floats, row j = y index):
  * the CPU occlusion map. */
 void sq__snow_map_fill(const sq_world *w, const sq__snow_map_geom *g, float *height);

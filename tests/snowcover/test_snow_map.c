@@ -355,3 +355,31 @@ SQ_TEST(shell_watertight)
     SQ_CHECK(fabsf(g.z - 0.25f) < 1e-6f && g.x == 0.0f && g.y == 0.0f);
     sq_context_destroy(ctx);
 }
+
+/* The bands of a kept map (sq__texel_rect_minus): want minus have as disjoint rectangles inside
+ * want, none inside have, that with want's overlap with have cover want exactly (counted texel
+ * by texel), for overlaps on every side, a corner, none, and have covering want. */
+SQ_TEST(map_bands_cover_what_the_view_newly_reads)
+{
+    const sq__texel_rect want = {{10, 20}, {50, 45}};
+    const sq__texel_rect haves[6] = {{{30, 30}, {70, 70}}, {{0, 0}, {20, 30}},   {{15, 25}, {40, 40}},
+                                     {{60, 0}, {80, 10}},  {{0, 0}, {100, 100}}, {{10, 20}, {50, 30}}};
+    for (int h = 0; h < 6; h++) {
+        sq__texel_rect band[4];
+        const int n = sq__texel_rect_minus(want, haves[h], band);
+        SQ_CHECK(n >= 0 && n <= 4);
+        int bad = 0;
+        for (int j = 0; j < 100; j++)
+            for (int i = 0; i < 100; i++) {
+                int in_bands = 0;
+                for (int k = 0; k < n; k++)
+                    in_bands += i >= band[k].lo[0] && i < band[k].hi[0] && j >= band[k].lo[1] && j < band[k].hi[1];
+                const sq__texel_rect *a = &want, *b = &haves[h];
+                const bool in_want = i >= a->lo[0] && i < a->hi[0] && j >= a->lo[1] && j < a->hi[1];
+                const bool in_have = i >= b->lo[0] && i < b->hi[0] && j >= b->lo[1] && j < b->hi[1];
+                bad += in_bands != ((in_want && !in_have) ? 1 : 0);
+            }
+        SQ_CHECK_MSG(bad == 0, "have %d: %d texels wrong", h, bad);
+        SQ_CHECK(sq__texel_rect_inside(want, haves[h]) == (h == 4));
+    }
+}
