@@ -88,7 +88,9 @@ static const sq_param params[] = {
       "smagorinsky: the Smagorinsky-Lilly subgrid closure of a large-eddy simulation, "
       "nu_t = (C_s h)^2 |S| sqrt(1 - Ri/Pr_t) from the full strain rate, on all three wind "
       "components, the heat and the dust in all directions, with the log-law stress at the "
-      "ground (for cells much smaller than the storm's big eddies: a haboob's head)."),
+      "ground (for cells much smaller than the storm's big eddies: a haboob's head). Use it with "
+      "solver.confinement 0: its small viscosity lets the confinement force run away (the "
+      "haboob preset reached 151 m/s with 0.15)."),
     B("solver.log_law_ground", log_law_ground,
       "Mixing-length closure: the ground's stress on the wind is the log law's, u*^2 = "
       "(kappa |u_h| / ln(z1/z0))^2 at the first cell centre z1 = h/2 (the wall law of the "
