@@ -60,7 +60,8 @@ struct sq_renderer {
     const void **tile_offsets;
     float shell_max_m;      /* how far the snow shell may move a vertex this frame (m) */
     bool shell_everywhere;  /* tests: every instance drawn with the shell (no far slots) */
-    bool depth_cull_off;    /* tests: depth views draw the back faces of closed meshes too */
+    bool depth_cull_off;    /* tests: depth views draw the back faces of closed meshes too (and
+                             * the occlusion map its vertical faces) */
     float map_lod_pixels;   /* tests: the occlusion map's level choice (0: render_snowcover.c's rule) */
     bool map_no_sink;       /* tests: the occlusion map's levels not sunk by their error */
     int64_t terrain_faces;  /* triangles of the terrain drawn since the frame began */
@@ -266,6 +267,8 @@ typedef struct sq__depth_view {
                            * no vertex by half a pixel are drawn without it (0 = all with it) */
     bool sink;            /* the snow occlusion map: each instance's level sunk by its error
                            * (shaders/depth_meshes.vert SQ_SINK) */
+    bool top_only;        /* a view straight down (the occlusion map): only the faces whose
+                           * projection on the ground has an area (render_meshes.c top_faces) */
 } sq__depth_view;
 
 /* Polls the context's cancellation (Ctrl-C): true once it is cancelled, and then for the rest of

@@ -21,6 +21,8 @@ typedef struct gpu_lod {
     GLint base_vertex;
     GLuint first_index; /* in the shared index buffer */
     GLsizei index_count;
+    GLuint top_first;   /* its faces seen from straight above (top_faces), after all levels' */
+    GLsizei top_count;
     float error_m;
 } gpu_lod;
 
@@ -141,6 +143,30 @@ void sq__mesh_pass_destroy(sq_renderer *r)
 }
 
 /* ---- upload --------------------------------------------------------------------------------- */
+/* The faces of a level that a view straight down can see (the occlusion map): those whose
+ * projection on the ground has an area, facing up on a closed mesh (the others are culled as back
+ * faces), either way on an open one. An instance's scale (> 0) and yaw keep the sign of a face's
+ * normal z, so the choice holds for every instance; a vertical face (a wall, a window's reveal)
+ * projects to a line and covers no texel centre. Appends their indices to out; returns the count. */
+static GLsizei top_faces(const sq_mesh_lod *L, bool closed, uint32_t *out)
+{
+    GLsizei n = 0;
+    for (int t = 0; t + 2 < L->index_count; t += 3) {
+        const float *a = &L->positions[3 * (size_t)L->indices[t]];
+        const float *b = &L->positions[3 * (size_t)L->indices[t + 1]];
+        const float *c = &L->positions[3 * (size_t)L->indices[t + 2]];
+        const sq_vec3 e = sq_v3(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+        const sq_vec3 f = sq_v3(c[0] - a[0], c[1] - a[1], c[2] - a[2]);
+        const sq_vec3 x = sq_v3_cross(e, f);
+        const float lim = 1e-6f * sq_v3_len(x);
+        if (closed ? x.z > lim : fabsf(x.z) > lim) {
+            memcpy(&out[n], &L->indices[t], 3 * sizeof(uint32_t));
+            n += 3;
+        }
+    }
+    return n;
+}
+
 static GLuint upload_texture(const sq_mesh_material *mt)
 {
     GLuint t = 0;
@@ -210,7 +236,8 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     m->lod_of = sq_alloc(ctx, (size_t)ni);
     m->bucket = sq_alloc(ctx, ((size_t)nm * SLOTS + 1) * sizeof(int));
     float *vb = sq_alloc(ctx, (nv > 0 ? nv : 1) * 8 * sizeof(float));
-    uint32_t *ib = sq_alloc(ctx, (nidx > 0 ? nidx : 1) * sizeof(uint32_t));
+    /* every level's indices, then their top faces (at most as many) */
+    uint32_t *ib = sq_alloc(ctx, (nidx > 0 ? 2 * nidx : 1) * sizeof(uint32_t));
     float *inst = sq_alloc(ctx, (size_t)ni * 16 * sizeof(float));
     uint32_t *sb = sq_alloc(ctx, (nv > 0 ? nv : 1) * sizeof(uint32_t));
     if (!m->mesh || !m->mat || !m->sphere || !m->err_scale || !m->visible || !m->lod_of ||
@@ -225,7 +252,7 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     }
     m->mesh_count = nm;
     m->instance_count = ni;
-    size_t v0 = 0, i0 = 0;
+    size_t v0 = 0, i0 = 0, t0 = nidx;
     for (int i = 0; i < nm; i++) {
         const sq_mesh *s = w->meshes[i];
         gpu_mesh *g = &m->mesh[i];
@@ -253,6 +280,9 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
                 o[7] = L->uvs ? 1.0f - L->uvs[2 * v + 1] : 0.0f; /* rows top first in memory */
             }
             memcpy(&ib[i0], L->indices, (size_t)L->index_count * sizeof(uint32_t));
+            g->lod[l].top_first = (GLuint)t0;
+            g->lod[l].top_count = top_faces(L, g->closed, &ib[t0]);
+            t0 += (size_t)g->lod[l].top_count;
             if (!smooth_normals(ctx, L, &sb[v0])) {
                 sq_free(ctx, sb);
                 sq_free(ctx, vb);
@@ -306,7 +336,7 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
     glCreateBuffers(1, &m->vbo);
     glNamedBufferStorage(m->vbo, (GLsizeiptr)((nv > 0 ? nv : 1) * 8 * sizeof(float)), vb, 0);
     glCreateBuffers(1, &m->ibo);
-    glNamedBufferStorage(m->ibo, (GLsizeiptr)((nidx > 0 ? nidx : 1) * sizeof(uint32_t)), ib, 0);
+    glNamedBufferStorage(m->ibo, (GLsizeiptr)((t0 > 0 ? t0 : 1) * sizeof(uint32_t)), ib, 0);
     glCreateBuffers(1, &m->inst_buf);
     glNamedBufferStorage(m->inst_buf, (GLsizeiptr)((size_t)ni * 16 * sizeof(float)), inst, 0);
     glCreateTextures(GL_TEXTURE_BUFFER, 1, &m->inst_tex);
@@ -478,9 +508,10 @@ static int instance_chunk(int faces_per_instance)
  * culled: every generated or imported solid is a union of closed, outward-oriented parts, so the
  * first surface a view's ray meets on it is where the ray enters a part, a front face — a depth
  * view (shadow cascade, occlusion map) keeps the same nearest depth and rasterises about half
- * the triangles. sink: the program's location 1 gets each level's error (sq__depth_view.sink). */
+ * the triangles. sink: the program's location 1 gets each level's error (sq__depth_view.sink);
+ * top: only the faces a view straight down sees (top_faces; depth only). */
 static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_closed, bool sink,
-                         GLuint prog_near, GLuint cutout_near, const GLuint far[2])
+                         bool top, GLuint prog_near, GLuint cutout_near, const GLuint far[2])
 {
     GLuint bound = prog_near;
     sq__mesh_pass *m = r->meshes;
@@ -518,12 +549,14 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_
                 const GLuint first = base + (GLuint)(m->bucket[b] + i0);
                 m->stats.instances += n;
                 if (!materials) {
-                    glDrawElementsInstancedBaseVertexBaseInstance(
-                        GL_TRIANGLES, L->index_count, GL_UNSIGNED_INT,
-                        (const void *)(uintptr_t)(L->first_index * sizeof(uint32_t)), n,
-                        L->base_vertex, first);
-                    m->stats.faces += (int64_t)n * (L->index_count / 3);
-                    unpolled += (int64_t)n * (L->index_count / 3);
+                    const GLsizei count = top ? L->top_count : L->index_count;
+                    const GLuint at = top ? L->top_first : L->first_index;
+                    if (count > 0)
+                        glDrawElementsInstancedBaseVertexBaseInstance(
+                            GL_TRIANGLES, count, GL_UNSIGNED_INT,
+                            (const void *)(uintptr_t)(at * sizeof(uint32_t)), n, L->base_vertex, first);
+                    m->stats.faces += (int64_t)n * (count / 3);
+                    unpolled += (int64_t)n * (count / 3);
                     continue;
                 }
                 const sq_mesh_lod *SL = &s->lods[l];
@@ -578,7 +611,7 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const GLuint far[2] = {r->snow_on ? m->prog_color_far : m->prog_color,
                            r->snow_on ? m->prog_cutout_far : m->prog_cutout};
     glUseProgram(color);
-    draw_buckets(r, base, true, true, false, color, cutout, far);
+    draw_buckets(r, base, true, true, false, false, color, cutout, far);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -592,7 +625,8 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     glUseProgram(prog);
     glProgramUniformMatrix4fv(prog, 0, 1, GL_FALSE, v->view_proj.m);
     const GLuint same[2] = {prog, prog};
-    draw_buckets(r, base, false, !r->depth_cull_off, prog == m->prog_depth_sunk, prog, prog, same);
+    draw_buckets(r, base, false, !r->depth_cull_off, prog == m->prog_depth_sunk,
+                 v->top_only && !r->depth_cull_off, prog, prog, same);
 }
 
 void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint program,
@@ -605,7 +639,7 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
     const GLuint same[2] = {program, program};
-    draw_buckets(r, base, materials, materials, false, program, program, same);
+    draw_buckets(r, base, materials, materials, false, false, program, program, same);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

@@ -168,6 +168,7 @@ static void draw_texels(sq_renderer *r, const sq_snow_cover_view *v, sq__texel_r
     dv.lod_pixels = fmaxf(0.5f, (float)((double)v->depth_bias_m / g->texel_m));
     if (r->map_lod_pixels > 0.0f) dv.lod_pixels = r->map_lod_pixels;
     dv.sink = !r->map_no_sink;
+    dv.top_only = true; /* straight down: walls cover no texel */
     dv.min_pixels = 0.5f;
     sq__world_depth_draw(r, &dv);
 }

@@ -130,9 +130,10 @@ struct sq__volume_pass {
     int eye_w, eye_h;
     int max_3d;
     /* ambient light inside the medium (volume_sky.c): per voxel the sky's and the ground's
-     * visibility (two RGB32F textures), recomputed when the density or its optics change;
-     * with render_desc.volume_ambient_uniform a single texel (1, 1, 1) */
-    GLuint sky_tex[2], sky_one_tex;
+     * visibility (sky_buf, 6 per voxel), recomputed when the density or its optics change, and
+     * the ambient radiance it gives (one RGB32F texture); with
+     * render_desc.volume_ambient_uniform a single texel of the unattenuated ambient */
+    GLuint sky_tex, sky_one_tex;
     float *sky_buf, *sky_work;
     size_t sky_cap, sky_work_cap;
     bool sky_valid;
@@ -140,6 +141,7 @@ struct sq__volume_pass {
     uint64_t sky_version;
     int sky_dims[3];
     double sky_key[6]; /* attenuation per channel, cell sizes */
+    float sky_amb[6];  /* the ambient colours of the texture: sky's half, ground's half */
     float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
     int *vfirst, *vcount; /* per plane: its triangles in the vertex buffer */
     int plane_cap;
@@ -573,7 +575,7 @@ sq_result sq__volume_pass_create(sq_renderer *r)
 
     res = make_noise_texture(r, vp);
     if (res == SQ_OK) make_shadow_texture(r, vp);
-    /* uniform ambient: every point sees the whole sky and ground */
+    /* uniform ambient: every point sees the whole sky and ground (set per frame) */
     const float one[3] = {1.0f, 1.0f, 1.0f};
     glCreateTextures(GL_TEXTURE_3D, 1, &vp->sky_one_tex);
     glTextureStorage3D(vp->sky_one_tex, 1, GL_RGB32F, 1, 1, 1);
@@ -595,10 +597,10 @@ void sq__volume_pass_destroy(sq_renderer *r)
     glDeleteVertexArrays(1, &vp->vao_slices);
     glDeleteVertexArrays(1, &vp->vao_empty);
     glDeleteBuffers(1, &vp->vbo_slices);
-    GLuint tex[12] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
+    GLuint tex[11] = {vp->density_tex, vp->noise_tex, vp->baked_tex, vp->light_arr,
                       vp->shadow_tex, vp->acc_tex, vp->bounds_tex, vp->eye_depth, vp->phase_tex,
-                      vp->sky_tex[0], vp->sky_tex[1], vp->sky_one_tex};
-    glDeleteTextures(12, tex);
+                      vp->sky_tex, vp->sky_one_tex};
+    glDeleteTextures(11, tex);
     GLuint fbo[4] = {vp->light_fbo, vp->acc_fbo, vp->comp_fbo, vp->bounds_fbo};
     glDeleteFramebuffers(4, fbo);
     sq_free(r->ctx, vp->verts);
@@ -717,14 +719,28 @@ static void diffuse_sigma(const sq_renderer *r, const sq_volume_view *v, double 
     }
 }
 
-/* The ambient visibility textures of the view (volume_sky.c: the sky's and the ground's, RGB),
- * recomputed when the density, its size or its optics changed; with
- * render_desc.volume_ambient_uniform a single texel (1, 1, 1) for both. */
-static sq_result sky_visibility(sq_renderer *r, const sq_volume_view *v, GLuint tex[2])
+static void ambient_radiance(const sq_world *w, sq_vec3 *from_sky, sq_vec3 *from_ground);
+
+/* The ambient radiance texture of the view: per voxel the sky's half of the ambient times its
+ * visibility plus the ground's half times its visibility (volume_sky.c), RGB. The visibility is
+ * recomputed when the density, its size or its optics change, the texture when it or the
+ * ambient colours change; with render_desc.volume_ambient_uniform a single texel holding the
+ * unattenuated ambient. One texture fetch per eye-pass fragment. */
+static sq_result ambient_texture(sq_renderer *r, const sq_volume_view *v, GLuint *tex)
 {
     sq__volume_pass *vp = r->volume;
-    tex[0] = tex[1] = vp->sky_one_tex;
-    if (r->desc.volume_ambient_uniform) return SQ_OK;
+    sq_vec3 as, ag;
+    ambient_radiance(r->world, &as, &ag);
+    const float amb[6] = {as.x, as.y, as.z, ag.x, ag.y, ag.z};
+    if (r->desc.volume_ambient_uniform) {
+        const float one[3] = {as.x + ag.x, as.y + ag.y, as.z + ag.z};
+        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+        glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
+        glTextureSubImage3D(vp->sky_one_tex, 0, 0, 0, 0, 1, 1, 1, GL_RGB, GL_FLOAT, one);
+        *tex = vp->sky_one_tex;
+        return SQ_OK;
+    }
     double key[6];
     diffuse_sigma(r, v, key);
     key[3] = (double)v->size_m.x / v->nx;
@@ -732,45 +748,52 @@ static sq_result sky_visibility(sq_renderer *r, const sq_volume_view *v, GLuint 
     key[5] = (double)v->size_m.z / v->nz;
     const bool same_dims = vp->sky_dims[0] == v->nx && vp->sky_dims[1] == v->ny &&
                            vp->sky_dims[2] == v->nz;
-    if (vp->sky_valid && same_dims && vp->sky_data == v->density &&
-        vp->sky_version == v->version && memcmp(key, vp->sky_key, sizeof key) == 0) {
-        tex[0] = vp->sky_tex[0];
-        tex[1] = vp->sky_tex[1];
+    const bool vis_ok = vp->sky_valid && same_dims && vp->sky_data == v->density &&
+                        vp->sky_version == v->version && memcmp(key, vp->sky_key, sizeof key) == 0;
+    if (vis_ok && memcmp(amb, vp->sky_amb, sizeof amb) == 0) {
+        *tex = vp->sky_tex;
         return SQ_OK;
     }
     const size_t n = (size_t)v->nx * (size_t)v->ny * (size_t)v->nz;
-    const size_t nw = sq__volume_sky_work_floats(v->nx, v->ny);
-    if (vp->sky_cap < 6 * n) {
-        sq_free(r->ctx, vp->sky_buf);
-        vp->sky_cap = 0;
-        if (!(vp->sky_buf = sq_alloc(r->ctx, sizeof(float) * 6 * n)))
-            return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
-                            "volume pass: no memory for the ambient visibility of %zu voxels", n);
-        vp->sky_cap = 6 * n;
-    }
-    if (vp->sky_work_cap < nw) {
-        sq_free(r->ctx, vp->sky_work);
-        vp->sky_work_cap = 0;
-        if (!(vp->sky_work = sq_alloc(r->ctx, sizeof(float) * nw)))
-            return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
-                            "volume pass: no memory for the ambient visibility sweep");
-        vp->sky_work_cap = nw;
-    }
-    sq__volume_sky_visibility(v->density, v->nx, v->ny, v->nz, key + 3, key, vp->sky_work,
-                              vp->sky_buf);
-    for (int t = 0; t < 2; t++) {
-        if (!vp->sky_tex[t] || !same_dims) {
-            if (vp->sky_tex[t]) glDeleteTextures(1, &vp->sky_tex[t]);
-            glCreateTextures(GL_TEXTURE_3D, 1, &vp->sky_tex[t]);
-            glTextureStorage3D(vp->sky_tex[t], 1, GL_RGB32F, v->nx, v->ny, v->nz);
-            set_linear_clamp(vp->sky_tex[t]);
+    if (!vis_ok) {
+        const size_t nw = sq__volume_sky_work_floats(v->nx, v->ny);
+        if (vp->sky_cap < 6 * n) {
+            sq_free(r->ctx, vp->sky_buf);
+            vp->sky_cap = 0;
+            if (!(vp->sky_buf = sq_alloc(r->ctx, sizeof(float) * 6 * n)))
+                return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                                "volume pass: no memory for the ambient visibility of %zu voxels",
+                                n);
+            vp->sky_cap = 6 * n;
         }
-        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-        glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
-        glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
-        glTextureSubImage3D(vp->sky_tex[t], 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RGB, GL_FLOAT,
-                            vp->sky_buf + (size_t)t * 3 * n);
+        /* the sweep's scratch, later the radiance to upload (3 n floats) */
+        const size_t nwork = nw > 3 * n ? nw : 3 * n;
+        if (vp->sky_work_cap < nwork) {
+            sq_free(r->ctx, vp->sky_work);
+            vp->sky_work_cap = 0;
+            if (!(vp->sky_work = sq_alloc(r->ctx, sizeof(float) * nwork)))
+                return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                                "volume pass: no memory for the ambient visibility sweep");
+            vp->sky_work_cap = nwork;
+        }
+        vp->sky_valid = false;
+        sq__volume_sky_visibility(v->density, v->nx, v->ny, v->nz, key + 3, key, vp->sky_work,
+                                  vp->sky_buf);
     }
+    if (!vp->sky_tex || !same_dims) {
+        if (vp->sky_tex) glDeleteTextures(1, &vp->sky_tex);
+        glCreateTextures(GL_TEXTURE_3D, 1, &vp->sky_tex);
+        glTextureStorage3D(vp->sky_tex, 1, GL_RGB32F, v->nx, v->ny, v->nz);
+        set_linear_clamp(vp->sky_tex);
+    }
+    float *rad = vp->sky_work;
+    const float *vs = vp->sky_buf, *vg = vp->sky_buf + 3 * n;
+    for (size_t q = 0; q < 3 * n; q += 3)
+        for (int c = 0; c < 3; c++) rad[q + c] = amb[c] * vs[q + c] + amb[3 + c] * vg[q + c];
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+    glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
+    glTextureSubImage3D(vp->sky_tex, 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RGB, GL_FLOAT, rad);
     vp->sky_valid = true;
     vp->sky_data = v->density;
     vp->sky_version = v->version;
@@ -778,9 +801,9 @@ static sq_result sky_visibility(sq_renderer *r, const sq_volume_view *v, GLuint 
     vp->sky_dims[1] = v->ny;
     vp->sky_dims[2] = v->nz;
     memcpy(vp->sky_key, key, sizeof key);
-    tex[0] = vp->sky_tex[0];
-    tex[1] = vp->sky_tex[1];
-    return sq__gl_check(r->ctx, "volume ambient visibility upload");
+    memcpy(vp->sky_amb, amb, sizeof amb);
+    *tex = vp->sky_tex;
+    return sq__gl_check(r->ctx, "volume ambient radiance upload");
 }
 
 /* ---- passes ----------------------------------------------------------------------------- */
@@ -928,10 +951,6 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
         inv_back[c] = fabsf(wl[c]) > 1e-10f ? -1.0f / wl[c] : (wl[c] > 0.0f ? -1e10f : 1e10f);
     u3a(prog, "u_inv_back", inv_back);
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
-    sq_vec3 amb_sky, amb_ground;
-    ambient_radiance(r->world, &amb_sky, &amb_ground);
-    u3(prog, "u_ambient_sky", amb_sky);
-    u3(prog, "u_ambient_ground", amb_ground);
     /* multiple-scattering octaves (render_internal.h, sq__volume_ms_weight) */
     glProgramUniform1i(prog, glGetUniformLocation(prog, "u_ms_octaves"),
                        r->desc.volume_octaves - 1);
@@ -1238,8 +1257,8 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     state_save(&saved);
     state_set_plain();
     const GLuint density = shading_density(r, v, &p);
-    GLuint sky[2] = {0, 0};
-    if ((res = sky_visibility(r, v, sky)) != SQ_OK) {
+    GLuint ambient = 0;
+    if ((res = ambient_texture(r, v, &ambient)) != SQ_OK) {
         state_restore(&saved);
         return res;
     }
@@ -1301,8 +1320,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glBindTextureUnit(1, vp->light_arr);
         glBindTextureUnit(2, vp->bounds_tex);
         glBindTextureUnit(3, vp->phase_tex);
-        glBindTextureUnit(4, sky[0]);
-        glBindTextureUnit(6, sky[1]);
+        glBindTextureUnit(4, ambient);
         glEnable(GL_BLEND);
         glBlendEquation(GL_FUNC_ADD);
         glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);

@@ -16,10 +16,10 @@
  * same D and V = exp(-kappa tau_v) of the vertical optical depth tau_v above (below) the point,
  * the diffusion decay; where a finite body has open sides (a wall's face, a blob's flank), the
  * directions that leave it sideways reach the clear sky sooner and let that light in. The
- * directions: two-point Gauss–Legendre nodes in mu = cos(zenith angle) on [0, 1]
- * (mu = 1/2 ± 1/(2 sqrt 3), weight 1/2 each) times four azimuths along the grid axes (1/4 each),
- * eight per hemisphere; per channel (the albedo, so kappa, is per channel: the light deep inside
- * dust is redder).
+ * directions: half the weight straight up (down), half over four grazing directions at
+ * mu = cos(zenith angle) = 0.211 (the lower two-point Gauss–Legendre node on [0, 1], 78° from
+ * the zenith) along the grid axes, five per hemisphere; per channel (the albedo, so kappa, is per
+ * channel: the light deep inside dust is redder).
  *
  * Evaluation. Per direction one sweep over the layers (from the top for the sky, from the bottom
  * for the ground): D at a voxel centre is D at the point one layer further along the direction
@@ -37,69 +37,73 @@
 
 #define SKY_AZIMUTHS 4
 
-const double sq__volume_sky_mu[SQ_VOL_SKY_MU_NODES] = {0.78867513459481287,
-                                                       0.21132486540518713};
-const double sq__volume_sky_weight[SQ_VOL_SKY_MU_NODES] = {0.5, 0.5};
-
 /* Bilinear sample of a layer (nx * ny values) at fractional cell coordinates (x, y); false when
  * the point lies beyond the box's side (more than half a cell outside the outer centres). */
-static bool layer_sample(const float *layer, int nx, int ny, double x, double y, double *out)
+static inline bool layer_sample(const float *layer, int nx, int ny, float x, float y, float *out)
 {
-    if (x < -0.5 || y < -0.5 || x > nx - 0.5 || y > ny - 0.5) return false;
-    x = x < 0.0 ? 0.0 : (x > nx - 1 ? nx - 1 : x);
-    y = y < 0.0 ? 0.0 : (y > ny - 1 ? ny - 1 : y);
+    if (x < -0.5f || y < -0.5f || x > (float)nx - 0.5f || y > (float)ny - 0.5f) return false;
+    x = x < 0.0f ? 0.0f : (x > (float)(nx - 1) ? (float)(nx - 1) : x);
+    y = y < 0.0f ? 0.0f : (y > (float)(ny - 1) ? (float)(ny - 1) : y);
     int i0 = (int)x, j0 = (int)y;
     if (i0 > nx - 2) i0 = nx > 1 ? nx - 2 : 0;
     if (j0 > ny - 2) j0 = ny > 1 ? ny - 2 : 0;
     const int i1 = nx > 1 ? i0 + 1 : 0, j1 = ny > 1 ? j0 + 1 : 0;
-    const double fx = nx > 1 ? x - i0 : 0.0, fy = ny > 1 ? y - j0 : 0.0;
-    const double a = layer[(size_t)j0 * nx + i0], b = layer[(size_t)j0 * nx + i1];
-    const double c = layer[(size_t)j1 * nx + i0], d = layer[(size_t)j1 * nx + i1];
-    *out = (a + (b - a) * fx) + ((c + (d - c) * fx) - (a + (b - a) * fx)) * fy;
+    const float fx = nx > 1 ? x - (float)i0 : 0.0f, fy = ny > 1 ? y - (float)j0 : 0.0f;
+    const float a = layer[(size_t)j0 * nx + i0], b = layer[(size_t)j0 * nx + i1];
+    const float c = layer[(size_t)j1 * nx + i0], d = layer[(size_t)j1 * nx + i1];
+    const float ab = a + (b - a) * fx;
+    *out = ab + ((c + (d - c) * fx) - ab) * fy;
     return true;
 }
 
+static inline float pos(float v) { return v > 0.0f ? v : 0.0f; }
+
 /* One direction's sweep. up: toward the sky (layers from the top), else toward the ground.
- * (ox, oy): horizontal cells travelled per layer along the direction; dz: the layers' spacing
- * (m). ground: with !up, the ground's light under each column per channel (3 nx*ny), else NULL.
- * work: 8 nx*ny scratch (the vertical density path and the carried ground light of the previous
- * and the current layer). Adds w * exp(-sigma_c D) (times the ground's light) to out[3 v + c]
- * (out: the sky's or the ground's array). */
-static void sweep(const float *density, int nx, int ny, int nz, const double sigma[3],
-                  double ox, double oy, double dz, bool up, const float *ground, double w,
-                  float *work, float *out)
+ * (ox, oy): horizontal cells travelled per layer along the direction (0, 0: straight up or
+ * down); dz: the layers' spacing (m). ground: with !up, the ground's light under each column
+ * per channel (3 nx*ny), else NULL. work: 8 nx*ny scratch (the vertical density path and the
+ * carried ground light of the previous and the current layer). Adds w * exp(-sigma_c D)
+ * (times the ground's light) to out[3 v + c] (out: the sky's or the ground's array). */
+static void sweep(const float *density, int nx, int ny, int nz, const float sigma[3], float ox,
+                  float oy, float dz, bool up, const float *ground, float w, float *work,
+                  float *out)
 {
     const size_t nxy = (size_t)nx * (size_t)ny;
     float *d_prev = work, *d_cur = work + nxy, *lit_prev = work + 2 * nxy,
           *lit_cur = work + 5 * nxy;
+    const bool straight = ox == 0.0f && oy == 0.0f;
     for (int s = 0; s < nz; s++) {
         const int k = up ? nz - 1 - s : s;
         const float *rho = density + (size_t)k * nxy;
         const float *rho_prev = s > 0 ? density + (size_t)(up ? k + 1 : k - 1) * nxy : NULL;
+        float *o_layer = out + 3 * (size_t)k * nxy;
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
                 const size_t c = (size_t)j * nx + i;
-                const double r0 = rho[c] > 0.0f ? (double)rho[c] : 0.0;
+                const float r0 = pos(rho[c]);
                 /* half a layer to the box's top (bottom), or to where the direction left the
                  * box through a side (clear air beyond) */
-                double D = r0 * 0.5 * dz, L[3] = {1.0, 1.0, 1.0}, dp, rp;
-                const double x = i + ox, y = j + oy;
+                float D = 0.5f * r0 * dz, L[3] = {1.0f, 1.0f, 1.0f}, dp, rp;
+                const float x = (float)i + ox, y = (float)j + oy;
                 if (s == 0) {
                     for (int ch = 0; ground && ch < 3; ch++)
-                        if (!layer_sample(ground + ch * nxy, nx, ny, i + 0.5 * ox, j + 0.5 * oy,
-                                          &L[ch]))
-                            L[ch] = 1.0;
+                        if (!layer_sample(ground + ch * nxy, nx, ny, (float)i + 0.5f * ox,
+                                          (float)j + 0.5f * oy, &L[ch]))
+                            L[ch] = 1.0f;
+                } else if (straight) {
+                    D = d_prev[c] + 0.5f * (r0 + pos(rho_prev[c])) * dz;
+                    for (int ch = 0; ground && ch < 3; ch++) L[ch] = lit_prev[ch * nxy + c];
                 } else if (layer_sample(d_prev, nx, ny, x, y, &dp)) {
                     layer_sample(rho_prev, nx, ny, x, y, &rp);
-                    D = dp + 0.5 * (r0 + (rp > 0.0 ? rp : 0.0)) * dz;
+                    D = dp + 0.5f * (r0 + pos(rp)) * dz;
                     for (int ch = 0; ground && ch < 3; ch++)
                         layer_sample(lit_prev + ch * nxy, nx, ny, x, y, &L[ch]);
                 }
-                d_cur[c] = (float)D;
-                float *o = out + 3 * ((size_t)k * nxy + c);
+                d_cur[c] = D;
+                float *o = o_layer + 3 * c;
                 for (int ch = 0; ch < 3; ch++) {
-                    lit_cur[ch * nxy + c] = (float)L[ch];
-                    o[ch] += (float)(w * L[ch] * exp(-sigma[ch] * D));
+                    lit_cur[ch * nxy + c] = L[ch];
+                    o[ch] += w * L[ch] * (D > 0.0f ? expf(-sigma[ch] * D) : 1.0f);
                 }
             }
         float *tmp = d_prev;
@@ -117,7 +121,13 @@ void sq__volume_sky_visibility(const float *density, int nx, int ny, int nz, con
     const size_t nxy = (size_t)nx * (size_t)ny, n = nxy * (size_t)nz;
     memset(out, 0, sizeof(float) * 6 * n);
     float *sky = out, *gnd = out + 3 * n;
-    static const double az[SKY_AZIMUTHS][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    const float sg[3] = {(float)sigma[0], (float)sigma[1], (float)sigma[2]};
+    static const float az[SKY_AZIMUTHS][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    const double tan_g = sqrt(1.0 - SQ_VOL_SKY_MU_GRAZING * SQ_VOL_SKY_MU_GRAZING) /
+                         SQ_VOL_SKY_MU_GRAZING;
+    const float gx = (float)(tan_g * cell_m[2] / cell_m[0]),
+                gy = (float)(tan_g * cell_m[2] / cell_m[1]);
+    const float dz = (float)cell_m[2];
     for (int up = 1; up >= 0; up--) {
         float *ground = NULL;
         if (!up) {
@@ -126,15 +136,11 @@ void sq__volume_sky_visibility(const float *density, int nx, int ny, int nz, con
             for (int ch = 0; ch < 3; ch++)
                 for (size_t c = 0; c < nxy; c++) ground[ch * nxy + c] = sky[3 * c + ch];
         }
-        for (int m = 0; m < SQ_VOL_SKY_MU_NODES; m++) {
-            const double mu = sq__volume_sky_mu[m];
-            const double tan_t = sqrt(1.0 - mu * mu) / mu;
-            for (int a = 0; a < SKY_AZIMUTHS; a++) {
-                const double ox = az[a][0] * tan_t * cell_m[2] / cell_m[0];
-                const double oy = az[a][1] * tan_t * cell_m[2] / cell_m[1];
-                sweep(density, nx, ny, nz, sigma, ox, oy, cell_m[2], up != 0, ground,
-                      sq__volume_sky_weight[m] / SKY_AZIMUTHS, work, up ? sky : gnd);
-            }
-        }
+        float *o = up ? sky : gnd;
+        sweep(density, nx, ny, nz, sg, 0.0f, 0.0f, dz, up != 0, ground,
+              (float)SQ_VOL_SKY_W_VERTICAL, work, o);
+        for (int a = 0; a < SKY_AZIMUTHS; a++)
+            sweep(density, nx, ny, nz, sg, az[a][0] * gx, az[a][1] * gy, dz, up != 0, ground,
+                  (float)(1.0 - SQ_VOL_SKY_W_VERTICAL) / SKY_AZIMUTHS, work, o);
     }
 }

@@ -6,11 +6,10 @@
 
 #include <stddef.h>
 
-/* The quadrature in mu = cos(zenith angle) over one hemisphere: two-point Gauss–Legendre on
- * [0, 1] (times four azimuths along the grid axes). */
-#define SQ_VOL_SKY_MU_NODES 2
-extern const double sq__volume_sky_mu[SQ_VOL_SKY_MU_NODES];
-extern const double sq__volume_sky_weight[SQ_VOL_SKY_MU_NODES];
+/* The directions: straight up (down) with this weight, the rest over four grazing directions
+ * along the grid axes at this cosine of the zenith angle. */
+#define SQ_VOL_SKY_W_VERTICAL 0.5
+#define SQ_VOL_SKY_MU_GRAZING 0.21132486540518713
 
 /* Floats of scratch sq__volume_sky_visibility needs for an nx * ny * nz grid. */
 static inline size_t sq__volume_sky_work_floats(int nx, int ny) { return 11 * (size_t)nx * ny; }

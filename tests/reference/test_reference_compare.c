@@ -222,9 +222,10 @@ static scores compare_scene(float sun_az, float sun_el, float view_az, float dis
  *   side-lit:     SSIM full 0.7531 / 0.7557 / 0.7556, FLIP 0.2187 / 0.2181 / 0.2164: floor
  *                 raised to 0.75, ceiling lowered to 0.22.
  * With the ambient attenuated inside the medium (volume_sky.c, the default since 2026-11-28;
- * seed 11): sun behind SSIM 0.9405, FLIP 0.0812 (better: the uniform ambient made the blob too
- * bright); against the sun 0.9518, 0.0903; side-lit 0.7522, 0.2184 (within 0.0014 of the
- * values above, inside the floors; docs/validation.md "Ambient light inside the medium").
+ * seed 11): sun behind SSIM 0.9404, FLIP 0.0817 (better: the uniform ambient made the blob too
+ * bright); against the sun 0.9516, 0.0908; side-lit 0.7516, 0.2188 (within 0.0016 SSIM and
+ * 0.0012 FLIP of the values above, inside the floors; docs/validation.md "Ambient light inside
+ * the medium").
  * The first run's values:
  *   sun behind:   SSIM full 0.9354, single 0.9352, iso 0.8855; FLIP full 0.0913, single 0.0910,
  *                 iso 0.1220. The single-scatter ablation is equal within noise (Harris forward

@@ -418,10 +418,9 @@ static double diffuse_decay(double tau, double albedo, double g)
  * counts the vertical distance it climbs through the uniform layer), and the ground's
  * exp(-sigma_c z) times the ground's own sky visibility (the lowest layer's). Then a column
  * under a thick layer: a layer 5 cells (100 m) deep and 24 cells wide, with sigma 0.05: a
- * vertical depth of 5, 4 layers above the point. The near-vertical directions (mu1 = 0.789,
- * 0.78 cells sideways per layer) cross it (e^-5 each), the grazing ones (mu2 = 0.211, 4.6 cells
- * per layer) pass beside it to the clear sky: visibility 0.5 + 0.5 e^-5 = 0.50337; above the
- * layer the whole sky: 1. */
+ * vertical depth of 5, 4 layers above the point. The vertical direction (weight 1/2) crosses it
+ * (e^-5), the four grazing ones (mu = 0.211, 4.6 cells sideways per layer) pass beside it to the
+ * clear sky: visibility 0.5 + 0.5 e^-5 = 0.50337; above the layer the whole sky: 1. */
 SQ_TEST(ambient_visibility_model)
 {
     {

@@ -15,8 +15,8 @@
 // extinction is the same on every channel (one exponential per transmittance; llvmpipe would
 // evaluate both sides of a branch).
 // J_amb: the sky's and the ground's halves of the ambient light, each scaled by its visibility
-// through the medium from this point (u_sky_vis, volume_sky.c; (1, 1) everywhere when the
-// renderer's ambient is uniform).
+// through the medium from this point (u_ambient, a 3D texture; one texel of the unscaled sum
+// when the renderer's ambient is uniform).
 // Multiple scattering beyond the forward lobe (u_ms_octaves > 0): octaves i = 1..n add
 // E albedo^i b^i (exp(-a^i tau) - exp(-tau)) p_HG(theta, c^i g) to J, tau the sun's optical
 // depth to the point (alpha of the light layer plus the half slab), after Wrenninge et al.
@@ -38,11 +38,9 @@ uniform vec3 u_box_lo, u_box_size;
 uniform float u_dlambda;       // light slab length spacing / (s . wl) (m)
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_sun_radiance;   // sun irradiance E
-uniform vec3 u_ambient_sky;    // phase-averaged radiance of the sky (upper half) and of the
-uniform vec3 u_ambient_ground; // ground (lower half) on an unobstructed point: J_amb = sum
-layout(binding = 4) uniform sampler3D u_sky_vis;    // per voxel and channel: the visibility
-layout(binding = 6) uniform sampler3D u_ground_vis; // of each half through the medium
-                                                    // (volume_sky.c)
+// per voxel: the phase-averaged ambient radiance J_amb, the sky's half and the ground's half
+// each scaled by its visibility through the medium (render_volume.c, volume_sky.c)
+layout(binding = 4) uniform sampler3D u_ambient;
 uniform int u_ms_octaves;      // multiple-scattering octaves beyond the first (0: none)
 uniform vec3 u_ms_abc;         // per octave: extinction scale a, weight b, asymmetry scale c
 uniform float u_ms_g;          // asymmetry of the first octave (green)
@@ -99,8 +97,7 @@ void main()
         }
     }
     vec3 tc = (clamp(v_world, u_box_lo, u_box_lo + u_box_size) - u_box_lo) / u_box_size;
-    vec3 J = u_sun_radiance * Ls + u_ambient_sky * textureLod(u_sky_vis, tc, 0.0).rgb +
-             u_ambient_ground * textureLod(u_ground_vis, tc, 0.0).rgb;
+    vec3 J = u_sun_radiance * Ls + textureLod(u_ambient, tc, 0.0).rgb;
     o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
     o_trans = vec4(T, 1.0);
 }
