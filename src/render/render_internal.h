@@ -70,7 +70,7 @@ struct sq_renderer {
     GLsizei obstacle_vertex_count;
 
     /* programs owned by the base renderer */
-    GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_tonemap;
+    GLuint prog_sky, prog_terrain, prog_mesh, prog_surface, prog_surface_depth, prog_tonemap;
     /* terrain and obstacles with snow cover (snow_common.glsl): compiled on the first frame with
      * a snow-cover drawable; prog_terrain and prog_mesh have it compiled out (SQ_NO_SNOW).
      * snow_on: this frame draws snow cover (sq__snow_pass_prepare) */
@@ -328,10 +328,12 @@ void sq__shadow_pass_destroy(sq_renderer *r);
 /* Fits the cascades to the camera, renders them, uploads the Shadow block and binds it (UBO 3,
  * the map at unit 8). Call after the camera is set and the world caches are up to date.
  * draw = false: no shadows this frame (the block says 0 cascades). */
-sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw);
+sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw,
+                                  const sq_drawable *drawables, int count);
 /* Whether the world's opaque geometry can shadow any of itself under its sun: obstacles or mesh
- * instances, or a terrain with a triangle steeper than the sun's elevation. The cascades are
- * not drawn when not (the picture is the same: nothing would be in shadow). */
+ * instances, or a terrain with a triangle steeper than the sun's elevation (surface drawables
+ * are casters of their own, counted by the caller). The cascades are not drawn when not (the
+ * picture is the same: nothing would be in shadow). */
 bool sq__shadow_casters_possible(const sq_renderer *r, const sq_world *w);
 /* Binds the Shadow block and map (or the 1x1 stand-in) for passes that include frame_common. */
 void sq__shadow_bind(sq_renderer *r);
@@ -339,6 +341,12 @@ void sq__shadow_bind(sq_renderer *r);
  * with v's view-projection: the shadow cascades and the snow occlusion map use this. The caller
  * binds the framebuffer, sets the viewport and clears depth. */
 void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v);
+/* The frame's surface drawables (heightfields: avalanche snow, deposits), uploaded by
+ * sq__surfaces_upload, into the bound depth target with view_proj; only those whose index in
+ * the frame's surface list has its bit set in mask. */
+void sq__surfaces_upload(sq_renderer *r, const sq_drawable *drawables, int count);
+void sq__surfaces_draw_depth(sq_renderer *r, const sq_mat4 *view_proj, const sq_drawable *drawables,
+                             int count, unsigned mask);
 /* CPU time of the last shadow render (ms; GL work may still be queued). */
 /* A shadow cascade's slice and its map's box in the sun's frame (x, y across the sun's direction,
  * z toward it): half-size, centre, depth range. */

@@ -8,14 +8,16 @@
  * frustum corners (its radius depends only on the slice and the field of view, so it never
  * changes while the camera moves), an orthographic sun view around it whose origin is snapped to
  * whole texels (no shimmer), and a depth render with depth clamping (casters between the slice
- * and the sun outside the box still occlude) and a slope-scaled polygon offset. Surfaces look the
+ * and the sun outside the box still occlude) and a slope-scaled polygon offset. The frame's
+ * surface drawables (the avalanche's snow, deposits: heightfields over the terrain) are drawn into
+ * the cascades they reach, so a flow casts its shadow on the snow beside it. Surfaces look the
  * cascade up with a normal offset and 3 x 3 percentage-closer filtering (frame_common.glsl).
  *
  * Kept between frames: each cascade's map reaches a margin of M = MARGIN x R beyond the slice's
  * sphere (extra texels of the same size), and its origin (x, y across the sun, z toward it) is
  * the sphere's centre rounded to a grid of 2M, so the sphere stays inside while its centre stays
- * in one grid cell. The map is then a function of (cell, texel, sun direction, world generation)
- * only: it is drawn again when one of them changes, and a kept map is the map a fresh renderer
+ * in one grid cell. The map is then a function of (cell, texel, sun direction, world generation,
+ * the surface drawables that reach it) only: it is drawn again when one of them changes, and a kept map is the map a fresh renderer
  * draws for the same view (`render_meshes.kept_cascades_equal_fresh_ones`). */
 #include <math.h>
 #include <string.h>
@@ -38,8 +40,18 @@ typedef struct cascade_key {
     uint64_t generation;
     sq_vec3 sun;
     float half, cx, cy, zlo, zhi; /* light-frame box */
+    uint64_t surfaces;            /* the surface drawables over the map (surfaces_signature) */
     bool valid;
 } cascade_key;
+
+#define MAX_SHADOW_SURFACES 32
+
+/* A surface drawable's box in the sun's frame (its covered cells), for which cascades it
+ * reaches. */
+typedef struct surface_extent {
+    float x0, x1, y0, y1, ztop; /* light frame x, y; highest world z */
+    bool any;
+} surface_extent;
 
 struct sq__shadow_pass {
     GLuint tex, dummy, ubo, prog_world;
@@ -137,6 +149,88 @@ void sq__world_depth_draw(sq_renderer *r, const sq__depth_view *v)
     if (v->ortho) glDisable(GL_DEPTH_CLAMP);
 }
 
+/* ---- surface drawables as casters ------------------------------------------------------------ */
+/* Light-frame extent of each surface drawable's covered cells (in the order of the frame's
+ * surfaces); returns how many surfaces there are. */
+static int surface_extents(const sq_drawable *ds, int count, sq_vec3 lx, sq_vec3 ly,
+                           surface_extent *out)
+{
+    int n = 0;
+    for (int i = 0; i < count && n < MAX_SHADOW_SURFACES; i++) {
+        if (ds[i].kind != SQ_DRAWABLE_SURFACE) continue;
+        const sq_surface_view *v = &ds[i].u.surface;
+        surface_extent e = {INFINITY, -INFINITY, INFINITY, -INFINITY, -INFINITY, false};
+        float zlo = INFINITY;
+        int i0 = v->nx, i1 = -1, j0 = v->ny, j1 = -1;
+        for (int j = 0; j < v->ny; j++)
+            for (int k = 0; k < v->nx; k++) {
+                const size_t c = (size_t)j * (size_t)v->nx + (size_t)k;
+                if (v->coverage && !(v->coverage[c] > 0.0f)) continue;
+                const float z = v->height_m[c];
+                e.ztop = fmaxf(e.ztop, z);
+                zlo = fminf(zlo, z);
+                i0 = k < i0 ? k : i0;
+                i1 = k > i1 ? k : i1;
+                j0 = j < j0 ? j : j0;
+                j1 = j > j1 ? j : j1;
+            }
+        if (i1 >= 0) {
+            e.any = true;
+            /* the covered cells' box (one cell beyond: a drawn cell needs one covered corner) */
+            const float x0 = v->origin_m.x + (float)(i0 > 0 ? i0 - 1 : 0) * v->dx_m;
+            const float x1 = v->origin_m.x + (float)(i1 < v->nx - 1 ? i1 + 1 : i1) * v->dx_m;
+            const float y0 = v->origin_m.y + (float)(j0 > 0 ? j0 - 1 : 0) * v->dy_m;
+            const float y1 = v->origin_m.y + (float)(j1 < v->ny - 1 ? j1 + 1 : j1) * v->dy_m;
+            for (int k = 0; k < 8; k++) {
+                const sq_vec3 p = sq_v3((k & 1) ? x1 : x0, (k & 2) ? y1 : y0, (k & 4) ? e.ztop : zlo);
+                const float a = sq_v3_dot(p, lx), b = sq_v3_dot(p, ly);
+                e.x0 = fminf(e.x0, a);
+                e.x1 = fmaxf(e.x1, a);
+                e.y0 = fminf(e.y0, b);
+                e.y1 = fmaxf(e.y1, b);
+            }
+        }
+        out[n++] = e;
+    }
+    return n;
+}
+
+static uint64_t fnv_mix(uint64_t h, const void *data, size_t size)
+{
+    const unsigned char *b = data;
+    for (size_t i = 0; i < size; i++) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+/* The surfaces a cascade's map of light-frame square (cx, cy, half) overlaps (a bit per surface)
+ * and a signature of what they are (data, version, grid): a map is drawn again when it changes. */
+static uint64_t surfaces_signature(const sq_drawable *ds, int count, const surface_extent *ext,
+                                   int n, float cx, float cy, float half, unsigned *mask)
+{
+    uint64_t h = 1469598103934665603ull;
+    *mask = 0;
+    int slot = 0;
+    for (int i = 0; i < count && slot < n; i++) {
+        if (ds[i].kind != SQ_DRAWABLE_SURFACE) continue;
+        const surface_extent *e = &ext[slot];
+        if (e->any && e->x1 >= cx - half && e->x0 <= cx + half && e->y1 >= cy - half &&
+            e->y0 <= cy + half) {
+            const sq_surface_view *v = &ds[i].u.surface;
+            *mask |= 1u << slot;
+            h = fnv_mix(h, &slot, sizeof slot);
+            h = fnv_mix(h, &v->height_m, sizeof v->height_m);
+            h = fnv_mix(h, &v->coverage, sizeof v->coverage);
+            h = fnv_mix(h, &v->version, sizeof v->version);
+            const float grid[5] = {v->origin_m.x, v->origin_m.y, v->origin_m.z, v->dx_m, v->dy_m};
+            const int size[2] = {v->nx, v->ny};
+            h = fnv_mix(h, grid, sizeof grid);
+            h = fnv_mix(h, size, sizeof size);
+        }
+        slot++;
+    }
+    return h;
+}
+
 /* ---- cascades ------------------------------------------------------------------------------- */
 /* Light frame: lz toward the sun, lx, ly across. */
 static void light_basis(sq_vec3 sun, sq_vec3 *lx, sq_vec3 *ly, sq_vec3 *lz)
@@ -219,19 +313,25 @@ void sq__shadow_cascades(sq_vec3 cam, sq_vec3 fwd, float tx, float ty, float n, 
     }
 }
 
-sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
+sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw,
+                                  const sq_drawable *drawables, int count)
 {
     sq__shadow_pass *s = r->shadow;
     shadow_block blk;
     memset(&blk, 0, sizeof blk);
     const bool sun_up = w->sun_dir.z > 0.0f;
-    if (draw && s->enabled && sun_up && !sq__shadow_casters_possible(r, w)) draw = false;
+    sq_vec3 lx, ly, lz;
+    light_basis(w->sun_dir, &lx, &ly, &lz);
+    surface_extent ext[MAX_SHADOW_SURFACES];
+    const int nsurf = draw && s->enabled && sun_up ? surface_extents(drawables, count, lx, ly, ext) : 0;
+    bool surface_casters = false;
+    for (int i = 0; i < nsurf; i++) surface_casters |= ext[i].any;
+    if (draw && s->enabled && sun_up && !surface_casters && !sq__shadow_casters_possible(r, w))
+        draw = false;
     if (draw && s->enabled && sun_up) {
         const double t0 = sq_time_now();
         const int C = s->cascades;
         const float n = r->near_m, f = fminf(r->far_m, s->distance_m);
-        sq_vec3 lx, ly, lz;
-        light_basis(w->sun_dir, &lx, &ly, &lz);
         /* the highest thing in the world, for how far toward the sun to look */
         sq_vec3 wmin, wmax, mmin, mmax;
         bool any;
@@ -241,6 +341,8 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
         if (any) top = fmaxf(top, mmax.z);
         for (int i = 0; i < w->obstacle_count; i++)
             top = fmaxf(top, w->obstacles[i].center_m.z + w->obstacles[i].size_m.z + w->obstacles[i].roof_m);
+        for (int i = 0; i < nsurf; i++)
+            if (ext[i].any) top = fmaxf(top, ext[i].ztop);
         /* toward the sun beyond the slice: as far as the world's height range reaches along the
          * sun's direction (a function of the world and the sun only; nearer casters beyond it
          * still occlude by depth clamping) */
@@ -263,12 +365,15 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
             memcpy(blk.matrix[c], look.m, sizeof look.m);
             blk.split[c] = box[c].split;
             blk.texel[c] = texel;
-            const cascade_key key = {w, w->generation, w->sun_dir, half, cx, cy, zlo, zhi, true};
+            unsigned mask = 0;
+            const uint64_t surf = surfaces_signature(drawables, count, ext, nsurf, cx, cy, half, &mask);
+            const cascade_key key = {w, w->generation, w->sun_dir, half, cx, cy, zlo, zhi, surf, true};
             const cascade_key *k = &s->key[c];
             if (s->margin > 0 && k->valid && k->world == key.world &&
                 k->generation == key.generation && k->sun.x == key.sun.x &&
                 k->sun.y == key.sun.y && k->sun.z == key.sun.z && k->half == key.half &&
-                k->cx == key.cx && k->cy == key.cy && k->zlo == key.zlo && k->zhi == key.zhi)
+                k->cx == key.cx && k->cy == key.cy && k->zlo == key.zlo && k->zhi == key.zhi &&
+                k->surfaces == key.surfaces)
                 continue; /* the map drawn for this key is still there */
             s->key[c] = key;
             drawn++;
@@ -287,6 +392,12 @@ sq_result sq__shadow_pass_prepare(sq_renderer *r, const sq_world *w, bool draw)
             v.lod_pixels = 2.0f;
             v.min_pixels = 1.0f;
             sq__world_depth_draw(r, &v);
+            if (mask) {
+                /* the snow lying on the terrain (avalanche flow, deposits) casts its shadow too */
+                glEnable(GL_DEPTH_CLAMP);
+                sq__surfaces_draw_depth(r, &vp, drawables, count, mask);
+                glDisable(GL_DEPTH_CLAMP);
+            }
         }
         glDisable(GL_POLYGON_OFFSET_FILL);
         blk.params[0] = (float)C;

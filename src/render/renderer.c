@@ -610,6 +610,47 @@ static void upload_surface(sq_renderer *r, surface_slot *s, const sq_surface_vie
     (void)r;
 }
 
+/* Every surface drawable's heights and coverage into its slot (the shadow cascades draw them
+ * before the lit pass does). */
+void sq__surfaces_upload(sq_renderer *r, const sq_drawable *ds, int count)
+{
+    int slot = 0;
+    for (int i = 0; i < count && slot < SQ_MAX_SURFACES; i++)
+        if (ds[i].kind == SQ_DRAWABLE_SURFACE) upload_surface(r, &r->base->surfaces[slot++], &ds[i].u.surface);
+}
+
+/* The grid's uniforms of program p (surface_grid.glsl) and its textures. */
+static void bind_surface_grid(GLuint p, const surface_slot *s, const sq_surface_view *v)
+{
+    glProgramUniform2i(p, 0, v->nx, v->ny);
+    glProgramUniform3f(p, 1, v->origin_m.x, v->origin_m.y, v->origin_m.z);
+    glProgramUniform2f(p, 2, v->dx_m, v->dy_m);
+    glProgramUniform1i(p, 3, s->has_coverage ? 1 : 0);
+    glBindTextureUnit(1, s->height_tex);
+    glBindTextureUnit(2, s->coverage_tex);
+}
+
+void sq__surfaces_draw_depth(sq_renderer *r, const sq_mat4 *view_proj, const sq_drawable *ds,
+                             int count, unsigned mask)
+{
+    const GLuint p = r->prog_surface_depth;
+    glProgramUniformMatrix4fv(p, 8, 1, GL_FALSE, view_proj->m);
+    glUseProgram(p);
+    glBindVertexArray(r->empty_vao);
+    int slot = 0;
+    for (int i = 0; i < count && slot < SQ_MAX_SURFACES; i++) {
+        if (ds[i].kind != SQ_DRAWABLE_SURFACE) continue;
+        const sq_surface_view *v = &ds[i].u.surface;
+        surface_slot *s = &r->base->surfaces[slot];
+        if (mask & (1u << slot)) {
+            upload_surface(r, s, v);
+            bind_surface_grid(p, s, v);
+            glDrawArrays(GL_TRIANGLES, 0, (v->nx - 1) * (v->ny - 1) * 6);
+        }
+        slot++;
+    }
+}
+
 static void draw_surface(sq_renderer *r, surface_slot *s, const sq_surface_view *v)
 {
     upload_surface(r, s, v);
@@ -617,14 +658,9 @@ static void draw_surface(sq_renderer *r, surface_slot *s, const sq_surface_view 
     if (!(albedo.x > 0.0f || albedo.y > 0.0f || albedo.z > 0.0f))
         albedo = sq__material_albedo(v->material);
     const GLuint p = r->prog_surface;
-    glProgramUniform2i(p, 0, v->nx, v->ny);
-    glProgramUniform3f(p, 1, v->origin_m.x, v->origin_m.y, v->origin_m.z);
-    glProgramUniform2f(p, 2, v->dx_m, v->dy_m);
-    glProgramUniform1i(p, 3, s->has_coverage ? 1 : 0);
+    bind_surface_grid(p, s, v);
     glProgramUniform3f(p, 4, albedo.x, albedo.y, albedo.z);
     glProgramUniform1i(p, 5, (int)v->material);
-    glBindTextureUnit(1, s->height_tex);
-    glBindTextureUnit(2, s->coverage_tex);
     glUseProgram(p);
     glBindVertexArray(r->empty_vao);
     sq__render_triangles_in_parts(r, (v->nx - 1) * (v->ny - 1) * 6);
@@ -844,7 +880,9 @@ static sq_result draw_passes(sq_renderer *r, const sq_world *world, const sq_cam
     upload_frame_block(r, world); /* with the sun shadow, if any */
     /* opaque sun shadows of the world's geometry (none when only drawables are added over the
      * caller's picture: its geometry is not known) */
-    if ((res = sq__shadow_pass_prepare(r, world, world_geometry)) != SQ_OK) return res;
+    if (world_geometry) sq__surfaces_upload(r, drawables, count);
+    if ((res = sq__shadow_pass_prepare(r, world, world_geometry, drawables, count)) != SQ_OK)
+        return res;
     if (sq__render_cancelled(r)) return frame_cancelled(r);
     /* snow lying on the world's surfaces: the occlusion map for this view */
     const sq_snow_cover_view *snow = NULL;
@@ -1393,6 +1431,8 @@ static sq_result create_programs(sq_renderer *r)
     if (res == SQ_OK)
         res = sq__gl_program(ctx, "surface.vert", NULL, "surface.frag", &r->prog_surface);
     if (res == SQ_OK)
+        res = sq__gl_program(ctx, "depth_surface.vert", NULL, "depth.frag", &r->prog_surface_depth);
+    if (res == SQ_OK)
         res = sq__gl_program(ctx, "fullscreen.vert", NULL, "tonemap.frag", &r->prog_tonemap);
     return res;
 }
@@ -1501,10 +1541,10 @@ void sq_renderer_destroy(sq_renderer *r)
         sq__volume_pass_destroy(r);
         if (r->base)
             for (int i = 0; i < SQ_MAX_SURFACES; i++) surface_slot_free(&r->base->surfaces[i]);
-        const GLuint progs[8] = {r->prog_sky,          r->prog_terrain,  r->prog_mesh,
+        const GLuint progs[9] = {r->prog_sky,          r->prog_terrain,  r->prog_mesh,
                                  r->prog_surface,      r->prog_tonemap,  r->prog_target,
-                                 r->prog_terrain_snow, r->prog_mesh_snow};
-        for (int i = 0; i < 8; i++) glDeleteProgram(progs[i]);
+                                 r->prog_terrain_snow, r->prog_mesh_snow, r->prog_surface_depth};
+        for (int i = 0; i < 9; i++) glDeleteProgram(progs[i]);
         const GLuint bufs[4] = {r->terrain_vbo, r->terrain_ibo, r->obstacle_vbo, r->frame_ubo};
         glDeleteBuffers(4, bufs);
         const GLuint vaos[3] = {r->terrain_vao, r->obstacle_vao, r->empty_vao};

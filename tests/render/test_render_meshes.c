@@ -188,6 +188,79 @@ SQ_TEST(box_shadows_the_ground_under_a_high_sun)
     sq_context_destroy(ctx);
 }
 
+/* The avalanche's snow as a surface drawable (a heightfield over flat ground) casts its shadow:
+ * a strip of snow 2 m deep across x in [-4, 4] (0.5 m cells, y in [-10, 10]) under a sun 30
+ * degrees high in the east darkens the ground west of it from x = -4 to -4 - 2 / tan 30 deg =
+ * -7.46 m; the ground farther west and the ground north of the strip's end keep the sun. Made
+ * 1 m deep (a new version of the drawable) the shadow ends at -5.73 m: the kept cascade is drawn
+ * again, the point at x = -6 is lit again. */
+SQ_TEST(avalanche_surface_casts_its_shadow)
+{
+    sq_context *ctx = make_ctx();
+    const float el = 30.0f * SQ_PI_F / 180.0f;
+    sq_world *w = flat_world(ctx, sq_v3(cosf(el), 0.0f, sinf(el)));
+    sq_renderer *r = make_renderer(ctx);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(-6.0f, -40.0f, 30.0f);
+    cam.target_m = sq_v3(-6.0f, 0.0f, 0.0f);
+    cam.fov_y_deg = 40.0f;
+    enum { N = 41 };
+    float height[N * N], cover[N * N];
+    for (int j = 0; j < N; j++)
+        for (int i = 0; i < N; i++) {
+            const float x = -10.0f + 0.5f * (float)i;
+            const bool in = fabsf(x) <= 4.0f;
+            height[j * N + i] = in ? 2.0f : 0.0f;
+            cover[j * N + i] = in ? 1.0f : 0.0f;
+        }
+    sq_drawable d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_DRAWABLE_SURFACE;
+    d.name = "avalanche";
+    d.u.surface.nx = d.u.surface.ny = N;
+    d.u.surface.origin_m = sq_v3(-10.0f, -10.0f, 0.0f);
+    d.u.surface.dx_m = d.u.surface.dy_m = 0.5f;
+    d.u.surface.height_m = height;
+    d.u.surface.coverage = cover;
+    d.u.surface.material = SQ_MATERIAL_SNOW_DEBRIS;
+    d.u.surface.version = 1;
+    float *bare = render_linear(r, w, &cam);
+    float *flow = malloc((size_t)W * H * 3 * sizeof(float));
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_linear(r, flow) == SQ_OK);
+    const sq_vec3 behind = sq_v3(-6.0f, 0.0f, 0.0f), beyond = sq_v3(-9.5f, 0.0f, 0.0f);
+    const sq_vec3 beside = sq_v3(-6.0f, 14.0f, 0.0f);
+    const double lit_behind = radiance_at(bare, &cam, behind), dark = radiance_at(flow, &cam, behind);
+    const double lit_beyond = radiance_at(bare, &cam, beyond), far = radiance_at(flow, &cam, beyond);
+    const double lit_beside = radiance_at(bare, &cam, beside), side = radiance_at(flow, &cam, beside);
+    printf("2 m deep: 2 m behind the flow %.4f (no flow %.4f); 5.5 m behind %.4f (%.4f); beside %.4f (%.4f)\n",
+           dark, lit_behind, far, lit_beyond, side, lit_beside);
+    SQ_CHECK_MSG(dark < 0.5 * lit_behind, "2 m behind the 2 m deep flow: %.4f, lit %.4f", dark, lit_behind);
+    SQ_CHECK_MSG(fabs(far - lit_beyond) < 0.02 * lit_beyond, "beyond its shadow: %.4f vs %.4f", far, lit_beyond);
+    SQ_CHECK_MSG(fabs(side - lit_beside) < 0.02 * lit_beside, "beside the flow: %.4f vs %.4f", side, lit_beside);
+    /* the same drawable again: the cascades are kept */
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK);
+    sq_render_stats st;
+    SQ_CHECK(sq_renderer_stats(r, &st) == SQ_OK);
+    SQ_CHECK_MSG(st.shadow_cascades_drawn == 0, "%d cascades drawn for an unchanged flow", st.shadow_cascades_drawn);
+    /* the flow thins to 1 m: its shadow ends 1.73 m behind it */
+    for (int c = 0; c < N * N; c++) height[c] = cover[c] > 0.0f ? 1.0f : 0.0f;
+    d.u.surface.version = 2;
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_linear(r, flow) == SQ_OK);
+    SQ_CHECK(sq_renderer_stats(r, &st) == SQ_OK);
+    const double thin = radiance_at(flow, &cam, behind);
+    printf("1 m deep: %d cascades drawn again; 2 m behind %.4f (no flow %.4f)\n", st.shadow_cascades_drawn,
+           thin, lit_behind);
+    SQ_CHECK(st.shadow_cascades_drawn >= 1);
+    SQ_CHECK_MSG(fabs(thin - lit_behind) < 0.02 * lit_behind, "2 m behind the 1 m flow: %.4f, lit %.4f", thin,
+                 lit_behind);
+    free(bare);
+    free(flow);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
 /* Flat 400 m world with the sun placed by date and hour (sq_world_set_sky can move it). */
 static sq_world *dated_world(sq_context *ctx, float hour)
 {
