@@ -19,7 +19,10 @@ import re
 import subprocess
 import sys
 
-LINE = re.compile(r"^  (\S+)\s+\S+\s+default (.+?)\s+range \[([^,\]]+), ([^\]]+)\]\s*$")
+# "  key  unit  default D  range [lo, hi]  live|rebuild" (the last column since the viewer's
+# live changes; optional so that older tables still parse)
+LINE = re.compile(r"^  (\S+)\s+\S+\s+default (.+?)\s+range \[([^,\]]+), ([^\]]+)\]"
+                  r"(?:\s+(?:live|rebuild))?\s*$")
 
 
 def keys(squall, layer):
@@ -34,6 +37,8 @@ def keys(squall, layer):
         except ValueError:
             continue
         found.append((m.group(1), m.group(3), m.group(4)))
+    if not found:  # a table this script cannot read must not pass as "no findings"
+        sys.exit(f"sweep_keys: no numeric key parsed from `squall params {layer}`")
     return found
 
 

@@ -145,9 +145,10 @@ static void window(pg_mesh *b, bool on_x, float wall, int facing, float u, float
     }
 }
 
-/* A flat dark quad for a window on the coarse levels (2 cm proud of the wall). */
-static void window_quad(pg_mesh *b, bool on_x, float wall, int facing, float u, float z, float w,
-                        float h)
+/* A flat quad of material mat on a wall (2 cm proud of it): windows and doors on the coarse
+ * levels, so that a level switch does not make them vanish. */
+static void wall_quad(pg_mesh *b, bool on_x, float wall, int facing, float u, float z, float w,
+                      float h, int mat)
 {
     const float f = (float)facing, t = wall + 0.02f * f;
     const float u0 = u - 0.5f * w, u1 = u + 0.5f * w, z0 = z - 0.5f * h, z1 = z + 0.5f * h;
@@ -158,16 +159,23 @@ static void window_quad(pg_mesh *b, bool on_x, float wall, int facing, float u, 
         d = pg_vertex(b, sq_v3(u1, t, z1));
         e = pg_vertex(b, sq_v3(u0, t, z1));
         /* counter-clockwise seen from -y is (u0,z0) (u1,z0) (u1,z1) (u0,z1) */
-        if (facing < 0) pg_quad(b, a, c, d, e, H_GLASS);
-        else pg_quad(b, a, e, d, c, H_GLASS);
+        if (facing < 0) pg_quad(b, a, c, d, e, mat);
+        else pg_quad(b, a, e, d, c, mat);
     } else {
         a = pg_vertex(b, sq_v3(t, u0, z0));
         c = pg_vertex(b, sq_v3(t, u1, z0));
         d = pg_vertex(b, sq_v3(t, u1, z1));
         e = pg_vertex(b, sq_v3(t, u0, z1));
-        if (facing > 0) pg_quad(b, a, c, d, e, H_GLASS);
-        else pg_quad(b, a, e, d, c, H_GLASS);
+        if (facing > 0) pg_quad(b, a, c, d, e, mat);
+        else pg_quad(b, a, e, d, c, mat);
     }
+}
+
+/* A flat dark quad for a window on the coarse levels. */
+static void window_quad(pg_mesh *b, bool on_x, float wall, int facing, float u, float z, float w,
+                        float h)
+{
+    wall_quad(b, on_x, wall, facing, u, z, w, h, H_GLASS);
 }
 
 /* Windows of one wall: count evenly spaced along [-half, half], skipping a door gap. */
@@ -204,6 +212,8 @@ static void house_level(pg_mesh *b, const pg_house_spec *s, int lod)
         wall_windows(b, lod, true, -hw, -1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
         wall_windows(b, lod, true, hw, 1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
     }
+    if (lod == 1) /* the door as a flat quad (1.0 x 2.1 m, as LOD 0's door box) */
+        wall_quad(b, false, -hd, -1, door_u, 1.4f, 1.0f, 2.1f, H_DOOR);
     if (lod == 0) {
         /* door with a step */
         pg_box(b, &id, sq_v3(door_u - 0.5f, -hd - 0.06f, 0.35f), sq_v3(door_u + 0.5f, -hd + 0.01f, 2.45f),
