@@ -206,13 +206,13 @@ static void house_level(pg_mesh *b, const pg_house_spec *s, int lod)
         pg_box(b, &id, sq_v3(-hw - 0.06f, -hd - 0.06f, -0.3f), sq_v3(hw + 0.06f, hd + 0.06f, 0.35f),
                H_PLINTH);
     pg_box(b, &id, sq_v3(-hw, -hd, 0.0f), sq_v3(hw, hd, H), H_WALL);
-    if (lod <= 1) {
-        wall_windows(b, lod, false, -hd, -1, hw, s->storeys, s->storey_h, door_u, 1.2f);
-        wall_windows(b, lod, false, hd, 1, hw, s->storeys, s->storey_h, 1e9f, 1.2f);
-        wall_windows(b, lod, true, -hw, -1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
-        wall_windows(b, lod, true, hw, 1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
-    }
-    if (lod == 1) /* the door as a flat quad (1.0 x 2.1 m, as LOD 0's door box) */
+    /* windows on every level (flat quads on the coarse ones: 2 triangles each, which the
+     * occlusion map's top-face range leaves out): a level switch must not make them vanish */
+    wall_windows(b, lod, false, -hd, -1, hw, s->storeys, s->storey_h, door_u, 1.2f);
+    wall_windows(b, lod, false, hd, 1, hw, s->storeys, s->storey_h, 1e9f, 1.2f);
+    wall_windows(b, lod, true, -hw, -1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
+    wall_windows(b, lod, true, hw, 1, hd, s->storeys, s->storey_h, 1e9f, 1.0f);
+    if (lod >= 1) /* the door as a flat quad (1.0 x 2.1 m, as LOD 0's door box) */
         wall_quad(b, false, -hd, -1, door_u, 1.4f, 1.0f, 2.1f, H_DOOR);
     if (lod == 0) {
         /* door with a step */
