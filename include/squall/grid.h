@@ -306,7 +306,11 @@ typedef struct sq_grid_sgs_desc {
     int theta_idx;
     double gravity_mps2;  /* g of N^2 = (g / theta) d theta / dz, with stratified */
 } sq_grid_sgs_desc;
+/* desc with its zero fields replaced by the defaults above (desc NULL: all defaults). */
 SQ_API sq_grid_sgs_desc sq_grid_sgs_desc_resolve(const sq_grid_sgs_desc *desc);
+/* One step dt_s of the closure's diffusion of the wind and every scalar (and the wall stress
+ * with roughness_m > 0). SQ_ERR_UNSTABLE, naming the diffusion number, when it would need more
+ * than 1000 sub-steps. */
 SQ_API sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double dt_s);
 /* The closure's nu_t (m^2/s) per cell of the current wind, nx*ny*nz floats (x fastest;
  * solids 0), e.g. for tests and diagnostics. */

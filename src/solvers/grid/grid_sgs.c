@@ -339,8 +339,8 @@ sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double d
     const int nsub = number > 1.0 / 6.0 ? (int)ceil(6.0 * number) : 1;
     if (nsub > 1000)
         return sq__fail(g->ctx, SQ_ERR_UNSTABLE, MOD,
-                        "subgrid diffusion number %g would need %d sub-steps (nu_t up to %g "
-                        "m2/s): the wind is out of range", number, nsub, (double)numax);
+                        "subgrid diffusion number %g would need %d sub-steps (eddy viscosity "
+                        "up to %g m2/s): the wind is out of range", number, nsub, (double)numax);
     g->stats.last_diffusion_number = number;
     g->stats.last_diffusion_implicit = false;
     const float s = (float)dt_s * ih2 / (float)nsub;
