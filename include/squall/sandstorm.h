@@ -85,6 +85,7 @@ typedef struct sq_sandstorm_desc {
     double coldpool_length_m;       /* extent from the west face at t = 0; 0 is physical */
     double coldpool_speed_mps;      /* inflow speed of the cold air; 0 -> √(g ΔT H / θ) */
     double observer_m[2];           /* fixed observer (x, y) of the visibility metric; 0 physical */
+    int top_boundary;              /* 0 open (p = 0, air may leave or enter), 1 free-slip lid */
     /* numerics */
     int pressure_solver;           /* 0 mgpcg, 1 multigrid, 2 jacobi */
     int jacobi_iterations;         /* 0 -> 40 (S0) */

@@ -282,7 +282,7 @@ static sq_result create_grid(sq_sandstorm *s)
     g.boundary[SQ_FACE_YMIN] = SQ_BOUNDARY_OPEN;
     g.boundary[SQ_FACE_YMAX] = SQ_BOUNDARY_OPEN;
     g.boundary[SQ_FACE_ZMIN] = SQ_BOUNDARY_NO_SLIP;
-    g.boundary[SQ_FACE_ZMAX] = SQ_BOUNDARY_OPEN;
+    g.boundary[SQ_FACE_ZMAX] = d->top_boundary == 1 ? SQ_BOUNDARY_FREE_SLIP : SQ_BOUNDARY_OPEN;
     g.pressure = d->pressure_solver == 2   ? SQ_PRESSURE_JACOBI
                  : d->pressure_solver == 1 ? SQ_PRESSURE_MULTIGRID
                                            : SQ_PRESSURE_MGPCG;

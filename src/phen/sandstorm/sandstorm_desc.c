@@ -107,6 +107,8 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
             BAD("%scoldpool.length_m = %g m; the initial outflow must start inside the domain "
                 "(0 <= length < %g m)", P, (double)d.coldpool_length_m, len);
     }
+    if (d.top_boundary != 0 && d.top_boundary != 1)
+        BAD("%sdomain.top = %d; must be open (0) or free-slip (1)", P, d.top_boundary);
     if (d.surface_heat_flux_w_m2 < -200.0 || d.surface_heat_flux_w_m2 > 1000.0)
         BAD("%ssurface.heat_flux_w_m2 = %g W/m2; desert sensible heat fluxes are -200..1000 W/m2",
             P, (double)d.surface_heat_flux_w_m2);

@@ -73,6 +73,11 @@ static const sq_param params[] = {
     D("observer.x_m", observer_m[0], "m", 0, -1e7, 1e7, Z,
       "Fixed observer of the visibility_observer_m metric (on the first visibility plane), x."),
     D("observer.y_m", observer_m[1], "m", 0, -1e7, 1e7, Z, "Fixed observer, y."),
+    E("domain.top", top_boundary, "open|free-slip",
+      "Top face: open (pressure 0; air leaves or enters freely) or free-slip (a rigid lid, "
+      "w = 0). Under an open top a cold pool that slumps draws air down through the top, and "
+      "the downdraft can run away in runs longer than ~5 min (the haboob reached 226 m/s "
+      "at 400 s); a lid at least twice the cold pool's depth keeps the flow bounded."),
     E("solver.pressure", pressure_solver, "mgpcg|multigrid|jacobi",
       "Pressure solver: multigrid-preconditioned CG (default), multigrid V-cycles, or S0's "
       "fixed-count Jacobi."),
