@@ -1,5 +1,5 @@
 /* snow_map.c — the snow-cover model's CPU side (see snow_map.h): occlusion-map region, exposure,
- * inclination, snow shell displacement, smoothed normals. shaders/snow_common.glsl mirrors the
+ * inclination, snow shell displacement, welded normals. shaders/snow_common.glsl mirrors the
  * per-point formulas for the GL renderer. */
 #include "render/snow_map.h"
 
@@ -211,10 +211,12 @@ float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m)
 }
 
 /* ---- the snow shell ----------------------------------------------------------------------- */
-sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend)
+sq_vec3 sq__snow_shell_offset(sq_vec4 ns, float depth_m, float f_e, float blend)
 {
-    const sq_vec3 dir = sq_v3_norm(sq_v3_lerp(ns, sq_v3(0.0f, 0.0f, 1.0f), blend));
     const float w = fminf(1.0f, 2.0f * fmaxf(0.0f, ns.z));
+    if (w <= 0.0f) return sq_v3(0.0f, 0.0f, 0.0f);
+    const sq_vec3 up = sq_v3(0.0f, 0.0f, 1.0f);
+    const sq_vec3 dir = ns.w > 0.5f ? up : sq_v3_norm(sq_v3_lerp(sq_v3(ns.x, ns.y, ns.z), up, blend));
     return sq_v3_scale(dir, depth_m * f_e * w);
 }
 
@@ -238,10 +240,22 @@ static int by_position(const void *a, const void *b)
     return 0;
 }
 
-bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const float *normals,
-                             int n, float *out)
+/* Whether normal a is above b: larger z, ties broken by x, then y (any order of the group gives
+ * the same upmost normal). */
+static bool upper(const float *a, const float *b)
 {
-    memcpy(out, normals, (size_t)n * 3 * sizeof(float));
+    if (a[2] != b[2]) return a[2] > b[2];
+    if (a[0] != b[0]) return a[0] > b[0];
+    return a[1] > b[1];
+}
+
+bool sq__snow_welded_normals(sq_context *ctx, const float *positions, const float *normals, int n,
+                             float *out)
+{
+    for (int i = 0; i < n; i++) {
+        memcpy(&out[4 * (size_t)i], &normals[3 * (size_t)i], 3 * sizeof(float));
+        out[4 * (size_t)i + 3] = 0.0f;
+    }
     keyed *order = sq_alloc(ctx, (size_t)(n > 0 ? n : 1) * sizeof *order);
     if (!order) return false;
     for (int i = 0; i < n; i++) {
@@ -253,15 +267,26 @@ bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const floa
         int b = a + 1;
         while (b < n && by_position(&order[a], &order[b]) == 0) b++;
         sq_vec3 s = sq_v3(0.0f, 0.0f, 0.0f);
+        const float *top = &normals[3 * (size_t)order[a].i];
         for (int k = a; k < b; k++) {
             const float *q = &normals[3 * (size_t)order[k].i];
             s = sq_v3_add(s, sq_v3(q[0], q[1], q[2]));
+            if (upper(q, top)) top = q;
+        }
+        bool crease = false;
+        for (int k = a; k < b && !crease; k++) {
+            const float *q = &normals[3 * (size_t)order[k].i];
+            crease = q[0] * top[0] + q[1] * top[1] + q[2] * top[2] < SQ__SNOW_CREASE_COS;
         }
         /* opposite normals at one place (a sheet seen from both sides) cancel: keep up */
-        s = sq_v3_len(s) > 1e-6f ? sq_v3_norm(s) : sq_v3(0.0f, 0.0f, 1.0f);
+        if (sq_v3_len(s) <= 1e-6f) {
+            s = sq_v3(0.0f, 0.0f, 1.0f);
+        } else {
+            s = crease ? sq_v3(top[0], top[1], top[2]) : sq_v3_norm(s);
+        }
         for (int k = a; k < b; k++) {
-            float *o = &out[3 * (size_t)order[k].i];
-            o[0] = s.x, o[1] = s.y, o[2] = s.z;
+            float *o = &out[4 * (size_t)order[k].i];
+            o[0] = s.x, o[1] = s.y, o[2] = s.z, o[3] = crease ? 1.0f : 0.0f;
         }
         a = b;
     }

@@ -6,9 +6,10 @@
  *     never changes while the camera moves and the texel size stays);
  *   - the snow prediction function f_p = f_e · f_inc (eqs 2.1–2.3): exposure from M taps of the
  *     map with a depth bias, inclination max(0, N·up) perturbed by a multi-octave 3D noise;
- *   - the snow shell: a displacement along the blend of the position-welded smoothed normal and
- *     up, by depth × f_e × a weight of the smoothed normal; a function of the position alone, so
- *     coincident vertices of a mesh with split normals move together (no cracks at creases);
+ *   - the snow shell: a displacement by depth × f_e × a weight of the vertex's welded normal,
+ *     along the blend of that normal and up on smooth surfaces, straight up at creases (a wall
+ *     under a roof's edge stays vertical); a function of the position alone, so coincident
+ *     vertices of a mesh with split normals move together (no cracks at creases);
  *   - a CPU occlusion map (the top surface per texel from sq_world_surface_at), the reference
  *     the GL pass (render_snowcover.c, shaders/snow_common.glsl) mirrors.
  * The GLSL in shaders/snow_common.glsl implements the same formulas; keep them in step. */
@@ -90,9 +91,11 @@ float sq__snow_fbm3(sq_vec3 x, int octaves);
  * 1 + amplitude (2 fbm(p / scale_m) - 1), clamped to [0, 1]; amplitude 0 gives max(0, n.z). */
 float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m);
 
-/* Displacement of a vertex at p with position-welded smoothed normal ns (unit): along
- * normalize(ns + blend (up - ns)) by depth_m × f_e × min(1, 2 max(0, ns.z)). */
-sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend);
+/* Displacement of a vertex with welded normal ns (sq__snow_welded_normals; its exposure f_e
+ * taken with nz = ns.z): by depth_m × f_e × min(1, 2 max(0, ns.z)), along
+ * normalize(ns + blend (up - ns)) on a smooth surface (ns.w = 0), straight up at a crease
+ * (ns.w = 1). */
+sq_vec3 sq__snow_shell_offset(sq_vec4 ns, float depth_m, float f_e, float blend);
 
 /* Shading normal of the snow shell over a surface of unit normal n where the depth varies with
  * gradient (gx, gy) (m per m, a drift): the shell lies w × depth above the surface, w =
@@ -101,10 +104,23 @@ sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend)
  * itself on walls and overhangs. */
 sq_vec3 sq__snow_shell_normal(sq_vec3 n, float gx, float gy);
 
-/* Smoothed normals: per vertex, the normalised sum of the normals of all vertices at exactly the
- * same position (n vertices, positions and normals 3 floats each); out may not alias.
- * Returns false when out of memory (out then holds the input normals). */
-bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const float *normals,
-                             int n, float *out);
+/* Crease of the welded normals: a vertex whose welded normals differ from its upmost one by more
+ * than this angle's cosine moves straight up. Smooth groups (the mesh module smooths across
+ * edges up to its crease angle, 45-50 degrees) differ far less; a box's corner by 90 degrees. */
+#define SQ__SNOW_CREASE_COS 0.8660254f /* 30 degrees */
+
+/* The snow shell's normal of each vertex (n vertices, positions and normals 3 floats each; out
+ * 4 floats each, may not alias), the same for all vertices at exactly the same position (welded):
+ *   - on a smooth surface (every welded normal within 30 degrees of the upmost one): xyz the
+ *     normalised sum of the welded normals (S2's smoothed normal), w = 0;
+ *   - at a crease: xyz the upmost welded normal (largest z; ties to the largest x, then y), w = 1:
+ *     the shell moves such a vertex straight up, so a wall's top edge rises with the roof or
+ *     the box top over it and the wall stays vertical, and its exposure is tested with the
+ *     slope of that face (none for a flat top: a wall's top corner just under a roof's overhang
+ *     is occluded; a roof's eave keeps its roof's slope bias).
+ * Opposite normals at one place (a sheet seen from both sides) cancel: up. Returns false when
+ * out of memory (out then holds the input normals, w = 0). */
+bool sq__snow_welded_normals(sq_context *ctx, const float *positions, const float *normals, int n,
+                             float *out);
 
 #endif
