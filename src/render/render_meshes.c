@@ -45,7 +45,7 @@ struct sq__mesh_pass {
     uint64_t generation;
     int mesh_count, instance_count;
     GLuint vao, vbo, ibo, inst_buf, inst_tex, ring;
-    GLuint sbo; /* per vertex: the snow shell's welded normal and crease flag, 2_10_10_10 */
+    GLuint sbo; /* per vertex: the snow shell's welded normal, w: top of a wall; 2_10_10_10 */
     gpu_mesh *mesh;
     gpu_material *mat;
     int mat_count;
@@ -192,14 +192,15 @@ static uint32_t snorm10(float v)
     return (uint32_t)q & 0x3ffu;
 }
 
-/* The LOD's welded normals (sq__snow_welded_normals) packed as GL_INT_2_10_10_10_REV, the crease
- * flag in the 2-bit w (1 or 0): the snow shell moves coincident vertices of split-normal creases
- * together. */
+/* The LOD's welded normals (sq__snow_welded_normals) packed as GL_INT_2_10_10_10_REV, the flag
+ * "top of a wall" in the 2-bit w (1 or 0): the snow shell moves coincident vertices of
+ * split-normal creases together. */
 static bool welded_normals(sq_context *ctx, const sq_mesh_lod *L, uint32_t *out)
 {
     const size_t n = (size_t)L->vertex_count;
     float *sm = sq_alloc(ctx, (n > 0 ? n : 1) * 4 * sizeof(float));
-    if (!sm || !sq__snow_welded_normals(ctx, L->positions, L->normals, L->vertex_count, sm)) {
+    if (!sm || !sq__snow_welded_normals(ctx, L->positions, L->normals, L->vertex_count, L->indices,
+                                          L->index_count, sm)) {
         sq_free(ctx, sm);
         return false;
     }

@@ -179,8 +179,8 @@ float sq_snow_cover(vec3 p, vec3 n, float full_m)
 }
 
 // The snow shell (sq__snow_shell_offset): displacement of a vertex at p with the welded normal
-// ns (sq__snow_welded_normals: unit xyz, w = 1 at a crease) by depth x f_e x min(1, 2 max(0,
-// ns.z)), along the blend of ns and up on a smooth surface, straight up at a crease. A function
+// ns (sq__snow_welded_normals: unit xyz, w = 1 at the top of a wall) by depth x f_e x min(1,
+// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall. A function
 // of p and ns only: coincident vertices move together.
 vec3 sq_snow_shell(vec3 p, vec4 ns)
 {
