@@ -24,6 +24,13 @@
 #include "squall/scene.h"
 #include "squall/wrf.h"
 
+/* "/" to print after a directory name that does not end with one already. */
+static const char *dir_slash(const char *dir)
+{
+    const size_t n = strlen(dir);
+    return n > 0 && dir[n - 1] == '/' ? "" : "/";
+}
+
 static void render_usage(bool simulate)
 {
     printf("usage: squall %s [SCENE.yaml|PRESET] [options]\n\n", simulate ? "simulate" : "render");
@@ -463,9 +470,11 @@ int sq_cmd_render(int argc, char **argv)
                     simulate ? "simulated" : "rendered", N, N == 1 ? "" : "s", sq_scene_name(scene),
                     el, N / (el > 0 ? el : 1e-9));
             if (video) fprintf(stderr, " -> %s", video);
-            if (frames_dir) fprintf(stderr, " -> %s/", frames_dir);
+            if (frames_dir) fprintf(stderr, " -> %s%s", frames_dir, dir_slash(frames_dir));
             if (metrics_path) fprintf(stderr, " (metrics %s)", metrics_path);
-            if (rasters) fprintf(stderr, " (rasters %s/, written in %.2f s)", rasters, raster_s);
+            if (rasters)
+                fprintf(stderr, " (rasters %s%s, written in %.2f s)", rasters, dir_slash(rasters),
+                        raster_s);
             fprintf(stderr, "\n");
         }
         if (json) {

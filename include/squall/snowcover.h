@@ -92,6 +92,9 @@ SQ_API uint64_t sq_snowcover_memory_bytes(const sq_snowcover_desc *desc, const s
 SQ_API sq_result sq_snowcover_create(sq_context *ctx, const sq_snowcover_desc *desc,
                                      const sq_world *world, sq_snowcover **out);
 SQ_API void sq_snowcover_destroy(sq_snowcover *s);
+/* Adds dt_s × speedup of snowfall to the depth and moves the flakes. SQ_ERR_TOO_LARGE, with the
+ * state unchanged, when the depth would pass the deepest snow cover ever measured (11.82 m):
+ * a rate or time-lapse mistake, not a scene the displaced shell can show. */
 SQ_API sq_result sq_snowcover_step(sq_snowcover *s, double dt_s);
 /* 0: any step (flakes are updated with the exact exponential solution). */
 SQ_API double sq_snowcover_max_stable_dt(const sq_snowcover *s);

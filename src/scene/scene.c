@@ -62,7 +62,8 @@ static sq_result relog(sq_context *ctx, sq_result r)
  * scene user sets keys. Each identifier with an underscore that is not already a key of the
  * layer but is the trailing part of exactly one of its keys ("dt_max_s" ->
  * "numerics.dt_max_s") becomes the full key "layers.NAME.KEY", and the message is prefixed with
- * "layers.NAME: " unless it names the layer already. Returns r, with the new text set. */
+ * "layers.NAME: " unless it names the layer already; the desc's own name ("sq_avalanche_desc.")
+ * becomes "layers.NAME.". Returns r, with the new text set. */
 static const char *unique_key_ending(const sq_param *t, size_t n, const char *word, size_t len)
 {
     const char *found = NULL;
@@ -85,7 +86,8 @@ sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char 
     char prefix[96];
     snprintf(prefix, sizeof prefix, "layers.%s", layer_name);
     size_t o = 0;
-    if (!strstr(in, "layers.")) o = (size_t)snprintf(out, sizeof out, "%s: ", prefix);
+    if (!strstr(in, "layers.") && !strstr(in, "_desc."))
+        o = (size_t)snprintf(out, sizeof out, "%s: ", prefix);
     for (const char *p = in; *p && o + 1 < sizeof out;) {
         const bool start = p == in || !(isalnum((unsigned char)p[-1]) || p[-1] == '_' ||
                                         p[-1] == '.');
@@ -93,6 +95,12 @@ sq_result sq__scene_translate_error(const sq_param *table, size_t n, const char 
             const char *e = p;
             while (isalnum((unsigned char)*e) || *e == '_') e++;
             const size_t len = (size_t)(e - p);
+            if (*e == '.' && len > 8 && strncmp(p, "sq_", 3) == 0 &&
+                strncmp(e - 5, "_desc", 5) == 0) { /* the C desc's name: the layer's keys */
+                o += (size_t)snprintf(out + o, sizeof out - o, "%s.", prefix);
+                p = e + 1;
+                continue;
+            }
             const char *key = *e != '.' && memchr(p, '_', len) ? unique_key_ending(table, n, p, len)
                                                                 : NULL;
             if (key)

@@ -32,6 +32,13 @@ SQ_TEST(solver_fields_become_layer_keys)
         SQ_CHECK_MSG(strstr(e, "raise layers.slide.numerics.speed_of_sound_mps (now") != NULL, "%s",
                      e);
         SQ_CHECK_MSG(strstr(e, "frame dt or") != NULL, "%s", e); /* plain words stay */
+        /* a refusal found after validation names the C desc: it becomes the layer's keys */
+        sq_set_error(SQ_ERR_INVALID_ARG, "sq_avalanche_desc.release: the release produces no "
+                                         "particles at spacing 100 m");
+        sq__scene_translate_error(av->params, av->param_count, "slide", SQ_ERR_INVALID_ARG);
+        SQ_CHECK_MSG(strcmp(sq_last_error(), "layers.slide.release: the release produces no "
+                                             "particles at spacing 100 m") == 0,
+                     "%s", sq_last_error());
     }
     const sq_phen_plugin *sd = plugin("snowdrift");
     if (sd) {

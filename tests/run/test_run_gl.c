@@ -95,14 +95,20 @@ static bool poll_when_armed(void *user)
     return ++a->calls >= a->stop_at;
 }
 
-SQ_TEST(interrupt_inside_a_frame_ends_the_run_as_between_frames)
+/* Which callback asks to stop: the context's interrupt (Ctrl-C in the CLI) or the run's own
+ * cancel (sq_run_desc.cancel, an embedding application's stop button). */
+typedef enum stop_source { STOP_BY_CONTEXT, STOP_BY_RUN } stop_source;
+
+static void check_stop_inside_a_frame(stop_source by)
 {
     armed_poll ap = {false, 0, 4};
     sq_context_desc cd = {0};
     cd.threads = 1;
     cd.log_level = SQ_LOG_NONE;
-    cd.interrupt = poll_when_armed;
-    cd.interrupt_user = &ap;
+    if (by == STOP_BY_CONTEXT) {
+        cd.interrupt = poll_when_armed;
+        cd.interrupt_user = &ap;
+    }
     sq_context *ctx = NULL;
     SQ_CHECK_OK(sq_context_create(&cd, &ctx));
     sq_scene *s = mkscene(ctx, NULL);
@@ -111,6 +117,10 @@ SQ_TEST(interrupt_inside_a_frame_ends_the_run_as_between_frames)
     rd.scene = s;
     rd.render = SQ_RUN_GL;
     rd.sinks = (sq_run_sinks){on_frame, NULL, NULL, &log};
+    if (by == STOP_BY_RUN) {
+        rd.user = &ap;
+        rd.cancel = poll_when_armed;
+    }
     sq_run *run = NULL;
     SQ_CHECK_OK(sq_run_create(ctx, &rd, &run));
     if (!run) goto done;
@@ -130,39 +140,14 @@ done:
     sq_context_destroy(ctx);
 }
 
-/* The run's own cancel callback (sq_run_desc.cancel) reaches the renderer inside a frame as the
- * context's interrupt does. */
+SQ_TEST(interrupt_inside_a_frame_ends_the_run_as_between_frames)
+{
+    check_stop_inside_a_frame(STOP_BY_CONTEXT);
+}
+
+/* The run's own cancel callback reaches the renderer inside a frame as the context's interrupt
+ * does. */
 SQ_TEST(run_cancel_reaches_inside_a_frame)
 {
-    armed_poll ap = {false, 0, 4};
-    sq_context_desc cd = {0};
-    cd.threads = 1;
-    cd.log_level = SQ_LOG_NONE;
-    sq_context *ctx = NULL;
-    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
-    sq_scene *s = mkscene(ctx, NULL);
-    sink_log log = {.last_frame = -1};
-    sq_run_desc rd = {0};
-    rd.scene = s;
-    rd.render = SQ_RUN_GL;
-    rd.sinks = (sq_run_sinks){on_frame, NULL, NULL, &log};
-    rd.user = &ap;
-    rd.cancel = poll_when_armed; /* the run's own interrupt, not the context's */
-    sq_run *run = NULL;
-    SQ_CHECK_OK(sq_run_create(ctx, &rd, &run));
-    if (!run) goto done;
-    SQ_CHECK_OK(sq_run_advance(run));
-    SQ_CHECK_OK(sq_run_draw(run));
-    SQ_CHECK_OK(sq_run_advance(run));
-    ap.armed = true; /* the run's own check before drawing is poll 1: poll 4 is inside the frame */
-    SQ_CHECK_ERR(sq_run_draw(run), SQ_ERR_CANCELLED, "interrupted at frame 2 of");
-    SQ_CHECK_MSG(ap.calls == ap.stop_at, "polled %d times after arming; stop asked at %d",
-                 ap.calls, ap.stop_at);
-    SQ_CHECK_MSG(log.frames_seen == 1, "%d frames delivered; the interrupted one must not be",
-                 log.frames_seen);
-done:
-    free(log.last_rgba);
-    sq_run_destroy(run);
-    sq_scene_destroy(s);
-    sq_context_destroy(ctx);
+    check_stop_inside_a_frame(STOP_BY_RUN);
 }

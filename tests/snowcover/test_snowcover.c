@@ -1,6 +1,7 @@
 /* test_snowcover.c — the snow-cover phenomenon (squall/snowcover.h, SPEC §6):
  *   - depth on exposed flat ground after t of snowfall = rate t ρ_water / ρ_snow within 1 %,
  *     in the accumulation grid too, and the named levels' depths (2, 10, 30 cm);
+ *   - no deeper than the deepest snow cover ever measured (refused at set-up, failed in a step);
  *   - falling snow: terminal speed and drag relaxation against the analytic solution of
  *     dv/dt = k (w + v_t - v), k = g / v_t, for any step length; the noise's stationary
  *     standard deviation is the requested one for two different steps (scaled by √Δt);
@@ -70,6 +71,45 @@ SQ_TEST(depth_flat_ground)
     d.density_kgm3 = -5.0;
     SQ_CHECK(sq_snowcover_validate(ctx, &d, w) == SQ_ERR_INVALID_ARG);
     SQ_CHECK(strstr(sq_last_error(), "snowfall.density_kgm3") != NULL);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
+/* Deeper than the deepest snow cover ever measured (11.82 m, Mount Ibuki 1927): a prior depth
+ * beyond it is refused before anything is allocated, and a step that would reach it fails with
+ * the state unchanged, naming the keys; up to it the depth is the model's. */
+SQ_TEST(depth_beyond_the_measured_record_is_refused)
+{
+    sq_context *ctx = snow_test_ctx();
+    sq_world *w = snow_test_world(ctx, 400.0f, NULL);
+    sq_snowcover_desc d;
+    memset(&d, 0, sizeof d);
+    d.snowfall_mmh = 10.0;   /* 10 mm/h of water at 100 kg/m3: 10 cm of snow an hour */
+    d.density_kgm3 = 100.0;
+    d.prior_h = 118.0;       /* 11.8 m: allowed */
+    SQ_CHECK(sq_snowcover_validate(ctx, &d, w) == SQ_OK);
+    d.prior_h = 119.0;       /* 11.9 m */
+    SQ_CHECK(sq_snowcover_validate(ctx, &d, w) == SQ_ERR_INVALID_ARG);
+    SQ_CHECK_MSG(strstr(sq_last_error(), "snowfall.prior_h") != NULL &&
+                     strstr(sq_last_error(), "11.9 m") != NULL,
+                 "message: %s", sq_last_error());
+    d.prior_h = 110.0;       /* 11 m, then 1 h a step */
+    sq_snowcover *s = NULL;
+    SQ_CHECK(sq_snowcover_create(ctx, &d, w, &s) == SQ_OK);
+    if (s) {
+        SQ_CHECK(sq_snowcover_step(s, 3600.0) == SQ_OK); /* 11.1 m */
+        SQ_CHECK_MSG(fabs(sq_snowcover_depth_m(s) - 11.1) < 1e-9, "%g m", sq_snowcover_depth_m(s));
+        SQ_CHECK(sq_snowcover_step(s, 8 * 3600.0) == SQ_ERR_TOO_LARGE); /* would be 11.9 m */
+        SQ_CHECK_MSG(strstr(sq_last_error(), "snowfall.rate_mmh") != NULL &&
+                         strstr(sq_last_error(), "snowfall.speedup") != NULL,
+                     "message: %s", sq_last_error());
+        SQ_CHECK_MSG(fabs(sq_snowcover_depth_m(s) - 11.1) < 1e-9, "state changed: %g m",
+                     sq_snowcover_depth_m(s));
+        sq_named_field f;
+        SQ_CHECK(sq__snowcover_fields(s, &f, 1) == 1);
+        SQ_CHECK(fabs((double)f.data[0] - 11.1) < 1e-4);
+        sq_snowcover_destroy(s);
+    }
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
 }

@@ -82,10 +82,18 @@ static double input_fade_m(const sq_named_field *in)
  * depth to every cell of the grid; the renderer scales it by f_e per point. Where another
  * layer's depth covers the cell (the snowdrift's drifts) that depth is the depth, blended into
  * the model's with a smoothstep over input_fade_m inside the input's edge. */
-static void accumulate(sq_snowcover *s, double dt_s)
+static sq_result accumulate(sq_snowcover *s, double dt_s)
 {
     const double dw = s->d.snowfall_mmh * 1e-3 / 3600.0 * dt_s * s->d.speedup;
-    if (dw <= 0.0 && !s->has_depth_in) return;
+    if (dw <= 0.0 && !s->has_depth_in) return SQ_OK;
+    const double next_m = (s->water_m + fmax(dw, 0.0)) * SQ_SNOWCOVER_RHO_WATER /
+                          s->d.density_kgm3;
+    if (!(next_m <= SQ_SNOWCOVER_MAX_DEPTH_M))
+        return sq__fail(s->ctx, SQ_ERR_TOO_LARGE, "snowcover",
+                        "the snow would lie %.4g m deep at t = %g s, deeper than any snow cover "
+                        "ever measured (%.2f m, Mount Ibuki 1927): lower snowfall.rate_mmh "
+                        "(%g mm/h) or snowfall.speedup (%g), or shorten the run", next_m, s->time_s + dt_s,
+                        SQ_SNOWCOVER_MAX_DEPTH_M, s->d.snowfall_mmh, s->d.speedup);
     if (dw > 0.0) s->water_m += dw;
     const float d = (float)sq_snowcover_depth_m(s);
     const sq_named_field *in = s->has_depth_in ? &s->depth_in : NULL;
@@ -110,6 +118,7 @@ static void accumulate(sq_snowcover *s, double dt_s)
             s->depth[(size_t)j * (size_t)s->nx + (size_t)i] = v;
         }
     s->version++;
+    return SQ_OK;
 }
 
 static bool usable(const sq_named_field *f, int nz)
@@ -159,7 +168,8 @@ sq_result sq_snowcover_step(sq_snowcover *s, double dt_s)
     if (!(isfinite(dt_s) && dt_s >= 0.0))
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "snowcover", "step dt = %g s; must be >= 0",
                         dt_s);
-    accumulate(s, dt_s);
+    sq_result r = accumulate(s, dt_s);
+    if (r != SQ_OK) return r;
     if (s->nflakes > 0 && s->have_camera) {
         const double t0 = sq_time_now();
         if (!s->seeded) sq__snowcover_flakes_seed(s);

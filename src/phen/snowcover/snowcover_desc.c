@@ -70,6 +70,13 @@ sq_result sq_snowcover_validate(sq_context *ctx, const sq_snowcover_desc *in, co
         BAD("%ssnowfall.density_kgm3 = %g; must be in [10, 917] kg/m3 (fresh snow 50-150, "
             "ice 917)", P, d.density_kgm3);
     if (!nonneg(d.prior_h)) BAD("%ssnowfall.prior_h = %g; must be >= 0 h", P, d.prior_h);
+    const double prior_m = d.snowfall_mmh * 1e-3 * d.prior_h * SQ_SNOWCOVER_RHO_WATER /
+                           d.density_kgm3;
+    if (!(prior_m <= SQ_SNOWCOVER_MAX_DEPTH_M))
+        BAD("%ssnowfall.prior_h = %g h at %ssnowfall.rate_mmh = %g mm/h and %g kg/m3 lays %.4g m "
+            "of snow before t = 0; the deepest snow cover ever measured is %.2f m (Mount Ibuki, "
+            "1927)", P, d.prior_h, P, d.snowfall_mmh, d.density_kgm3, prior_m,
+            SQ_SNOWCOVER_MAX_DEPTH_M);
     if (!(d.taps == 1 || d.taps == 4 || d.taps == 5 || d.taps == 9))
         BAD("%socclusion.taps = %d; must be 1, 4 (S2), 5 or 9", P, d.taps);
     if (d.map_size < 64 || d.map_size > 8192)

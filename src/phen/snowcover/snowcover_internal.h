@@ -9,6 +9,10 @@
 
 #define SQ_SNOWCOVER_G 9.80665 /* m/s², standard gravity */
 #define SQ_SNOWCOVER_RHO_WATER 1000.0 /* kg/m³ */
+/* The deepest snow cover ever measured on the ground: 11.82 m on Mount Ibuki, Japan, 14 February
+ * 1927. The accumulation model refuses to go deeper (the displaced shell would bury houses and
+ * balloon every mesh; the depth is then a time-lapse or rate mistake, not a snow scene). */
+#define SQ_SNOWCOVER_MAX_DEPTH_M 11.82
 /* floats per flake of the pool: position 3, velocity 3, birth offset 2, rotation, spin, radius,
  * fade */
 #define SQ__SNOWCOVER_FLAKE_FLOATS 12
