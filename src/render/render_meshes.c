@@ -45,7 +45,7 @@ struct sq__mesh_pass {
     uint64_t generation;
     int mesh_count, instance_count;
     GLuint vao, vbo, ibo, inst_buf, inst_tex, ring;
-    GLuint sbo; /* per vertex: smoothed normal (welded over coincident vertices), 2_10_10_10 */
+    GLuint sbo; /* per vertex: the snow shell's welded normal, w: top of a wall; 2_10_10_10 */
     gpu_mesh *mesh;
     gpu_material *mat;
     int mat_count;
@@ -192,18 +192,21 @@ static uint32_t snorm10(float v)
     return (uint32_t)q & 0x3ffu;
 }
 
-/* The LOD's smoothed normals (sq__snow_smooth_normals) packed as GL_INT_2_10_10_10_REV: the snow
- * shell moves coincident vertices of split-normal creases together. */
-static bool smooth_normals(sq_context *ctx, const sq_mesh_lod *L, uint32_t *out)
+/* The LOD's welded normals (sq__snow_welded_normals) packed as GL_INT_2_10_10_10_REV, the flag
+ * "top of a wall" in the 2-bit w (1 or 0): the snow shell moves coincident vertices of
+ * split-normal creases together. */
+static bool welded_normals(sq_context *ctx, const sq_mesh_lod *L, uint32_t *out)
 {
     const size_t n = (size_t)L->vertex_count;
-    float *sm = sq_alloc(ctx, (n > 0 ? n : 1) * 3 * sizeof(float));
-    if (!sm || !sq__snow_smooth_normals(ctx, L->positions, L->normals, L->vertex_count, sm)) {
+    float *sm = sq_alloc(ctx, (n > 0 ? n : 1) * 4 * sizeof(float));
+    if (!sm || !sq__snow_welded_normals(ctx, L->positions, L->normals, L->vertex_count, L->indices,
+                                          L->index_count, sm)) {
         sq_free(ctx, sm);
         return false;
     }
     for (size_t v = 0; v < n; v++)
-        out[v] = snorm10(sm[3 * v]) | snorm10(sm[3 * v + 1]) << 10 | snorm10(sm[3 * v + 2]) << 20;
+        out[v] = snorm10(sm[4 * v]) | snorm10(sm[4 * v + 1]) << 10 | snorm10(sm[4 * v + 2]) << 20 |
+                 (sm[4 * v + 3] > 0.5f ? 1u : 0u) << 30;
     sq_free(ctx, sm);
     return true;
 }
@@ -283,14 +286,14 @@ static sq_result upload(sq_renderer *r, const sq_world *w)
             g->lod[l].top_first = (GLuint)t0;
             g->lod[l].top_count = top_faces(L, g->closed, &ib[t0]);
             t0 += (size_t)g->lod[l].top_count;
-            if (!smooth_normals(ctx, L, &sb[v0])) {
+            if (!welded_normals(ctx, L, &sb[v0])) {
                 sq_free(ctx, sb);
                 sq_free(ctx, vb);
                 sq_free(ctx, ib);
                 sq_free(ctx, inst);
                 release(r);
                 return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, "render",
-                                "out of memory smoothing the normals of mesh %d", i);
+                                "out of memory welding the normals of mesh %d", i);
             }
             v0 += (size_t)L->vertex_count;
             i0 += (size_t)L->index_count;

@@ -1,5 +1,5 @@
 /* snow_map.c — the snow-cover model's CPU side (see snow_map.h): occlusion-map region, exposure,
- * inclination, snow shell displacement, smoothed normals. shaders/snow_common.glsl mirrors the
+ * inclination, snow shell displacement, welded normals. shaders/snow_common.glsl mirrors the
  * per-point formulas for the GL renderer. */
 #include "render/snow_map.h"
 
@@ -211,10 +211,12 @@ float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m)
 }
 
 /* ---- the snow shell ----------------------------------------------------------------------- */
-sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend)
+sq_vec3 sq__snow_shell_offset(sq_vec4 ns, float depth_m, float f_e, float blend)
 {
-    const sq_vec3 dir = sq_v3_norm(sq_v3_lerp(ns, sq_v3(0.0f, 0.0f, 1.0f), blend));
     const float w = fminf(1.0f, 2.0f * fmaxf(0.0f, ns.z));
+    if (w <= 0.0f) return sq_v3(0.0f, 0.0f, 0.0f);
+    const sq_vec3 up = sq_v3(0.0f, 0.0f, 1.0f);
+    const sq_vec3 dir = ns.w > 0.5f ? up : sq_v3_norm(sq_v3_lerp(sq_v3(ns.x, ns.y, ns.z), up, blend));
     return sq_v3_scale(dir, depth_m * f_e * w);
 }
 
@@ -238,12 +240,50 @@ static int by_position(const void *a, const void *b)
     return 0;
 }
 
-bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const float *normals,
-                             int n, float *out)
+/* Whether normal a is above b: larger z, ties broken by x, then y (any order of the group gives
+ * the same upmost normal). */
+static bool upper(const float *a, const float *b)
 {
-    memcpy(out, normals, (size_t)n * 3 * sizeof(float));
+    if (a[2] != b[2]) return a[2] > b[2];
+    if (a[0] != b[0]) return a[0] > b[0];
+    return a[1] > b[1];
+}
+
+/* Marks (1) the vertices that are a corner of a wall triangle above its lowest corner. */
+static void mark_wall_tops(const float *positions, const uint32_t *indices, int index_count, int n,
+                           unsigned char *top)
+{
+    memset(top, 0, (size_t)n);
+    for (int t = 0; t + 2 < index_count; t += 3) {
+        const uint32_t v[3] = {indices[t], indices[t + 1], indices[t + 2]};
+        if (v[0] >= (uint32_t)n || v[1] >= (uint32_t)n || v[2] >= (uint32_t)n) continue;
+        const float *a = &positions[3 * (size_t)v[0]], *b = &positions[3 * (size_t)v[1]],
+                    *c = &positions[3 * (size_t)v[2]];
+        const sq_vec3 x = sq_v3_cross(sq_v3(b[0] - a[0], b[1] - a[1], b[2] - a[2]),
+                                      sq_v3(c[0] - a[0], c[1] - a[1], c[2] - a[2]));
+        const float len = sq_v3_len(x);
+        if (!(len > 0.0f) || fabsf(x.z) >= SQ__SNOW_WALL_NZ * len) continue;
+        const float low = fminf(a[2], fminf(b[2], c[2]));
+        for (int k = 0; k < 3; k++)
+            if (positions[3 * (size_t)v[k] + 2] > low) top[v[k]] = 1;
+    }
+}
+
+bool sq__snow_welded_normals(sq_context *ctx, const float *positions, const float *normals, int n,
+                             const uint32_t *indices, int index_count, float *out)
+{
+    for (int i = 0; i < n; i++) {
+        memcpy(&out[4 * (size_t)i], &normals[3 * (size_t)i], 3 * sizeof(float));
+        out[4 * (size_t)i + 3] = 0.0f;
+    }
     keyed *order = sq_alloc(ctx, (size_t)(n > 0 ? n : 1) * sizeof *order);
-    if (!order) return false;
+    unsigned char *wall = sq_alloc(ctx, (size_t)(n > 0 ? n : 1));
+    if (!order || !wall) {
+        sq_free(ctx, order);
+        sq_free(ctx, wall);
+        return false;
+    }
+    mark_wall_tops(positions, indices, index_count, n, wall);
     for (int i = 0; i < n; i++) {
         memcpy(order[i].p, &positions[3 * (size_t)i], sizeof order[i].p);
         order[i].i = i;
@@ -253,18 +293,26 @@ bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const floa
         int b = a + 1;
         while (b < n && by_position(&order[a], &order[b]) == 0) b++;
         sq_vec3 s = sq_v3(0.0f, 0.0f, 0.0f);
+        const float *top = &normals[3 * (size_t)order[a].i];
+        bool on_wall = false;
         for (int k = a; k < b; k++) {
             const float *q = &normals[3 * (size_t)order[k].i];
             s = sq_v3_add(s, sq_v3(q[0], q[1], q[2]));
+            if (upper(q, top)) top = q;
+            on_wall = on_wall || wall[order[k].i];
         }
-        /* opposite normals at one place (a sheet seen from both sides) cancel: keep up */
-        s = sq_v3_len(s) > 1e-6f ? sq_v3_norm(s) : sq_v3(0.0f, 0.0f, 1.0f);
+        const bool wall_top = on_wall && top[2] >= SQ__SNOW_WALL_NZ;
+        if (wall_top)
+            s = sq_v3(top[0], top[1], top[2]);
+        else /* opposite normals at one place (a sheet seen from both sides) cancel: keep up */
+            s = sq_v3_len(s) > 1e-6f ? sq_v3_norm(s) : sq_v3(0.0f, 0.0f, 1.0f);
         for (int k = a; k < b; k++) {
-            float *o = &out[3 * (size_t)order[k].i];
-            o[0] = s.x, o[1] = s.y, o[2] = s.z;
+            float *o = &out[4 * (size_t)order[k].i];
+            o[0] = s.x, o[1] = s.y, o[2] = s.z, o[3] = wall_top ? 1.0f : 0.0f;
         }
         a = b;
     }
+    sq_free(ctx, wall);
     sq_free(ctx, order);
     return true;
 }

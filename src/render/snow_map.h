@@ -6,9 +6,10 @@
  *     never changes while the camera moves and the texel size stays);
  *   - the snow prediction function f_p = f_e · f_inc (eqs 2.1–2.3): exposure from M taps of the
  *     map with a depth bias, inclination max(0, N·up) perturbed by a multi-octave 3D noise;
- *   - the snow shell: a displacement along the blend of the position-welded smoothed normal and
- *     up, by depth × f_e × a weight of the smoothed normal; a function of the position alone, so
- *     coincident vertices of a mesh with split normals move together (no cracks at creases);
+ *   - the snow shell: a displacement by depth × f_e × a weight of the vertex's welded normal,
+ *     along the blend of that normal and up, straight up at the top of a wall (a wall stays
+ *     vertical); a function of the position alone, so coincident vertices of a mesh with split
+ *     normals move together (no cracks at creases);
  *   - a CPU occlusion map (the top surface per texel from sq_world_surface_at), the reference
  *     the GL pass (render_snowcover.c, shaders/snow_common.glsl) mirrors.
  * The GLSL in shaders/snow_common.glsl implements the same formulas; keep them in step. */
@@ -16,6 +17,7 @@
 #define SQ_RENDER_SNOW_MAP_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "squall/core.h"
 #include "squall/sqmath.h"
@@ -90,9 +92,10 @@ float sq__snow_fbm3(sq_vec3 x, int octaves);
  * 1 + amplitude (2 fbm(p / scale_m) - 1), clamped to [0, 1]; amplitude 0 gives max(0, n.z). */
 float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m);
 
-/* Displacement of a vertex at p with position-welded smoothed normal ns (unit): along
- * normalize(ns + blend (up - ns)) by depth_m × f_e × min(1, 2 max(0, ns.z)). */
-sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend);
+/* Displacement of a vertex with welded normal ns (sq__snow_welded_normals; its exposure f_e
+ * taken with nz = ns.z): by depth_m × f_e × min(1, 2 max(0, ns.z)), along
+ * normalize(ns + blend (up - ns)) (ns.w = 0), straight up at the top of a wall (ns.w = 1). */
+sq_vec3 sq__snow_shell_offset(sq_vec4 ns, float depth_m, float f_e, float blend);
 
 /* Shading normal of the snow shell over a surface of unit normal n where the depth varies with
  * gradient (gx, gy) (m per m, a drift): the shell lies w × depth above the surface, w =
@@ -101,10 +104,24 @@ sq_vec3 sq__snow_shell_offset(sq_vec3 ns, float depth_m, float f_e, float blend)
  * itself on walls and overhangs. */
 sq_vec3 sq__snow_shell_normal(sq_vec3 n, float gx, float gy);
 
-/* Smoothed normals: per vertex, the normalised sum of the normals of all vertices at exactly the
- * same position (n vertices, positions and normals 3 floats each); out may not alias.
- * Returns false when out of memory (out then holds the input normals). */
-bool sq__snow_smooth_normals(sq_context *ctx, const float *positions, const float *normals,
-                             int n, float *out);
+/* A wall: a triangle within 10 degrees of vertical (|n.z| < sin 10 degrees). */
+#define SQ__SNOW_WALL_NZ 0.1736482f
+
+/* The snow shell's normal of each vertex of a triangle mesh (n vertices, positions and normals
+ * 3 floats each; index_count indices, 3 per triangle; out 4 floats per vertex, may not alias),
+ * the same for all vertices at exactly the same position (welded):
+ *   - at the top of a wall (a welded vertex is a corner of a wall triangle that lies below it,
+ *     and the upmost welded normal is not a wall's: a box's top corner, a gable's apex): xyz
+ *     that upmost normal (largest z; ties to the largest x, then y), w = 1: the shell moves the
+ *     vertex straight up, so the wall stays vertical (its window quads stay in front of it), and
+ *     its weight and exposure take that face's slope (none for a flat top: a wall's top corner
+ *     just under a roof's overhang is occluded);
+ *   - elsewhere (a smooth surface; a roof's eave over its fascia or its flat underside, a
+ *     conifer tier's rim, a gable's foot): xyz the normalised sum of the welded normals (S2's
+ *     smoothed normal), w = 0; opposite normals at one place (a sheet seen from both sides)
+ *     cancel: up.
+ * Returns false when out of memory (out then holds the input normals, w = 0). */
+bool sq__snow_welded_normals(sq_context *ctx, const float *positions, const float *normals, int n,
+                             const uint32_t *indices, int index_count, float *out);
 
 #endif

@@ -280,7 +280,7 @@ SQ_TEST(shell_normal_over_a_drift)
 }
 
 /* Cube [-1, 1]^3 with split normals: 24 vertices, 4 per face, 12 triangles. */
-static void split_cube(float pos[72], float nrm[72], unsigned idx[36])
+static void split_cube(float pos[72], float nrm[72], uint32_t idx[36])
 {
     static const int axes[6][3] = {{0, 1, 2}, {0, 1, 2}, {1, 2, 0}, {1, 2, 0}, {2, 0, 1}, {2, 0, 1}};
     int v = 0, t = 0;
@@ -296,14 +296,14 @@ static void split_cube(float pos[72], float nrm[72], unsigned idx[36])
             n[0] = n[1] = n[2] = 0.0f;
             n[c] = s;
         }
-        const unsigned q[6] = {0, 1, 2, 0, 2, 3};
-        for (int k = 0; k < 6; k++) idx[t++] = (unsigned)v + q[k];
+        const uint32_t q[6] = {0, 1, 2, 0, 2, 3};
+        for (int k = 0; k < 6; k++) idx[t++] = (uint32_t)v + q[k];
         v += 4;
     }
 }
 
 /* Watertight: every edge between displaced positions is used by exactly two triangles. */
-static int open_edges(const float *p, const unsigned *idx, int tris)
+static int open_edges(const float *p, const uint32_t *idx, int tris)
 {
     int open = 0;
     for (int t = 0; t < tris; t++)
@@ -325,20 +325,20 @@ static int open_edges(const float *p, const unsigned *idx, int tris)
 SQ_TEST(shell_watertight)
 {
     sq_context *ctx = snow_test_ctx();
-    float pos[72], nrm[72], sm[72], moved[72], naive[72];
-    unsigned idx[36];
+    float pos[72], nrm[72], sm[96], moved[72], naive[72];
+    uint32_t idx[36];
     split_cube(pos, nrm, idx);
     SQ_CHECK(open_edges(pos, idx, 12) == 0); /* closed to begin with */
-    SQ_CHECK(sq__snow_smooth_normals(ctx, pos, nrm, 24, sm));
+    SQ_CHECK(sq__snow_welded_normals(ctx, pos, nrm, 24, idx, 36, sm));
     /* exposure varies over the cube (a position-only function, as the map gives), depth 0.3 m */
     for (int v = 0; v < 24; v++) {
         const sq_vec3 p = sq_v3(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
         const float fe = p.x > 0.0f ? 1.0f : 0.5f;
-        const sq_vec3 o = sq__snow_shell_offset(sq_v3(sm[3 * v], sm[3 * v + 1], sm[3 * v + 2]),
+        const sq_vec3 o = sq__snow_shell_offset((sq_vec4){sm[4 * v], sm[4 * v + 1], sm[4 * v + 2], sm[4 * v + 3]},
                                                 0.3f, fe, 0.5f);
         moved[3 * v] = p.x + o.x, moved[3 * v + 1] = p.y + o.y, moved[3 * v + 2] = p.z + o.z;
         /* S2: each vertex along its own (split) normal's blend: cracks at the creases */
-        const sq_vec3 on = sq__snow_shell_offset(sq_v3(nrm[3 * v], nrm[3 * v + 1], nrm[3 * v + 2]),
+        const sq_vec3 on = sq__snow_shell_offset((sq_vec4){nrm[3 * v], nrm[3 * v + 1], nrm[3 * v + 2], 0.0f},
                                                  0.3f, fe, 0.5f);
         naive[3 * v] = p.x + on.x, naive[3 * v + 1] = p.y + on.y, naive[3 * v + 2] = p.z + on.z;
     }
@@ -351,8 +351,159 @@ SQ_TEST(shell_watertight)
     const int cracked = open_edges(naive, idx, 12);
     SQ_CHECK_MSG(cracked > 0, "per-vertex normals should crack the cube (%d open edges)", cracked);
     /* ground-level displacement: flat exposed ground moves up by the depth */
-    const sq_vec3 g = sq__snow_shell_offset(sq_v3(0, 0, 1), 0.25f, 1.0f, 0.5f);
+    const sq_vec3 g = sq__snow_shell_offset((sq_vec4){0, 0, 1, 0}, 0.25f, 1.0f, 0.5f);
     SQ_CHECK(fabsf(g.z - 0.25f) < 1e-6f && g.x == 0.0f && g.y == 0.0f);
+    sq_context_destroy(ctx);
+}
+
+/* ---- a house under an overhanging roof: the shell of its walls ------------------------------ */
+/* A mesh being built from flat faces, each with its own vertices and normal (split at every
+ * edge, as the mesh module splits a box's creases). */
+typedef struct faces {
+    float pos[3 * 64], nrm[3 * 64];
+    uint32_t idx[3 * 64];
+    int nv, nt;
+} faces;
+
+/* Convex planar polygon of k corners, counter-clockwise seen from outside; fan-triangulated. */
+static void add_face(faces *f, const sq_vec3 *c, int k)
+{
+    const sq_vec3 n = sq_v3_norm(sq_v3_cross(sq_v3_sub(c[1], c[0]), sq_v3_sub(c[2], c[0])));
+    for (int i = 0; i < k; i++) {
+        float *p = &f->pos[3 * (f->nv + i)], *q = &f->nrm[3 * (f->nv + i)];
+        p[0] = c[i].x, p[1] = c[i].y, p[2] = c[i].z;
+        q[0] = n.x, q[1] = n.y, q[2] = n.z;
+    }
+    for (int i = 1; i + 1 < k; i++) {
+        f->idx[3 * f->nt] = (uint32_t)f->nv;
+        f->idx[3 * f->nt + 1] = (uint32_t)(f->nv + i);
+        f->idx[3 * f->nt + 2] = (uint32_t)(f->nv + i + 1);
+        f->nt++;
+    }
+    f->nv += k;
+}
+
+static void add_box(faces *f, sq_vec3 lo, sq_vec3 hi)
+{
+    const float x[2] = {lo.x, hi.x}, y[2] = {lo.y, hi.y}, z[2] = {lo.z, hi.z};
+#define C(i, j, k) sq_v3(x[i], y[j], z[k])
+    const sq_vec3 q[6][4] = {
+        {C(0, 0, 0), C(0, 1, 0), C(1, 1, 0), C(1, 0, 0)}, /* bottom */
+        {C(0, 0, 1), C(1, 0, 1), C(1, 1, 1), C(0, 1, 1)}, /* top */
+        {C(0, 0, 0), C(1, 0, 0), C(1, 0, 1), C(0, 0, 1)}, /* -y */
+        {C(1, 1, 0), C(0, 1, 0), C(0, 1, 1), C(1, 1, 1)}, /* +y */
+        {C(0, 1, 0), C(0, 0, 0), C(0, 0, 1), C(0, 1, 1)}, /* -x */
+        {C(1, 0, 0), C(1, 1, 0), C(1, 1, 1), C(1, 0, 1)}, /* +x */
+    };
+#undef C
+    for (int k = 0; k < 6; k++) add_face(f, q[k], 4);
+}
+
+/* Gable roof solid over |x| <= X, |y| <= Y: flat bottom at ze, ridge along x at ze + Y tan(p). */
+static void add_gable_roof(faces *f, float X, float Y, float ze, float tanp)
+{
+    const float zr = ze + Y * tanp;
+    const sq_vec3 e0 = sq_v3(-X, -Y, ze), e1 = sq_v3(X, -Y, ze), e2 = sq_v3(X, Y, ze),
+                  e3 = sq_v3(-X, Y, ze), r0 = sq_v3(-X, 0, zr), r1 = sq_v3(X, 0, zr);
+    const sq_vec3 front[4] = {e0, e1, r1, r0}, back[4] = {e2, e3, r0, r1}, bottom[4] = {e0, e3, e2, e1};
+    const sq_vec3 end1[3] = {e1, e2, r1}, end0[3] = {e3, e0, r0};
+    add_face(f, front, 4);
+    add_face(f, back, 4);
+    add_face(f, bottom, 4);
+    add_face(f, end1, 3);
+    add_face(f, end0, 3);
+}
+
+/* The house: walls 8 x 6 x 3 m and a roof overhanging them by 0.4 m on every side, either a
+ * flat slab 0.25 m thick on the walls or the coarse level of a gable roof (a solid whose top
+ * lies a slab's 0.22 m above the wall line, pitch 35 degrees: procgen_parts.c house_level). */
+enum { HOUSE_FLAT, HOUSE_GABLE };
+static const float HW = 4.0f, HD = 3.0f, HH = 3.0f, OH = 0.4f, SLAB = 0.25f, TANP = 0.7002f, LIFT = 0.2197f;
+
+/* Height of the house's top surface at (x, y) (0: the ground): what the occlusion map holds. */
+static float house_top(int kind, float x, float y)
+{
+    const float X = HW + OH, Y = HD + OH;
+    if (fabsf(x) > X || fabsf(y) > Y) return 0.0f;
+    if (kind == HOUSE_FLAT) return HH + SLAB;
+    return HH - OH * TANP + LIFT + (Y - fabsf(y)) * TANP;
+}
+
+static void house(int kind, faces *f)
+{
+    memset(f, 0, sizeof *f);
+    add_box(f, sq_v3(-HW, -HD, 0.0f), sq_v3(HW, HD, HH)); /* walls: vertices 0..23 */
+    if (kind == HOUSE_FLAT)
+        add_box(f, sq_v3(-HW - OH, -HD - OH, HH), sq_v3(HW + OH, HD + OH, HH + SLAB));
+    else
+        add_gable_roof(f, HW + OH, HD + OH, HH - OH * TANP + LIFT, TANP);
+}
+
+/* Under heavy snow (30 cm) with the preset's map (4 taps of radius 1 texel, 5 cm bias plus 10 cm
+ * for the camera's level of detail, texels of 25 cm): the corners at the top of the walls, under
+ * the eaves, stay under the roof (under the flat slab they are occluded outright: no offset) and
+ * move only vertically, so the walls stay vertical (a window quad 2 cm proud of a wall stays in
+ * front of it); the roof's top gets the full depth, straight up; the shell stays watertight. */
+SQ_TEST(shell_keeps_walls_under_eaves_vertical)
+{
+    sq_context *ctx = snow_test_ctx();
+    const float depth = 0.3f, blend = 0.5f, bias = 0.05f + 0.10f;
+    const int taps = 4;
+    const float radius = 1.0f;
+    sq__snow_map_geom g;
+    memset(&g, 0, sizeof g);
+    g.size = 128;
+    g.texel_m = 0.25;
+    g.origin[0] = g.origin[1] = -16.0;
+    g.top_z = 10.0f;
+    g.bottom_z = -1.0f;
+    float *h = malloc((size_t)g.size * g.size * sizeof(float));
+    for (int kind = HOUSE_FLAT; kind <= HOUSE_GABLE; kind++) {
+        for (int j = 0; j < g.size; j++)
+            for (int i = 0; i < g.size; i++)
+                h[(size_t)j * g.size + i] = house_top(kind, (float)(g.origin[0] + (i + 0.5) * g.texel_m),
+                                                      (float)(g.origin[1] + (j + 0.5) * g.texel_m));
+        faces f;
+        house(kind, &f);
+        float sm[4 * 64], moved[3 * 64];
+        SQ_CHECK(sq__snow_welded_normals(ctx, f.pos, f.nrm, f.nv, f.idx, 3 * f.nt, sm));
+        sq_vec3 off[64];
+        for (int v = 0; v < f.nv; v++) {
+            const sq_vec3 p = sq_v3(f.pos[3 * v], f.pos[3 * v + 1], f.pos[3 * v + 2]);
+            const sq_vec4 ns = {sm[4 * v], sm[4 * v + 1], sm[4 * v + 2], sm[4 * v + 3]};
+            const float fe = sq__snow_exposure(h, &g, p, ns.z, taps, radius, bias);
+            off[v] = sq__snow_shell_offset(ns, depth, fe, blend);
+            moved[3 * v] = p.x + off[v].x, moved[3 * v + 1] = p.y + off[v].y, moved[3 * v + 2] = p.z + off[v].z;
+        }
+        int leaning = 0, above_roof = 0, moved_under_slab = 0, roof_short = 0;
+        for (int v = 0; v < 24; v++) { /* the walls' box */
+            const float *p = &f.pos[3 * v];
+            leaning += hypotf(off[v].x, off[v].y) > 1e-3f;
+            if (p[2] > 0.0f) {
+                above_roof += moved[3 * v + 2] > house_top(kind, p[0], p[1]) - 0.01f;
+                moved_under_slab += kind == HOUSE_FLAT && sq_v3_len(off[v]) > 1e-3f;
+            }
+        }
+        SQ_CHECK_MSG(leaning == 0, "house %d: %d of 24 wall vertices move sideways", kind, leaning);
+        SQ_CHECK_MSG(above_roof == 0, "house %d: %d wall-top vertices pierce the roof", kind, above_roof);
+        SQ_CHECK_MSG(moved_under_slab == 0, "%d wall-top vertices under the slab moved", moved_under_slab);
+        /* the roof's top (the slab's top corners, the gable's ridge) rises by the depth, straight
+         * up; the gable solid's eave corners, where its flat underside meets the slopes, stay:
+         * lifting them would lift the underside off the walls (a dark gap under every eave) */
+        int lifted = 0;
+        for (int v = 24; v < f.nv; v++) {
+            const float *p = &f.pos[3 * v];
+            const bool top = kind == HOUSE_FLAT ? p[2] > HH + 0.5f * SLAB : p[2] > HH + 1.0f;
+            const bool eave = kind == HOUSE_GABLE && p[2] < HH;
+            if (top) roof_short += fabsf(off[v].z - depth) > 1e-3f || hypotf(off[v].x, off[v].y) > 1e-3f;
+            if (eave) lifted += sq_v3_len(off[v]) > 1e-3f;
+        }
+        SQ_CHECK_MSG(roof_short == 0, "house %d: %d top roof vertices not raised by the depth", kind,
+                     roof_short);
+        SQ_CHECK_MSG(lifted == 0, "house %d: %d eave vertices of the underside lifted", kind, lifted);
+        SQ_CHECK_MSG(open_edges(moved, f.idx, f.nt) == 0, "house %d: the shell is not watertight", kind);
+    }
+    free(h);
     sq_context_destroy(ctx);
 }
 

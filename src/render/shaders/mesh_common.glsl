@@ -8,7 +8,7 @@ layout(location = 0) in vec3 a_pos;     // mesh frame, metres
 layout(location = 1) in vec3 a_normal;  // mesh frame, unit
 layout(location = 2) in vec2 a_uv;      // texture coordinates (0 when the mesh has none)
 layout(location = 3) in uint a_instance; // index into the instance table
-layout(location = 4) in vec4 a_snormal; // smoothed normal: welded over coincident vertices
+layout(location = 4) in vec4 a_snormal; // welded normal (sq__snow_welded_normals), w: wall top
 
 layout(binding = 9) uniform samplerBuffer u_instances;
 
@@ -26,15 +26,16 @@ void sq_mesh_world(out vec3 p, out vec3 n)
     n = normalize(vec3(c * m.x - s * m.y, s * m.x + c * m.y, m.z));
 }
 
-// World smoothed normal (unit) of this vertex of this instance, for the snow shell.
-vec3 sq_mesh_world_smooth_normal()
+// World welded normal (unit) of this vertex of this instance and its flag w (top of a wall),
+// for the snow shell.
+vec4 sq_mesh_world_welded_normal()
 {
     int base = int(a_instance) * 4;
     float yaw = texelFetch(u_instances, base).w;
     vec3 k = texelFetch(u_instances, base + 1).xyz;
     float c = cos(yaw), s = sin(yaw);
     vec3 m = a_snormal.xyz / k;
-    return normalize(vec3(c * m.x - s * m.y, s * m.x + c * m.y, m.z));
+    return vec4(normalize(vec3(c * m.x - s * m.y, s * m.x + c * m.y, m.z)), a_snormal.w);
 }
 
 // The instance's two tint colours (0 = keep the material's colour).

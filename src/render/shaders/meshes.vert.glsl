@@ -1,7 +1,7 @@
 #version 450 core
 // meshes.vert — world mesh instances for the camera: world position, normal, texture
 // coordinates and the albedo after the instance's tint (material uniforms of render_meshes.c);
-// the position raised by the snow shell along the smoothed normal (snow_common.glsl).
+// the position raised by the snow shell (snow_common.glsl) from the welded normal.
 #include "frame_common.glsl"
 #include "mesh_common.glsl"
 #include "snow_common.glsl"
@@ -27,7 +27,7 @@ void main()
     v_albedo = a;
     v_base = p;
 #ifndef SQ_NO_SHELL /* instances too far for the shell to move them by half a pixel (render_meshes.c) */
-    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_smooth_normal());
+    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_welded_normal());
 #endif
     v_pos = p;
     v_normal = n;

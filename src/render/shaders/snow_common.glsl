@@ -178,15 +178,17 @@ float sq_snow_cover(vec3 p, vec3 n, float full_m)
     return cover * mix(far_fp, near_fp, w);
 }
 
-// The snow shell (sq__snow_shell_offset): displacement of a vertex at p with the smoothed
-// normal ns (position-welded, unit), along the blend of ns and up, by depth x f_e x
-// min(1, 2 max(0, ns.z)). A function of p and ns only: coincident vertices move together.
-vec3 sq_snow_shell(vec3 p, vec3 ns)
+// The snow shell (sq__snow_shell_offset): displacement of a vertex at p with the welded normal
+// ns (sq__snow_welded_normals: unit xyz, w = 1 at the top of a wall) by depth x f_e x min(1,
+// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall. A function
+// of p and ns only: coincident vertices move together.
+vec3 sq_snow_shell(vec3 p, vec4 ns)
 {
     if (!sq_snow_on()) return vec3(0.0);
     float w = min(1.0, 2.0 * max(0.0, ns.z));
     if (w <= 0.0) return vec3(0.0);
-    vec3 dir = normalize(mix(ns, vec3(0.0, 0.0, 1.0), u_snow_depth_grid.w));
+    vec3 up = vec3(0.0, 0.0, 1.0);
+    vec3 dir = ns.w > 0.5 ? up : normalize(mix(ns.xyz, up, u_snow_depth_grid.w));
     return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z) * w);
 }
 
