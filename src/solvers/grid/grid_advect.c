@@ -12,9 +12,14 @@
  * fields (the RK2 displacement is then linear in x), so face traces stay second order.
  * Kernels. Samples are processed in row chunks: the trace positions of a chunk are located in
  * vectorised loops and shared by every field advected on that lattice (the scalars are advected
- * in batches of up to three with one trace); the trilinear samples load the 8 corners as four
- * x-pairs (SSE2) and the limiter's range is recomputed in the second pass instead of being
- * stored. OpenMP over z-planes, static schedule; no allocation. */
+ * in batches with one trace); the trilinear samples load the 8 corners as four x-pairs (SSE2).
+ * MacCormack: pass 1 takes the limiter's range (min and max of the 8 corners) from the same
+ * loads as the sample and stores it, the low end in the output array (overwritten in place by
+ * pass 2) and the high end in a scratch array, so pass 2 needs only the forward trace (no
+ * second backward trace, no second gather of the source). Scalars go in batches of two (hats
+ * in scratch 0..1, highs in 2..3), the velocity components one at a time (hat 0, high 1);
+ * semi-Lagrangian scalars in batches of three. OpenMP over z-planes, static schedule; no
+ * allocation. */
 #include <string.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -210,6 +215,25 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
     *mn = _mm_cvtss_f32(a);
     *mx = _mm_cvtss_f32(c);
 }
+
+/* tri8 and range8 at the same corners from one load of the 8 values */
+static inline float tri8_range(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
+                               float fy, float fz, float *mn, float *mx)
+{
+    const float *q = o + b;
+    const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
+    __m128 a = _mm_min_ps(lo, hi), c = _mm_max_ps(lo, hi);
+    a = _mm_min_ps(a, _mm_movehl_ps(a, a));
+    c = _mm_max_ps(c, _mm_movehl_ps(c, c));
+    a = _mm_min_ss(a, _mm_shuffle_ps(a, a, _MM_SHUFFLE(1, 1, 1, 1)));
+    c = _mm_max_ss(c, _mm_shuffle_ps(c, c, _MM_SHUFFLE(1, 1, 1, 1)));
+    *mn = _mm_cvtss_f32(a);
+    *mx = _mm_cvtss_f32(c);
+    const __m128 m = _mm_add_ps(lo, _mm_mul_ps(_mm_set1_ps(fz), _mm_sub_ps(hi, lo)));
+    const __m128 n = _mm_add_ps(m, _mm_mul_ps(_mm_set1_ps(fy), _mm_sub_ps(_mm_movehl_ps(m, m), m)));
+    const __m128 n1 = _mm_shuffle_ps(n, n, _MM_SHUFFLE(1, 1, 1, 1));
+    return _mm_cvtss_f32(_mm_add_ss(n, _mm_mul_ss(_mm_set_ss(fx), _mm_sub_ss(n1, n))));
+}
 #else
 static inline float mn2(float a, float b) { return a < b ? a : b; }
 static inline float mx2(float a, float b) { return a > b ? a : b; }
@@ -228,6 +252,13 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
                 v6 = q[sy + sz], v7 = q[sy + sz + 1];
     *mn = mn2(mn2(mn2(v0, v1), mn2(v2, v3)), mn2(mn2(v4, v5), mn2(v6, v7)));
     *mx = mx2(mx2(mx2(v0, v1), mx2(v2, v3)), mx2(mx2(v4, v5), mx2(v6, v7)));
+}
+
+static inline float tri8_range(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
+                               float fy, float fz, float *mn, float *mx)
+{
+    range8(o, b, sy, sz, mn, mx);
+    return tri8(o, b, sy, sz, fx, fy, fz);
 }
 #endif
 
@@ -399,13 +430,14 @@ static void ensure_displacements(sq_grid *g, float dt, float drift, bool fwd)
 /* Advects nf fields src[f] of lattice L (all in F's layout) into out[f], sharing the traces.
  * Pass 1: hat = F at the backward trace (semi-Lagrangian: the result). Pass 2 (MacCormack):
  * out = hat + (F - hat at the forward trace) / 2, limited to the range of the 8 values hat
- * was interpolated from (recomputed from the backward trace: no range arrays are stored).
+ * was interpolated from. With rhi (MacCormack), pass 1 stores that range (low in out[f],
+ * high in rhi[f]); without it pass 2 recomputes it from a second backward trace.
  * On the cell lattice solid cells keep their value and bit f of nonneg clamps field f at 0.
  * scalar0: scalar index of src[0] (src[f] is scalar scalar0 + f, for the inflow ghosts of
  * hat), or -1 for a velocity component. */
 static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
-                          const float *const *src, float *const *hat, float *const *out, bool mac,
-                          unsigned nonneg)
+                          const float *const *src, float *const *hat, float *const *out,
+                          float *const *rhi, bool mac, unsigned nonneg)
 {
     const int mxn = F->m[0], myn = F->m[1], mzn = F->m[2];
     const ptrdiff_t sy = F->sy, sz = F->sz, csy = g->sy, csz = g->sz;
@@ -420,6 +452,7 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
     const int nt = sq_context_threads(g->ctx);
     (void)nt; /* unused without OpenMP */
     float *const *dst1 = mac ? hat : out;
+    const bool store = mac && rhi; /* limiter range stored by pass 1 (low in out, high in rhi) */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < mzn; k++) {
         chunk cb;
@@ -432,8 +465,15 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
                 for (int f = 0; f < nf; f++) {
                     const float *o = src[f];
                     float *d = dst1[f] + r0 + i0;
-                    for (int q = 0; q < n; q++)
-                        d[q] = tri8(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q], cb.fz[q]);
+                    if (store) {
+                        float *rl = out[f] + r0 + i0, *rh = rhi[f] + r0 + i0;
+                        for (int q = 0; q < n; q++)
+                            d[q] = tri8_range(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q],
+                                              cb.fz[q], &rl[q], &rh[q]);
+                    } else {
+                        for (int q = 0; q < n; q++)
+                            d[q] = tri8(o, (ptrdiff_t)cb.b[q], sy, sz, cb.fx[q], cb.fy[q], cb.fz[q]);
+                    }
                     if (!cell) continue;
                     if (!mac && ((nonneg >> f) & 1u))
                         for (int q = 0; q < n; q++) d[q] = d[q] < 0.0f ? 0.0f : d[q];
@@ -457,13 +497,22 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
             const ptrdiff_t q0 = (ptrdiff_t)j * csy + (ptrdiff_t)k * csz;
             for (int i0 = 0; i0 < mxn; i0 += CH) {
                 const int n = mxn - i0 < CH ? mxn - i0 : CH;
-                trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
+                if (!store) trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
                 trace_chunk(F, off, fx, fy, fz, i0, n, j, k, q0, &cf);
                 for (int f = 0; f < nf; f++) {
                     const float *o = src[f], *ht = hat[f];
                     const float *oc = o + r0 + i0, *hc = ht + r0 + i0;
                     float *d = out[f] + r0 + i0;
-                    for (int q = 0; q < n; q++) range8(o, (ptrdiff_t)cb.b[q], sy, sz, &lo[q], &hi[q]);
+                    if (store) {
+                        const float *rh = rhi[f] + r0 + i0;
+                        for (int q = 0; q < n; q++) {
+                            lo[q] = d[q];
+                            hi[q] = rh[q];
+                        }
+                    } else {
+                        for (int q = 0; q < n; q++)
+                            range8(o, (ptrdiff_t)cb.b[q], sy, sz, &lo[q], &hi[q]);
+                    }
                     for (int q = 0; q < n; q++)
                         d[q] = tri8(ht, (ptrdiff_t)cf.b[q], sy, sz, cf.fx[q], cf.fy[q], cf.fz[q]);
                     if (clamp) {
@@ -516,7 +565,8 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
         const float *src[1] = {f->origin};
         float *hat[1] = {scratch_origin(g, SQ__S_BLOCK, f)};
         float *out[1] = {scratch_origin(g, SQ__S_OUT + c, f)};
-        advect_fields(g, c + 1, -1, &F, 1, src, hat, out, mac, 0u);
+        float *rhi[1] = {scratch_origin(g, SQ__S_BLOCK + 1, f)};
+        advect_fields(g, c + 1, -1, &F, 1, src, hat, out, rhi, mac, 0u);
     }
     for (int c = 0; c < 3; c++) swap_in(g, &g->vel[c], SQ__S_OUT + c);
     g->stats.last_cfl = (double)g->trace_cfl;
@@ -526,17 +576,19 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
     return SQ_OK;
 }
 
-/* Advects scalars s0 .. s0+count-1 with one trace (same dt and drift), in batches of up to
- * three (the hats live in scratch 0..2, the results in 10..12 and are swapped in). */
+/* Advects scalars s0 .. s0+count-1 with one trace (same dt and drift), in batches of two
+ * (MacCormack: hats in scratch 0..1, limiter highs in 2..3) or three (semi-Lagrangian: hats
+ * in 0..2); the results go to 10..12 and are swapped in. */
 sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float drift)
 {
     const bool mac = g->d.advection == SQ_ADVECT_MACCORMACK;
     ensure_displacements(g, dt, drift, mac);
     g->stats.last_cfl = (double)g->trace_cfl;
-    for (int b0 = s0; b0 < s0 + count; b0 += 3) {
-        const int nb = s0 + count - b0 < 3 ? s0 + count - b0 : 3;
+    const int bs = mac ? 2 : 3; /* MacCormack: hats in 0..1, limiter highs in 2..3 */
+    for (int b0 = s0; b0 < s0 + count; b0 += bs) {
+        const int nb = s0 + count - b0 < bs ? s0 + count - b0 : bs;
         const float *src[3];
-        float *hat[3], *out[3];
+        float *hat[3], *out[3], *rhi[3];
         unsigned nonneg = 0;
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
@@ -544,11 +596,12 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
             src[q] = f->origin;
             hat[q] = scratch_origin(g, SQ__S_BLOCK + q, f);
             out[q] = scratch_origin(g, SQ__S_OUT + q, f);
+            rhi[q] = scratch_origin(g, SQ__S_BLOCK + 2 + q, f);
             if ((g->d.scalar_nonnegative >> (b0 + q)) & 1u) nonneg |= 1u << q;
         }
         const sq_field3 *f0 = &g->scalar[b0];
         lat F = make_lat(g, f0->origin, f0->sy, f0->sz, SQ__L_CELL);
-        advect_fields(g, SQ__L_CELL, b0, &F, nb, src, hat, out, mac, nonneg);
+        advect_fields(g, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
             swap_in(g, f, SQ__S_OUT + q);

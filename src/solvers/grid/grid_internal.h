@@ -31,7 +31,7 @@ enum { SQ__L_CELL = 0, SQ__L_U = 1, SQ__L_V = 2, SQ__L_W = 3 };
  * are swapped into the fields. Projection, confinement, diffusion and the topology rebuild
  * use 0..3 only (and invalidate nothing else: they change the velocity anyway). */
 enum {
-    SQ__S_BLOCK = 0, /* 0..3: uc4 (AoS cell velocity), then hat / min / max */
+    SQ__S_BLOCK = 0, /* 0..3: uc4 (AoS cell velocity), then hats / limiter highs */
     SQ__S_DISP = 4,  /* 4..6: backward displacement x,y,z; 7..9: forward (cell units) */
     SQ__S_OUT = 10,  /* 10..12: advection outputs */
     SQ__SCRATCH = 13
