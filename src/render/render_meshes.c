@@ -512,9 +512,12 @@ static int instance_chunk(int faces_per_instance)
  * first surface a view's ray meets on it is where the ray enters a part, a front face — a depth
  * view (shadow cascade, occlusion map) keeps the same nearest depth and rasterises about half
  * the triangles. sink: the program's location 1 gets each level's error (sq__depth_view.sink);
- * top: only the faces a view straight down sees (top_faces; depth only). */
+ * lod_error: the colour programs' location 3 gets it (the snow exposure's allowance for a level
+ * drawn below the map's finer one, meshes.vert); top: only the faces a view straight down sees
+ * (top_faces; depth only). */
 static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_closed, bool sink,
-                         bool top, GLuint prog_near, GLuint cutout_near, const GLuint far[2])
+                         bool lod_error, bool top, GLuint prog_near, GLuint cutout_near,
+                         const GLuint far[2])
 {
     GLuint bound = prog_near;
     sq__mesh_pass *m = r->meshes;
@@ -542,6 +545,10 @@ static void draw_buckets(sq_renderer *r, GLuint base, bool materials, bool cull_
             }
             const gpu_lod *L = &g->lod[l];
             if (sink) glProgramUniform1f(bound, 1, L->error_m);
+            if (lod_error) {
+                glProgramUniform1f(prog, 3, L->error_m);
+                glProgramUniform1f(prog_cutout, 3, L->error_m);
+            }
             const int chunk = instance_chunk(L->index_count / 3);
             for (int i0 = 0; i0 < n_all; i0 += chunk) {
                 if (unpolled >= (materials ? 1 : DRAW_CHUNK_FACES)) {
@@ -614,7 +621,7 @@ void sq__mesh_pass_draw(sq_renderer *r)
     const GLuint far[2] = {r->snow_on ? m->prog_color_far : m->prog_color,
                            r->snow_on ? m->prog_cutout_far : m->prog_cutout};
     glUseProgram(color);
-    draw_buckets(r, base, true, true, false, false, color, cutout, far);
+    draw_buckets(r, base, true, true, false, r->snow_on, false, color, cutout, far);
 }
 
 void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
@@ -628,7 +635,7 @@ void sq__mesh_pass_draw_depth(sq_renderer *r, const sq__depth_view *v)
     glUseProgram(prog);
     glProgramUniformMatrix4fv(prog, 0, 1, GL_FALSE, v->view_proj.m);
     const GLuint same[2] = {prog, prog};
-    draw_buckets(r, base, false, !r->depth_cull_off, prog == m->prog_depth_sunk,
+    draw_buckets(r, base, false, !r->depth_cull_off, prog == m->prog_depth_sunk, false,
                  v->top_only && !r->depth_cull_off, prog, prog, same);
 }
 
@@ -642,7 +649,7 @@ void sq__mesh_pass_draw_with(sq_renderer *r, const sq__depth_view *v, GLuint pro
     const GLuint base = ring_put(m, n);
     glUseProgram(program);
     const GLuint same[2] = {program, program};
-    draw_buckets(r, base, materials, materials, false, false, program, program, same);
+    draw_buckets(r, base, materials, materials, false, false, false, program, program, same);
 }
 
 sq__mesh_stats sq__mesh_pass_stats(sq_renderer *r, bool reset)

@@ -271,8 +271,9 @@ sq_result sq__snow_pass_prepare(sq_renderer *r, const sq_world *w, const sq_snow
         b.look[0] = v->sparkle;
         b.look[1] = v->shininess;
         b.look[2] = v->noise_scale_m > 0.0f ? v->noise_scale_m : 1.0f;
-        /* metres per pixel at 1 m from the camera: the camera's level of detail may put a
-         * surface up to a pixel below the map's finer one (added to the bias with distance) */
+        /* metres per pixel at 1 m from the camera: the exposure's allowance for the camera's
+         * drawing is at least a pixel at the point's distance, and the drawn level's error
+         * where larger (render_meshes.c, location 3 of the mesh programs) */
         b.look[3] = 2.0f / ((float)r->height * r->proj.m[5]);
     }
     glNamedBufferSubData(s->ubo, 0, sizeof b, &b);

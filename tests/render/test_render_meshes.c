@@ -671,6 +671,84 @@ static sq__texel_rect drawn_texels(const sq__snow_map_geom *g, int in)
     return t;
 }
 
+/* The camera draws an instance with a coarser level than the occlusion map (finer levels there);
+ * the coarse level may lie up to its error below the map's surface, and the snow exposure allows
+ * for that error (render_meshes.c passes the drawn level's error to meshes.vert). A box 6 x 6 x
+ * 4 m whose second level is 0.2 m lower (error 0.2 m), drawn with lod_pixels 2 from 25 m (0.13 m
+ * a pixel: that level is 1.5 px of error), under a map of its finest level: its top is snow-
+ * covered. With an allowance of one pixel (0.13 m + the 5 cm bias < 0.2 m) the coarse top was
+ * taken to lie under the finer one: bare. Without snow the same pixels have the box's colour. */
+SQ_TEST(coarse_level_allowance_is_its_error)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = dated_world(ctx, 12.0f);
+    sq_mesh *box = box_mesh(ctx, sq_v3(-3, -3, 0), sq_v3(3, 3, 4), sq_v3(0.3f, 0.1f, 0.08f), SQ_TINT_NONE);
+    {
+        float p[24];
+        for (int k = 0; k < 8; k++) {
+            p[3 * k] = (k & 1) ? 3.0f : -3.0f;
+            p[3 * k + 1] = (k & 2) ? 3.0f : -3.0f;
+            p[3 * k + 2] = (k & 4) ? 3.8f : 0.0f;
+        }
+        static const uint32_t idx[36] = {0, 2, 3, 0, 3, 1, 4, 5, 7, 4, 7, 6, 0, 1, 5, 0, 5, 4,
+                                         2, 6, 7, 2, 7, 3, 0, 4, 6, 0, 6, 2, 1, 3, 7, 1, 7, 5};
+        sq_mesh_desc d;
+        memset(&d, 0, sizeof d);
+        d.name = "box lod 1";
+        d.vertex_count = 8;
+        d.positions = p;
+        d.index_count = 36;
+        d.indices = idx;
+        SQ_CHECK(sq_mesh_add_lod(ctx, box, &d, 0.2f) == SQ_OK);
+    }
+    sq_mesh_instance in;
+    memset(&in, 0, sizeof in);
+    in.position_m = sq_v3(0.0f, 0.0f, NAN);
+    in.scale = sq_v3(1, 1, 1);
+    const sq_mesh *list[1] = {box};
+    SQ_CHECK(sq_world_set_meshes(ctx, w, list, 1, &in, 1) == SQ_OK);
+    enum { N = 16 };
+    float depth[N * N];
+    sq_drawable d = snow_view(depth, N, 512);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(0.0f, -12.0f, 26.0f);
+    cam.target_m = sq_v3(0.0f, 0.0f, 4.0f);
+    cam.fov_y_deg = 50.0f;
+    sq_render_desc rd;
+    memset(&rd, 0, sizeof rd);
+    rd.width = W;
+    rd.height = H;
+    rd.shadows_off = true;
+    rd.lod_pixels = 2.0f;
+    sq_renderer *r = NULL;
+    SQ_CHECK(sq_renderer_create(ctx, &rd, &r) == SQ_OK);
+    r->map_lod_pixels = 1e-3f; /* the map draws the finest level */
+    uint8_t *snowy = malloc((size_t)W * H * 4), *bare = malloc((size_t)W * H * 4);
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, snowy) == SQ_OK);
+    for (int i = 0; i < N * N; i++) depth[i] = 0.0f;
+    d.u.snow_cover.version = 2;
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, bare) == SQ_OK);
+    /* a 15 x 15 block at the image centre: the box's top (about 46 x 40 px) */
+    int white = 0, red = 0, n = 0;
+    for (int y = H / 2 - 7; y <= H / 2 + 7; y++)
+        for (int x = W / 2 - 7; x <= W / 2 + 7; x++) {
+            const uint8_t *s = &snowy[4 * ((size_t)y * W + x)], *b = &bare[4 * ((size_t)y * W + x)];
+            white += s[0] > 150 && s[1] > 150 && s[2] > 150;
+            red += b[0] > b[2] + 20;
+            n++;
+        }
+    printf("box top: %d of %d pixels snow-white, %d of them the box's red without snow\n", white, n, red);
+    SQ_CHECK_MSG(red == n, "%d of %d pixels of the bare box's top are its colour", red, n);
+    SQ_CHECK_MSG(white >= n * 9 / 10, "%d of %d pixels of the coarse level's top are snow", white, n);
+    free(snowy);
+    free(bare);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, box);
+    sq_context_destroy(ctx);
+}
+
 /* The GL occlusion map of renderer r's last frame as heights, and its placement. */
 static float *gl_map(sq_renderer *r, sq__snow_map_geom *g)
 {

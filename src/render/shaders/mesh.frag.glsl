@@ -21,7 +21,7 @@ void main()
     vec3 n = normalize(v_normal);
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = v_albedo * (E * max(dot(n, u_sun_dir.xyz), 0.0) + sq_ambient(n));
-    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_BUILT);
+    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_BUILT, 0.0);
     if (fp > 0.0)
         L = mix(L, sq_snow_radiance(v_pos, sq_snow_shell_normal(v_base, n), normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);

@@ -38,6 +38,14 @@ vec4 sq_mesh_world_welded_normal()
     return vec4(normalize(vec3(c * m.x - s * m.y, s * m.x + c * m.y, m.z)), a_snormal.w);
 }
 
+// The instance's largest scale factor (what a level's error is multiplied by, as render_meshes.c
+// does to choose it).
+float sq_mesh_scale_max()
+{
+    vec3 k = texelFetch(u_instances, int(a_instance) * 4 + 1).xyz;
+    return max(k.x, max(k.y, k.z));
+}
+
 // The instance's two tint colours (0 = keep the material's colour).
 void sq_mesh_tints(out vec3 t0, out vec3 t1)
 {

@@ -8,12 +8,14 @@
 
 layout(location = 0) uniform vec3 u_base_color; // material albedo (linear)
 layout(location = 1) uniform int u_tint;        // 0 none, 1 primary, 2 secondary
+layout(location = 3) uniform float u_lod_error_m; // the drawn level's error (mesh frame, m)
 
 out vec3 v_pos;
 out vec3 v_normal;
 out vec3 v_base; // before the snow shell
 out vec2 v_uv;
 flat out vec3 v_albedo;
+flat out float v_lod_m; // the level's error in the world (x the largest scale)
 
 void main()
 {
@@ -26,8 +28,9 @@ void main()
     if (u_tint == 2 && max(t1.r, max(t1.g, t1.b)) > 0.0) a = t1;
     v_albedo = a;
     v_base = p;
+    v_lod_m = u_lod_error_m * sq_mesh_scale_max();
 #ifndef SQ_NO_SHELL /* instances too far for the shell to move them by half a pixel (render_meshes.c) */
-    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_welded_normal());
+    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_welded_normal(), v_lod_m);
 #endif
     v_pos = p;
     v_normal = n;

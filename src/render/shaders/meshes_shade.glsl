@@ -14,6 +14,7 @@ in vec3 v_normal;
 in vec3 v_base;
 in vec2 v_uv;
 flat in vec3 v_albedo;
+flat in float v_lod_m; // the drawn level's error (m), for the snow exposure
 layout(location = 0) out vec4 o_color;
 layout(location = 2) uniform int u_has_texture;
 layout(binding = 10) uniform sampler2D u_base_texture; // sRGB: sampled as linear
@@ -33,7 +34,7 @@ void main()
     vec3 s = u_sun_dir.xyz;
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
-    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_BUILT);
+    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_BUILT, v_lod_m);
     if (fp > 0.0)
         L = mix(L, sq_snow_radiance(v_pos, sq_snow_shell_normal(v_base, n), normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);

@@ -84,17 +84,18 @@ float sq_snow_near_weight(vec3 p)
 
 // Exposure f_e (eq 2.2): the fraction of the M taps around p whose occluder is not
 // above p by more than the bias, slope-scaled by the surface's normal z nz
-// (sq__snow_slope_bias: + (radius + 1/2) texels x tan(slope), tan at most 3), plus the camera's
-// level-of-detail error (a pixel at p's distance; the map is drawn at finer levels).
-float sq_snow_exposure_map(vec3 p, float nz)
+// (sq__snow_slope_bias: + (radius + 1/2) texels x tan(slope), tan at most 3), plus the
+// camera's allowance: lod_m, the error of the level of detail the camera draws p's surface with
+// (render_meshes.c; 0 for the terrain), which may lie up to that below the finer level the map
+// holds, but at least a pixel at p's distance (the camera's own resolution).
+float sq_snow_exposure_map(vec3 p, float nz, float lod_m)
 {
     vec2 uv = (p.xy - u_snow_map.xy) / u_snow_map.z;
     int size = int(u_snow_map.w);
     float span = u_snow_range.x - u_snow_range.y;
     float d_act = (u_snow_range.x - p.z) / span;
     float c = clamp(nz, 0.3162, 1.0);
-    // + the camera's level-of-detail error: up to a pixel at p's distance
-    float lod = length(p - u_cam_pos.xyz) * u_snow_look.w;
+    float lod = max(lod_m, length(p - u_cam_pos.xyz) * u_snow_look.w);
     float bias = (u_snow_taps.z + lod + (u_snow_taps.y + 0.5) * u_snow_map.z * sqrt(1.0 - c * c) / c) / span;
     int m = int(u_snow_taps.x);
     float r = u_snow_taps.y;
@@ -128,10 +129,10 @@ float sq_snow_exposure_map(vec3 p, float nz)
 }
 
 // f_e with the far field: the map's answer near the camera, 1 (no occlusion test) beyond.
-float sq_snow_exposure(vec3 p, float nz)
+float sq_snow_exposure(vec3 p, float nz, float lod_m)
 {
     float w = sq_snow_near_weight(p);
-    return w > 0.0 ? mix(1.0, sq_snow_exposure_map(p, nz), w) : 1.0;
+    return w > 0.0 ? mix(1.0, sq_snow_exposure_map(p, nz, lod_m), w) : 1.0;
 }
 
 // Inclination f_inc (eq 2.3): max(0, N.z) times a mean-one noise factor (sq__snow_inclination).
@@ -157,17 +158,18 @@ float sq_snow_far_density(vec3 p)
     return clamp(0.8 + 0.4 * (f1 * n1 + f2 * n2) - 0.2, 0.0, 1.0);
 }
 
-// f_p (eq 2.1) at p with unit normal n, blended into the far field beyond the map. full_m: the
+// f_p (eq 2.1) at p with unit normal n (lod_m: as for the exposure), blended into the far field
+// beyond the map. full_m: the
 // depth from which thin snow covers the surface whole (SQ_SNOW_FULL_GROUND on the terrain, whose
 // grass and rough ground poke through; SQ_SNOW_FULL_BUILT on roofs, walls and other meshes).
 const float SQ_SNOW_FULL_GROUND = 0.16, SQ_SNOW_FULL_BUILT = 0.06;
-float sq_snow_cover(vec3 p, vec3 n, float full_m)
+float sq_snow_cover(vec3 p, vec3 n, float full_m, float lod_m)
 {
     if (!sq_snow_on()) return 0.0;
     float inc = sq_snow_inclination(n, p);
     if (inc <= 0.0) return 0.0;
     float w = sq_snow_near_weight(p);
-    float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z) * inc : 0.0;
+    float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z, lod_m) * inc : 0.0;
     float far_fp = inc * sq_snow_far_density(p);
     float depth = sq_snow_depth_at(p.xy);
     // thin snow covers partly, in patches: the covered fraction grows with depth / (full_m / 2)
@@ -180,16 +182,16 @@ float sq_snow_cover(vec3 p, vec3 n, float full_m)
 
 // The snow shell (sq__snow_shell_offset): displacement of a vertex at p with the welded normal
 // ns (sq__snow_welded_normals: unit xyz, w = 1 at the top of a wall) by depth x f_e x min(1,
-// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall. A function
-// of p and ns only: coincident vertices move together.
-vec3 sq_snow_shell(vec3 p, vec4 ns)
+// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall (lod_m: as
+// for the exposure). A function of p, ns and the drawn level: coincident vertices move together.
+vec3 sq_snow_shell(vec3 p, vec4 ns, float lod_m)
 {
     if (!sq_snow_on()) return vec3(0.0);
     float w = min(1.0, 2.0 * max(0.0, ns.z));
     if (w <= 0.0) return vec3(0.0);
     vec3 up = vec3(0.0, 0.0, 1.0);
     vec3 dir = ns.w > 0.5 ? up : normalize(mix(ns.xyz, up, u_snow_depth_grid.w));
-    return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z) * w);
+    return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z, lod_m) * w);
 }
 
 // Shading normal of the shell over a surface of unit normal n at p where the depth varies (a

@@ -35,7 +35,7 @@ void main()
     vec3 s = u_sun_dir.xyz;
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
-    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_GROUND);
+    float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_GROUND, 0.0);
     if (fp > 0.0)
         L = mix(L, sq_snow_radiance(v_pos, sq_snow_shell_normal(v_base, n), normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);

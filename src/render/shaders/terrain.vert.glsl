@@ -13,7 +13,7 @@ out vec3 v_base; // before the snow shell: where the occlusion map is read
 
 void main()
 {
-    vec3 p = a_pos + sq_snow_shell(a_pos, vec4(a_normal, 0.0));
+    vec3 p = a_pos + sq_snow_shell(a_pos, vec4(a_normal, 0.0), 0.0);
     v_base = a_pos;
     v_pos = p;
     v_normal = a_normal;
