@@ -139,6 +139,13 @@ typedef struct sq_grid_desc {
                                     sq_grid_diffuse_sgs); 0 = the wind 0 half a cell below */
     int diffusion_iterations;    /* Gauss-Seidel sweeps of the implicit molecular diffusion
                                     (used only when nu_mol dt / h^2 > 1/6); 0 = 3 */
+    bool decompose;              /* under mpirun (squall/par.h, more than one rank): this rank's
+                                    grid is its slab of `cells` along the longer horizontal axis
+                                    (slabs >= 4 cells; sq_grid_get_block says which), create is
+                                    collective. What is distributed so far: sq_grid_project
+                                    (collective; agrees with one rank to the tolerance). Fields,
+                                    views, solid masks and cell indices are the slab's (local).
+                                    false, or one rank: the whole grid (docs/mpi.md) */
 } sq_grid_desc;
 
 typedef struct sq_grid sq_grid;
@@ -184,6 +191,12 @@ SQ_API uint64_t sq_grid_memory_bytes(const sq_grid_desc *desc);
  * context's limit (SQ_ERR_INVALID_ARG naming sq_grid_desc.<field>, SQ_ERR_TOO_LARGE). */
 SQ_API sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **out);
 SQ_API void sq_grid_destroy(sq_grid *g); /* accepts NULL */
+/* The place of this rank's slab in a decomposed grid (desc.decompose): lo = global index of
+ * its first cell per axis, global = the whole grid's cells (lo = 0 and the grid's own cells
+ * when not decomposed). */
+SQ_API sq_result sq_grid_get_block(const sq_grid *g, int lo[3], sq_dims *global);
+/* Bytes this rank sent to its neighbouring slabs since create (0 when not decomposed). */
+SQ_API uint64_t sq_grid_bytes_exchanged(const sq_grid *g);
 /* Sizes, spacing and the pressure solver's set-up of the grid. */
 SQ_API sq_grid_info sq_grid_get_info(const sq_grid *g);
 SQ_API sq_grid_desc sq_grid_get_desc(const sq_grid *g); /* the resolved desc */

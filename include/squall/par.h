@@ -88,6 +88,7 @@ SQ_API void sq_par_exchange_end(sq_par_exchange *x);
  * where results must not). */
 SQ_API void sq_par_sum_i64(int64_t *v, int n);
 SQ_API void sq_par_sum_f64(double *v, int n);
+SQ_API void sq_par_sum_f32(float *v, int n);
 SQ_API void sq_par_max_f64(double *v, int n);
 SQ_API void sq_par_min_i64(int64_t *v, int n);
 /* Collective: rank `root` sends `bytes` at data to every rank. */

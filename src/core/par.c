@@ -375,6 +375,17 @@ void sq_par_sum_f64(double *v, int n)
 #endif
 }
 
+void sq_par_sum_f32(float *v, int n)
+{
+#if SQ_HAVE_MPI
+    if (par_active && par_size > 1)
+        MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_FLOAT, MPI_SUM, MPI_COMM_WORLD);
+#else
+    (void)v;
+    (void)n;
+#endif
+}
+
 void sq_par_max_f64(double *v, int n)
 {
 #if SQ_HAVE_MPI

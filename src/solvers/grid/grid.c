@@ -195,6 +195,7 @@ void sq_grid_destroy(sq_grid *g)
         for (int i = 0; i < SQ_GRID_MAX_SCALARS; i++) sq_free(ctx, g->scalar_inflow_data[f][i]);
     }
     sq__grid_free_multigrid(g);
+    sq__grid_dist_free(ctx, g->halo);
     sq_free(ctx, g);
 }
 
@@ -223,15 +224,20 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
     sq_grid_desc d = sq_grid_desc_resolve(desc);
     sq_result r = validate(ctx, &d);
     if (r != SQ_OK) return r;
+    sq__grid_halo *halo = NULL; /* decompose: d becomes this rank's slab (grid_dist.c) */
+    r = sq__grid_dist_setup(ctx, &d, &halo);
+    if (r != SQ_OK) return r;
     uint64_t bytes = sq_grid_memory_bytes(&d);
     char what[128];
     snprintf(what, sizeof what, "grid %dx%dx%d with %d scalars", d.cells.nx, d.cells.ny,
              d.cells.nz, d.scalar_count);
     r = sq_context_check_memory(ctx, bytes, what);
-    if (r != SQ_OK) return r;
-
-    sq_grid *g = (sq_grid *)sq_alloc_zero(ctx, sizeof *g);
-    if (!g) return SQ_ERR_OUT_OF_MEMORY;
+    sq_grid *g = r == SQ_OK ? (sq_grid *)sq_alloc_zero(ctx, sizeof *g) : NULL;
+    if (!g) {
+        sq__grid_dist_free(ctx, halo);
+        return r != SQ_OK ? r : SQ_ERR_OUT_OF_MEMORY;
+    }
+    g->halo = halo;
     g->ctx = ctx;
     g->d = d;
     g->n[0] = d.cells.nx;
@@ -255,6 +261,7 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
         for (int s = 0; s < d.scalar_count && r == SQ_OK; s++)
             r = field_create(g, d.cells, &g->scalar[s]);
     }
+    if (g->halo && sq__grid_dist_any(g, r != SQ_OK) && r == SQ_OK) r = SQ_ERR_OUT_OF_MEMORY;
     if (r != SQ_OK) {
         sq_grid_destroy(g);
         return r;
@@ -289,6 +296,7 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
         g->inflow[f] = (float *)sq_alloc_zero(ctx, inflow_cells(g->n, f) * 3 * sizeof(float));
         ok = g->inflow[f] != NULL;
     }
+    if (g->halo) ok = !sq__grid_dist_any(g, !ok); /* the topology below is collective */
     if (!ok) {
         sq_grid_destroy(g);
         return SQ_ERR_OUT_OF_MEMORY;
@@ -753,6 +761,8 @@ static void build_flags(sq_grid *g)
                 }
         }
     }
+    /* inner faces of a decomposed grid: the neighbouring slab's flags */
+    sq__grid_halo_cells(g, fl, 1);
     /* periodic solid planes */
     if (g->periodic[2]) {
         g->plane_solid[0] = g->plane_solid[nz];
@@ -830,6 +840,11 @@ static void pin_closed_regions(sq_grid *g)
                     int ii = (int)(rem % g->sy) - 1;
                     for (int l = 0; l < 6; l++) {
                         if (!((links >> l) & 1)) continue;
+                        const int xl[3] = {ii, jj, kk};
+                        if (sq__grid_dist_inner(g, l) && xl[l / 2] == ((l & 1) ? g->n[l / 2] - 1 : 0)) {
+                            open = true; /* continues in the neighbouring slab */
+                            continue;
+                        }
                         ptrdiff_t nb = link_neighbour(g, ii, jj, kk, l);
                         if (!label[nb]) {
                             label[nb] = comp;

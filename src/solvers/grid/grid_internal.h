@@ -53,6 +53,8 @@ typedef struct sq__mg_level {
 
 #define SQ__MG_MAX_LEVELS 16
 
+typedef struct sq__grid_halo sq__grid_halo; /* grid_dist.c: this rank's slab, NULL if whole */
+
 struct sq_grid {
     sq_context *ctx;
     sq_grid_desc d; /* resolved */
@@ -100,6 +102,7 @@ struct sq_grid {
     float eddy_g;        /* gravity of N^2 = (g / theta) d theta / dz */
     float eddy_prandtl;  /* turbulent Prandtl number Pr_t */
     sq_grid_stats stats;
+    sq__grid_halo *halo; /* decomposed (grid_dist.c); NULL: the whole grid */
 };
 
 static inline ptrdiff_t sq__cidx(const sq_grid *g, int i, int j, int k)
@@ -212,5 +215,32 @@ sq_result sq__grid_build_multigrid(sq_grid *g);
 void sq__grid_free_multigrid(sq_grid *g);
 uint64_t sq__grid_multigrid_bytes(const int n[3]);
 sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st);
+
+/* ---- grid_dist.c (a decomposed grid; every call is a no-op / identity when g->halo is NULL) */
+/* d: the resolved, validated global desc; with decompose under several ranks it becomes this
+ * rank's slab (cells, origin, inner faces OPEN) and *out the halo (else NULL). */
+sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **out);
+void sq__grid_dist_free(sq_context *ctx, sq__grid_halo *h);
+/* Collective: the ghost planes of inner faces of a padded cell-lattice array (level-0 layout,
+ * elements of elem bytes, base = its allocation) become the neighbours' edge planes. */
+void sq__grid_halo_cells(sq_grid *g, void *base, size_t elem);
+/* The whole grid's cells n0 and the slab's first cell lo (g->n and 0 when not decomposed). */
+void sq__grid_dist_frame(const sq_grid *g, int n0[3], int lo[3]);
+/* Swaps the whole grid's boundaries and periodicity with the slab's (call twice: the coarse
+ * multigrid levels are the whole grid's). */
+void sq__grid_dist_global_bc(sq_grid *g);
+/* Collective: float array v[0..n) summed over the ranks (counted in the bytes exchanged). */
+void sq__grid_dist_sum_f32(sq_grid *g, float *v, size_t n);
+/* Collective: the normal velocity on every inner face (held by both slabs) becomes the upper
+ * slab's (its face 0; across a split periodic axis the first slab's, as one rank's periodic
+ * face n copies face 0). */
+void sq__grid_dist_sync_faces(sq_grid *g);
+/* Collective: v[0..n) summed over the ranks. */
+void sq__grid_dist_sum(const sq_grid *g, double *v, int n);
+/* Collective: whether v is true on any rank. */
+bool sq__grid_dist_any(const sq_grid *g, bool v);
+/* Global red-black colour offset of local cell (0,0,0); whether face is an inner face. */
+int sq__grid_dist_parity(const sq_grid *g);
+bool sq__grid_dist_inner(const sq_grid *g, int face);
 
 #endif

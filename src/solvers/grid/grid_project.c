@@ -91,10 +91,12 @@ static sq_result alloc_levels(sq_grid *g)
     L0->sy = g->sy;
     L0->sz = g->sz;
     L0->count = g->cell_count;
+    int n0[3], lo[3]; /* a decomposed grid's coarse levels are the whole grid's (grid_dist.c) */
+    sq__grid_dist_frame(g, n0, lo);
     int l = 1;
     for (; l < SQ__MG_MAX_LEVELS; l++) {
         sq__mg_level *L = &g->mg[l];
-        if (!coarsen(g->mg[l - 1].n, L->n, L->b)) break;
+        if (!coarsen(l == 1 ? n0 : g->mg[l - 1].n, L->n, L->b)) break;
         L->sy = L->n[0] + 2;
         L->sz = L->sy * (L->n[1] + 2);
         L->count = (size_t)padded3(L->n);
@@ -115,9 +117,30 @@ static sq_result alloc_levels(sq_grid *g)
 
 /* Link coefficient of the finer level f between cell (i,j,k) and its +e_a neighbour (i may be
  * -1 along a: the link across the low boundary). Level 0 derives it from the cell flags. */
+/* Level 0 in a decomposed grid: turns the global fine cell x into the slab's local index and
+ * says whether this slab holds it (low: the axis whose index -1, the link across the global
+ * low boundary, belongs to the first slab; -1 for none). Other slabs' links count 0 here and
+ * are summed over the ranks (sq__grid_build_multigrid). */
+static bool held0(const sq_grid *g, int x[3], int low)
+{
+    int n0[3], lo[3];
+    sq__grid_dist_frame(g, n0, lo);
+    for (int d = 0; d < 3; d++) {
+        x[d] -= lo[d];
+        if (x[d] >= g->n[d]) return false;
+        if (x[d] < 0 && !(d == low && x[d] == -1 && lo[d] == 0)) return false;
+    }
+    return true;
+}
+
 static float fine_link(const sq_grid *g, int l, int a, int i, int j, int k)
 {
     if (l == 0) {
+        int x[3] = {i, j, k};
+        if (!held0(g, x, a)) return 0.0f;
+        i = x[0];
+        j = x[1];
+        k = x[2];
         ptrdiff_t c = sq__cidx(g, i, j, k);
         const ptrdiff_t st[3] = {1, g->sy, g->sz};
         return (float)sq__link_coef(g->flags[c], g->flags[c + st[a]]);
@@ -128,7 +151,11 @@ static float fine_link(const sq_grid *g, int l, int a, int i, int j, int k)
 
 static float fine_reaction(const sq_grid *g, int l, int i, int j, int k)
 {
-    if (l == 0) return (g->links[sq__cidx(g, i, j, k)] & 0x40) ? 1.0f : 0.0f;
+    if (l == 0) {
+        int x[3] = {i, j, k};
+        if (!held0(g, x, -1)) return 0.0f;
+        return (g->links[sq__cidx(g, x[0], x[1], x[2])] & 0x40) ? 1.0f : 0.0f;
+    }
     const sq__mg_level *L = &g->mg[l];
     return L->res[lidx(L, i, j, k)];
 }
@@ -142,9 +169,12 @@ sq_result sq__grid_build_multigrid(sq_grid *g)
             return sq__fail(g->ctx, r, MOD, "out of memory building the multigrid hierarchy");
         }
     }
+    int n0[3], lo[3];
+    sq__grid_dist_frame(g, n0, lo);
     for (int l = 1; l < g->mg_levels; l++) {
         sq__mg_level *L = &g->mg[l];
         const sq__mg_level *F = &g->mg[l - 1];
+        const int *fn = l == 1 ? n0 : F->n; /* the finer level's (global) cells */
         for (int a = 0; a < 3; a++) memset(L->c[a], 0, L->count * sizeof(float));
         memset(L->res, 0, L->count * sizeof(float));
         memset(L->x, 0, L->count * sizeof(float));
@@ -157,10 +187,10 @@ sq_result sq__grid_build_multigrid(sq_grid *g)
                 for (int J = 0; J < L->n[ta]; J++)
                     for (int I = -1; I < L->n[a]; I++) {
                         int fi = I < 0 ? -1 : L->b[a] * I + L->b[a] - 1;
-                        if (fi > F->n[a] - 1) fi = F->n[a] - 1;
+                        if (fi > fn[a] - 1) fi = fn[a] - 1;
                         double sum = 0.0;
-                        for (int q = L->b[tb] * K; q < L->b[tb] * K + L->b[tb] && q < F->n[tb]; q++)
-                            for (int p = L->b[ta] * J; p < L->b[ta] * J + L->b[ta] && p < F->n[ta];
+                        for (int q = L->b[tb] * K; q < L->b[tb] * K + L->b[tb] && q < fn[tb]; q++)
+                            for (int p = L->b[ta] * J; p < L->b[ta] * J + L->b[ta] && p < fn[ta];
                                  p++) {
                                 int x[3];
                                 x[a] = fi;
@@ -175,17 +205,27 @@ sq_result sq__grid_build_multigrid(sq_grid *g)
                         L->c[a][lidx(L, X[0], X[1], X[2])] = (float)(sum / L->b[a]);
                     }
         }
-        /* reaction (pins) and the diagonal */
+        /* reaction (pins) */
         for (int K = 0; K < L->n[2]; K++)
             for (int J = 0; J < L->n[1]; J++)
                 for (int I = 0; I < L->n[0]; I++) {
                     double react = 0.0;
-                    for (int k = L->b[2] * K; k < L->b[2] * (K + 1) && k < F->n[2]; k++)
-                        for (int j = L->b[1] * J; j < L->b[1] * (J + 1) && j < F->n[1]; j++)
-                            for (int i = L->b[0] * I; i < L->b[0] * (I + 1) && i < F->n[0]; i++)
+                    for (int k = L->b[2] * K; k < L->b[2] * (K + 1) && k < fn[2]; k++)
+                        for (int j = L->b[1] * J; j < L->b[1] * (J + 1) && j < fn[1]; j++)
+                            for (int i = L->b[0] * I; i < L->b[0] * (I + 1) && i < fn[0]; i++)
                                 react += (double)fine_reaction(g, l - 1, i, j, k);
+                    L->res[lidx(L, I, J, K)] = (float)react;
+                }
+        /* a decomposed grid: every slab added its own links and pins (small integers over
+         * b: exact in float) */
+        if (l == 1)
+            for (int a = 0; a < 4; a++) sq__grid_dist_sum_f32(g, a < 3 ? L->c[a] : L->res, L->count);
+        /* the diagonal */
+        for (int K = 0; K < L->n[2]; K++)
+            for (int J = 0; J < L->n[1]; J++)
+                for (int I = 0; I < L->n[0]; I++) {
                     ptrdiff_t c = lidx(L, I, J, K);
-                    L->res[c] = (float)react;
+                    const double react = L->res[c];
                     double diag = react + (double)L->c[0][c] + (double)L->c[0][c - 1] +
                                   (double)L->c[1][c] + (double)L->c[1][c - L->sy] +
                                   (double)L->c[2][c] + (double)L->c[2][c - L->sz];
@@ -236,6 +276,28 @@ static bool any_periodic(const sq_grid *g)
     return g->periodic[0] || g->periodic[1] || g->periodic[2];
 }
 
+/* After level-0 array x (padded base) changed: its periodic ghosts and, in a decomposed grid,
+ * the ghosts of the inner faces (grid_dist.c; collective). */
+static void sync0(sq_grid *g, float *x)
+{
+    if (any_periodic(g)) exchange(g, x + sq__cidx(g, 0, 0, 0), g->n, g->sy, g->sz);
+    sq__grid_halo_cells(g, x, sizeof(float));
+}
+
+/* Per-plane partial sums of slots 0 and 1 (n = 1 or 2), over every rank of a decomposed grid. */
+static void sum_planes(sq_grid *g, int n, double *out)
+{
+    for (int s = 0; s < n; s++) out[s] = sq__grid_sum_planes(g, s);
+    sq__grid_dist_sum(g, out, n);
+}
+
+static double sum_plane0(sq_grid *g)
+{
+    double v;
+    sum_planes(g, 1, &v);
+    return v;
+}
+
 /* origin of cell (0,0,0) inside a padded level array */
 static float *org(const sq__mg_level *L, float *base) { return base + lidx(L, 0, 0, 0); }
 
@@ -272,6 +334,7 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
     const int nt = sq_context_threads(g->ctx);
     (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
+    colour ^= sq__grid_dist_parity(g); /* a slab's colours follow the global cell index */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
         double acc = 0.0;
@@ -301,8 +364,8 @@ static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool fr
         }
         ps[4 * k] = acc;
     }
-    if (any_periodic(g)) exchange(g, x + sq__cidx(g, 0, 0, 0), g->n, sy, sz);
-    if (dot) *dot = sq__grid_sum_planes(g, 0);
+    sync0(g, x);
+    if (dot) *dot = sum_plane0(g);
 }
 
 static void smooth0(sq_grid *g, float *x, const float *b, int colour)
@@ -333,10 +396,12 @@ static double apply0(sq_grid *g, const float *x, float *out)
         }
         ps[4 * k] = acc;
     }
-    return sq__grid_sum_planes(g, 0);
+    return sum_plane0(g);
 }
 
-/* Fine residual b - A x summed over each coarse cell of level 1 into its rhs. */
+/* Fine residual b - A x summed over each coarse cell of level 1 into its rhs. A decomposed
+ * grid's level 1 is the whole grid's: the slab (at global offset lo along x or y; z is never
+ * split) adds its cells' residuals and the ranks sum the level (grid_dist.c). */
 static void restrict0(sq_grid *g, const float *x, const float *b)
 {
     sq__mg_level *C = &g->mg[1];
@@ -345,17 +410,23 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
     const int nt = sq_context_threads(g->ctx);
     (void)nt; /* unused without OpenMP */
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    int n0[3], lo[3];
+    sq__grid_dist_frame(g, n0, lo);
+    const bool whole = g->halo == NULL;
+    if (!whole) memset(C->rhs, 0, C->count * sizeof(float));
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int K = 0; K < C->n[2]; K++) {
         float t[ROW];
-        for (int J = 0; J < C->n[1]; J++) {
-            float *cr = C->rhs + lidx(C, 0, J, K);
-            for (int I = 0; I < C->n[0]; I++) cr[I] = 0.0f;
-        }
+        if (whole)
+            for (int J = 0; J < C->n[1]; J++) {
+                float *cr = C->rhs + lidx(C, 0, J, K);
+                for (int I = 0; I < C->n[0]; I++) cr[I] = 0.0f;
+            }
         const int shx = C->b[0] - 1, shy = C->b[1] - 1; /* block 2: shift 1; block 1: 0 */
+        const bool pairs = shx && !(lo[0] & 1); /* the slab's pairs are the coarse cells */
         for (int k = C->b[2] * K; k < C->b[2] * (K + 1) && k < nz; k++)
             for (int j = 0; j < ny; j++) {
-                float *cr = C->rhs + lidx(C, 0, j >> shy, K);
+                float *cr = C->rhs + lidx(C, 0, (j + lo[1]) >> shy, K);
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i0 = 0; i0 < nx; i0 += ROW) {
                     const int n = nx - i0 < ROW ? nx - i0 : ROW;
@@ -364,16 +435,17 @@ static void restrict0(sq_grid *g, const float *x, const float *b)
                         const float r = b[c] - ((float)dg[c] * x[c] - nbsum0(x, c, sy, sz));
                         t[q] = sq__fsel(dg[c] != 0, r, 0.0f);
                     }
-                    if (shx) { /* ROW is even: pairs never straddle chunks */
-                        float *cc = cr + (i0 >> 1);
+                    if (pairs) { /* ROW is even: pairs never straddle chunks */
+                        float *cc = cr + ((i0 + lo[0]) >> 1);
                         for (int q = 0; q + 1 < n; q += 2) cc[q >> 1] += t[q] + t[q + 1];
                         if (n & 1) cc[(n - 1) >> 1] += t[n - 1];
                     } else {
-                        for (int q = 0; q < n; q++) cr[i0 + q] += t[q];
+                        for (int q = 0; q < n; q++) cr[(i0 + q + lo[0]) >> shx] += t[q];
                     }
                 }
             }
     }
+    if (!whole) sq__grid_dist_sum_f32(g, C->rhs, C->count);
 }
 
 /* Trilinear prolongation weights along one axis for fine index i: parent P, the nearer other
@@ -445,6 +517,10 @@ static void prolong(sq_grid *g, int lf, float *xf)
     const float *id = lf == 0 ? NULL : F->inv_diag;
     const float *xc = C->x;
     const int nf0 = F->n[0], nf1 = F->n[1], nf2 = F->n[2];
+    /* a decomposed grid's level 0 is its slab at offset lo inside the whole grid (n0 cells),
+     * whose level 1 this is (see restrict0) */
+    int n0[3] = {nf0, nf1, nf2}, lo[3] = {0, 0, 0};
+    if (lf == 0) sq__grid_dist_frame(g, n0, lo);
     const int nt = F->count > 32768 ? sq_context_threads(g->ctx) : 1;
     (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -452,13 +528,18 @@ static void prolong(sq_grid *g, int lf, float *xf)
         int Pz, Nz, Py, Ny, Px, Nx;
         float wz, wy, wx;
         float yz[ROW + 2];
-        pweights(k, C->b[2], nf2, &Pz, &Nz, &wz);
+        pweights(k + lo[2], C->b[2], n0[2], &Pz, &Nz, &wz);
         for (int j = 0; j < nf1; j++) {
-            pweights(j, C->b[1], nf1, &Py, &Ny, &wy);
+            pweights(j + lo[1], C->b[1], n0[1], &Py, &Ny, &wy);
             const float *r00 = xc + lidx(C, 0, Py, Pz), *r10 = xc + lidx(C, 0, Ny, Pz),
                         *r01 = xc + lidx(C, 0, Py, Nz), *r11 = xc + lidx(C, 0, Ny, Nz);
             const ptrdiff_t f0 = (ptrdiff_t)(j + 1) * F->sy + (ptrdiff_t)(k + 1) * F->sz + 1;
-            if (C->b[0] == 2 && !(nf0 & 1)) {
+            if (C->b[0] == 2 && !(nf0 & 1) && !(n0[0] & 1) && !(lo[0] & 1)) {
+                const int h = lo[0] >> 1; /* the slab's first coarse cell */
+                r00 += h;
+                r10 += h;
+                r01 += h;
+                r11 += h;
                 /* pairs of children: the y-z interpolated coarse row yz[I] (I from -1), then
                  * child 2I takes 3/4 yz[I] + 1/4 yz[I-1], child 2I+1 3/4 yz[I] + 1/4 yz[I+1] */
                 const float w00 = (1.0f - wy) * (1.0f - wz), w10 = wy * (1.0f - wz),
@@ -483,7 +564,7 @@ static void prolong(sq_grid *g, int lf, float *xf)
             for (int i = 0; i < nf0; i++) {
                 const ptrdiff_t c = f0 + i;
                 if (dg ? dg[c] == 0 : id[c] == 0.0f) continue;
-                pweights(i, C->b[0], nf0, &Px, &Nx, &wx);
+                pweights(i + lo[0], C->b[0], n0[0], &Px, &Nx, &wx);
                 float a00 = r00[Px] + wx * (r00[Nx] - r00[Px]);
                 float a10 = r10[Px] + wx * (r10[Nx] - r10[Px]);
                 float a01 = r01[Px] + wx * (r01[Nx] - r01[Px]);
@@ -493,12 +574,6 @@ static void prolong(sq_grid *g, int lf, float *xf)
             }
         }
     }
-}
-
-static void prolong0(sq_grid *g, float *x)
-{
-    prolong(g, 0, x);
-    if (any_periodic(g)) exchange(g, x + sq__cidx(g, 0, 0, 0), g->n, g->sy, g->sz);
 }
 
 /* ---- coarse levels (float links) ------------------------------------------------------------ */
@@ -630,8 +705,12 @@ static void vcycle0(sq_grid *g, float *x, const float *b, bool from_zero, double
     const int nu = g->d.smoothing_sweeps;
     /* an odd periodic axis couples same-coloured cells across the wrap: start from real zeros */
     bool clean = true;
+    int n0[3], lo[3]; /* a decomposed grid: the whole grid's axes */
+    sq__grid_dist_frame(g, n0, lo);
+    sq__grid_dist_global_bc(g);
     for (int a = 0; a < 3; a++)
-        if (g->periodic[a] && (g->n[a] & 1)) clean = false;
+        if (g->periodic[a] && (n0[a] & 1)) clean = false;
+    sq__grid_dist_global_bc(g);
     if (from_zero && !clean) {
         memset(x, 0, g->cell_count * sizeof(float));
         from_zero = false;
@@ -642,8 +721,13 @@ static void vcycle0(sq_grid *g, float *x, const float *b, bool from_zero, double
     }
     if (g->mg_levels > 1) {
         restrict0(g, x, b);
+        /* a decomposed grid: every rank cycles the whole coarse hierarchy (the global faces'
+         * boundaries) and takes its slab's part of the correction */
+        sq__grid_dist_global_bc(g);
         vcycle_c(g, 1, &st->work_units);
-        prolong0(g, x);
+        prolong(g, 0, x);
+        sq__grid_dist_global_bc(g);
+        sync0(g, x);
     }
     for (int s = 0; s < nu; s++) {
         smooth0(g, x, b, 1);
@@ -695,8 +779,10 @@ static void rhs_and_residual(sq_grid *g, const float *phi, float *b, float *r, d
         ps[4 * k] = sb;
         ps[4 * k + 1] = sr;
     }
-    *bb = sq__grid_sum_planes(g, 0);
-    *rr = sq__grid_sum_planes(g, 1);
+    double s2[2];
+    sum_planes(g, 2, s2);
+    *bb = s2[0];
+    *rr = s2[1];
 }
 
 static double residual_norm2(sq_grid *g, const float *phi, const float *b)
@@ -723,7 +809,7 @@ static double residual_norm2(sq_grid *g, const float *phi, const float *b)
         }
         ps[4 * k] = acc;
     }
-    return sq__grid_sum_planes(g, 0);
+    return sum_plane0(g);
 }
 
 /* Clears the ghost layer of a level-0 array on every non-periodic face (see nbsum0). */
@@ -854,8 +940,10 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
             ps[4 * k] = acc;
             ps[4 * k + 1] = acz;
         }
-        rr = sq__grid_sum_planes(g, 0);
-        const double rz_old = sq__grid_sum_planes(g, 1);
+        double s2[2];
+        sum_planes(g, 2, s2);
+        rr = s2[0];
+        const double rz_old = s2[1];
         st->iterations = it + 1;
         st->residual = sqrt(rr) / bn;
         if (sqrt(rr) <= tol) {
@@ -875,7 +963,7 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
                 const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
                 for (int i = 0; i < nx; i++) d[r0 + i] = z[r0 + i] + beta * d[r0 + i];
             }
-        if (any_periodic(g)) exchange(g, d + sq__cidx(g, 0, 0, 0), g->n, g->sy, g->sz);
+        sync0(g, d);
     }
 }
 
@@ -942,7 +1030,7 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
                     dst[c] = inv_lut[dg[c]] * (b[c] + nbsum0(src, c, sy, sz));
                 }
             }
-        if (any_periodic(g)) exchange(g, dst + sq__cidx(g, 0, 0, 0), g->n, sy, sz);
+        sync0(g, dst);
         float *t = src;
         src = dst;
         dst = t;
@@ -959,6 +1047,7 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
 sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
 {
     memset(st, 0, sizeof *st);
+    sq__grid_dist_sync_faces(g); /* a decomposed grid: faces between slabs agree */
     sq__grid_enforce_velocity_ex(g, true);
     float *phi = g->p.base; /* padded, level-0 layout */
     const size_t n = g->cell_count;
@@ -975,13 +1064,14 @@ sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
             for (ptrdiff_t c = k * sz; c < (k + 1) * sz; c++) phi[c] *= dt;
     }
     zero_ghosts(g, g->p.origin);
-    if (any_periodic(g)) exchange(g, g->p.origin, g->n, g->sy, g->sz);
+    sync0(g, phi);
     switch (g->d.pressure) {
     case SQ_PRESSURE_JACOBI: solve_jacobi(g, phi, st); break;
     case SQ_PRESSURE_MULTIGRID: solve_multigrid(g, phi, st); break;
     default: solve_pcg(g, phi, st); break;
     }
     pressure_ghosts(g, phi);
+    sq__grid_halo_cells(g, phi, sizeof(float)); /* inner faces: the neighbour's pressure */
     correct_velocity(g, phi);
     const float idt = 1.0f / dt;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
@@ -1002,7 +1092,9 @@ sq_result sq_grid_project(sq_grid *g, double dt_s, sq_grid_project_stats *stats)
     if (!(dt_s > 0.0) || !isfinite(dt_s))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD, "sq_grid_project: dt = %g s; must be > 0",
                         dt_s);
-    if (g->topology_dirty) {
+    /* a decomposed grid rebuilds its topology on every rank together (flags travel) */
+    if (sq__grid_dist_any(g, g->topology_dirty)) {
+        g->topology_dirty = true;
         sq_result r = sq__grid_update_topology(g);
         if (r != SQ_OK) return r;
     }
