@@ -77,3 +77,56 @@ for net, (bw, lat) in NETS.items():
             break
         n += 1
     print(f"communication dominates below cubic blocks of about {n:.0f}^3 = {n ** 3:.3g} cells")
+
+
+# ---- the grid solver's pressure projection (MGPCG, slabs; docs/performance.md "MPI: the grid
+# solver's projection"). Per CG iteration (one V-cycle, one red-black sweep before and after on
+# every level) a rank: works on its slab's fine cells (t_it per cell and iteration), exchanges
+# one float plane with each neighbour 6 times (4 smoother half-sweeps, the prolongation, the
+# search direction), makes 3 small allreduces (latency x log2 P each), and - as implemented -
+# sums the whole level 1 over the ranks (an allreduce of N/8 floats: ~2 x that through each
+# rank's link) and cycles the whole coarse hierarchy itself (N/7 cells, not divided).
+# The "next step" rows keep the levels distributed (halo exchanges on every level, aligned
+# slabs) down to a level of at most 2^21 cells, gathered there (allgather) and solved on every rank.
+IT_CELLS = float(sys.argv[2]) if len(sys.argv) > 2 else 1.2e9  # cell-iterations/s of one node
+T_IT = 1.0 / IT_CELLS
+GG = (2048, 1024, 512)  # a 20 km x 10 km x 5 km haboob at ~10 m: 1.07e9 cells
+NG = GG[0] * GG[1] * GG[2]
+
+
+def project_iteration(p, bw, lat, gathered_at=None):
+    import math
+    face = (GG[1] + 2) * (GG[2] + 2)  # slabs along x
+    comp = NG / p * T_IT
+    halo = 6 * (lat + 2 * 4 * face / bw) if p > 1 else 0.0
+    red = 3 * lat * math.log2(p) if p > 1 else 0.0
+    if gathered_at is None:  # implemented: redundant from level 1
+        coarse = NG / 7 * T_IT if p > 1 else NG / 7 * T_IT
+        lvl = 2 * (NG / 8) * 4 / bw + 2 * lat * math.log2(p) if p > 1 else 0.0
+        sent = 6 * 2 * 4 * face + 2 * (NG / 8) * 4 if p > 1 else 0
+    else:  # distributed levels down to `gathered_at` cells, gathered there
+        coarse = (NG / 7 / p + gathered_at * 8 / 7) * T_IT
+        levels = int(round(math.log(NG / gathered_at, 8)))
+        halo_c = sum(5 * (lat + 2 * 4 * face / 4 ** l / bw) for l in range(1, levels))
+        lvl = gathered_at * 4 / bw + lat * math.log2(p) if p > 1 else 0.0
+        halo += halo_c if p > 1 else 0.0
+        sent = 6 * 2 * 4 * face + gathered_at * 4 / p if p > 1 else 0
+    return comp, coarse, halo + red + lvl, sent
+
+
+print(f"\nPressure projection (MGPCG, slabs along x), grid {GG[0]}x{GG[1]}x{GG[2]}, one node "
+      f"{IT_CELLS:.3g} cell-iterations/s")
+for net, (bw, lat) in NETS.items():
+    print(f"\n{net}")
+    print("ranks | coarse levels | ms per iteration: fine, coarse, communication | "
+          "bytes sent/rank/iteration | efficiency")
+    base = sum(project_iteration(1, bw, lat)[:3])
+    for p in (1, 4, 16, 64, 256):
+        for name, ga in (("whole from level 1 (implemented)", None),
+                         ("gathered at 2^21 cells (next step)", 2 ** 21)):
+            if p == 1 and ga is not None:
+                continue
+            comp, coarse, comm, sent = project_iteration(p, bw, lat, ga)
+            t = comp + coarse + comm
+            print(f"{p} | {name} | {comp * 1e3:.3g}, {coarse * 1e3:.3g}, {comm * 1e3:.3g} | "
+                  f"{sent / 1e6:.3g} MB | {base / (p * t):.0%}")

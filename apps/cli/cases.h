@@ -12,6 +12,7 @@ int sq_bench_sph(const sq_bench_args *a);
 int sq_bench_lbm(const sq_bench_args *a);
 int sq_validate_lbm_cavity(int argc, char **argv);
 int sq_bench_grid(const sq_bench_args *a);
+int sq_bench_project(const sq_bench_args *a);
 int sq_bench_render_volume(const sq_bench_args *a);
 int sq_bench_sandstorm(const sq_bench_args *a);
 int sq_bench_snowdrift(const sq_bench_args *a);

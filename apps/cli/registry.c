@@ -30,6 +30,9 @@ const sq_cli_case sq_cli_bench_cases[] = {
     {"lbm", "D3Q15 wind step: fused collide + stream (AA pattern), periodic box (under mpirun: "
             "z slabs, per-rank figures, bytes sent)",
      "--size 128|256x128x128 --collision trt|bgk|smagorinsky", sq_bench_lbm, NULL, NULL},
+    {"project", "MAC-grid pressure projection alone (MGPCG to 1e-3, cold start) over a ridge "
+                "(under mpirun: slabs, per-rank figures, bytes sent per projection)",
+     "--size 128x64x64", sq_bench_project, NULL, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
      "--grid 64|128|64x64x32 --world dunes|flat --spinup 10 --detail 0", sq_bench_sandstorm, NULL, NULL},
     {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",

@@ -165,6 +165,20 @@ float sq__snow_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3
     return (float)(exposed / m);
 }
 
+float sq__snow_corner_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3 p, float nz,
+                               float radius_texels, float bias_m)
+{
+    bias_m = sq__snow_slope_bias(g, nz, radius_texels, bias_m);
+    const double u = ((double)p.x - g->origin[0]) / g->texel_m, v = ((double)p.y - g->origin[1]) / g->texel_m;
+    if (u < 0.0 || v < 0.0 || u >= g->size || v >= g->size) return 1.0f;
+    const int i0 = (int)floor(u - 0.5), j0 = (int)floor(v - 0.5);
+    for (int q = 0; q < 4; q++) {
+        const int i = sq_clampi(i0 + (q & 1), 0, g->size - 1), j = sq_clampi(j0 + (q >> 1), 0, g->size - 1);
+        if (height[(size_t)j * (size_t)g->size + (size_t)i] > p.z + bias_m) return 0.0f;
+    }
+    return 1.0f;
+}
+
 /* ---- eq 2.3: inclination with noise --------------------------------------------------------- */
 static float hash3(int x, int y, int z)
 {

@@ -92,8 +92,16 @@ float sq__snow_fbm3(sq_vec3 x, int octaves);
  * 1 + amplitude (2 fbm(p / scale_m) - 1), clamped to [0, 1]; amplitude 0 gives max(0, n.z). */
 float sq__snow_inclination(sq_vec3 n, sq_vec3 p, float amplitude, float scale_m);
 
+/* Exposure of a vertex of the snow shell at the top of a wall (sq__snow_welded_normals,
+ * ns.w = 1; nz = ns.z): 1 when none of the four texels around p holds an occluder above p.z +
+ * the slope bias, else 0. Such a corner lies on the edge of its top face: the M taps reach a
+ * radius beyond it onto the ground or an eave beside the wall, and their bilinear blend half-
+ * exposed a wall's top corner 0.2 m under a roof's overhang, which then rose inside the roof. */
+float sq__snow_corner_exposure(const float *height, const sq__snow_map_geom *g, sq_vec3 p, float nz,
+                               float radius_texels, float bias_m);
+
 /* Displacement of a vertex with welded normal ns (sq__snow_welded_normals; its exposure f_e
- * taken with nz = ns.z): by depth_m × f_e × min(1, 2 max(0, ns.z)), along
+ * from sq__snow_exposure with nz = ns.z, or sq__snow_corner_exposure where ns.w = 1): by depth_m × f_e × min(1, 2 max(0, ns.z)), along
  * normalize(ns + blend (up - ns)) (ns.w = 0), straight up at the top of a wall (ns.w = 1). */
 sq_vec3 sq__snow_shell_offset(sq_vec4 ns, float depth_m, float f_e, float blend);
 

@@ -749,6 +749,66 @@ SQ_TEST(coarse_level_allowance_is_its_error)
     sq_context_destroy(ctx);
 }
 
+/* The snow layer's edge (meshes_shade.glsl): a box's top corners rise straight up by the depth
+ * (the top of a wall), which stretches its walls; the part of a wall above its former top edge is
+ * the side of the snow on the box, shaded as snow, not as the wall. A red box 4 m tall in front
+ * of a blue wall, seen level with its top edge from 17 m under 30 cm of snow: above its former
+ * top, where the frame without snow shows the blue wall behind, the snowy frame shows snow
+ * (about 3 px a column), not the red wall stretched. */
+SQ_TEST(snow_edge_over_a_raised_wall_top)
+{
+    sq_context *ctx = make_ctx();
+    sq_world *w = dated_world(ctx, 12.0f);
+    sq_mesh *box = box_mesh(ctx, sq_v3(-3, -3, 0), sq_v3(3, 3, 4), sq_v3(0.3f, 0.02f, 0.02f), SQ_TINT_NONE);
+    sq_mesh *back = box_mesh(ctx, sq_v3(-15, 10, 0), sq_v3(15, 12, 14), sq_v3(0.02f, 0.03f, 0.3f), SQ_TINT_NONE);
+    sq_mesh_instance in[2];
+    memset(in, 0, sizeof in);
+    in[0].mesh = 0;
+    in[1].mesh = 1;
+    for (int k = 0; k < 2; k++) {
+        in[k].position_m = sq_v3(0.0f, 0.0f, NAN);
+        in[k].scale = sq_v3(1, 1, 1);
+    }
+    const sq_mesh *list[2] = {box, back};
+    SQ_CHECK(sq_world_set_meshes(ctx, w, list, 2, in, 2) == SQ_OK);
+    enum { N = 16 };
+    float depth[N * N];
+    sq_drawable d = snow_view(depth, N, 512);
+    sq_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position_m = sq_v3(0.0f, -20.0f, 4.15f);
+    cam.target_m = sq_v3(0.0f, 0.0f, 4.15f);
+    cam.fov_y_deg = 50.0f;
+    sq_renderer *r = cascade_renderer_opt(ctx, false);
+    uint8_t *snowy = malloc((size_t)W * H * 4), *bare = malloc((size_t)W * H * 4);
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, snowy) == SQ_OK);
+    for (int i = 0; i < N * N; i++) depth[i] = 0.0f;
+    d.u.snow_cover.version = 2;
+    SQ_CHECK(sq_renderer_draw(r, w, &cam, &d, 1, 0.0) == SQ_OK && sq_renderer_read_rgba8(r, bare) == SQ_OK);
+    int edge = 0, red = 0, box_rows = 0, columns = 0;
+    for (int x = W / 2 - 20; x <= W / 2 + 20; x++, columns++)
+        for (int y = 0; y < H; y++) {
+            const uint8_t *s = &snowy[4 * ((size_t)y * W + x)], *b = &bare[4 * ((size_t)y * W + x)];
+            if (b[0] > b[2] + 20) box_rows++; /* the red box without snow */
+            if (b[2] > b[0] + 20) {           /* the blue wall behind, without snow */
+                edge += s[0] > 150 && s[1] > 150 && s[2] > 150;
+                red += s[0] > s[2] + 20;
+            }
+        }
+    printf("%d columns: %d snow-edge pixels over the box's former top, %d red, box %d pixels\n", columns,
+           edge, red, box_rows);
+    SQ_CHECK(box_rows > columns * 20);
+    SQ_CHECK_MSG(edge >= 2 * columns, "%d snow-edge pixels in %d columns", edge, columns);
+    SQ_CHECK_MSG(red == 0, "%d pixels of the stretched red wall above its former top", red);
+    free(snowy);
+    free(bare);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_mesh_destroy(ctx, box);
+    sq_mesh_destroy(ctx, back);
+    sq_context_destroy(ctx);
+}
+
 /* The GL occlusion map of renderer r's last frame as heights, and its placement. */
 static float *gl_map(sq_renderer *r, sq__snow_map_geom *g)
 {

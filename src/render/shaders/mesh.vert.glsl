@@ -20,7 +20,7 @@ void main()
 {
     vec3 p = a_pos;
     if (sq_snow_on() && !(a_aux.x > 1.5 && a_aux.x < 2.5))
-        p.z += sq_snow_depth_at(p.xy) * sq_snow_exposure(p, 0.5, 0.0);
+        p.z += sq_snow_depth_at(p.xy) * sq_snow_exposure(p, 0.5, 0.0, false);
     v_base = a_pos;
     v_pos = p;
     v_normal = a_normal;

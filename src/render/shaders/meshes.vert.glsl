@@ -16,6 +16,10 @@ out vec3 v_base; // before the snow shell
 out vec2 v_uv;
 flat out vec3 v_albedo;
 flat out float v_lod_m; // the level's error in the world (x the largest scale)
+// the snow layer's edge (meshes_shade.glsl): 1 where the shell raised this vertex straight up (the
+// top of a wall), else 0; and that times the vertex's height before the shell
+out float v_edge_q;
+out float v_edge_qz;
 
 void main()
 {
@@ -29,8 +33,15 @@ void main()
     v_albedo = a;
     v_base = p;
     v_lod_m = u_lod_error_m * sq_mesh_scale_max();
+    v_edge_q = v_edge_qz = 0.0;
 #ifndef SQ_NO_SHELL /* instances too far for the shell to move them by half a pixel (render_meshes.c) */
-    if (sq_snow_on()) p += sq_snow_shell(p, sq_mesh_world_welded_normal(), v_lod_m);
+    if (sq_snow_on()) {
+        vec4 ns = sq_mesh_world_welded_normal();
+        vec3 o = sq_snow_shell(p, ns, v_lod_m);
+        v_edge_q = ns.w > 0.5 && o.z > 0.0 ? 1.0 : 0.0;
+        v_edge_qz = v_edge_q * p.z;
+        p += o;
+    }
 #endif
     v_pos = p;
     v_normal = n;

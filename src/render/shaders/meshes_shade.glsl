@@ -15,6 +15,8 @@ in vec3 v_base;
 in vec2 v_uv;
 flat in vec3 v_albedo;
 flat in float v_lod_m; // the drawn level's error (m), for the snow exposure
+in float v_edge_q;  // meshes.vert: the snow layer's edge
+in float v_edge_qz;
 layout(location = 0) out vec4 o_color;
 layout(location = 2) uniform int u_has_texture;
 layout(binding = 10) uniform sampler2D u_base_texture; // sRGB: sampled as linear
@@ -35,6 +37,16 @@ void main()
     vec3 E = u_sun_radiance.xyz * sq_sun_visibility(v_pos, n);
     vec3 L = albedo * (E * max(dot(n, s), 0.0) + sq_ambient(n));
     float fp = sq_snow_cover(v_base, n, SQ_SNOW_FULL_BUILT, v_lod_m);
+    // the snow layer's edge: where the shell raised the top of a wall straight up, the part of a
+    // wall (or of a face turned down, a fascia) above its former top edge is the side of the
+    // snow on top, not the wall stretched. Over a face with raised and kept corners, qz / q
+    // interpolates the former heights of the raised ones (that top edge above this point) and
+    // (z - qz) / (1 - q) those of the kept ones: stretched upward when the first is higher.
+    float q = v_edge_q;
+    if (n.z < 0.1736 && q > 1e-4 && q < 1.0 - 1e-4) {
+        float z_raised = v_edge_qz / q, z_kept = (v_base.z - v_edge_qz) / (1.0 - q);
+        if (z_raised > z_kept && v_pos.z > z_raised) fp = 1.0;
+    }
     if (fp > 0.0)
         L = mix(L, sq_snow_radiance(v_pos, sq_snow_shell_normal(v_base, n), normalize(u_cam_pos.xyz - v_pos), E), fp);
     o_color = vec4(sq_haze(L, v_pos), 1.0);

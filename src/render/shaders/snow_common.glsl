@@ -87,8 +87,10 @@ float sq_snow_near_weight(vec3 p)
 // (sq__snow_slope_bias: + (radius + 1/2) texels x tan(slope), tan at most 3), plus the
 // camera's allowance: lod_m, the error of the level of detail the camera draws p's surface with
 // (render_meshes.c; 0 for the terrain), which may lie up to that below the finer level the map
-// holds, but at least a pixel at p's distance (the camera's own resolution).
-float sq_snow_exposure_map(vec3 p, float nz, float lod_m)
+// holds, but at least a pixel at p's distance (the camera's own resolution). corner: the top of
+// a wall (sq__snow_corner_exposure): 1 when none of the four texels around p is above the bias,
+// else 0.
+float sq_snow_exposure_map(vec3 p, float nz, float lod_m, bool corner)
 {
     vec2 uv = (p.xy - u_snow_map.xy) / u_snow_map.z;
     int size = int(u_snow_map.w);
@@ -97,6 +99,14 @@ float sq_snow_exposure_map(vec3 p, float nz, float lod_m)
     float c = clamp(nz, 0.3162, 1.0);
     float lod = max(lod_m, length(p - u_cam_pos.xyz) * u_snow_look.w);
     float bias = (u_snow_taps.z + lod + (u_snow_taps.y + 0.5) * u_snow_map.z * sqrt(1.0 - c * c) / c) / span;
+    if (corner) {
+        ivec2 t0 = ivec2(floor(uv - 0.5));
+        for (int q = 0; q < 4; q++) {
+            ivec2 t = clamp(t0 + ivec2(q & 1, q >> 1), ivec2(0), ivec2(size - 1));
+            if (texelFetch(u_snow_occ, t, 0).r - d_act < -bias) return 0.0;
+        }
+        return 1.0;
+    }
     int m = int(u_snow_taps.x);
     float r = u_snow_taps.y;
     vec2 off[9];
@@ -129,10 +139,10 @@ float sq_snow_exposure_map(vec3 p, float nz, float lod_m)
 }
 
 // f_e with the far field: the map's answer near the camera, 1 (no occlusion test) beyond.
-float sq_snow_exposure(vec3 p, float nz, float lod_m)
+float sq_snow_exposure(vec3 p, float nz, float lod_m, bool corner)
 {
     float w = sq_snow_near_weight(p);
-    return w > 0.0 ? mix(1.0, sq_snow_exposure_map(p, nz, lod_m), w) : 1.0;
+    return w > 0.0 ? mix(1.0, sq_snow_exposure_map(p, nz, lod_m, corner), w) : 1.0;
 }
 
 // Inclination f_inc (eq 2.3): max(0, N.z) times a mean-one noise factor (sq__snow_inclination).
@@ -169,7 +179,7 @@ float sq_snow_cover(vec3 p, vec3 n, float full_m, float lod_m)
     float inc = sq_snow_inclination(n, p);
     if (inc <= 0.0) return 0.0;
     float w = sq_snow_near_weight(p);
-    float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z, lod_m) * inc : 0.0;
+    float near_fp = w > 0.0 ? sq_snow_exposure_map(p, n.z, lod_m, false) * inc : 0.0;
     float far_fp = inc * sq_snow_far_density(p);
     float depth = sq_snow_depth_at(p.xy);
     // thin snow covers partly, in patches: the covered fraction grows with depth / (full_m / 2)
@@ -182,8 +192,8 @@ float sq_snow_cover(vec3 p, vec3 n, float full_m, float lod_m)
 
 // The snow shell (sq__snow_shell_offset): displacement of a vertex at p with the welded normal
 // ns (sq__snow_welded_normals: unit xyz, w = 1 at the top of a wall) by depth x f_e x min(1,
-// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall (lod_m: as
-// for the exposure). A function of p, ns and the drawn level: coincident vertices move together.
+// 2 max(0, ns.z)), along the blend of ns and up, straight up at the top of a wall, whose
+// exposure is sq__snow_corner_exposure's (lod_m: as for the exposure). A function of p, ns and the drawn level: coincident vertices move together.
 vec3 sq_snow_shell(vec3 p, vec4 ns, float lod_m)
 {
     if (!sq_snow_on()) return vec3(0.0);
@@ -191,7 +201,7 @@ vec3 sq_snow_shell(vec3 p, vec4 ns, float lod_m)
     if (w <= 0.0) return vec3(0.0);
     vec3 up = vec3(0.0, 0.0, 1.0);
     vec3 dir = ns.w > 0.5 ? up : normalize(mix(ns.xyz, up, u_snow_depth_grid.w));
-    return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z, lod_m) * w);
+    return dir * (sq_snow_depth_at(p.xy) * sq_snow_exposure(p, ns.z, lod_m, ns.w > 0.5) * w);
 }
 
 // Shading normal of the shell over a surface of unit normal n at p where the depth varies (a
