@@ -58,12 +58,15 @@ SQ_API sq_result sq_mie_sphere_conducting(double x, sq_mie_result *out);
  * and x >> 1; needs m != 1. qback and g are NaN, terms = 0. */
 SQ_API sq_result sq_ada_sphere(double x, double n_real, double n_imag, sq_mie_result *out);
 
-/* Default refractive index of mineral dust at a wavelength (reference/dust_optics.md):
- * n_real = 1.53 (Woodward 2001); n_imag interpolated linearly in wavelength through
- *   450 nm: 0.0057 (Woodward 2001, 500 nm value; the blue absorbs most: yellow-brown tint),
- *   550 nm: 0.0030 (the Met Office UM / CLASSIC value used in the cross-check table),
- *   650 nm: 0.0014 (Dubovik et al. 2002, Saharan dust at 670 nm),
- * and held constant outside 450–650 nm. */
+/* Default refractive index of fresh mineral (Saharan) dust at a wavelength
+ * (reference/dust_optics.md, docs/phen/sandstorm-optics.md):
+ * n_real = 1.53 (Fouquart et al. 1987; Woodward 2001);
+ * n_imag = 0.0010 at 550 nm (Fouquart et al. 1987, Saharan dust; within the 0.0007–0.0035 at
+ *   520 nm that Di Biagio et al. 2019 measured for 19 dust samples), following the spectral
+ *   shape of the AERONET desert-dust retrievals of Dubovik et al. 2002 (0.0025 at 440 nm,
+ *   0.0014 at 670 nm, linear in wavelength between, held constant outside 440–670 nm) scaled
+ *   to that value: 0.00124 at 450 nm, 0.00100 at 550 nm, 0.00076 at 650 nm (the blue absorbs
+ *   most: yellow-brown tint). */
 SQ_API sq_result sq_dust_refractive_index(double wavelength_m, double *n_real, double *n_imag);
 
 /* ---- log-normal size distribution ----------------------------------------------------------- */

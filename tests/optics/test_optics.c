@@ -249,14 +249,27 @@ SQ_TEST(optics_table_defaults)
     SQ_CHECK(rd.wavelength_m[SQ_OPTICS_GREEN] == 550e-9);
     SQ_CHECK(rd.wavelength_m[SQ_OPTICS_BLUE] == 450e-9);
     SQ_CHECK(rd.wavelength_m[SQ_OPTICS_VIS] == 550e-9);
-    SQ_CHECK(rd.n_real[SQ_OPTICS_RED] == 1.53 && rd.n_imag[SQ_OPTICS_RED] == 0.0014);
-    SQ_CHECK(rd.n_real[SQ_OPTICS_GREEN] == 1.53 && rd.n_imag[SQ_OPTICS_GREEN] == 0.003);
-    SQ_CHECK(rd.n_real[SQ_OPTICS_BLUE] == 1.53 && rd.n_imag[SQ_OPTICS_BLUE] == 0.0057);
+    /* the documented defaults: k(550) = 0.0010 (Fouquart et al. 1987) with the spectral shape
+     * of Dubovik et al. 2002 (0.0025 at 440 nm, 0.0014 at 670 nm, linear) */
+    const double d550 = 0.0025 + (550.0 - 440.0) / 230.0 * (0.0014 - 0.0025);
+    const double k650 = 0.0010 * (0.0025 + 210.0 / 230.0 * (0.0014 - 0.0025)) / d550;
+    const double k450 = 0.0010 * (0.0025 + 10.0 / 230.0 * (0.0014 - 0.0025)) / d550;
+    SQ_CHECK(rd.n_real[SQ_OPTICS_RED] == 1.53 && rd.n_real[SQ_OPTICS_GREEN] == 1.53 &&
+             rd.n_real[SQ_OPTICS_BLUE] == 1.53);
+    SQ_CHECK_NEAR(rd.n_imag[SQ_OPTICS_RED], k650, 1e-15);
+    SQ_CHECK_NEAR(rd.n_imag[SQ_OPTICS_GREEN], 0.0010, 1e-15);
+    SQ_CHECK_NEAR(rd.n_imag[SQ_OPTICS_BLUE], k450, 1e-15);
+    SQ_CHECK_NEAR(k450, 0.00124229, 1e-8); /* the values docs/phen/sandstorm-optics.md lists */
+    SQ_CHECK_NEAR(k650, 0.00075771, 1e-8);
     SQ_CHECK(rd.density_kg_m3 == 2650 && rd.method == SQ_OPTICS_MIE);
     SQ_CHECK(rd.nodes >= 400);
     double n, k;
     SQ_CHECK_OK(sq_dust_refractive_index(500e-9, &n, &k));
-    SQ_CHECK_NEAR(k, 0.00435, 1e-12);
+    SQ_CHECK_NEAR(k, 0.0010 * (0.0025 + 60.0 / 230.0 * (0.0014 - 0.0025)) / d550, 1e-15);
+    SQ_CHECK_OK(sq_dust_refractive_index(300e-9, &n, &k)); /* constant outside 440–670 nm */
+    SQ_CHECK_NEAR(k, 0.0010 * 0.0025 / d550, 1e-15);
+    SQ_CHECK_OK(sq_dust_refractive_index(900e-9, &n, &k));
+    SQ_CHECK_NEAR(k, 0.0010 * 0.0014 / d550, 1e-15);
 
     sq_optics_table t;
     SQ_CHECK_OK(sq_optics_table_build(&td, &t));
@@ -279,6 +292,46 @@ SQ_TEST(optics_table_defaults)
     td.n_imag[SQ_OPTICS_BLUE] = 0.0;
     SQ_CHECK_OK(sq_optics_table_build(&td, &t));
     SQ_CHECK_NEAR(t.channel[SQ_OPTICS_BLUE].single_scattering_albedo, 1.0, 1e-12);
+}
+
+/* The default index against measurements of real dust: Di Biagio et al. 2019 (ACP 19, 15503;
+ * 19 dust samples from 8 source regions, chamber measurements) found k = 0.0007–0.0035 at
+ * 520 nm and 0.0011–0.0088 at 370 nm; the default must lie inside both ranges. */
+SQ_TEST(dust_default_index_in_the_measured_range)
+{
+    double n, k;
+    SQ_CHECK_OK(sq_dust_refractive_index(520e-9, &n, &k));
+    SQ_CHECK(k >= 0.0007 && k <= 0.0035);
+    SQ_CHECK_OK(sq_dust_refractive_index(370e-9, &n, &k));
+    SQ_CHECK(k >= 0.0011 && k <= 0.0088);
+    SQ_CHECK(n == 1.53);
+}
+
+/* Single-scattering albedo of fresh dust at 550 nm with the default index against airborne and
+ * ground measurements: fresh Saharan dust has SSA 0.92 (Fennec aircraft, Ryder et al.: fresh
+ * 0.92, aged 0.94, eastern Atlantic 0.95), 0.94–0.97 for PM10 freshly emitted in Morocco
+ * (370–660 nm), 0.995 at 670 nm at Fennec supersite SS1 (Rocha-Lima et al. 2018). Fennec's
+ * effective diameters ranged 2.3–19.4 µm. A log-normal (sigma_g = 2) with the smallest of
+ * them must scatter within the measured 0.92–0.995; the albedo must fall with size (coarse
+ * grains absorb more: the path inside grows with the radius), and at the largest (19.4 µm)
+ * spheres absorb more than measured (documented in docs/phen/sandstorm-optics.md). */
+SQ_TEST(fresh_dust_albedo_in_the_measured_range)
+{
+    const double ls = log(2.0);
+    const double deff_um[3] = {2.3, 8.0, 19.4};
+    double w[3];
+    for (int i = 0; i < 3; i++) {
+        sq_bulk_optics_desc d = {.wavelength_m = 550e-9};
+        const double reff = 0.5 * deff_um[i] * 1e-6;
+        SQ_CHECK_OK(sq_lognormal_make(reff / exp(2.5 * ls * ls), 2.0, &d.size));
+        sq_bulk_optics b;
+        SQ_CHECK_OK(sq_bulk_optics_compute(&d, &b));
+        SQ_CHECK_REL(b.effective_radius_m, reff, 0.01); /* the auto range holds the mass */
+        w[i] = b.single_scattering_albedo;
+    }
+    SQ_CHECK(w[0] >= 0.92 && w[0] <= 0.995);
+    SQ_CHECK(w[1] < w[0] && w[2] < w[1]);
+    SQ_CHECK(w[2] < 0.92); /* spheres of 19.4 µm: below the measured fresh-dust SSA */
 }
 
 /* ---- Henyey–Greenstein ------------------------------------------------------------------- */

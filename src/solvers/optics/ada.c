@@ -70,18 +70,15 @@ sq_result sq_dust_refractive_index(double wavelength_m, double *n_real, double *
     if (n_imag) *n_imag = 0.0;
     sq_result r = sq__optics_check_positive("wavelength_m", wavelength_m);
     if (r != SQ_OK) return r;
-    static const double lam_nm[3] = {450.0, 550.0, 650.0};
-    static const double k_tab[3] = {0.0057, 0.0030, 0.0014};
-    const double l = wavelength_m * 1e9;
-    double k;
-    if (l <= lam_nm[0]) k = k_tab[0];
-    else if (l >= lam_nm[2]) k = k_tab[2];
-    else {
-        const int i = l < lam_nm[1] ? 0 : 1;
-        const double t = (l - lam_nm[i]) / (lam_nm[i + 1] - lam_nm[i]);
-        k = k_tab[i] + t * (k_tab[i + 1] - k_tab[i]);
-    }
+    /* Fresh Saharan dust: k(550 nm) = 0.0010 (Fouquart et al. 1987), with the spectral shape of
+     * the AERONET desert-dust retrievals (Dubovik et al. 2002: k = 0.0025 at 440 nm, 0.0014 at
+     * 670 nm, linear in between, constant outside) scaled to that value. */
+    static const double k550 = 0.0010, l0 = 440.0, l1 = 670.0, k0 = 0.0025, k1 = 0.0014;
+    double l = wavelength_m * 1e9;
+    l = l < l0 ? l0 : (l > l1 ? l1 : l);
+    const double shape = k0 + (l - l0) / (l1 - l0) * (k1 - k0);
+    const double shape550 = k0 + (550.0 - l0) / (l1 - l0) * (k1 - k0);
     if (n_real) *n_real = 1.53;
-    if (n_imag) *n_imag = k;
+    if (n_imag) *n_imag = k550 * shape / shape550;
     return SQ_OK;
 }
