@@ -337,7 +337,9 @@ SQ_API sq_result sq_grid_project(sq_grid *g, double dt_s, sq_grid_project_stats 
 
 /* ---- diagnostics ----------------------------------------------------------------------------- */
 /* SQ_ERR_UNSTABLE naming the step, the first bad cell/face (i,j,k) and the field when a
- * velocity, scalar or the pressure is non-finite, or a speed exceeds 1e8 m/s. */
+ * velocity, scalar or the pressure is non-finite, or a speed exceeds 1e8 m/s. A decomposed
+ * grid: collective; every rank gets the lowest failing slab's result and message (global
+ * (i,j,k)). */
 SQ_API sq_result sq_grid_check_finite(sq_grid *g, int64_t step);
 SQ_API double sq_grid_max_speed(const sq_grid *g); /* max |face component|, m/s */
 /* dt such that max |u| dt / h = cfl (1e30 for a fluid at rest). */

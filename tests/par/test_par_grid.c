@@ -311,3 +311,33 @@ SQ_TEST(projection_agrees_periodic_odd)
     variant = 1;
     run_case();
 }
+
+/* A non-finite velocity in the last slab only: sq_grid_check_finite (collective for a
+ * decomposed grid) fails on every rank with that slab's message, naming the face by its global
+ * index; a field that is finite everywhere passes on every rank. Nobody waits for the others. */
+SQ_TEST(bad_cell_in_one_slab)
+{
+    SQ_CHECK_OK(sq_par_init(NULL, NULL));
+    G = (sq_dims){40, 24, 16};
+    variant = 0;
+    sq_context *ctx = NULL;
+    sq_context_desc cd = {.threads = 1};
+    SQ_CHECK_OK(sq_context_create(&cd, &ctx));
+    sq_grid_desc d = base_desc(1e-3);
+    d.decompose = true;
+    sq_grid *g = NULL;
+    SQ_CHECK_OK(sq_grid_create(ctx, &d, &g));
+    int lo[3];
+    sq_dims global;
+    SQ_CHECK_OK(sq_grid_get_block(g, lo, &global));
+    const sq_dims n = sq_grid_get_info(g).cells;
+    setup(g, lo, n);
+    SQ_CHECK_OK(sq_grid_check_finite(g, 3));
+    /* global face (37, 5, 6) of u: in the last slab at 1, 2 and 4 ranks */
+    if (37 >= lo[0] && 37 < lo[0] + n.nx)
+        *sq_field3_at(sq_grid_velocity_field(g, 0), 37 - lo[0], 5, 6) = NAN;
+    SQ_CHECK_ERR(sq_grid_check_finite(g, 4), SQ_ERR_UNSTABLE, "u (x-face) at (37,5,6)");
+    sq_grid_destroy(g);
+    sq_context_destroy(ctx);
+    sq_par_finalize();
+}

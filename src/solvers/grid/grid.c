@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "solvers/grid/grid_internal.h"
+#include "squall/par.h"
 
 #define MOD "grid"
 
@@ -930,9 +931,10 @@ static int row_first_bad(const sq_field3 *f, int j, int k, float lim)
     return -1;
 }
 
-sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
+static sq_result check_finite_local(sq_grid *g, int64_t step)
 {
-    if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_check_finite: grid is NULL");
+    int n0[3], lo[3]; /* a decomposed grid names the cell by its global index */
+    sq__grid_dist_frame(g, n0, lo);
     const int nt = sq_context_threads(g->ctx);
     (void)nt; /* unused without OpenMP */
     const int nfields = 3 + g->d.scalar_count + 1;
@@ -967,13 +969,21 @@ sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
             return sq__fail(g->ctx, SQ_ERR_UNSTABLE, MOD,
                             "step %lld: %s at (%d,%d,%d) is %g (%s); the largest finite speed is "
                             "%g m/s; reduce dt (CFL 1 needs dt <= %g s) or check the forcing",
-                            (long long)step, name, i, j, k, (double)v,
+                            (long long)step, name, i + lo[0], j + lo[1], k + lo[2], (double)v,
                             isfinite(v) ? "exceeds 1e8 m/s" : "non-finite", vmax,
                             vmax > 0 ? g->d.cell_size_m / vmax : 1e30);
         }
     }
     memset(g->plane_sum, 0, ((size_t)g->n[2] + 2) * 4 * sizeof(double));
     return SQ_OK;
+}
+
+sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
+{
+    if (!g) return sq__fail(NULL, SQ_ERR_INVALID_ARG, MOD, "sq_grid_check_finite: grid is NULL");
+    const sq_result r = check_finite_local(g, step);
+    /* a decomposed grid: collective, the lowest failing slab's message on every rank */
+    return g->halo ? sq_par_agree(r) : r;
 }
 
 double sq_grid_max_speed(const sq_grid *g)
