@@ -147,7 +147,8 @@ typedef enum sq_snow_brdf {
  * the view's footprint nearer than detail_distance_m (texel grid snapped to the world), takes
  * the exposure f_e of each point from `taps` samples of it, the inclination f_inc = max(0,
  * N.up) with noise, f_p = f_e f_inc, displaces the surface by f_p-weighted depth along its
- * smoothed normal blended with up (a watertight shell) and blends the snow shading by f_p.
+ * smoothed normal blended with up, straight up at the top of a wall (a watertight shell; walls
+ * stay vertical) and blends the snow shading by f_p.
  * Beyond detail_distance_m, S2's far-field texture blend. depth_m: the snow depth (m) on the
  * highest surface of each column, at cell centres origin + (i + 1/2, j + 1/2) (dx, dy). */
 typedef struct sq_snow_cover_view {
