@@ -67,8 +67,8 @@ static bool solid_at(int i, int j, int k)
 static float u0(int c, int i, int j, int k)
 {
     const double x = i, y = j, z = k;
-    const uint32_t hsh = (uint32_t)(i * 73856093) ^ (uint32_t)(j * 19349663) ^
-                         (uint32_t)(k * 83492791) ^ (uint32_t)(c * 2654435761u);
+    const uint32_t hsh = ((uint32_t)i * 73856093u) ^ ((uint32_t)j * 19349663u) ^
+                         ((uint32_t)k * 83492791u) ^ ((uint32_t)c * 2654435761u);
     const double noise = (double)((hsh >> 8) & 1023) / 1023.0 - 0.5;
     if (c == 0) return (float)(4.0 + sin(0.3 * x) * cos(0.2 * y) + 0.5 * noise);
     if (c == 1) return (float)(0.8 * cos(0.25 * x + 0.4 * z) + 0.5 * noise);
