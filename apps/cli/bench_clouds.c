@@ -41,18 +41,6 @@ typedef struct bench {
     const sq_bench_args *a;
 } bench;
 
-static int cmp_double(const void *x, const void *y)
-{
-    const double a = *(const double *)x, b = *(const double *)y;
-    return (a > b) - (a < b);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof(double), cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 /* CPU time of the process (all threads: llvmpipe's rasteriser threads included), ms. */
 static double cpu_ms(void)
 {
@@ -138,13 +126,13 @@ static sq_result run_frames(bench *b, sq_clouds *c, int warmup, int reps, frame_
         out->particles = st.particles;
     }
     if (res == SQ_OK) {
-        out->model = median(m, reps);
-        out->light = median(ml, reps);
-        out->draw = median(md, reps);
-        out->base = median(mb, reps);
-        out->total = median(mt, reps);
-        out->clouds = median(mc, reps);
-        out->cpu_clouds = median(mcpu, reps);
+        out->model = sq_bench_median(m, reps);
+        out->light = sq_bench_median(ml, reps);
+        out->draw = sq_bench_median(md, reps);
+        out->base = sq_bench_median(mb, reps);
+        out->total = sq_bench_median(mt, reps);
+        out->clouds = sq_bench_median(mc, reps);
+        out->cpu_clouds = sq_bench_median(mcpu, reps);
     }
     free(m);
     return res;
@@ -275,10 +263,10 @@ static int bench_impostor(bench *b, int particles)
             }
         }
         if (res == SQ_OK) {
-            ms[imp] = median(t, reps);
-            base[imp] = median(tb, reps);
-            pass[imp] = median(tp, reps);
-            cpu[imp] = median(tc, reps);
+            ms[imp] = sq_bench_median(t, reps);
+            base[imp] = sq_bench_median(tb, reps);
+            pass[imp] = sq_bench_median(tp, reps);
+            cpu[imp] = sq_bench_median(tc, reps);
             mean[imp] = sum / reps;
             cpu_mean[imp] = cpu_sum / reps;
             if (imp == 1) renders = rendered;

@@ -65,19 +65,6 @@ static int step(void *user)
     return 0;
 }
 
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    if (n <= 0) return NAN;
-    qsort(v, (size_t)n, sizeof *v, cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 int sq_bench_grid(const sq_bench_args *a)
 {
     int n;
@@ -134,9 +121,9 @@ int sq_bench_grid(const sq_bench_args *a)
         sq_json_begin(&j);
         sq_bench_json_common(&j, "grid", a, &st);
         sq_json_int(&j, "grid", n);
-        sq_json_num(&j, "ms_advect", median(b.t_adv + w, m));
-        sq_json_num(&j, "ms_project", median(b.t_proj + w, m));
-        sq_json_num(&j, "ms_advect_2_scalars", median(b.t_scal + w, m));
+        sq_json_num(&j, "ms_advect", sq_bench_median(b.t_adv + w, m));
+        sq_json_num(&j, "ms_project", sq_bench_median(b.t_proj + w, m));
+        sq_json_num(&j, "ms_advect_2_scalars", sq_bench_median(b.t_scal + w, m));
         sq_json_num(&j, "residual", b.last.residual);
         sq_json_int(&j, "vcycles", b.last.iterations);
         sq_json_num(&j, "cfl", 0.8);

@@ -60,19 +60,6 @@ static int step(void *user)
     return 0;
 }
 
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n)
-{
-    if (n <= 0) return NAN;
-    qsort(v, (size_t)n, sizeof *v, cmp);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 int sq_bench_project(const sq_bench_args *a)
 {
     const char *size = sq_cli_value(a->argc, a->argv, "--size");
@@ -135,7 +122,7 @@ int sq_bench_project(const sq_bench_args *a)
     }
     int w = a->warmup < b.rep ? a->warmup : b.rep, m = b.rep - w;
     if (m > b.cap - w) m = b.cap - w;
-    const double ms = median(b.t + w, m);
+    const double ms = sq_bench_median(b.t + w, m);
     const double cells = (double)nx * ny * nz;
     const int nr = sq_par_size(), me = sq_par_rank();
     const double mine[3] = {(double)n.nx * n.ny * n.nz, ms,

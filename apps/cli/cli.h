@@ -63,6 +63,9 @@ typedef struct sq_bench_stats {
  * (the stats then hold reps = number completed). */
 sq_bench_stats sq_bench_time(int (*fn)(void *user), void *user, int warmup, int reps);
 
+/* Median of v[0..n) (sorts v in place); NaN for n <= 0. */
+double sq_bench_median(double *v, int n);
+
 /* STREAM triad a[i] = b[i] + s*c[i] over arrays much larger than the caches, best of several
  * runs, in GB/s (counting 3 x 8 bytes per element, as STREAM does for doubles). */
 double sq_bench_stream_triad_gbps(int threads);

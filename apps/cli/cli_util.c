@@ -228,6 +228,13 @@ static int cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+double sq_bench_median(double *v, int n)
+{
+    if (n <= 0) return NAN;
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 sq_bench_stats sq_bench_time(int (*fn)(void *user), void *user, int warmup, int reps)
 {
     sq_bench_stats s = {0, 0, 0, 0};
@@ -243,10 +250,9 @@ sq_bench_stats sq_bench_time(int (*fn)(void *user), void *user, int warmup, int 
         t[done] = (sq_time_now() - t0) * 1e3;
     }
     if (done > 0) {
-        qsort(t, (size_t)done, sizeof(double), cmp_double);
+        s.median_ms = sq_bench_median(t, done); /* sorts t */
         s.min_ms = t[0];
         s.max_ms = t[done - 1];
-        s.median_ms = done % 2 ? t[done / 2] : 0.5 * (t[done / 2 - 1] + t[done / 2]);
     }
     s.reps = done;
     free(t);
