@@ -28,6 +28,28 @@ static sq_world *flat_world(sq_context *ctx)
     return w;
 }
 
+/* A 1.2 km x 200 m x 400 m haboob on 25 m cells: a 10 K, 150 m deep cold pool 200 m long at the
+ * west face, no synoptic wind wave, emission on. */
+static sq_sandstorm_desc small_haboob_desc(void)
+{
+    sq_sandstorm_desc d = {0};
+    d.cells[0] = 48;
+    d.cells[1] = 8;
+    d.cells[2] = 16;
+    d.cell_size_m = 25.0;
+    d.pressure_amp_pa[0] = 0.0f;
+    d.pressure_amp_count = 1;
+    d.wind_speed_mps = 1.0;
+    d.surface_temperature_k = 305.0;
+    d.lapse_k_per_m = 0.0065;
+    d.buoyancy_gain = 1.0;
+    d.coldpool_delta_t_k = 10.0;
+    d.coldpool_depth_m = 150.0;
+    d.coldpool_length_m = 200.0;
+    d.emission_coeff = 1e-2;
+    return d;
+}
+
 static sq_sandstorm_desc small_desc(void)
 {
     sq_sandstorm_desc d = {0};
@@ -392,21 +414,7 @@ SQ_TEST(haboob_cold_pool_lifts_its_own_dust)
 {
     sq_context *ctx = mkctx();
     sq_world *w = flat_world(ctx);
-    sq_sandstorm_desc d = {0};
-    d.cells[0] = 48;
-    d.cells[1] = 8;
-    d.cells[2] = 16;
-    d.cell_size_m = 25.0;
-    d.pressure_amp_pa[0] = 0.0f;
-    d.pressure_amp_count = 1;
-    d.wind_speed_mps = 1.0;
-    d.surface_temperature_k = 305.0;
-    d.lapse_k_per_m = 0.0065;
-    d.buoyancy_gain = 1.0;
-    d.coldpool_delta_t_k = 10.0;
-    d.coldpool_depth_m = 150.0;
-    d.coldpool_length_m = 200.0;
-    d.emission_coeff = 1e-2;
+    sq_sandstorm_desc d = small_haboob_desc();
     sq_sandstorm *s = NULL;
     SQ_CHECK_OK(sq_sandstorm_create(ctx, &d, w, &s));
     if (!s) return;
@@ -458,21 +466,7 @@ SQ_TEST(haboob_lid_keeps_the_air_in)
     sq_world *w = flat_world(ctx);
     double wtop[2] = {0.0, 0.0}, speed[2] = {0.0, 0.0};
     for (int lid = 0; lid < 2; lid++) {
-        sq_sandstorm_desc d = {0};
-        d.cells[0] = 48;
-        d.cells[1] = 8;
-        d.cells[2] = 16;
-        d.cell_size_m = 25.0;
-        d.pressure_amp_pa[0] = 0.0f;
-        d.pressure_amp_count = 1;
-        d.wind_speed_mps = 1.0;
-        d.surface_temperature_k = 305.0;
-        d.lapse_k_per_m = 0.0065;
-        d.buoyancy_gain = 1.0;
-        d.coldpool_delta_t_k = 10.0;
-        d.coldpool_depth_m = 150.0;
-        d.coldpool_length_m = 200.0;
-        d.emission_coeff = 1e-2;
+        sq_sandstorm_desc d = small_haboob_desc();
         d.top_boundary = lid;
         sq_sandstorm *s = NULL;
         SQ_CHECK_OK(sq_sandstorm_create(ctx, &d, w, &s));
