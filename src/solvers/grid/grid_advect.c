@@ -202,11 +202,9 @@ static inline float tri8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz
     return _mm_cvtss_f32(_mm_add_ss(n, _mm_mul_ss(_mm_set_ss(fx), _mm_sub_ss(n1, n))));
 }
 
-static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float *mn,
-                          float *mx)
+/* The smallest and largest of the 8 corner values held as two quadruples */
+static inline void range_of_pairs(__m128 lo, __m128 hi, float *mn, float *mx)
 {
-    const float *q = o + b;
-    const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
     __m128 a = _mm_min_ps(lo, hi), c = _mm_max_ps(lo, hi);
     a = _mm_min_ps(a, _mm_movehl_ps(a, a));
     c = _mm_max_ps(c, _mm_movehl_ps(c, c));
@@ -216,19 +214,21 @@ static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t s
     *mx = _mm_cvtss_f32(c);
 }
 
+static inline void range8(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float *mn,
+                          float *mx)
+{
+    const float *q = o + b;
+    const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
+    range_of_pairs(lo, hi, mn, mx);
+}
+
 /* tri8 and range8 at the same corners from one load of the 8 values */
 static inline float tri8_range(const float *o, ptrdiff_t b, ptrdiff_t sy, ptrdiff_t sz, float fx,
                                float fy, float fz, float *mn, float *mx)
 {
     const float *q = o + b;
     const __m128 lo = ld_pairs(q, q + sy), hi = ld_pairs(q + sz, q + sy + sz);
-    __m128 a = _mm_min_ps(lo, hi), c = _mm_max_ps(lo, hi);
-    a = _mm_min_ps(a, _mm_movehl_ps(a, a));
-    c = _mm_max_ps(c, _mm_movehl_ps(c, c));
-    a = _mm_min_ss(a, _mm_shuffle_ps(a, a, _MM_SHUFFLE(1, 1, 1, 1)));
-    c = _mm_max_ss(c, _mm_shuffle_ps(c, c, _MM_SHUFFLE(1, 1, 1, 1)));
-    *mn = _mm_cvtss_f32(a);
-    *mx = _mm_cvtss_f32(c);
+    range_of_pairs(lo, hi, mn, mx);
     const __m128 m = _mm_add_ps(lo, _mm_mul_ps(_mm_set1_ps(fz), _mm_sub_ps(hi, lo)));
     const __m128 n = _mm_add_ps(m, _mm_mul_ps(_mm_set1_ps(fy), _mm_sub_ps(_mm_movehl_ps(m, m), m)));
     const __m128 n1 = _mm_shuffle_ps(n, n, _MM_SHUFFLE(1, 1, 1, 1));
