@@ -407,7 +407,7 @@ int sq_cmd_render(int argc, char **argv)
     }
     if (rasters && !root) rasters = NULL; /* rank 0 writes them */
     if (rasters) {
-        r = sq_cli_rasters_check(scene, rasters, raster_format, overwrite, &rasters_created);
+        r = sq_cli_rasters_check(ctx, scene, rasters, raster_format, overwrite, &rasters_created);
         if (r != SQ_OK) {
             rc = fail(r, NULL);
             goto done;

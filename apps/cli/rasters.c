@@ -33,8 +33,8 @@ static int maps_of(sq_scene *scene, sq_named_field *out)
     return n;
 }
 
-sq_result sq_cli_rasters_check(sq_scene *scene, const char *dir, int format, bool overwrite,
-                               bool *created)
+sq_result sq_cli_rasters_check(sq_context *ctx, sq_scene *scene, const char *dir, int format,
+                               bool overwrite, bool *created)
 {
     *created = false;
     struct stat st;
@@ -63,13 +63,22 @@ sq_result sq_cli_rasters_check(sq_scene *scene, const char *dir, int format, boo
     char path[1200];
     sq_result r = SQ_OK;
     const bool exists = stat(dir, &st) == 0;
+    /* every file the end of the run writes (a DEM named peak_speed.tif in DIR is an input:
+     * refused now, not after the run with half the maps written) */
     for (int i = 0; i < n && r == SQ_OK && exists; i++) {
         snprintf(path, sizeof path, "%s/%s.%s", dir, maps[i].name, ext_of(format));
         r = sq_output_check(path, overwrite);
+        if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
+        if (r == SQ_OK && format == SQ_RASTER_ASCII) {
+            snprintf(path, sizeof path, "%s/%s.prj", dir, maps[i].name);
+            r = sq_output_check(path, overwrite);
+            if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
+        }
     }
     if (r == SQ_OK && exists) {
         snprintf(path, sizeof path, "%s/summary.json", dir);
         r = sq_output_check(path, overwrite);
+        if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
     }
     if (r == SQ_OK && !exists) {
         if (mkdir(dir, 0777) != 0)

@@ -7,10 +7,11 @@
 
 #include "squall/scene.h"
 
-/* Checks every output name before the run (the maps the scene publishes now, summary.json),
- * then creates DIR if missing (*created). format: sq_raster_format. */
-sq_result sq_cli_rasters_check(sq_scene *scene, const char *dir, int format, bool overwrite,
-                               bool *created);
+/* Checks every output name before the run (the maps the scene publishes now, their .prj,
+ * summary.json): existing files need overwrite, inputs of the run (ctx) are refused; then
+ * creates DIR if missing (*created). format: sq_raster_format. */
+sq_result sq_cli_rasters_check(sq_context *ctx, sq_scene *scene, const char *dir, int format,
+                               bool overwrite, bool *created);
 /* Writes the maps and summary.json (metrics: the last frame's); *seconds: the time it took. */
 sq_result sq_cli_rasters_write(sq_context *ctx, sq_scene *scene, const char *dir, int format,
                                bool overwrite, const sq_metric *metrics, int nmetrics,

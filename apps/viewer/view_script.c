@@ -29,6 +29,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "../cli/cli.h"
 #include "view.h"
@@ -92,8 +93,15 @@ static bool refused_since(viewer *v, view_script *s, int line)
     return true;
 }
 
-static sq_result check_output(viewer *v, const char *path)
+/* An output a script names: not the scene or its inputs (view_shot_check), not the script
+ * itself (also through a link), an existing file only with --overwrite. */
+static sq_result check_output(viewer *v, const char *path, const char *script)
 {
+    struct stat a, b;
+    if (stat(path, &a) == 0 && stat(script, &b) == 0 && a.st_dev == b.st_dev &&
+        a.st_ino == b.st_ino)
+        return sq_set_error(SQ_ERR_INVALID_ARG, "'%s' is the script being run ('%s'); inputs "
+                            "are never written", path, script);
     sq_result r = view_shot_check(v, path);
     if (r == SQ_OK) r = sq_output_check(path, v->overwrite);
     return r;
@@ -132,7 +140,7 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
             if (got < 1 || got > 2 || a.n < 1 || a.n > 100000)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: orbit N [FILE.png]: N must be a draw "
                                  "count in 1..100000", path, no);
-            else if (got == 2 && (r = check_output(v, a.a)) != SQ_OK) {
+            else if (got == 2 && (r = check_output(v, a.a, path)) != SQ_OK) {
                 char m[700];
                 snprintf(m, sizeof m, "%s", sq_last_error());
                 r = sq_set_error(r, "%s:%d: %s", path, no, m);
@@ -156,7 +164,7 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
             a.kind = cmd[1] == 'c' ? A_SHOT : cmd[0] == 's' ? A_SAVE : A_REC;
             if (sscanf(rest, "%1023s %7s", a.a, extra) != 1)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: %s FILE: one file name", path, no, cmd);
-            else if ((r = check_output(v, a.a)) != SQ_OK) {
+            else if ((r = check_output(v, a.a, path)) != SQ_OK) {
                 char m[700];
                 snprintf(m, sizeof m, "%s", sq_last_error());
                 r = sq_set_error(r, "%s:%d: %s", path, no, m);
@@ -165,7 +173,7 @@ sq_result view_script_load(viewer *v, const char *path, view_script **out)
             a.kind = A_KEYS;
             if (sscanf(rest, "%1023s %1023s %7s", a.b, a.a, extra) != 2)
                 r = sq_set_error(SQ_ERR_INVALID_ARG, "%s:%d: panel-keys SECTION FILE", path, no);
-            else if ((r = check_output(v, a.a)) != SQ_OK) {
+            else if ((r = check_output(v, a.a, path)) != SQ_OK) {
                 char m[700];
                 snprintf(m, sizeof m, "%s", sq_last_error());
                 r = sq_set_error(r, "%s:%d: %s", path, no, m);

@@ -1,7 +1,7 @@
 /* view_shot.c — screenshots of the GL area: the framebuffer bound for drawing (the GtkGLArea's)
  * read back as 8-bit RGBA (alpha as GTK composites it), flipped to rows top first and written as PNG through the library's
  * writer (temporary name, renamed when complete; an existing file only with --overwrite).
- * The scene file is never a screenshot's destination. */
+ * The scene file and the files it reads are never a screenshot's destination. */
 #include <epoxy/gl.h>
 #include <limits.h>
 #include <stdlib.h>
@@ -17,7 +17,8 @@ sq_result view_shot_check(const viewer *v, const char *path)
                             "screenshot '%s' is the scene file being viewed; inputs are never "
                             "written",
                             path);
-    return SQ_OK;
+    /* and every file the scene read (a heightmap, DEM, mesh; also through a hard link) */
+    return sq_output_check_inputs(v->ctx, path, false);
 }
 
 bool view_shot_read(int width, int height, uint8_t *px)

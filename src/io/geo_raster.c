@@ -80,14 +80,20 @@ static sq_result write_ascii(sq_context *ctx, const sq_raster_desc *d, int fd, c
     return SQ_OK;
 }
 
+/* The name of the .prj beside an ASCII grid: the grid's name with .prj for its extension. */
+static void prj_path(const char *path, char *prj, size_t size)
+{
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    const int stem = dot && (!slash || dot > slash) ? (int)(dot - path) : (int)strlen(path);
+    snprintf(prj, size, "%.*s.prj", stem, path);
+}
+
 /* The .prj beside an ASCII grid: the CRS morphed to ESRI WKT. */
 static sq_result write_prj(sq_context *ctx, const sq_raster_desc *d)
 {
     if (!d->crs_wkt || !d->crs_wkt[0]) return SQ_OK;
     char prj[SQ__TEMP_NAME_MAX];
-    const char *dot = strrchr(d->path, '.'), *slash = strrchr(d->path, '/');
-    const int stem = dot && (!slash || dot > slash) ? (int)(dot - d->path) : (int)strlen(d->path);
-    snprintf(prj, sizeof prj, "%.*s.prj", stem, d->path);
+    prj_path(d->path, prj, sizeof prj);
     OGRSpatialReferenceH s = sq__geo_srs_from_user(d->crs_wkt);
     char *wkt = NULL;
     if (!s || OSRMorphToESRI(s) != OGRERR_NONE || OSRExportToWkt(s, &wkt) != OGRERR_NONE) {
@@ -116,6 +122,11 @@ sq_result sq_raster_write(sq_context *ctx, const sq_raster_desc *d)
     char tmp[SQ__TEMP_NAME_MAX];
     int fd = -1;
     sq_result r = sq_output_check_inputs(ctx, d->path, false);
+    if (r == SQ_OK && d->format == SQ_RASTER_ASCII && d->crs_wkt && d->crs_wkt[0]) {
+        char prj[SQ__TEMP_NAME_MAX];
+        prj_path(d->path, prj, sizeof prj);
+        r = sq_output_check_inputs(ctx, prj, false); /* before the grid is written */
+    }
     if (r != SQ_OK) return r;
     r = sq__output_open_temp(d->path, d->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) return sq__io_relog(ctx, r);

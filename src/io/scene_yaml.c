@@ -23,13 +23,29 @@ typedef struct frame {
     int key_line, key_col;
 } frame;
 
-static sq_result parse_error(sq_context *ctx, const char *source, const yaml_parser_t *p)
+/* Whether line (0-based) of text is indented with a tab: YAML allows spaces only, and libyaml's
+ * message for it ("found character that cannot start any token") does not say so. */
+static bool tab_indented(const char *text, size_t len, size_t line)
+{
+    size_t i = 0;
+    for (size_t l = 0; l < line && i < len; i++)
+        if (text[i] == '\n') l++;
+    for (; i < len && (text[i] == ' ' || text[i] == '\t'); i++)
+        if (text[i] == '\t') return true;
+    return false;
+}
+
+static sq_result parse_error(sq_context *ctx, const char *source, const yaml_parser_t *p,
+                             const char *text, size_t len)
 {
     const yaml_mark_t *m = p->problem_mark.line || p->problem_mark.column ? &p->problem_mark
                                                                           : &p->context_mark;
-    return sq__fail(ctx, SQ_ERR_PARSE, "scene", "%s:%zu:%zu: malformed YAML: %s%s%s", source,
+    return sq__fail(ctx, SQ_ERR_PARSE, "scene", "%s:%zu:%zu: malformed YAML: %s%s%s%s", source,
                     m->line + 1, m->column + 1, p->problem ? p->problem : "syntax error",
-                    p->context ? " " : "", p->context ? p->context : "");
+                    p->context ? " " : "", p->context ? p->context : "",
+                    tab_indented(text, len, m->line)
+                        ? " (the line is indented with a tab; YAML indents with spaces only)"
+                        : "");
 }
 
 static sq_result attach(sq_context *ctx, const char *source, frame *top, sq_cfg_node *n,
@@ -84,7 +100,7 @@ sq_result sq_cfg_parse(sq_context *ctx, const char *text, size_t len, const char
     while (!done && r == SQ_OK) {
         yaml_event_t ev;
         if (!yaml_parser_parse(&p, &ev)) {
-            r = parse_error(ctx, source, &p);
+            r = parse_error(ctx, source, &p, text, len);
             break;
         }
         int line = (int)ev.start_mark.line + 1, col = (int)ev.start_mark.column + 1;

@@ -612,7 +612,18 @@ SQ_TEST(raster_refuses_its_input)
     SQ_CHECK_ERR(sq_raster_write(ctx, &r), SQ_ERR_INVALID_ARG, "inputs are never written");
     r.path = link_path;
     SQ_CHECK_ERR(sq_raster_write(ctx, &r), SQ_ERR_INVALID_ARG, "through a link");
+    /* an ESRI ASCII grid whose .prj would be the DEM (a hard link named grid.prj): refused
+     * before the grid itself is written */
+    char prj_path[1024], asc_path[1024];
+    in_dir(prj_path, sizeof prj_path, "grid.prj");
+    in_dir(asc_path, sizeof asc_path, "grid.asc");
+    SQ_CHECK(link(dem_path, prj_path) == 0);
+    r.format = SQ_RASTER_ASCII;
+    r.path = asc_path;
+    SQ_CHECK_ERR(sq_raster_write(ctx, &r), SQ_ERR_INVALID_ARG, "grid.prj");
     struct stat st;
+    SQ_CHECK(stat(asc_path, &st) != 0); /* nothing written */
+    remove(prj_path);
     SQ_CHECK(stat(dem_path, &st) == 0 && st.st_size == size);
     SQ_CHECK(lstat(link_path, &st) == 0 && S_ISLNK(st.st_mode));
     sq_dem_release(ctx, &dem);

@@ -26,6 +26,19 @@ expect 2 "shot.png.*exists" -- view urban-dust --frames 1 --screenshot shot.png
 [ "$before" = "$(sha256sum shot.png)" ] || fail "shot.png was replaced"
 tiny_scene s.yaml
 expect 2 "s.yaml.*scene file.*never written" -- view s.yaml --frames 1 --screenshot s.yaml --overwrite
+# nor the scene through a hard link, nor a file the scene reads (the DEM), nor the script itself
+ln s.yaml hard.yaml
+expect 2 "hard.yaml.*is the scene file.*never written" -- view s.yaml --frames 1 --screenshot hard.yaml --overwrite
+cp "$SRC/tests/cli/data/dem-avalanche.yaml" dem.yaml
+sed -i -e "s#../../../data/#$SRC/data/#" dem.yaml
+cp "$SRC/data/dem/hef_srtm.tif" dem.tif
+sed -i -e "s#dem: $SRC/data/dem/hef_srtm.tif#dem: dem.tif#" dem.yaml
+grep -q "dem: dem.tif" dem.yaml || fail "dem.yaml not rewritten"
+expect 2 "dem.tif' is the DEM.*never written" -- view dem.yaml --frames 1 --screenshot dem.tif --overwrite
+printf 'screenshot self.txt\n' > self.txt
+expect 2 "'self.txt' is the script being run.*never written" -- view s.yaml --script self.txt --overwrite
+printf 'panel-keys camera self2.txt\n' > self2.txt
+expect 2 "'self2.txt' is the script being run" -- view s.yaml --script self2.txt --overwrite
 expect 2 "screenshot.*needs --frames" -- view urban-dust --screenshot x.png
 expect 2 "unknown option '--bogus'" -- view --bogus
 finish
