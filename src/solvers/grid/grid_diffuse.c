@@ -97,7 +97,7 @@ static int32_t eddy_row(const eddy_par *p, const uint8_t *restrict fl,
          * is 3e-5 K at 300 K), not stratification: without this dead band an exactly neutral
          * column without shear would convect on round-off */
         const float dthc = dth * h;
-        const float dths = sq__fselm(-(int32_t)(dthc > 1e-3f || dthc < -1e-3f), dth, 0.0f);
+        const float dths = sq__fselm(-(int32_t)((dthc > 1e-3f) | (dthc < -1e-3f)), dth, 0.0f);
         const float ith = sq__fselm(-(int32_t)(t0[i] > 0.0f), 1.0f / t0[i], 0.0f);
         const float s2 = du * du + dv * dv - g_pr * dths * ith;
         nu[i] = sq__fselm(-(int32_t)(s2 > 0.0f), s2, 0.0f);
