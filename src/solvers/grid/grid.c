@@ -245,7 +245,10 @@ sq_result sq_grid_create(sq_context *ctx, const sq_grid_desc *desc, sq_grid **ou
     g->n[1] = d.cells.ny;
     g->n[2] = d.cells.nz;
     g->h = (float)d.cell_size_m;
-    for (int a = 0; a < 3; a++) g->periodic[a] = d.boundary[2 * a] == SQ_BOUNDARY_PERIODIC;
+    for (int a = 0; a < 3; a++) {
+        g->periodic[a] = d.boundary[2 * a] == SQ_BOUNDARY_PERIODIC;
+        g->lat_n[a] = g->n[a];
+    }
 
     g->scratch_count = (size_t)scratch_samples(g->n);
     for (int a = 0; a < 3 && r == SQ_OK; a++) {

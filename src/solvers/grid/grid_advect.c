@@ -29,13 +29,20 @@
 
 typedef float v4f __attribute__((vector_size(16)));
 
-/* A lattice to sample: padded array, strides, interior sample counts, position offsets. */
+/* A lattice to sample: padded array, strides, interior sample counts, position offsets.
+ * Positions are in the frame of the whole grid: local sample i lies at global index
+ * i + shift[a], traces are clamped (cm) or wrapped (period) as on the whole grid, and the
+ * corner found is taken back to the local array (remap; only on the widened copy of a
+ * decomposed grid's slab, where shift and cm differ from 0 and m). */
 typedef struct lat {
     const float *o;
     ptrdiff_t sy, sz;
     int m[3];
     float off[3];
-    int period[3]; /* cells per period on periodic axes, else 0 */
+    int period[3]; /* cells per period on periodic axes (the whole grid's), else 0 */
+    int cm[3];     /* the whole grid's sample counts (clamp range) */
+    int shift[3];  /* global index of local sample 0 */
+    bool remap;
 } lat;
 
 static lat make_lat(const sq_grid *g, const float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
@@ -44,10 +51,14 @@ static lat make_lat(const sq_grid *g, const float *o, ptrdiff_t sy, ptrdiff_t sz
     l.o = o;
     l.sy = sy;
     l.sz = sz;
+    l.remap = false;
     for (int a = 0; a < 3; a++) {
         l.m[a] = g->n[a] + (L - 1 == a ? 1 : 0);
         l.off[a] = sq__lattice_off(L, a);
-        l.period[a] = g->periodic[a] ? g->n[a] : 0;
+        l.period[a] = g->periodic[a] ? g->lat_n[a] : 0;
+        l.cm[a] = g->lat_n[a] + (L - 1 == a ? 1 : 0);
+        l.shift[a] = g->lat_shift[a];
+        if (l.shift[a] != 0 || l.cm[a] != l.m[a]) l.remap = true;
     }
     return l;
 }
@@ -147,6 +158,20 @@ static inline void axis_chunk(float *restrict t, int32_t *restrict ii, int n, in
     }
 }
 
+/* Global lower indices ii[q] -> local ones on an axis of a widened slab: shifted, a wrapped
+ * index taken to its image inside the local array, and kept inside [-1, m - 1] (a trace that
+ * leaves the widened range only feeds samples outside the slab). */
+static inline void axis_remap(int32_t *restrict ii, int n, int shift, int m, int period)
+{
+    for (int q = 0; q < n; q++) {
+        int i = ii[q] - shift;
+        i += (i < -1) ? period : 0;
+        i -= (i > m - 1) ? period : 0;
+        i = i < -1 ? -1 : i;
+        ii[q] = i < m - 1 ? i : m - 1;
+    }
+}
+
 /* Positions in cell units in c->fx/fy/fz -> corner offsets and fractions on lattice F. */
 static inline void locate_chunk(const lat *F, chunk *restrict c, int n)
 {
@@ -157,9 +182,14 @@ static inline void locate_chunk(const lat *F, chunk *restrict c, int n)
         c->fy[q] -= oy;
         c->fz[q] -= oz;
     }
-    axis_chunk(c->fx, ix, n, F->m[0], F->period[0]);
-    axis_chunk(c->fy, iy, n, F->m[1], F->period[1]);
-    axis_chunk(c->fz, iz, n, F->m[2], F->period[2]);
+    axis_chunk(c->fx, ix, n, F->cm[0], F->period[0]);
+    axis_chunk(c->fy, iy, n, F->cm[1], F->period[1]);
+    axis_chunk(c->fz, iz, n, F->cm[2], F->period[2]);
+    if (F->remap) {
+        axis_remap(ix, n, F->shift[0], F->m[0], F->period[0]);
+        axis_remap(iy, n, F->shift[1], F->m[1], F->period[1]);
+        axis_remap(iz, n, F->shift[2], F->m[2], F->period[2]);
+    }
     const int32_t sy = (int32_t)F->sy, sz = (int32_t)F->sz;
     for (int q = 0; q < n; q++) c->b[q] = ix[q] + iy[q] * sy + iz[q] * sz;
 }
@@ -172,9 +202,10 @@ static inline void trace_chunk(const lat *F, ptrdiff_t off, const float *dx, con
                                chunk *restrict c)
 {
     const float *hx = dx + q0 + i0, *hy = dy + q0 + i0, *hz = dz + q0 + i0;
-    const float Y = (float)j + F->off[1], Z = (float)k + F->off[2];
+    const float Y = (float)(j + F->shift[1]) + F->off[1], Z = (float)(k + F->shift[2]) + F->off[2];
+    const int x0 = i0 + F->shift[0];
     for (int q = 0; q < n; q++) {
-        c->fx[q] = (float)(i0 + q) + F->off[0] + 0.5f * (hx[q - off] + hx[q]);
+        c->fx[q] = (float)(x0 + q) + F->off[0] + 0.5f * (hx[q - off] + hx[q]);
         c->fy[q] = Y + 0.5f * (hy[q - off] + hy[q]);
         c->fz[q] = Z + 0.5f * (hz[q - off] + hz[q]);
     }
@@ -350,9 +381,9 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
         float ux[CH], uy[CH], uz[CH];
         v4f u1[CH];
         chunk cm;
-        const float Z = (float)k + 0.5f;
+        const float Z = (float)(k + C.shift[2]) + 0.5f;
         for (int j = -1; j <= ny; j++) {
-            const float Y = (float)j + 0.5f;
+            const float Y = (float)(j + C.shift[1]) + 0.5f;
             const ptrdiff_t row = (ptrdiff_t)j * g->sy + (ptrdiff_t)k * g->sz;
             const bool inner = j >= 0 && j < ny && k >= 0 && k < nz;
             for (int i0 = -1; i0 <= nx; i0 += CH) {
@@ -375,7 +406,7 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
                 for (int pass = 0; pass < (fwd ? 2 : 1); pass++) {
                     const float sg = pass ? hs : -hs;
                     for (int q = 0; q < n; q++) {
-                        cm.fx[q] = ((float)(i0 + q) + 0.5f) + sg * ux[q];
+                        cm.fx[q] = ((float)(i0 + q + C.shift[0]) + 0.5f) + sg * ux[q];
                         cm.fy[q] = Y + sg * uy[q];
                         cm.fz[q] = Z + sg * uz[q];
                     }
@@ -403,27 +434,42 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
     return (float)m * s;
 }
 
-/* Makes the cached displacements valid for the current velocity, dt and drift. */
-static void ensure_displacements(sq_grid *g, float dt, float drift, bool fwd)
+/* Makes the cached displacements valid for the current velocity, dt and drift. A decomposed
+ * grid computes them on its widened slab (grid_dist.c), which also holds the velocity the
+ * kernels read; its CFL number is the largest over the ranks. */
+static sq_result ensure_displacements(sq_grid *g, float dt, float drift, bool fwd)
 {
     if (g->trace_valid && g->trace_version == g->vel_version && g->trace_dt == (double)dt &&
         g->trace_drift == (double)drift && (g->trace_fwd || !fwd))
-        return;
+        return SQ_OK;
     sq__grid_enforce_velocity(g);
-    float *uc4 = g->scratch[SQ__S_BLOCK];
-    build_uc4(g, uc4);
-    const ptrdiff_t c0 = sq__cidx(g, 0, 0, 0);
+    sq_grid *w = g;
+    if (g->halo) { /* faces held by two slabs: the upper slab's (as before a projection) */
+        g->trace_valid = false;
+        sq__grid_dist_sync_faces(g);
+        const sq_result r = sq__grid_dist_widen(g, dt, &w);
+        if (r != SQ_OK) return r;
+    }
+    float *uc4 = w->scratch[SQ__S_BLOCK];
+    build_uc4(w, uc4);
+    const ptrdiff_t c0 = sq__cidx(w, 0, 0, 0);
     float *db[3], *df[3];
     for (int a = 0; a < 3; a++) {
-        db[a] = g->scratch[SQ__S_DISP + a] + c0;
-        df[a] = g->scratch[SQ__S_DISP + 3 + a] + c0;
+        db[a] = w->scratch[SQ__S_DISP + a] + c0;
+        df[a] = w->scratch[SQ__S_DISP + 3 + a] + c0;
     }
-    g->trace_cfl = cell_displacements(g, uc4 + 4 * c0, dt, drift, db, df, fwd);
+    g->trace_cfl = cell_displacements(w, uc4 + 4 * c0, dt, drift, db, df, fwd);
+    if (g->halo) { /* the copy's interior is slab and halo: the global max is the whole grid's */
+        double c = (double)g->trace_cfl;
+        sq__grid_dist_max(g, &c, 1);
+        g->trace_cfl = (float)c;
+    }
     g->trace_valid = true;
     g->trace_fwd = fwd;
     g->trace_version = g->vel_version;
     g->trace_dt = (double)dt;
     g->trace_drift = (double)drift;
+    return SQ_OK;
 }
 
 /* ---- the two passes ------------------------------------------------------------------------------ */
@@ -555,20 +601,33 @@ static float *scratch_origin(sq_grid *g, int s, const sq_field3 *like)
     return g->scratch[s] + (like->origin - like->base);
 }
 
+/* On a decomposed grid the kernels run on the widened slab w (its own velocity copy and
+ * scratch) and the slab's samples are copied back; the faces a slab shares with its
+ * neighbours are computed by both from the same data (across a split periodic axis the first
+ * slab's face 0 is kept, as one rank's face n copies face 0). */
 sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
 {
     const bool mac = g->d.advection == SQ_ADVECT_MACCORMACK;
-    ensure_displacements(g, dt, 0.0f, mac);
+    sq_result r = ensure_displacements(g, dt, 0.0f, mac);
+    if (r != SQ_OK) return r;
+    sq_grid *w = sq__grid_dist_wide(g);
     for (int c = 0; c < 3; c++) {
-        sq_field3 *f = &g->vel[c];
-        lat F = make_lat(g, f->origin, f->sy, f->sz, c + 1);
+        sq_field3 *f = &w->vel[c];
+        lat F = make_lat(w, f->origin, f->sy, f->sz, c + 1);
         const float *src[1] = {f->origin};
-        float *hat[1] = {scratch_origin(g, SQ__S_BLOCK, f)};
-        float *out[1] = {scratch_origin(g, SQ__S_OUT + c, f)};
-        float *rhi[1] = {scratch_origin(g, SQ__S_BLOCK + 1, f)};
-        advect_fields(g, c + 1, -1, &F, 1, src, hat, out, rhi, mac, 0u);
+        float *hat[1] = {scratch_origin(w, SQ__S_BLOCK, f)};
+        float *out[1] = {scratch_origin(w, SQ__S_OUT + c, f)};
+        float *rhi[1] = {scratch_origin(w, SQ__S_BLOCK + 1, f)};
+        advect_fields(w, c + 1, -1, &F, 1, src, hat, out, rhi, mac, 0u);
     }
-    for (int c = 0; c < 3; c++) swap_in(g, &g->vel[c], SQ__S_OUT + c);
+    if (w == g) {
+        for (int c = 0; c < 3; c++) swap_in(g, &g->vel[c], SQ__S_OUT + c);
+    } else {
+        for (int c = 0; c < 3; c++)
+            sq__grid_dist_narrow(g, scratch_origin(w, SQ__S_OUT + c, &w->vel[c]), c + 1,
+                                 g->vel[c].origin);
+        sq__grid_dist_sync_faces(g);
+    }
     g->stats.last_cfl = (double)g->trace_cfl;
     g->trace_valid = false;
     g->vel_version++;
@@ -582,7 +641,9 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
 sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float drift)
 {
     const bool mac = g->d.advection == SQ_ADVECT_MACCORMACK;
-    ensure_displacements(g, dt, drift, mac);
+    sq_result r = ensure_displacements(g, dt, drift, mac);
+    if (r != SQ_OK) return r;
+    sq_grid *w = sq__grid_dist_wide(g);
     g->stats.last_cfl = (double)g->trace_cfl;
     const int bs = mac ? 2 : 3; /* MacCormack: hats in 0..1, limiter highs in 2..3 */
     for (int b0 = s0; b0 < s0 + count; b0 += bs) {
@@ -593,18 +654,24 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+        }
+        if (w != g) sq__grid_dist_widen_scalars(g, b0, nb); /* into w->scalar[0 .. nb) */
+        for (int q = 0; q < nb; q++) {
+            sq_field3 *f = w == g ? &g->scalar[b0 + q] : &w->scalar[q];
             src[q] = f->origin;
-            hat[q] = scratch_origin(g, SQ__S_BLOCK + q, f);
-            out[q] = scratch_origin(g, SQ__S_OUT + q, f);
-            rhi[q] = scratch_origin(g, SQ__S_BLOCK + 2 + q, f);
+            hat[q] = scratch_origin(w, SQ__S_BLOCK + q, f);
+            out[q] = scratch_origin(w, SQ__S_OUT + q, f);
+            rhi[q] = scratch_origin(w, SQ__S_BLOCK + 2 + q, f);
             if ((g->d.scalar_nonnegative >> (b0 + q)) & 1u) nonneg |= 1u << q;
         }
-        const sq_field3 *f0 = &g->scalar[b0];
-        lat F = make_lat(g, f0->origin, f0->sy, f0->sz, SQ__L_CELL);
-        advect_fields(g, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
+        lat F = make_lat(w, src[0], w->sy, w->sz, SQ__L_CELL);
+        advect_fields(w, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
-            swap_in(g, f, SQ__S_OUT + q);
+            if (w == g)
+                swap_in(g, f, SQ__S_OUT + q);
+            else
+                sq__grid_dist_narrow(g, out[q], SQ__L_CELL, f->origin);
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
         }
     }

@@ -22,6 +22,7 @@
  * Closed fluid regions are pinned only where they lie inside one slab; a region that reaches
  * an inner face is treated as open (a global domain without outflow/open faces is solved
  * unpinned; CG converges on the compatible singular system, the pressure's constant differs). */
+#include <float.h>
 #include <string.h>
 
 #include "solvers/grid/grid_internal.h"
@@ -39,6 +40,13 @@ struct sq__grid_halo {
     unsigned char *buf; /* 2 send + 2 receive planes of the largest face, 4 bytes a cell */
     size_t plane_bytes;
     uint64_t bytes_exchanged;
+    /* advection: the slab widened along the split axis (see sq__grid_dist_widen) */
+    int ax;              /* the split axis */
+    bool gperiodic[3];   /* the whole grid's periodic axes */
+    sq_grid *wide;       /* the widened copy, NULL until the first advection */
+    int width, cap;      /* planes taken from each neighbour now; allocated for cap */
+    unsigned char *xbuf; /* 2 send + 2 receive buffers of xside bytes */
+    size_t xside;
 };
 
 sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **out)
@@ -64,6 +72,8 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
     for (int f = 0; f < 6; f++) h->boundary[f] = d->boundary[f];
     for (int a = 0; a < 3; a++) h->periodic[a] = per[a] != 0;
     h->parity = (b.lo[0] + b.lo[1] + b.lo[2]) & 1;
+    h->ax = ax;
+    for (int a = 0; a < 3; a++) h->gperiodic[a] = per[a] != 0;
     const int n[3] = {b.n.nx, b.n.ny, b.n.nz};
     size_t plane = 0;
     for (int a = 0; a < 3; a++) {
@@ -96,9 +106,13 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
     return SQ_OK;
 }
 
+static void wide_free(sq_context *ctx, sq_grid *w);
+
 void sq__grid_dist_free(sq_context *ctx, sq__grid_halo *h)
 {
     if (!h) return;
+    wide_free(ctx, h->wide);
+    sq_free(ctx, h->xbuf);
     sq_free(ctx, h->buf);
     sq_free(ctx, h);
 }
@@ -243,3 +257,308 @@ sq_result sq_grid_get_block(const sq_grid *g, int lo[3], sq_dims *global)
 }
 
 uint64_t sq_grid_bytes_exchanged(const sq_grid *g) { return g && g->halo ? g->halo->bytes_exchanged : 0; }
+
+void sq__grid_dist_max(const sq_grid *g, double *v, int n)
+{
+    if (g->halo) sq_par_max_f64(v, n);
+}
+
+/* ---- advection: the widened slab ------------------------------------------------------------
+ * The semi-Lagrangian trace of a step that moves samples up to D cells along the split axis
+ * reads D + 1 cells away; MacCormack's reverse step reads the forward estimate as far again,
+ * which was traced from the velocity another D/2 + 1 cells on. The slab's fields have one
+ * ghost layer, so instead of widening every field of the solver (and every kernel's
+ * indexing) the advection runs on a copy of the slab widened by W = 2 ceil(D) + 3 planes of
+ * each neighbour (a per-step extended copy): the velocity, the cell flags and each batch of
+ * scalars are copied in, the neighbours' planes arrive by non-blocking exchange while the
+ * slab's own planes are copied, the unchanged kernels run on the copy (placing samples by
+ * their global index, grid_advect.c's lat), and the slab's samples are copied back. The
+ * copy's samples near its ends are wrong (their traces leave it) but no slab sample reads
+ * them. Cost: 2 W planes of extra work per slab and a copy of the advection's arrays. */
+
+/* lattice L's sample counts and padded strides for cells n */
+static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t *sz)
+{
+    for (int a = 0; a < 3; a++) m[a] = n[a] + (L - 1 == a ? 1 : 0);
+    *sy = m[0] + 2;
+    *sz = *sy * (ptrdiff_t)(m[1] + 2);
+}
+
+static void wide_free(sq_context *ctx, sq_grid *w)
+{
+    if (!w) return;
+    for (int c = 0; c < 3; c++) sq_free(ctx, w->vel[c].base);
+    if (w->scalar)
+        for (int q = 0; q < 3; q++) sq_free(ctx, w->scalar[q].base);
+    sq_free(ctx, w->scalar);
+    sq_free(ctx, w->flags);
+    sq_free(ctx, w->scratch_block);
+    for (int q = 4; q < SQ__SCRATCH; q++) sq_free(ctx, w->scratch[q]);
+    sq_free(ctx, w);
+}
+
+/* padded samples of the largest lattice of cells n */
+static size_t wide_count(const int n[3])
+{
+    size_t m = 0;
+    for (int L = 0; L < 4; L++) {
+        int e[3];
+        ptrdiff_t sy, sz;
+        lat_layout(n, L, e, &sy, &sz);
+        const size_t c = (size_t)sz * (size_t)(e[2] + 2);
+        m = c > m ? c : m;
+    }
+    return m;
+}
+
+/* Allocates the copy for `cap` planes a side (arrays of the largest layout). */
+static sq_result wide_alloc(sq_grid *g, int cap)
+{
+    sq__grid_halo *h = g->halo;
+    sq_context *ctx = g->ctx;
+    wide_free(ctx, h->wide);
+    sq_free(ctx, h->xbuf);
+    h->wide = NULL;
+    h->xbuf = NULL;
+    h->cap = 0;
+    sq_grid *w = (sq_grid *)sq_alloc_zero(ctx, sizeof *w);
+    if (!w) return SQ_ERR_OUT_OF_MEMORY;
+    int n[3] = {g->n[0], g->n[1], g->n[2]};
+    n[h->ax] += (h->inner[2 * h->ax] ? cap : 0) + (h->inner[2 * h->ax + 1] ? cap : 0);
+    const size_t count = wide_count(n);
+    w->scratch_count = count;
+    bool ok = true;
+    for (int c = 0; c < 3; c++) ok = ok && (w->vel[c].base = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
+    w->scalar = (sq_field3 *)sq_alloc_zero(ctx, 3 * sizeof(sq_field3));
+    ok = ok && w->scalar;
+    for (int q = 0; q < 3 && ok; q++) ok = (w->scalar[q].base = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
+    ok = ok && (w->flags = (uint8_t *)sq_alloc_zero(ctx, count));
+    ok = ok && (w->scratch_block = (float *)sq_alloc_zero(ctx, 4 * count * sizeof(float)));
+    for (int q = 0; q < 4 && ok; q++) w->scratch[q] = w->scratch_block + (size_t)q * count;
+    for (int q = 4; q < SQ__SCRATCH && ok; q++) ok = (w->scratch[q] = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
+    /* a side's message: cap planes of the 3 velocity components and the flags, or of 3
+     * scalars (the largest plane: n + 3 samples a tangential axis, ghosts included) */
+    const int ta = h->ax == 0 ? 1 : 0, tb = h->ax == 2 ? 1 : 2;
+    const size_t plane = (size_t)(g->n[ta] + 3) * (size_t)(g->n[tb] + 3);
+    h->xside = (size_t)cap * plane * (3 * sizeof(float) + 1);
+    h->xbuf = ok ? (unsigned char *)sq_alloc(ctx, 4 * h->xside) : NULL;
+    if (!ok || !h->xbuf) {
+        wide_free(ctx, w);
+        return SQ_ERR_OUT_OF_MEMORY;
+    }
+    w->ctx = ctx;
+    h->wide = w;
+    h->cap = cap;
+    return SQ_OK;
+}
+
+/* Lays the copy out for `width` planes a side and refreshes what it borrows from the slab. */
+static void wide_layout(sq_grid *g, int width)
+{
+    sq__grid_halo *h = g->halo;
+    sq_grid *w = h->wide;
+    const int ax = h->ax, wlo = h->inner[2 * ax] ? width : 0, whi = h->inner[2 * ax + 1] ? width : 0;
+    h->width = width;
+    w->d = g->d;
+    w->h = g->h;
+    for (int a = 0; a < 3; a++) {
+        w->n[a] = g->n[a] + (a == ax ? wlo + whi : 0);
+        w->periodic[a] = a == ax ? h->gperiodic[a] : g->periodic[a];
+        w->lat_n[a] = a == ax ? (ax == 0 ? h->b.global.nx : ax == 1 ? h->b.global.ny : h->b.global.nz) : g->n[a];
+        w->lat_shift[a] = a == ax ? h->b.lo[a] - wlo : 0;
+    }
+    int m[3];
+    lat_layout(w->n, SQ__L_CELL, m, &w->sy, &w->sz);
+    w->cell_count = (size_t)w->sz * (size_t)(m[2] + 2);
+    for (int c = 0; c < 6; c++) {
+        sq_field3 *f = c < 3 ? &w->vel[c] : &w->scalar[c - 3];
+        lat_layout(w->n, c < 3 ? c + 1 : SQ__L_CELL, m, &f->sy, &f->sz);
+        f->n = (sq_dims){m[0], m[1], m[2]};
+        f->ghost = 1;
+        f->count = (size_t)f->sz * (size_t)(m[2] + 2);
+        f->origin = f->base + 1 + f->sy + f->sz;
+    }
+    /* borrowed (the kernels read them through fill_ghosts on the copy's other faces) */
+    w->plane_sum = g->plane_sum;
+    for (int f = 0; f < 6; f++) {
+        w->inflow[f] = g->inflow[f];
+        w->inflow_n[f][0] = g->inflow_n[f][0];
+        w->inflow_n[f][1] = g->inflow_n[f][1];
+        for (int q = 0; q < SQ_GRID_MAX_SCALARS; q++) w->scalar_inflow_data[f][q] = g->scalar_inflow_data[f][q];
+    }
+    memcpy(w->scalar_inflow, g->scalar_inflow, sizeof w->scalar_inflow);
+}
+
+/* One array to widen: the slab's (origin of sample 0, strides) and the copy's, lattice L. */
+typedef struct wide_arr {
+    unsigned char *src, *dst;
+    ptrdiff_t sy, sz, dsy, dsz;
+    int L;
+    size_t elem;
+} wide_arr;
+
+/* Packs (unpack false) or unpacks planes p0 .. p0+cnt-1 along axis a of an array (origin o,
+ * strides), tangential samples -1 .. m[t] (ghosts included). */
+static size_t planes_copy(unsigned char *o, ptrdiff_t sy, ptrdiff_t sz, size_t elem, const int m[3],
+                          int a, int p0, int cnt, unsigned char *buf, bool unpack)
+{
+    const ptrdiff_t st[3] = {1, sy, sz};
+    const int ta = a == 0 ? 1 : 0, tb = a == 2 ? 1 : 2;
+    size_t t = 0;
+    for (int p = p0; p < p0 + cnt; p++)
+        for (int q = -1; q <= m[tb]; q++)
+            for (int r = -1; r <= m[ta]; r++, t += elem) {
+                unsigned char *x = o + ((ptrdiff_t)p * st[a] + (ptrdiff_t)r * st[ta] + (ptrdiff_t)q * st[tb]) * (ptrdiff_t)elem;
+                if (unpack)
+                    memcpy(x, buf + t, elem);
+                else
+                    memcpy(buf + t, x, elem);
+            }
+    return t;
+}
+
+/* Fills the copy's arrays: the slab's planes (ghosts included) copied while the neighbours'
+ * travel (non-blocking), then the neighbours' planes, then the copy's outer ghost planes on
+ * inner sides (zero gradient; never read by the slab's samples). */
+static void wide_fill(sq_grid *g, const wide_arr *arr, int na)
+{
+    sq__grid_halo *h = g->halo;
+    const int a = h->ax, W = h->width, n = g->n[a];
+    const int wlo = h->inner[2 * a] ? W : 0;
+    const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
+    unsigned char *sb[2] = {h->xbuf, h->xbuf + h->xside};
+    unsigned char *rb[2] = {h->xbuf + 2 * h->xside, h->xbuf + 3 * h->xside};
+    size_t by[2] = {0, 0};
+    for (int s = 0; s < 2; s++) {
+        if (nb[s] < 0) continue;
+        for (int f = 0; f < na; f++) {
+            int m[3];
+            ptrdiff_t y, z;
+            lat_layout(g->n, arr[f].L, m, &y, &z);
+            /* minus side: my first W cells (faces 1..W); plus side: my last W cells/faces */
+            const int p0 = s ? n - W : (arr[f].L - 1 == a ? 1 : 0);
+            by[s] += planes_copy(arr[f].src, arr[f].sy, arr[f].sz, arr[f].elem, m, a, p0, W,
+                                 sb[s] + by[s], false);
+        }
+    }
+    sq_par_exchange x;
+    const void *const sbuf[2] = {sb[0], sb[1]};
+    void *const rbuf[2] = {rb[0], rb[1]};
+    (void)sq_par_exchange_begin(nb, sbuf, by, rbuf, by, &x); /* sizes agree by construction */
+    h->bytes_exchanged += by[0] + by[1];
+    for (int f = 0; f < na; f++) { /* the slab's own planes, while the halo travels */
+        const wide_arr *e = &arr[f];
+        int m[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, e->L, m, &y, &z);
+        const size_t row = (size_t)(m[0] + 2) * e->elem;
+        const int dx = a == 0 ? wlo : 0, dy = a == 1 ? wlo : 0, dz = a == 2 ? wlo : 0;
+        for (int k = -1; k <= m[2]; k++)
+            for (int j = -1; j <= m[1]; j++)
+                memcpy(e->dst + ((ptrdiff_t)(j + dy) * e->dsy + (ptrdiff_t)(k + dz) * e->dsz + dx - 1) * (ptrdiff_t)e->elem,
+                       e->src + ((ptrdiff_t)j * e->sy + (ptrdiff_t)k * e->sz - 1) * (ptrdiff_t)e->elem, row);
+    }
+    sq_par_exchange_end(&x);
+    size_t off[2] = {0, 0};
+    for (int f = 0; f < na; f++) {
+        const wide_arr *e = &arr[f];
+        int m[3], mw[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, e->L, m, &y, &z);
+        lat_layout(h->wide->n, e->L, mw, &y, &z);
+        const bool face = e->L - 1 == a;
+        if (nb[0] >= 0) /* the minus neighbour's last W planes: copy planes 0 .. W-1 */
+            off[0] += planes_copy(e->dst, e->dsy, e->dsz, e->elem, m, a, 0, W, rb[0] + off[0], true);
+        if (nb[1] >= 0) /* the plus neighbour's first: after my last cell (face) */
+            off[1] += planes_copy(e->dst, e->dsy, e->dsz, e->elem, m, a, wlo + n + (face ? 1 : 0), W,
+                                  rb[1] + off[1], true);
+        /* outer ghost planes of the copy on inner sides: the nearest plane */
+        const ptrdiff_t st[3] = {1, e->dsy, e->dsz};
+        const int ta = a == 0 ? 1 : 0, tb = a == 2 ? 1 : 2;
+        for (int s = 0; s < 2; s++) {
+            if (nb[s] < 0) continue;
+            const int gp = s ? mw[a] : -1, ip = s ? mw[a] - 1 : 0;
+            for (int q = -1; q <= m[tb]; q++)
+                for (int r = -1; r <= m[ta]; r++) {
+                    const ptrdiff_t t = (ptrdiff_t)r * st[ta] + (ptrdiff_t)q * st[tb];
+                    memcpy(e->dst + (t + (ptrdiff_t)gp * st[a]) * (ptrdiff_t)e->elem,
+                           e->dst + (t + (ptrdiff_t)ip * st[a]) * (ptrdiff_t)e->elem, e->elem);
+                }
+        }
+    }
+}
+
+sq_grid *sq__grid_dist_wide(sq_grid *g) { return g->halo ? g->halo->wide : g; }
+
+sq_result sq__grid_dist_widen(sq_grid *g, float dt, sq_grid **out)
+{
+    sq__grid_halo *h = g->halo;
+    *out = NULL;
+    const int a = h->ax;
+    /* the largest speed along the split axis, ghosts included (non-finite values are the
+     * stability check's business) */
+    const sq_field3 *u = &g->vel[a];
+    float vm = 0.0f;
+    for (size_t i = 0; i < u->count; i++) {
+        const float v = fabsf(u->base[i]);
+        vm = v > vm && v <= FLT_MAX ? v : vm;
+    }
+    double D = (double)vm * (double)dt / (double)g->h;
+    sq__grid_dist_max(g, &D, 1);
+    D = D < 1e6 ? D : 1e6;
+    const int W = 2 * (int)ceil(D) + 3;
+    const int n0 = a == 0 ? h->b.global.nx : a == 1 ? h->b.global.ny : h->b.global.nz;
+    const int thinnest = n0 / sq_par_size();
+    if (W > thinnest)
+        return sq__fail(g->ctx, SQ_ERR_UNSTABLE, MOD,
+                        "advection: a step of %g s moves the wind up to %.3g cells along %c; its "
+                        "halo of 2 ceil(%.3g) + 3 = %d planes is more than the thinnest slab "
+                        "(%d cells of %d over %d ranks): use fewer ranks or a smaller step",
+                        (double)dt, D, "xyz"[a], D, W, thinnest, n0, sq_par_size());
+    if (W > h->cap) {
+        /* headroom: a gusting wind does not reallocate every step */
+        int cap = W + 2 < thinnest ? W + 2 : thinnest;
+        sq_result r = wide_alloc(g, cap);
+        if (sq__grid_dist_any(g, r != SQ_OK))
+            return r != SQ_OK ? r
+                              : sq__fail(g->ctx, SQ_ERR_OUT_OF_MEMORY, MOD,
+                                         "advection: another rank has no memory for its halo");
+    }
+    wide_layout(g, W);
+    sq_grid *w = h->wide;
+    wide_arr arr[4];
+    for (int c = 0; c < 3; c++)
+        arr[c] = (wide_arr){(unsigned char *)g->vel[c].origin, (unsigned char *)w->vel[c].origin,
+                            g->vel[c].sy, g->vel[c].sz, w->vel[c].sy, w->vel[c].sz, c + 1, sizeof(float)};
+    arr[3] = (wide_arr){g->flags + sq__cidx(g, 0, 0, 0), w->flags + sq__cidx(w, 0, 0, 0), g->sy, g->sz,
+                        w->sy, w->sz, SQ__L_CELL, 1};
+    wide_fill(g, arr, 4);
+    *out = w;
+    return SQ_OK;
+}
+
+void sq__grid_dist_widen_scalars(sq_grid *g, int s0, int count)
+{
+    sq_grid *w = g->halo->wide;
+    wide_arr arr[3];
+    for (int q = 0; q < count && q < 3; q++)
+        arr[q] = (wide_arr){(unsigned char *)g->scalar[s0 + q].origin, (unsigned char *)w->scalar[q].origin,
+                            g->sy, g->sz, w->sy, w->sz, SQ__L_CELL, sizeof(float)};
+    wide_fill(g, arr, count < 3 ? count : 3);
+}
+
+void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *slab)
+{
+    const sq__grid_halo *h = g->halo;
+    const int a = h->ax, wlo = h->inner[2 * a] ? h->width : 0;
+    int m[3], mw[3];
+    ptrdiff_t sy, sz, wsy, wsz;
+    lat_layout(g->n, L, m, &sy, &sz);
+    lat_layout(h->wide->n, L, mw, &wsy, &wsz);
+    const int dx = a == 0 ? wlo : 0, dy = a == 1 ? wlo : 0, dz = a == 2 ? wlo : 0;
+    for (int k = 0; k < m[2]; k++)
+        for (int j = 0; j < m[1]; j++)
+            memcpy(slab + (ptrdiff_t)j * sy + (ptrdiff_t)k * sz,
+                   wide + (ptrdiff_t)(j + dy) * wsy + (ptrdiff_t)(k + dz) * wsz + dx,
+                   (size_t)m[0] * sizeof(float));
+}

@@ -103,6 +103,11 @@ struct sq_grid {
     float eddy_prandtl;  /* turbulent Prandtl number Pr_t */
     sq_grid_stats stats;
     sq__grid_halo *halo; /* decomposed (grid_dist.c); NULL: the whole grid */
+    /* the frame the advection kernels place samples in: local sample i lies at global index
+     * i + lat_shift[a] of a lattice of lat_n[a] cells (n and 0, except on the widened copy of
+     * a decomposed grid's slab, grid_dist.c) */
+    int lat_n[3];
+    int lat_shift[3];
 };
 
 static inline ptrdiff_t sq__cidx(const sq_grid *g, int i, int j, int k)
@@ -210,6 +215,16 @@ float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdi
  * a no-slip bottom: u_h /= 1 + dt C_d |u_h| / h, C_d = (kappa / ln(h / 2 z0))^2 (implicit). */
 void sq__grid_wall_stress(sq_grid *g, double kappa, double z0, float dt);
 
+/* ---- grid_tke.c (SQ_SGS_TKE; arrays in the padded cell layout, e = scalar d->tke_idx) ------ */
+/* The length l and K_m, K_h from max(e, tke_min) (solids 0); returns max(K_h, 2 K_m).
+ * n2: N^2 per cell (1/s^2). */
+float sq__grid_tke_coefficients(sq_grid *g, const sq_grid_sgs_desc *d, const float *n2, float *l,
+                                float *km, float *kh);
+/* Floors e, then advances it by the shear production K_m |S|^2 (s2 = |S|^2), the buoyancy term -K_h N^2 and
+ * the dissipation -C_eps e^(3/2) / l over dt; refills e's ghosts. */
+void sq__grid_tke_sources(sq_grid *g, const sq_grid_sgs_desc *d, const float *s2, const float *n2,
+                          const float *l, const float *km, const float *kh, float dt);
+
 /* ---- grid_project.c ----------------------------------------------------------------------- */
 sq_result sq__grid_build_multigrid(sq_grid *g);
 void sq__grid_free_multigrid(sq_grid *g);
@@ -237,8 +252,23 @@ void sq__grid_dist_sum_f32(sq_grid *g, float *v, size_t n);
 void sq__grid_dist_sync_faces(sq_grid *g);
 /* Collective: v[0..n) summed over the ranks. */
 void sq__grid_dist_sum(const sq_grid *g, double *v, int n);
+/* Collective: v[0..n) the largest over the ranks. */
+void sq__grid_dist_max(const sq_grid *g, double *v, int n);
 /* Collective: whether v is true on any rank. */
 bool sq__grid_dist_any(const sq_grid *g, bool v);
+/* Advection on a decomposed grid (grid_advect.c runs its kernels on a widened copy of the
+ * slab: the slab plus `width` planes of each neighbouring slab along the split axis, width =
+ * 2 ceil(D) + 3 for a step that moves samples at most D cells along it).
+ * Collective: chooses the width for dt from the largest speed along the split axis (global),
+ * (re)allocates the copy and fills its velocity and cell flags; *out = the copy. */
+sq_result sq__grid_dist_widen(sq_grid *g, float dt, sq_grid **out);
+/* The widened copy (g itself when not decomposed). */
+sq_grid *sq__grid_dist_wide(sq_grid *g);
+/* Collective: the copy's scalar arrays 0..count-1 become scalars s0.. of the slab, widened. */
+void sq__grid_dist_widen_scalars(sq_grid *g, int s0, int count);
+/* The slab's samples (interior of lattice L, every face it holds) from an array in the copy's
+ * layout of lattice L (origin: its sample 0) into an array in the slab's layout. */
+void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *slab);
 /* Global red-black colour offset of local cell (0,0,0); whether face is an inner face. */
 int sq__grid_dist_parity(const sq_grid *g);
 bool sq__grid_dist_inner(const sq_grid *g, int face);
