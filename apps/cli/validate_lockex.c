@@ -15,7 +15,8 @@
  * 3 H from the lock, before the end wall), Fr = U/√(g′H), and its error against 1/2.
  * --closure smagorinsky adds the Smagorinsky–Lilly subgrid closure (grid.h
  * sq_grid_diffuse_sgs: eddy viscosity and diffusivity of the wind and θ, stratified by θ; the
- * walls stay free-slip) after the buoyancy, as the sandstorm's solver.turbulence does. */
+ * walls stay free-slip) after the buoyancy, as the sandstorm's solver.turbulence does;
+ * --closure tke Deardorff's TKE closure instead (grid_tke.c; e a second scalar, from 0). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,9 +56,11 @@ int sq_validate_lock_exchange(int argc, char **argv)
         return SQ_EXIT_USAGE;
     const bool json = sq_cli_flag(argc, argv, "--json");
     const char *closure = sq_cli_value(argc, argv, "--closure");
-    const bool sgs = closure && strcmp(closure, "smagorinsky") == 0;
+    const bool tke = closure && strcmp(closure, "tke") == 0;
+    const bool sgs = tke || (closure && strcmp(closure, "smagorinsky") == 0);
     if (closure && !sgs && strcmp(closure, "none") != 0) {
-        sq_cli_error("validate lock-exchange: --closure '%s': must be none or smagorinsky", closure);
+        sq_cli_error("validate lock-exchange: --closure '%s': must be none, smagorinsky or tke",
+                     closure);
         return SQ_EXIT_USAGE;
     }
     sq_context *ctx = NULL;
@@ -69,7 +72,8 @@ int sq_validate_lock_exchange(int argc, char **argv)
     d.cells = (sq_dims){nx, ny, nz};
     d.cell_size_m = h;
     d.boundary[SQ_FACE_YMIN] = d.boundary[SQ_FACE_YMAX] = SQ_BOUNDARY_PERIODIC;
-    d.scalar_count = 1;
+    d.scalar_count = tke ? 2 : 1; /* theta, and the subgrid energy e of the TKE closure */
+    d.scalar_nonnegative = tke ? 2u : 0u;
     d.tolerance = 1e-4;
     sq_grid *g = NULL;
     sq_result r = sq_grid_create(ctx, &d, &g);
@@ -110,7 +114,9 @@ int sq_validate_lock_exchange(int argc, char **argv)
         r = sq_grid_advect_velocity(g, dt);
         if (r == SQ_OK) r = sq_grid_add_buoyancy(g, 0, tref, 1.0, gr, dt);
         if (r == SQ_OK && sgs) {
-            const sq_grid_sgs_desc sd = {.stratified = true, .theta_idx = 0, .gravity_mps2 = gr};
+            const sq_grid_sgs_desc sd = {.closure = tke ? SQ_SGS_TKE : SQ_SGS_SMAGORINSKY,
+                                         .stratified = true, .theta_idx = 0, .gravity_mps2 = gr,
+                                         .tke_idx = 1};
             r = sq_grid_diffuse_sgs(g, &sd, dt);
         }
         if (r == SQ_OK) r = sq_grid_project(g, dt, NULL);
@@ -133,7 +139,7 @@ int sq_validate_lock_exchange(int argc, char **argv)
             sq_json j;
             sq_json_begin(&j);
             sq_json_str(&j, "case", "lock-exchange");
-            sq_json_str(&j, "closure", sgs ? "smagorinsky" : "none");
+            sq_json_str(&j, "closure", tke ? "tke" : sgs ? "smagorinsky" : "none");
             sq_json_int(&j, "nz", nz);
             sq_json_int(&j, "nx", nx);
             sq_json_num(&j, "cell_m", h);

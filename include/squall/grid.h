@@ -318,7 +318,21 @@ SQ_API sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int thet
  *   the log-law stress u*^2, u* = kappa |u_h| / ln(h / 2 z0), on the horizontal wind of the
  *   first fluid cells above a solid or a no-slip ground. Explicit, sub-stepped to a diffusion
  *   number <= 1/6 (conservative, no new extrema). */
+/* closure = SQ_SGS_TKE instead: Deardorff's (1980) 1.5-order closure with a prognostic subgrid
+ * kinetic energy e (m^2/s^2), held by the caller's scalar tke_idx and carried by the scalar
+ * advection like any other scalar (grid_tke.c; as Moeng 1984 and WRF's km_opt = 2):
+ *   length           l = min(h, 0.76 sqrt(e) / N) where N^2 > 0, else h (at least 1e-3 h)
+ *   coefficients     K_m = C_k l sqrt(e), K_h = (1 + 2 l / h) K_m
+ *   e's budget       de/dt = K_m |S|^2 - K_h N^2 - C_eps e^(3/2) / l + div (2 K_m grad e),
+ *                    C_eps = 0.19 + 0.51 l / h
+ * the wind diffused with K_m, every other scalar with K_h; e is floored at tke_min_m2ps2 (a
+ * seed: K_m = 0 at e = 0 would never produce any). */
+typedef enum sq_grid_sgs_closure {
+    SQ_SGS_SMAGORINSKY = 0, /* default */
+    SQ_SGS_TKE = 1
+} sq_grid_sgs_closure;
 typedef struct sq_grid_sgs_desc {
+    sq_grid_sgs_closure closure;
     double smagorinsky_c; /* C_s; 0 = 0.18 (Lilly 1967) */
     double prandtl_t;     /* Pr_t = nu_t / K, also the critical Richardson number; 0 = 0.74 */
     double kappa;         /* von Karman constant of the wall length and stress; 0 = 0.4 */
@@ -326,6 +340,9 @@ typedef struct sq_grid_sgs_desc {
     bool stratified;      /* theta_idx is a potential temperature (K): N^2 enters nu_t */
     int theta_idx;
     double gravity_mps2;  /* g of N^2 = (g / theta) d theta / dz, with stratified */
+    int tke_idx;          /* SQ_SGS_TKE: the scalar holding e (m^2/s^2) */
+    double tke_ck;        /* SQ_SGS_TKE: C_k; 0 = 0.10 (Deardorff 1980; Moeng 1984) */
+    double tke_min_m2ps2; /* SQ_SGS_TKE: floor of e; 0 = 1e-6 m^2/s^2 */
 } sq_grid_sgs_desc;
 /* desc with its zero fields replaced by the defaults above (desc NULL: all defaults). */
 SQ_API sq_grid_sgs_desc sq_grid_sgs_desc_resolve(const sq_grid_sgs_desc *desc);
@@ -333,8 +350,8 @@ SQ_API sq_grid_sgs_desc sq_grid_sgs_desc_resolve(const sq_grid_sgs_desc *desc);
  * with roughness_m > 0). SQ_ERR_UNSTABLE, naming the diffusion number, when it would need more
  * than 1000 sub-steps. */
 SQ_API sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double dt_s);
-/* The closure's nu_t (m^2/s) per cell of the current wind, nx*ny*nz floats (x fastest;
- * solids 0), e.g. for tests and diagnostics. */
+/* The closure's nu_t (m^2/s; K_m of SQ_SGS_TKE, from the current e) per cell of the current
+ * wind, nx*ny*nz floats (x fastest; solids 0), e.g. for tests and diagnostics. */
 SQ_API sq_result sq_grid_sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *desc, float *nu_out);
 /* Makes the velocity divergence-free: solves A phi = -h^2 div u* for phi = p dt / rho to the
  * relative residual tolerance (warm-started from the previous pressure), then u -= grad phi.

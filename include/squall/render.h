@@ -21,6 +21,15 @@
 extern "C" {
 #endif
 
+/* Multiple scattering of the sun light in volumes, beyond the single scattering and the light
+ * buffer's forward in-scatter (docs/validation.md, "Multiple scattering by diffusion"). */
+typedef enum sq_volume_ms {
+    SQ_VOLUME_MS_DEFAULT = 0,   /* = SQ_VOLUME_MS_DIFFUSION */
+    SQ_VOLUME_MS_DIFFUSION = 1, /* delta-Eddington diffusion along the sun ray */
+    SQ_VOLUME_MS_OCTAVES = 2,   /* Wrenninge's octaves (volume_octaves) */
+    SQ_VOLUME_MS_NONE = 3       /* single scattering (and the forward in-scatter) only */
+} sq_volume_ms;
+
 typedef struct sq_render_desc {
     int width, height;     /* 0 -> 640 x 360 */
     float exposure;        /* linear scale before tone mapping; 0 -> 1 */
@@ -29,10 +38,13 @@ typedef struct sq_render_desc {
     bool volume_noise;     /* noise perturbation of volume texture coordinates (S0 Fig 3.12) */
     bool single_scatter_only; /* ablation: no multiple forward scattering in the light buffer */
     bool isotropic_phase;  /* ablation: g = 0 */
-    /* multiple-scattering octaves of the sun light in volumes, the first (single scattering
-     * plus the light buffer's forward in-scatter) included: 0 -> 3; 1 = none; at most 8
-     * (docs/validation.md, "Multiple-scattering octaves") */
+    /* with volume_ms = SQ_VOLUME_MS_OCTAVES: multiple-scattering octaves of the sun light in
+     * volumes, the first (single scattering plus the light buffer's forward in-scatter)
+     * included: 0 -> 3; 1 = none; at most 8 (docs/validation.md, "Multiple-scattering
+     * octaves") */
     int volume_octaves;
+    sq_volume_ms volume_ms; /* multiple scattering model (0 -> diffusion); volume_octaves
+                               counts only with SQ_VOLUME_MS_OCTAVES */
     /* ambient (sky and ground) light in volumes: false (default) = attenuated by the medium
      * itself toward the sky and the ground (dark bases and insides; docs/validation.md,
      * "Ambient light inside the medium"); true = the same everywhere (a uniformly lit

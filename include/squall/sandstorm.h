@@ -91,7 +91,8 @@ typedef struct sq_sandstorm_desc {
     int jacobi_iterations;         /* 0 -> 40 (S0) */
     double pressure_tolerance;      /* relative residual; 0 -> 1e-3 */
     int advection;                 /* 0 maccormack, 1 semi-lagrangian */
-    int turbulence;                /* 0 mixing length (S0), 1 Smagorinsky-Lilly subgrid closure */
+    int turbulence;                /* 0 mixing length (S0), 1 Smagorinsky-Lilly subgrid closure,
+                                       2 Deardorff's TKE closure (one more scalar) */
     double smagorinsky_c;           /* C_s of the subgrid closure; 0 -> 0.18 (Lilly 1967) */
     bool log_law_ground;           /* mixing length: the ground's stress from the log law (the
                                        subgrid closure always uses it); false: no-slip (S0) */

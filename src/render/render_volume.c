@@ -951,7 +951,12 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
         inv_back[c] = fabsf(wl[c]) > 1e-10f ? -1.0f / wl[c] : (wl[c] > 0.0f ? -1e10f : 1e10f);
     u3a(prog, "u_inv_back", inv_back);
     u3(prog, "u_sun_radiance", sun_irradiance(r->world));
-    /* multiple-scattering octaves (render_internal.h, sq__volume_ms_weight) */
+    /* multiple scattering: diffusion (render_internal.h, sq__volume_ms_diffusion) or the
+     * octaves (sq__volume_ms_weight) */
+    const int ms_mode = r->desc.volume_ms == SQ_VOLUME_MS_DIFFUSION ? 2
+                        : r->desc.volume_ms == SQ_VOLUME_MS_OCTAVES ? 1
+                                                                     : 0;
+    glProgramUniform1i(prog, glGetUniformLocation(prog, "u_ms_mode"), ms_mode);
     glProgramUniform1i(prog, glGetUniformLocation(prog, "u_ms_octaves"),
                        r->desc.volume_octaves - 1);
     glProgramUniform3f(prog, glGetUniformLocation(prog, "u_ms_abc"), (float)SQ_VOL_MS_A,
@@ -1321,6 +1326,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glBindTextureUnit(2, vp->bounds_tex);
         glBindTextureUnit(3, vp->phase_tex);
         glBindTextureUnit(4, ambient);
+        glBindTextureUnit(5, vp->shadow_tex); /* alpha: the sun ray's whole optical depth */
         glEnable(GL_BLEND);
         glBlendEquation(GL_FUNC_ADD);
         glBlendFuncSeparate(GL_ONE, GL_SRC1_COLOR, GL_ZERO, GL_ONE);

@@ -1300,6 +1300,12 @@ static sq_result resolve_desc(sq_context *ctx, const sq_render_desc *in, sq_rend
     if (d.volume_octaves < 1 || d.volume_octaves > 8)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "volume_octaves = %d; must be in 1..8 (0 -> 3)", d.volume_octaves);
+    if (d.volume_ms == SQ_VOLUME_MS_DEFAULT) d.volume_ms = SQ_VOLUME_MS_DIFFUSION;
+    if ((int)d.volume_ms < SQ_VOLUME_MS_DIFFUSION || (int)d.volume_ms > SQ_VOLUME_MS_NONE)
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume_ms = %d; must be 0 (diffusion), 1 (diffusion), 2 (octaves) or 3 "
+                        "(none)",
+                        (int)d.volume_ms);
     if (d.volume_slices < 1 || d.volume_slices > 4096)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "volume_slices = %d; must be in 1..4096 (0 -> 128)", d.volume_slices);

@@ -12,7 +12,8 @@
 #     experiments (Shin, Dalziel & Linden 2004, J. Fluid Mech. 521, 1-34).
 # The --json summary (at 16 cells, 4 s) names the fitted speed and Froude number consistently
 # (froude = front_speed / 9.905 within 0.1 %). With the Smagorinsky-Lilly subgrid closure
-# (--closure smagorinsky, 32 cells) the current keeps Fr within 10 % of 1/2 as well.
+# (--closure smagorinsky, 32 cells) and with Deardorff's TKE closure (--closure tke) the current
+# keeps Fr within 10 % of 1/2 as well.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 "$SQ" validate lock-exchange --n 32 > le.csv 2> err.txt \
     || fail "validate lock-exchange exited $?: $(cat err.txt)"
@@ -61,3 +62,13 @@ PY
 "$SQ" validate lock-exchange --n 16 --closure les > /dev/null 2> err.txt
 [ $? -eq 2 ] && grep -q "closure 'les'" err.txt || fail "bad --closure: $(cat err.txt)"
 finish
+"$SQ" validate lock-exchange --n 32 --closure tke --json > let.json 2> err.txt \
+    || fail "validate lock-exchange --closure tke exited $?: $(cat err.txt)"
+python3 - let.json <<'PY' || fail "TKE closure: $(cat let.json)"
+import json, sys
+j = json.load(open(sys.argv[1]))
+assert j["closure"] == "tke", j
+fr = j["front_speed_mps"] / 9.905
+print("TKE closure: Fr %.4f" % fr)
+assert 0.45 <= fr <= 0.55, fr
+PY

@@ -130,7 +130,8 @@ static bool gl_frame(sq_context *ctx, bool single, bool iso, const sq_world *w,
     rd.width = CW;
     rd.height = CH;
     rd.single_scatter_only = single;
-    rd.volume_octaves = single ? 1 : 0; /* the ablation: no multiple scattering at all */
+    rd.volume_ms = single ? SQ_VOLUME_MS_NONE : SQ_VOLUME_MS_DEFAULT; /* the ablation: no
+                                                                        multiple scattering */
     rd.isotropic_phase = iso;
     rd.seed = 3;
     sq_renderer *r = NULL;
@@ -227,6 +228,10 @@ static scores compare_scene(float sun_az, float sun_el, float view_az, float dis
  * 0.0012 FLIP of the values above, inside the floors; docs/validation.md "Ambient light inside
  * the medium").
  * The first run's values:
+ * With multiple scattering by diffusion instead of the octaves (render_internal.h,
+ * sq__volume_ms_diffusion; the default since 2026-11-28, seed 11): sun behind SSIM 0.9406,
+ * FLIP 0.0816; against the sun 0.9543, 0.0801; side-lit 0.7428 (0.0088 below the octaves),
+ * FLIP 0.2070 (0.0118 better): the side-lit floor lowered to 0.74, its ceiling to 0.21.
  *   sun behind:   SSIM full 0.9354, single 0.9352, iso 0.8855; FLIP full 0.0913, single 0.0910,
  *                 iso 0.1220. The single-scatter ablation is equal within noise (Harris forward
  *                 scattering carries light away from this viewer), so only iso is asserted.
@@ -278,8 +283,8 @@ SQ_TEST(thick_dust_lit_from_behind_at_the_side)
 {
     static const medium thick = {0.1f, {0.99f, 0.99f, 0.99f}, 0.9f};
     scores s = compare_scene(60.0f, 10.0f, 30.0f, 220.0f, &thick, "side");
-    SQ_CHECK(s.full >= 0.75);
-    SQ_CHECK(s.flip_full <= 0.22);
+    SQ_CHECK(s.full >= 0.74);
+    SQ_CHECK(s.flip_full <= 0.21);
     SQ_CHECK(s.full - s.single >= 0.01);
     SQ_CHECK(s.flip_single - s.flip_full >= 0.01);
     SQ_CHECK(s.full > s.iso);

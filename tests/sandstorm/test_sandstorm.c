@@ -297,6 +297,10 @@ SQ_TEST(stratified_atmosphere_stays_at_rest) { atmosphere_at_rest(0); }
  * updraft of their own either. */
 SQ_TEST(stratified_atmosphere_stays_at_rest_with_the_subgrid_closure) { atmosphere_at_rest(1); }
 
+/* And with Deardorff's TKE closure (solver.turbulence = tke): its subgrid energy, produced by
+ * the inflow's shear and carried through the domain, must not make an updraft either. */
+SQ_TEST(stratified_atmosphere_stays_at_rest_with_the_tke_closure) { atmosphere_at_rest(2); }
+
 /* The stated non-spherical asymmetry parameter reaches the drawable, inside the SPEC §2.6
  * band for mineral dust (0.65-0.75) and below what Mie spheres of the same sizes give. */
 SQ_TEST(dust_asymmetry_is_non_spherical)
@@ -515,6 +519,10 @@ SQ_TEST(haboob_bad_input_named)
     d = small_desc();
     d.top_boundary = 2;
     SQ_CHECK_ERR(sq_sandstorm_create(ctx, &d, w, &s), SQ_ERR_INVALID_ARG, "domain.top = 2; must be open (0) or free-slip (1)");
+    d = small_desc();
+    d.turbulence = 3;
+    SQ_CHECK_ERR(sq_sandstorm_create(ctx, &d, w, &s), SQ_ERR_INVALID_ARG,
+                 "solver.turbulence = 3; must be mixing-length (0), smagorinsky (1) or tke (2)");
     d = small_desc();
     d.wind_speed_mps = 40.0;
     SQ_CHECK_OK(sq_sandstorm_create(ctx, &d, w, &s));

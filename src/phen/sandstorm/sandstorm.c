@@ -329,8 +329,10 @@ static sq_result create_grid(sq_sandstorm *s)
     g.mixing_length_max_m = SQ_SAND_MIXING_LENGTH_MAX;
     /* the mixing length's ground: the wind 0 half a cell below (S0), or the log law's stress */
     g.wall_roughness_m = d->log_law_ground ? d->roughness_m : 0.0;
-    g.scalar_count = s->nbins + 1;
-    g.scalar_nonnegative = (1ull << (s->nbins + 1)) - 1ull;
+    /* scalars: the dust bins, theta, and with solver.turbulence = tke the subgrid energy e */
+    const bool tke = d->turbulence == 2;
+    g.scalar_count = s->nbins + 1 + (tke ? 1 : 0);
+    g.scalar_nonnegative = (1ull << g.scalar_count) - 1ull;
     s->temp_idx = s->nbins;
     /* under mpirun the grid is split in slabs (docs/mpi.md); the whole grid's copy holds the
      * gathered fields for everything that is not the step */
@@ -360,8 +362,11 @@ static sq_result create_grid(sq_sandstorm *s)
                                  SQ_SAND_GRAVITY * d->buoyancy_gain);
     if (r != SQ_OK) return r;
     /* or the Smagorinsky-Lilly subgrid closure (grid_sgs.c) with the same Pr_t and the log-law
-     * stress of the ground's roughness */
+     * stress of the ground's roughness, or Deardorff's TKE closure (grid_tke.c) with e in the
+     * last scalar (0 at first: the floor seeds it; the inflow brings e = 0 too) */
     memset(&s->sgs, 0, sizeof s->sgs);
+    s->sgs.closure = tke ? SQ_SGS_TKE : SQ_SGS_SMAGORINSKY;
+    s->sgs.tke_idx = tke ? s->nbins + 1 : 0;
     s->sgs.smagorinsky_c = d->smagorinsky_c;
     s->sgs.prandtl_t = SQ_SAND_PRANDTL_T;
     s->sgs.kappa = SQ_SAND_KARMAN;
@@ -929,7 +934,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
         r = sq_grid_confine_vorticity(s->grid, s->d.confinement, !s->d.plain_confinement, dt);
     double t2 = sq_time_now();
     if (r == SQ_OK)                                                        /* turbulence */
-        r = s->d.turbulence == 1 ? sq_grid_diffuse_sgs(s->grid, &s->sgs, dt) /* subgrid (LES) */
+        r = s->d.turbulence >= 1 ? sq_grid_diffuse_sgs(s->grid, &s->sgs, dt) /* subgrid (LES) */
                                  : sq_grid_diffuse_eddy(s->grid, SQ_SAND_NU_AIR, SQ_SAND_KARMAN, dt);
     double t3 = sq_time_now();
     sq_grid_project_stats ps;

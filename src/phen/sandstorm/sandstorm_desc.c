@@ -107,6 +107,9 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
             BAD("%scoldpool.length_m = %g m; the initial outflow must start inside the domain "
                 "(0 <= length < %g m)", P, (double)d.coldpool_length_m, len);
     }
+    if (d.turbulence < 0 || d.turbulence > 2)
+        BAD("%ssolver.turbulence = %d; must be mixing-length (0), smagorinsky (1) or tke (2)", P,
+            d.turbulence);
     if (d.top_boundary != 0 && d.top_boundary != 1)
         BAD("%sdomain.top = %d; must be open (0) or free-slip (1)", P, d.top_boundary);
     if (d.surface_heat_flux_w_m2 < -200.0 || d.surface_heat_flux_w_m2 > 1000.0)
@@ -165,7 +168,7 @@ uint64_t sq_sandstorm_memory_bytes(const sq_sandstorm_desc *in)
     sq_grid_desc g = {0};
     g.cells = (sq_dims){d.cells[0], d.cells[1], d.cells[2]};
     g.cell_size_m = d.cell_size_m;
-    g.scalar_count = d.bins + 1;
+    g.scalar_count = d.bins + 1 + (d.turbulence == 2 ? 1 : 0); /* dust, theta, TKE's e */
     uint64_t n = (uint64_t)d.cells[0] * d.cells[1] * d.cells[2];
     uint64_t cols = (uint64_t)d.cells[0] * d.cells[1];
     /* accel_z, density, 6 export buffers; ground_k, ground_z1, keep; row and plane sums */

@@ -81,7 +81,7 @@ struct sq_sandstorm {
     int nx, ny, nz;   /* the whole grid's cells */
     double h;
     double origin[3];
-    sq_grid_sgs_desc sgs; /* the subgrid closure (solver.turbulence = smagorinsky) */
+    sq_grid_sgs_desc sgs; /* the subgrid closure (solver.turbulence = smagorinsky or tke) */
     int temp_idx;     /* the scalar holding potential temperature theta (K) */
     float *theta_ref; /* nz: background potential temperature per level (K) */
     int *ground_k;    /* nx*ny: first fluid cell above the ground in each column (-1: none) */

@@ -87,7 +87,7 @@ static const sq_param params[] = {
       "Relative residual the pressure solve converges to."),
     E("solver.advection", advection, "maccormack|semi-lagrangian",
       "Advection: MacCormack with Selle's limiter (S0 + SPEC §1.4) or semi-Lagrangian."),
-    E("solver.turbulence", turbulence, "mixing-length|smagorinsky",
+    E("solver.turbulence", turbulence, "mixing-length|smagorinsky|tke",
       "Turbulence closure. mixing-length: S0's nu_t = (kappa d)^2 |du_h/dz| on the horizontal "
       "wind and the vertical flux of the scalars (a boundary-layer closure for coarse cells); "
       "smagorinsky: the Smagorinsky-Lilly subgrid closure of a large-eddy simulation, "
@@ -95,7 +95,11 @@ static const sq_param params[] = {
       "components, the heat and the dust in all directions, with the log-law stress at the "
       "ground (for cells much smaller than the storm's big eddies: a haboob's head). Use it with "
       "solver.confinement 0: its small viscosity lets the confinement force run away (the "
-      "haboob preset reached 151 m/s with 0.15)."),
+      "haboob preset reached 151 m/s with 0.15). tke: Deardorff's (1980) 1.5-order closure, "
+      "a prognostic subgrid kinetic energy e carried by the flow (produced by shear and "
+      "buoyancy, dissipated as e^1.5/l), K_m = 0.1 l sqrt(e), K_h = (1 + 2l/h) K_m, "
+      "l = min(h, 0.76 sqrt(e)/N), on the same terms as smagorinsky (the turbulence made in a "
+      "haboob's head is carried into its body); one more scalar per cell (4 bytes)."),
     B("solver.log_law_ground", log_law_ground,
       "Mixing-length closure: the ground's stress on the wind is the log law's, u*^2 = "
       "(kappa |u_h| / ln(z1/z0))^2 at the first cell centre z1 = h/2 (the wall law of the "

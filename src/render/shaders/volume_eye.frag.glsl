@@ -17,10 +17,15 @@
 // J_amb: the sky's and the ground's halves of the ambient light, each scaled by its visibility
 // through the medium from this point (u_ambient, a 3D texture; one texel of the unscaled sum
 // when the renderer's ambient is uniform).
-// Multiple scattering beyond the forward lobe (u_ms_octaves > 0): octaves i = 1..n add
-// E albedo^i b^i (exp(-a^i tau) - exp(-tau)) p_HG(theta, c^i g) to J, tau the sun's optical
-// depth to the point (alpha of the light layer plus the half slab), after Wrenninge et al.
-// 2013 (render_internal.h, sq__volume_ms_weight, explains the form).
+// Multiple scattering beyond the forward lobe, u_ms_mode 2 (diffusion, the default): the
+// delta-Eddington P1 source of the light scattered out of the sun's beam, for the slab that
+// the sun ray through the point crosses: tau the sun's optical depth to the point (alpha of
+// the light layer plus the half slab), tau0 the whole ray's (alpha of the last light layer,
+// u_tau_total), plus the delta-Eddington beam's forward-peak light scattered once more;
+// render_internal.h (sq__volume_ms_diffusion, sq__volume_ms_beam) gives the equations, per
+// channel here. u_ms_mode 1 (octaves): octaves i = 1..n add E albedo^i b^i (exp(-a^i tau) - exp(-tau))
+// p_HG(theta, c^i g) to J, after Wrenninge et al. 2013 (render_internal.h,
+// sq__volume_ms_weight). 0: none.
 #include "volume_common.glsl"
 
 in vec3 v_world;
@@ -41,9 +46,44 @@ uniform vec3 u_sun_radiance;   // sun irradiance E
 // per voxel: the phase-averaged ambient radiance J_amb, the sky's half and the ground's half
 // each scaled by its visibility through the medium (render_volume.c, volume_sky.c)
 layout(binding = 4) uniform sampler3D u_ambient;
-uniform int u_ms_octaves;      // multiple-scattering octaves beyond the first (0: none)
+// the light after the last slab: its alpha is the sun ray's whole optical depth (mode 2)
+layout(binding = 5) uniform sampler2D u_tau_total;
+uniform int u_ms_mode;         // multiple scattering: 0 none, 1 octaves, 2 diffusion
+uniform int u_ms_octaves;      // multiple-scattering octaves beyond the first (mode 1)
 uniform vec3 u_ms_abc;         // per octave: extinction scale a, weight b, asymmetry scale c
 uniform float u_ms_g;          // asymmetry of the first octave (green)
+
+const float VOL_K2_GUARD = 0.01; // render_internal.h SQ_VOL_MS_K2_GUARD
+const float VOL_MS_WIDTH = 0.5;  // render_internal.h SQ_VOL_MS_WIDTH
+
+// sq__volume_ms_diffusion per channel: w albedo, g asymmetry, tau and tau0 the optical depths
+// to the point and through the whole sun ray (per channel), ct = cos(theta).
+vec3 vol_ms_diffusion(vec3 w, float g, vec3 tau, vec3 tau0, float ct)
+{
+    float f = g * g, gs = g / (1.0 + g);
+    vec3 sc = 1.0 - w * f;
+    vec3 ws = min(w * (1.0 - f) / sc, vec3(0.999));
+    vec3 h = 1.0 / (3.0 * (1.0 - ws * gs));
+    vec3 t0 = sc * max(tau0, tau);
+    // light leaving sideways: the body taken as wide as VOL_MS_WIDTH times the sun ray's
+    // depth, extrapolated by 2h on each side (geometric buckling of two transverse directions)
+    vec3 wdt = VOL_MS_WIDTH * t0 + 4.0 * h;
+    vec3 k2 = 3.0 * (1.0 - ws) * (1.0 - ws * gs) + 2.0 * VOL_PI * VOL_PI / (wdt * wdt);
+    vec3 near1 = step(abs(k2 - 1.0), vec3(VOL_K2_GUARD));
+    k2 = mix(k2, 1.0 + VOL_K2_GUARD * sign(k2 - 1.0 + 1e-12), near1);
+    vec3 k = sqrt(k2);
+    vec3 C = 3.0 * ws * (1.0 + gs - ws * gs) / (k2 - 1.0), S = 3.0 * h * ws * gs;
+    vec3 t = sc * tau;
+    vec3 ek = exp(-k * t0), ec = exp(-t0);
+    vec3 a11 = 1.0 + 2.0 * h * k, a12 = ek * (1.0 - 2.0 * h * k);
+    vec3 r1 = -C * (1.0 + 2.0 * h) - 2.0 * S, r2 = -C * ec * (1.0 - 2.0 * h) + 2.0 * S * ec;
+    vec3 det = a11 * a11 - a12 * a12;
+    vec3 A = (r1 * a11 - a12 * r2) / det, B = (a11 * r2 - a12 * r1) / det;
+    vec3 e1 = exp(-k * t), e2 = exp(-k * (t0 - t)), e3 = exp(-t);
+    vec3 phi = A * e1 + B * e2 + C * e3;
+    vec3 F = S * e3 - h * (-k * A * e1 + k * B * e2 - C * e3);
+    return max(phi + 3.0 * g * F * ct, 0.0) / (4.0 * VOL_PI);
+}
 
 layout(location = 0, index = 0) out vec4 o_color;
 layout(location = 0, index = 1) out vec4 o_trans;
@@ -84,7 +124,18 @@ void main()
 #endif
     vec4 phase = texelFetch(u_phase, px, 0);
     vec3 Ls = L * phase.rgb;
-    if (u_ms_octaves > 0) { // uniform: the same side for every fragment
+    if (u_ms_mode == 2) { // uniform: the same side for every fragment
+        float tau = light.a + beta.g * back;
+        float tau0 = textureLod(u_tau_total, v_light_uv, 0.0).a;
+        vec3 per = u_sigma_ext / u_sigma_ext.g; // optical depth per channel from green's
+        Ls += vol_ms_diffusion(u_albedo, u_ms_g, tau * per, tau0 * per, phase.a);
+        // J_beam: the forward peak's light beyond the beam exp(-tau) (delta-Eddington: the
+        // beam is exp(-(1 - w f) tau))
+        float f = u_ms_g * u_ms_g;
+        vec3 beam = max(exp(-(1.0 - u_albedo * f) * tau * per) - exp(-tau * per), 0.0);
+        // scattered once in the peak and once more toward the eye: HG(g) twice ~ HG(g^2)
+        Ls += vol_hg(phase.a, f) * beam;
+    } else if (u_ms_mode == 1 && u_ms_octaves > 0) {
         float tau = light.a + beta.g * back;
         float direct = exp(-tau), a = 1.0, b = 1.0, g = u_ms_g;
         vec3 w = vec3(1.0);

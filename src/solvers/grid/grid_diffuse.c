@@ -361,10 +361,15 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
                 iden[c + i] = inv;
             }
         }
-    for (int sidx = 0; sidx < g->d.scalar_count; sidx++) {
-        float *f = g->scalar[sidx].base;
-        SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-        for (int j = 0; j < ny; j++) {
+    /* per x-z slice of columns (one j), every scalar in turn: the slice's coefficients and
+     * increments stay in the cache across the scalars, and each scalar's slice is read and
+     * written once (forward elimination, then the back substitution adding each increment as
+     * it is found) */
+    const int ns = g->d.scalar_count;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int j = 0; j < ny; j++) {
+        for (int sidx = 0; sidx < ns; sidx++) {
+            float *f = g->scalar[sidx].base;
             for (int k = 0; k < nz; k++) { /* forward elimination, a row of columns at once */
                 const ptrdiff_t c = sq__cidx(g, 0, j, k);
                 const int32_t bottom = -(int32_t)(k == 0);
@@ -378,18 +383,23 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
                     dp[c + i] = (rhs + alo * dprev) * iden[c + i];
                 }
             }
-            for (int k = nz - 2; k >= 0; k--) { /* back substitution of the increments */
-                const ptrdiff_t c = sq__cidx(g, 0, j, k);
-                for (int i = 0; i < nx; i++) dp[c + i] -= cp[c + i] * dp[c + i + sz];
-            }
-            for (int k = 0; k < nz; k++) {
-                const ptrdiff_t c = sq__cidx(g, 0, j, k);
+            { /* the top cell's increment is final */
+                const ptrdiff_t c = sq__cidx(g, 0, j, nz - 1);
                 for (int i = 0; i < nx; i++) f[c + i] += dp[c + i];
             }
+            for (int k = nz - 2; k >= 0; k--) { /* back substitution of the increments */
+                const ptrdiff_t c = sq__cidx(g, 0, j, k);
+                for (int i = 0; i < nx; i++) {
+                    const float d = dp[c + i] - cp[c + i] * dp[c + i + sz];
+                    dp[c + i] = d;
+                    f[c + i] += d;
+                }
+            }
         }
+    }
+    for (int sidx = 0; sidx < ns; sidx++)
         sq__grid_fill_ghosts(g, g->scalar[sidx].origin, g->scalar[sidx].sy, g->scalar[sidx].sz,
                              SQ__L_CELL, sidx);
-    }
 }
 
 sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,

@@ -215,6 +215,16 @@ float sq__grid_interp(const sq_grid *g, const float *origin, ptrdiff_t sy, ptrdi
  * a no-slip bottom: u_h /= 1 + dt C_d |u_h| / h, C_d = (kappa / ln(h / 2 z0))^2 (implicit). */
 void sq__grid_wall_stress(sq_grid *g, double kappa, double z0, float dt);
 
+/* ---- grid_tke.c (SQ_SGS_TKE; arrays in the padded cell layout, e = scalar d->tke_idx) ------ */
+/* The length l and K_m, K_h from max(e, tke_min) (solids 0); returns max(K_h, 2 K_m).
+ * n2: N^2 per cell (1/s^2). */
+float sq__grid_tke_coefficients(sq_grid *g, const sq_grid_sgs_desc *d, const float *n2, float *l,
+                                float *km, float *kh);
+/* Floors e, then advances it by the shear production K_m |S|^2 (s2 = |S|^2), the buoyancy term -K_h N^2 and
+ * the dissipation -C_eps e^(3/2) / l over dt; refills e's ghosts. */
+void sq__grid_tke_sources(sq_grid *g, const sq_grid_sgs_desc *d, const float *s2, const float *n2,
+                          const float *l, const float *km, const float *kh, float dt);
+
 /* ---- grid_project.c ----------------------------------------------------------------------- */
 sq_result sq__grid_build_multigrid(sq_grid *g);
 void sq__grid_free_multigrid(sq_grid *g);

@@ -321,56 +321,102 @@ static inline float inv_diag0(uint8_t d)
 
 enum { ROW = 256 }; /* row chunk of the level-0 kernels */
 
-/* x (padded, level-0 layout) red (colour 0: i+j+k even) or black half-sweep. from_zero: the
- * first half-sweep of a V-cycle started from x = 0 (neighbours are not read; the other colour
- * is written by the next half-sweep). dot: if not NULL, receives sum b.x over all cells after
- * the update (per plane, in plane order). */
+/* One half-sweep of plane k of x (padded, level-0 layout): the cells of one colour (i+j+k+par0
+ * even: par0 = 0 red) get x = (b + sum of neighbours) / diag. from_zero: x = 0 before the sweep
+ * (neighbours are not read; the other colour is written by the next half-sweep). Returns sum
+ * b.x over the plane's rows when dot (b = 0 in solid cells). */
+static double smooth_plane(const sq_grid *g, float *x, const float *b, int k, int par0,
+                           bool from_zero, bool dot)
+{
+    const int nx = g->n[0], ny = g->n[1];
+    const ptrdiff_t sy = g->sy, sz = g->sz;
+    const uint8_t *dg = g->diag;
+    double acc = 0.0;
+    float t[ROW];
+    for (int j = 0; j < ny; j++) {
+        const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
+        const int par = (j + k + par0) & 1; /* cells with (i & 1) == par are updated */
+        /* every cell of the row is computed (contiguous, vectorised) and this colour's cells
+         * are kept: the other colour's values are what this colour reads */
+        for (int i0 = 0; i0 < nx; i0 += ROW) {
+            const int n = nx - i0 < ROW ? nx - i0 : ROW;
+            const ptrdiff_t c0 = r0 + i0;
+            float *xr = x + c0;
+            if (from_zero) {
+                for (int q = 0; q < n; q++)
+                    xr[q] = sq__fsel(((i0 + q) & 1) == par, inv_diag0(dg[c0 + q]) * b[c0 + q],
+                                     xr[q]);
+            } else {
+                for (int q = 0; q < n; q++) {
+                    const ptrdiff_t c = c0 + q;
+                    t[q] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, sy, sz));
+                }
+                for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
+            }
+        }
+        if (dot) acc += (double)sq__dotf(b + r0, x + r0, nx);
+    }
+    return acc;
+}
+
+/* x red (colour 0: i+j+k even) or black half-sweep. from_zero: the first half-sweep of a
+ * V-cycle started from x = 0. dot: if not NULL, receives sum b.x over all cells after the
+ * update (per plane, in plane order). */
 static void smooth0_ex(sq_grid *g, float *x, const float *b, int colour, bool from_zero,
                        double *dot)
 {
-    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
-    const ptrdiff_t sy = g->sy, sz = g->sz;
-    const uint8_t *dg = g->diag;
+    const int nz = g->n[2];
     const int nt = sq_context_threads(g->ctx);
     (void)nt; /* unused without OpenMP */
     double *ps = g->plane_sum;
     colour ^= sq__grid_dist_parity(g); /* a slab's colours follow the global cell index */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < nz; k++) {
-        double acc = 0.0;
-        float t[ROW];
-        for (int j = 0; j < ny; j++) {
-            const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-            const int par = (j + k + colour) & 1; /* cells with (i & 1) == par are updated */
-            /* every cell of the row is computed (contiguous, vectorised) and this colour's
-             * cells are kept: the other colour's values are what this colour reads */
-            for (int i0 = 0; i0 < nx; i0 += ROW) {
-                const int n = nx - i0 < ROW ? nx - i0 : ROW;
-                const ptrdiff_t c0 = r0 + i0;
-                float *xr = x + c0;
-                if (from_zero) {
-                    for (int q = 0; q < n; q++)
-                        xr[q] = sq__fsel(((i0 + q) & 1) == par, inv_diag0(dg[c0 + q]) * b[c0 + q],
-                                         xr[q]);
-                } else {
-                    for (int q = 0; q < n; q++) {
-                        const ptrdiff_t c = c0 + q;
-                        t[q] = inv_diag0(dg[c]) * (b[c] + nbsum0(x, c, sy, sz));
-                    }
-                    for (int q = 0; q < n; q++) xr[q] = sq__fsel(((i0 + q) & 1) == par, t[q], xr[q]);
-                }
-            }
-            if (dot) acc += (double)sq__dotf(b + r0, x + r0, nx); /* b = 0 in solid cells */
-        }
-        ps[4 * k] = acc;
-    }
+    for (int k = 0; k < nz; k++) ps[4 * k] = smooth_plane(g, x, b, k, colour, from_zero, dot != NULL);
     sync0(g, x);
     if (dot) *dot = sum_plane0(g);
 }
 
-static void smooth0(sq_grid *g, float *x, const float *b, int colour)
+/* Two half-sweeps, colour then the other colour, in one pass over memory: the second colour of
+ * plane k - 1 follows the first of plane k (it reads the first colour of planes k - 2 .. k, all
+ * final, and the first colour of plane k has read plane k - 1's second colour before it
+ * changed), so each plane is still in the cache for its second half-sweep. The planes next to
+ * another thread's chunk take their second half-sweep after a barrier. The same arithmetic in
+ * the same order per cell as two smooth0_ex calls: bit-identical. Only for a grid whose
+ * half-sweeps need no ghost exchange in between (no periodic axis, not decomposed); otherwise
+ * it is the two calls. */
+static void smooth0_pair(sq_grid *g, float *x, const float *b, int colour, bool from_zero,
+                         double *dot)
 {
-    smooth0_ex(g, x, b, colour, false, NULL);
+    if (any_periodic(g) || g->halo != NULL) {
+        smooth0_ex(g, x, b, colour, from_zero, NULL);
+        smooth0_ex(g, x, b, colour ^ 1, false, dot);
+        return;
+    }
+    const int nz = g->n[2];
+    const int nt = sq_context_threads(g->ctx);
+    (void)nt; /* unused without OpenMP */
+    const int nc = nt < nz / 4 ? nt : (nz / 4 > 1 ? nz / 4 : 1); /* chunks of >= 4 planes */
+    double *ps = g->plane_sum;
+    const bool want = dot != NULL;
+    const int c1 = colour, c2 = colour ^ 1;
+    SQ_OMP(omp parallel num_threads(nt))
+    {
+        SQ_OMP(omp for schedule(static))
+        for (int t = 0; t < nc; t++) {
+            const int k0 = (int)((int64_t)nz * t / nc), k1 = (int)((int64_t)nz * (t + 1) / nc);
+            for (int k = k0; k < k1; k++) {
+                smooth_plane(g, x, b, k, c1, from_zero, false);
+                if (k - 1 > k0) ps[4 * (k - 1)] = smooth_plane(g, x, b, k - 1, c2, false, want);
+            }
+        }
+        SQ_OMP(omp for schedule(static))
+        for (int t = 0; t < nc; t++) { /* the chunk's end planes, after every first colour */
+            const int k0 = (int)((int64_t)nz * t / nc), k1 = (int)((int64_t)nz * (t + 1) / nc);
+            ps[4 * k0] = smooth_plane(g, x, b, k0, c2, false, want);
+            if (k1 - 1 > k0) ps[4 * (k1 - 1)] = smooth_plane(g, x, b, k1 - 1, c2, false, want);
+        }
+    }
+    if (dot) *dot = sum_plane0(g);
 }
 
 /* out = A x on fluid cells; returns sum x.out (per plane, in plane order) */
@@ -715,10 +761,7 @@ static void vcycle0(sq_grid *g, float *x, const float *b, bool from_zero, double
         memset(x, 0, g->cell_count * sizeof(float));
         from_zero = false;
     }
-    for (int s = 0; s < nu; s++) {
-        smooth0_ex(g, x, b, 0, from_zero && s == 0, NULL);
-        smooth0(g, x, b, 1);
-    }
+    for (int s = 0; s < nu; s++) smooth0_pair(g, x, b, 0, from_zero && s == 0, NULL);
     if (g->mg_levels > 1) {
         restrict0(g, x, b);
         /* a decomposed grid: every rank cycles the whole coarse hierarchy (the global faces'
@@ -729,10 +772,7 @@ static void vcycle0(sq_grid *g, float *x, const float *b, bool from_zero, double
         sq__grid_dist_global_bc(g);
         sync0(g, x);
     }
-    for (int s = 0; s < nu; s++) {
-        smooth0(g, x, b, 1);
-        smooth0_ex(g, x, b, 0, false, s == nu - 1 ? dot : NULL);
-    }
+    for (int s = 0; s < nu; s++) smooth0_pair(g, x, b, 1, false, s == nu - 1 ? dot : NULL);
     st->fine_sweeps += 2 * nu;
     st->work_units += 2 * nu;
 }
@@ -909,9 +949,7 @@ static void solve_pcg(sq_grid *g, float *phi, sq_grid_project_stats *st)
         return;
     }
     /* ghosts and solid cells of the work vectors must hold finite values */
-    memset(z, 0, n * sizeof(float));
-    memset(d, 0, n * sizeof(float));
-    memset(q, 0, n * sizeof(float));
+    memset(z, 0, n * sizeof(float)); /* d is a copy of z below; q = A d is written whole */
     double rho;
     vcycle0(g, z, r, true, &rho, st);
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];

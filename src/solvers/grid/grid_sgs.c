@@ -1,4 +1,4 @@
-/* grid_sgs.c — Smagorinsky–Lilly subgrid-scale closure (large-eddy simulation) of the wind,
+/* grid_sgs.c — Smagorinsky–Lilly (or Deardorff's TKE) subgrid-scale closure (large-eddy simulation) of the wind,
  * the heat and every scalar (SPEC §1.5), with a log-law wall stress at the ground:
  *
  *   strain rate      S_ij = (d_j u_i + d_i u_j) / 2,   |S| = sqrt(2 S_ij S_ij)
@@ -28,7 +28,12 @@
  * velocity faces, so the scalars' sum is conserved to round-off and a uniform field stays
  * bit-exact. Explicit, sub-stepped so that each sub-step's diffusion number is <= 1/6 (every
  * update a convex combination: no new extrema). With |S| dt <~ 2 CFL and l <= C_s h the number
- * is ~C_s^2 CFL, so one sub-step is the rule. Periodic axes are treated as closed ends. */
+ * is ~C_s^2 CFL, so one sub-step is the rule. Periodic axes are treated as closed ends.
+ *
+ * closure = SQ_SGS_TKE replaces nu_t by Deardorff's (1980) prognostic closure: K_m = C_k l
+ * sqrt(e) for the wind, K_h = (1 + 2 l / h) K_m for the scalars, 2 K_m for e itself, from the
+ * subgrid kinetic energy e whose sources (shear, buoyancy, dissipation) are grid_tke.c's. The
+ * same |S|^2, N^2, diffusion and wall stress. */
 #include <string.h>
 
 #include "solvers/grid/grid_internal.h"
@@ -44,11 +49,31 @@ sq_grid_sgs_desc sq_grid_sgs_desc_resolve(const sq_grid_sgs_desc *in)
     if (d.prandtl_t == 0.0) d.prandtl_t = 0.74;
     if (d.kappa == 0.0) d.kappa = 0.4;
     if (!d.stratified) d.theta_idx = -1;
+    if (d.tke_ck == 0.0) d.tke_ck = 0.10;
+    if (d.tke_min_m2ps2 == 0.0) d.tke_min_m2ps2 = 1e-6;
     return d;
 }
 
 static sq_result check_desc(sq_grid *g, const sq_grid_sgs_desc *d)
 {
+    if (d->closure != SQ_SGS_SMAGORINSKY && d->closure != SQ_SGS_TKE)
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "closure = %d; must be SQ_SGS_SMAGORINSKY (0) or SQ_SGS_TKE (1)",
+                        (int)d->closure);
+    if (d->closure == SQ_SGS_TKE) {
+        if (d->tke_idx < 0 || d->tke_idx >= g->d.scalar_count ||
+            (d->stratified && d->tke_idx == d->theta_idx))
+            return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "tke_idx = %d; must be a scalar in 0..%d other than theta_idx (%d)",
+                            d->tke_idx, g->d.scalar_count - 1, d->theta_idx);
+        if (!(d->tke_ck > 0.0 && d->tke_ck <= 1.0))
+            return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "tke_ck = %g; must be in (0, 1] (Deardorff 1980: 0.10)", d->tke_ck);
+        if (!(d->tke_min_m2ps2 > 0.0 && d->tke_min_m2ps2 <= 1.0))
+            return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "tke_min_m2ps2 = %g; the floor of e must be in (0, 1] m2/s2",
+                            d->tke_min_m2ps2);
+    }
     if (!(d->smagorinsky_c > 0.0 && d->smagorinsky_c <= 1.0))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
                         "smagorinsky_c = %g; must be in (0, 1] (Lilly 1967: 0.18)", d->smagorinsky_c);
@@ -108,15 +133,15 @@ static inline float dcell(const float *f, ptrdiff_t c, ptrdiff_t st, float ih2)
     return (f[c + st] - f[c - st]) * ih2;
 }
 
-/* nu_t per cell (cell layout, solids and ghosts 0); returns the largest nu_t. */
-static float sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *d, float *nu, float *uc,
-                           float *vc, float *wc)
+/* |S|^2 = 2 S_ij S_ij and gfac (d theta/dz) / theta per fluid cell (cell layout; solids
+ * untouched): N^2 / Pr_t with gfac = g / Pr_t (Smagorinsky-Lilly), N^2 with gfac = g (TKE);
+ * 0 without a stratification scalar. uc, vc, wc: scratch for the cell winds. */
+static void strain_and_stratification(sq_grid *g, const sq_grid_sgs_desc *d, float gfac,
+                                      float *s2o, float *n2o, float *uc, float *vc, float *wc)
 {
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
-    const float h = g->h, ih = 1.0f / h, ih2 = 0.5f / h;
-    const float ls = (float)d->smagorinsky_c * h, ils2 = 1.0f / (ls * ls);
-    const float kappa = (float)d->kappa, z0 = (float)d->roughness_m;
-    const float g_pr = d->stratified ? (float)(d->gravity_mps2 / d->prandtl_t) : 0.0f;
+    const float ih = 1.0f / g->h, ih2 = 0.5f / g->h;
+    const float g_pr = d->stratified ? gfac : 0.0f;
     const sq_field3 *T = d->stratified ? &g->scalar[d->theta_idx] : NULL;
     const uint8_t *fl = g->flags;
     const ptrdiff_t sy = g->sy, sz = g->sz;
@@ -124,11 +149,8 @@ static float sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *d, float *nu, flo
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
     cell_winds(g, uc, vc, wc);
-    memset(nu, 0, g->cell_count * sizeof *nu);
-    double *pm = g->plane_sum;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++) {
-        float m = 0.0f;
         for (int j = 0; j < ny; j++) {
             const float *u = sq_field3_at(U, 0, j, k), *v0 = sq_field3_at(V, 0, j, k),
                         *v1 = sq_field3_at(V, 0, j + 1, k), *w0 = sq_field3_at(W, 0, j, k),
@@ -145,8 +167,8 @@ static float sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *d, float *nu, flo
                 const float dwdx = dcell(wc, c, 1, ih2), dwdy = dcell(wc, c, sy, ih2);
                 const float sxy = dudy + dvdx, sxz = dudz + dwdx, syz = dvdz + dwdy;
                 /* |S|^2 = 2 S_ij S_ij */
-                const float s2 = 2.0f * (dudx * dudx + dvdy * dvdy + dwdz * dwdz) + sxy * sxy +
-                                 sxz * sxz + syz * syz;
+                s2o[c] = 2.0f * (dudx * dudx + dvdy * dvdy + dwdz * dwdz) + sxy * sxy +
+                         sxz * sxz + syz * syz;
                 /* N^2 (central; one-sided against a solid or a domain end). Differences below
                  * 1e-3 K per cell are the float theta's round-off (3e-5 K at 300 K), not
                  * stratification: counted as neutral, or a neutral column would convect. */
@@ -161,25 +183,77 @@ static float sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *d, float *nu, flo
                                                : 0.0f;
                     if ((dth > 1e-3f || dth < -1e-3f) && t0 > 0.0f) n2 = g_pr * dth * ih / t0;
                 }
+                n2o[c] = n2;
+            }
+        }
+    }
+}
+
+/* Smagorinsky-Lilly nu_t per cell (cell layout, solids and ghosts 0) from |S|^2 and N^2/Pr_t;
+ * returns the largest nu_t. */
+static float sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *d, float *nu, const float *s2,
+                           const float *n2)
+{
+    const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
+    const float h = g->h;
+    const float ls = (float)d->smagorinsky_c * h, ils2 = 1.0f / (ls * ls);
+    const float kappa = (float)d->kappa, z0 = (float)d->roughness_m;
+    const uint8_t *fl = g->flags;
+    const int nt = sq_context_threads(g->ctx);
+    (void)nt;
+    memset(nu, 0, g->cell_count * sizeof *nu);
+    double *pm = g->plane_sum;
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++) {
+        float m = 0.0f;
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const ptrdiff_t c = sq__cidx(g, i, j, k);
+                if (fl[c] & SQ__CF_SOLID) continue;
                 /* the length: C_s h, damped towards kappa z at the ground */
                 float il2 = ils2;
                 if (g->below[c] > 0) {
                     const float lw = kappa * (((float)g->below[c] - 0.5f) * h + z0);
                     il2 += 1.0f / (lw * lw);
                 }
-                const float q = s2 - n2;
+                const float q = s2[c] - n2[c];
                 const float v = q > 0.0f ? sqrtf(q) / il2 : 0.0f;
                 nu[c] = v;
                 m = v > m ? v : m;
             }
-        }
         pm[k] = (double)m;
     }
     double m = 0.0;
     for (int k = 0; k < nz; k++) m = pm[k] > m ? pm[k] : m;
-    /* a decomposed grid: the neighbours' nu next to the slab (the domain's ghosts stay 0) */
-    sq__grid_dist_halo_lattice(g, nu + sq__cidx(g, 0, 0, 0), sy, sz, SQ__L_CELL);
     return (float)m;
+}
+
+/* The closure's coefficients of this step: nu (K_m; scratch 0) for the wind, kh for the
+ * scalars other than e (Smagorinsky: kh = nu and the caller divides by Pr_t); with TKE also
+ * e's sources over dt (dt 0: coefficients only). Returns the largest diffusion coefficient.
+ * Uses scratch 0..3 and 7..10 (the cached trace is invalidated by the caller). */
+static float closure_coefficients(sq_grid *g, const sq_grid_sgs_desc *d, float dt, float **kh_out)
+{
+    float *nu = g->scratch[0], *s2 = g->scratch[7], *n2 = g->scratch[8];
+    const bool tke = d->closure == SQ_SGS_TKE;
+    const float gfac = (float)(tke ? d->gravity_mps2 : d->gravity_mps2 / d->prandtl_t);
+    strain_and_stratification(g, d, gfac, s2, n2, g->scratch[1], g->scratch[2], g->scratch[3]);
+    const ptrdiff_t c0 = sq__cidx(g, 0, 0, 0);
+    if (!tke) {
+        *kh_out = nu;
+        const float m = sgs_viscosity(g, d, nu, s2, n2);
+        /* a decomposed grid: the neighbours' coefficients next to the slab (the domain's
+         * ghosts stay 0) */
+        sq__grid_dist_halo_lattice(g, nu + c0, g->sy, g->sz, SQ__L_CELL);
+        return m;
+    }
+    float *l = g->scratch[9], *kh = g->scratch[10];
+    const float kmax = sq__grid_tke_coefficients(g, d, n2, l, nu, kh);
+    if (dt > 0.0f) sq__grid_tke_sources(g, d, s2, n2, l, nu, kh, dt);
+    sq__grid_dist_halo_lattice(g, nu + c0, g->sy, g->sz, SQ__L_CELL);
+    sq__grid_dist_halo_lattice(g, kh + c0, g->sy, g->sz, SQ__L_CELL);
+    *kh_out = kh;
+    return kmax;
 }
 
 /* A sample lattice and its free samples: the cell lattice (scalars; solids are not free) or a
@@ -352,16 +426,21 @@ sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double d
     }
     const double t0 = sq_time_now();
     sq__grid_enforce_velocity(g);
-    float *nu = g->scratch[0];
-    float numax = sgs_viscosity(g, &d, nu, g->scratch[1], g->scratch[2], g->scratch[3]);
+    const bool tke = d.closure == SQ_SGS_TKE;
+    float *nu = g->scratch[0], *kh = NULL;
+    /* Smagorinsky: nu_t; TKE: K_m, K_h, and e advanced by its sources */
+    float numax = closure_coefficients(g, &d, (float)dt_s, &kh);
     if (g->halo) { /* a decomposed grid: every slab takes as many sub-steps */
         double m = (double)numax;
         sq__grid_dist_max(g, &m, 1);
         numax = (float)m;
     }
+    g->trace_valid = false; /* scratch 4..10 (the cached trace) are used from here on */
     const float ih2 = 1.0f / (g->h * g->h);
-    /* the scalars' diffusion number (K = nu_t / Pr_t) is the larger one for Pr_t < 1 */
-    const double number = (double)numax * dt_s * (double)ih2 / (d.prandtl_t < 1.0 ? d.prandtl_t : 1.0);
+    /* the largest diffusion number: Smagorinsky's scalars (K = nu_t / Pr_t) for Pr_t < 1; the
+     * TKE closure's max(K_h, 2 K_m) */
+    const double number = (double)numax * dt_s * (double)ih2 /
+                          (!tke && d.prandtl_t < 1.0 ? d.prandtl_t : 1.0);
     const int nsub = number > 1.0 / 6.0 ? (int)ceil(6.0 * number) : 1;
     if (nsub > 1000)
         return sq__fail(g->ctx, SQ_ERR_UNSTABLE, MOD,
@@ -380,8 +459,11 @@ sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double d
         for (int sidx = 0; sidx < g->d.scalar_count; sidx++) {
             sq_field3 *F = &g->scalar[sidx];
             const lattice L = {F->origin, F->sy, F->sz, {F->n.nx, F->n.ny, F->n.nz}, 0, true};
-            diffuse_field(g, &L, F->base, F->count, nu, s / (float)d.prandtl_t, nsub,
-                          SQ__L_CELL, sidx);
+            /* Smagorinsky: K = nu_t / Pr_t; TKE: K_h, and 2 K_m for e itself */
+            const bool e = tke && sidx == d.tke_idx;
+            const float *k = e ? nu : kh;
+            const float sk = !tke ? s / (float)d.prandtl_t : e ? 2.0f * s : s;
+            diffuse_field(g, &L, F->base, F->count, k, sk, nsub, SQ__L_CELL, sidx);
         }
     }
     if (d.roughness_m > 0.0) sq__grid_wall_stress(g, d.kappa, d.roughness_m, (float)dt_s);
@@ -405,8 +487,8 @@ sq_result sq_grid_sgs_viscosity(sq_grid *g, const sq_grid_sgs_desc *desc, float 
         if (r != SQ_OK) return r;
     }
     sq__grid_enforce_velocity(g);
-    float *nu = g->scratch[0];
-    sgs_viscosity(g, &d, nu, g->scratch[1], g->scratch[2], g->scratch[3]);
+    float *nu = g->scratch[0], *kh = NULL;
+    closure_coefficients(g, &d, 0.0f, &kh); /* TKE: K_m of the current e (unchanged) */
     const int nx = g->n[0], ny = g->n[1], nz = g->n[2];
     for (int k = 0; k < nz; k++)
         for (int j = 0; j < ny; j++)
