@@ -12,7 +12,8 @@
  * buoyancy, confinement; ms_diffuse; ms_project; ms_emission; ms_dust: inflow, outflow, mass
  * fix, settling; ms_detail: with --detail M, the flow-following detail's advection of its
  * noise coordinates, display only, amplitude M metres; the stats are read outside the timed
- * calls), the last projection's residual
+ * calls; --turbulence smagorinsky|tke: that closure instead of the mixing length, its cost in
+ * ms_diffuse), the last projection's residual
  * and iterations, and the memory per cell. SPEC §1.11 (step recipe). */
 #include <math.h>
 #include <stdio.h>
@@ -92,6 +93,19 @@ int sq_bench_sandstorm(const sq_bench_args *a)
     int spinup, detail_m;
     if (!sq_cli_int(a->argc, a->argv, "--spinup", 10, 0, 100000, &spinup)) return SQ_EXIT_USAGE;
     if (!sq_cli_int(a->argc, a->argv, "--detail", 0, 0, 10000, &detail_m)) return SQ_EXIT_USAGE;
+    /* the closure (the scene's solver.turbulence): the mixing length unless asked */
+    const char *tname = sq_cli_value(a->argc, a->argv, "--turbulence");
+    static const char *const closures[3] = {"mixing-length", "smagorinsky", "tke"};
+    int turbulence = 0;
+    if (tname) {
+        turbulence = -1;
+        for (int q = 0; q < 3; q++)
+            if (strcmp(tname, closures[q]) == 0) turbulence = q;
+        if (turbulence < 0) {
+            sq_cli_error("--turbulence %s: expected mixing-length, smagorinsky or tke", tname);
+            return SQ_EXIT_USAGE;
+        }
+    }
 
     /* a domain 2560 m wide at any resolution (40 m cells at 64), over a 4 km world */
     const double h = 2560.0 / n[0];
@@ -134,6 +148,7 @@ int sq_bench_sandstorm(const sq_bench_args *a)
     d.confinement = 0.15;
     d.pressure_tolerance = 1e-3;
     d.detail_amplitude_m = detail_m;
+    d.turbulence = turbulence;
     sand_bench b;
     memset(&b, 0, sizeof b);
     r = sq_sandstorm_create(a->ctx, &d, world, &b.s);
@@ -171,6 +186,7 @@ int sq_bench_sandstorm(const sq_bench_args *a)
             sq_bench_json_common(&j, "sandstorm", a, &st);
             sq_json_str(&j, "grid", grid);
             sq_json_str(&j, "world", dunes ? "dunes" : "flat");
+            sq_json_str(&j, "turbulence", closures[turbulence]);
             sq_json_num(&j, "cells", cells);
             for (int q = 0; q < ST_COUNT; q++)
                 sq_json_num(&j, keys[q], steps > 0.0 ? (m1[q] - m0[q]) / steps : (double)NAN);

@@ -34,7 +34,8 @@ const sq_cli_case sq_cli_bench_cases[] = {
                 "(under mpirun: slabs, per-rank figures, bytes sent per projection)",
      "--size 128x64x64", sq_bench_project, NULL, NULL},
     {"sandstorm", "full two-phase desert-sandstorm step (wind, projection to 1e-3, 4 dust bins)",
-     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10 --detail 0", sq_bench_sandstorm, NULL, NULL},
+     "--grid 64|128|64x64x32 --world dunes|flat --spinup 10 --detail 0 "
+     "--turbulence mixing-length|smagorinsky|tke", sq_bench_sandstorm, NULL, NULL},
     {"sph", "SPH sub-step (sort, density, strain, forces, integrate): Cross snow and water",
      "--particles 65536|262144|1048576 --model cross|water|both", sq_bench_sph, NULL, NULL},
     {"snowdrift", "village-snowdrift frame (1/24 s): D3Q15 wind, u*, snow transport/deposition/"

@@ -86,6 +86,8 @@ typedef struct sq_sandstorm_desc {
     double coldpool_speed_mps;      /* inflow speed of the cold air; 0 -> √(g ΔT H / θ) */
     double observer_m[2];           /* fixed observer (x, y) of the visibility metric; 0 physical */
     int top_boundary;              /* 0 open (p = 0, air may leave or enter), 1 free-slip lid */
+    int side_boundary;             /* north and south faces: 0 open, 1 periodic (a storm line
+                                       much longer than the domain is wide) */
     /* numerics */
     int pressure_solver;           /* 0 mgpcg, 1 multigrid, 2 jacobi */
     int jacobi_iterations;         /* 0 -> 40 (S0) */

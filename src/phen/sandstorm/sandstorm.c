@@ -279,8 +279,8 @@ static sq_result create_grid(sq_sandstorm *s)
     for (int a = 0; a < 3; a++) g.origin_m[a] = s->origin[a];
     g.boundary[SQ_FACE_XMIN] = SQ_BOUNDARY_INFLOW;
     g.boundary[SQ_FACE_XMAX] = SQ_BOUNDARY_OUTFLOW;
-    g.boundary[SQ_FACE_YMIN] = SQ_BOUNDARY_OPEN;
-    g.boundary[SQ_FACE_YMAX] = SQ_BOUNDARY_OPEN;
+    g.boundary[SQ_FACE_YMIN] = d->side_boundary == 1 ? SQ_BOUNDARY_PERIODIC : SQ_BOUNDARY_OPEN;
+    g.boundary[SQ_FACE_YMAX] = g.boundary[SQ_FACE_YMIN];
     g.boundary[SQ_FACE_ZMIN] = SQ_BOUNDARY_NO_SLIP;
     g.boundary[SQ_FACE_ZMAX] = d->top_boundary == 1 ? SQ_BOUNDARY_FREE_SLIP : SQ_BOUNDARY_OPEN;
     g.pressure = d->pressure_solver == 2   ? SQ_PRESSURE_JACOBI
@@ -507,7 +507,7 @@ static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
                 o += fmax(0.0, (double)sq_view_get(&u, nx, j, k)) * (double)sq_view_get(&c, nx - 1, j, k);
                 o += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
             }
-        for (int k = 0; k < nz; k++) {
+        for (int k = 0; k < nz && s->d.side_boundary == 0; k++) { /* periodic: no faces */
             const float *vl = v.data + (ptrdiff_t)k * v.sz, *vh = vl + (ptrdiff_t)ny * v.sy;
             const float *cl = c.data + (ptrdiff_t)k * c.sz, *ch = cl + (ptrdiff_t)(ny - 1) * c.sy;
             for (int i = 0; i < nx; i++) {

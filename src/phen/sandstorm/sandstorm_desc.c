@@ -110,6 +110,8 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
     if (d.turbulence < 0 || d.turbulence > 2)
         BAD("%ssolver.turbulence = %d; must be mixing-length (0), smagorinsky (1) or tke (2)", P,
             d.turbulence);
+    if (d.side_boundary != 0 && d.side_boundary != 1)
+        BAD("%sdomain.sides = %d; must be open (0) or periodic (1)", P, d.side_boundary);
     if (d.top_boundary != 0 && d.top_boundary != 1)
         BAD("%sdomain.top = %d; must be open (0) or free-slip (1)", P, d.top_boundary);
     if (d.surface_heat_flux_w_m2 < -200.0 || d.surface_heat_flux_w_m2 > 1000.0)

@@ -78,6 +78,10 @@ static const sq_param params[] = {
       "w = 0). Under an open top a cold pool that slumps draws air down through the top, and "
       "the downdraft can run away in runs longer than ~5 min (the haboob reached 226 m/s "
       "at 400 s); a lid at least twice the cold pool's depth keeps the flow bounded."),
+    E("domain.sides", side_boundary, "open|periodic",
+      "North and south faces: open (pressure 0; air leaves or enters freely) or periodic (what "
+      "leaves through one face enters through the other: a squall line's outflow many times "
+      "longer than the domain is wide, quasi two-dimensional along the line)."),
     E("solver.pressure", pressure_solver, "mgpcg|multigrid|jacobi",
       "Pressure solver: multigrid-preconditioned CG (default), multigrid V-cycles, or S0's "
       "fixed-count Jacobi."),
