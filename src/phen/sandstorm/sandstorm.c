@@ -1233,6 +1233,9 @@ int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max)
         v->origin_m = sq_v3((float)s->origin[0], (float)s->origin[1], (float)s->origin[2]);
         v->size_m = sq_v3((float)(s->nx * s->h), (float)(s->ny * s->h), (float)(s->nz * s->h));
         v->density_max = s->density_max;
+        /* with the flow-following detail (the look of a haboob's head): the dust's edge
+         * against clear air drawn as the sharp interface the 60 m cells blur */
+        v->edge_sharpness = s->detail.enabled ? 1.0f : 0.0f;
     } else {
         float beta = (float)((double)s->urban_conc * s->k_ext_total_550);
         for (int i = 0; i < 8; i++) s->urban_density[i] = beta;
