@@ -41,6 +41,12 @@ typedef struct sq_volume_view {
     float g2;              /* second lobe asymmetry (e.g. -0.3 back lobe); used if w2 > 0 */
     float w2;              /* weight of the second lobe in [0, 1); 0 = single lobe */
     float density_max;     /* max of density (for the renderer's normalisation) */
+    /* 0 (default): the density varies trilinearly between cell centres. (0, 1]: the grid is
+     * a filtered picture of a sharp interface (dust against clear air): where the density
+     * falls from its local maximum to near zero within about a cell, the renderer draws the
+     * edge at the half-maximum contour, this much sharper (1: a fifth of a cell wide);
+     * docs/validation.md, "Sharp dust edges" */
+    float edge_sharpness;
     uint64_t version;      /* increments whenever density changes */
 } sq_volume_view;
 

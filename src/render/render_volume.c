@@ -105,6 +105,7 @@ struct sq__volume_pass {
     int light_steps;       /* slabs per light pass of that variant */
     GLuint vao_slices, vbo_slices, vao_empty;
     GLuint density_tex, noise_tex, baked_tex;
+    bool density_sharp; /* density_tex is RGB: density, local maximum, edge weight */
     int dnx, dny, dnz;
     uint64_t version;
     const float *data;
@@ -633,6 +634,10 @@ static sq_result validate_view(sq_renderer *r, const sq_volume_view *v)
                         r->volume->max_3d);
     if (!v->density)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render", "volume drawable: density is NULL");
+    if (!(v->edge_sharpness >= 0.0f && v->edge_sharpness <= 1.0f))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume edge_sharpness = %g; must be in [0, 1] (0 = off)",
+                        (double)v->edge_sharpness);
     if (!finite3(v->origin_m) || !finite3(v->size_m) || !(v->size_m.x > 0.0f) ||
         !(v->size_m.y > 0.0f) || !(v->size_m.z > 0.0f))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
@@ -663,12 +668,45 @@ static sq_result validate_view(sq_renderer *r, const sq_volume_view *v)
     return SQ_OK;
 }
 
-/* Uploads the density when its version, size or storage changed (R32F, x fastest as GL). */
+/* The sharp-edge texture (sq_volume_view.edge_sharpness; volume_common.glsl vol_density): per
+ * voxel the density, its maximum M and minimum m over the 27 voxels around it (clamped at the
+ * faces), and the edge weight e = sharpness * smoothstep(0.5, 0.9, (M - m) / M): 1 where the
+ * density falls from its local maximum to below a tenth of it within a cell, 0 where it
+ * changes by less than half over two cells (a smooth haze keeps its trilinear shape). */
+void sq__volume_edge_texture(const float *density, int nx, int ny, int nz, float sharpness,
+                             float *rgb)
+{
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                float mx = 0.0f, mn = INFINITY;
+                for (int c = k > 0 ? k - 1 : 0; c <= (k + 1 < nz ? k + 1 : k); c++)
+                    for (int b = j > 0 ? j - 1 : 0; b <= (j + 1 < ny ? j + 1 : j); b++)
+                        for (int a = i > 0 ? i - 1 : 0; a <= (i + 1 < nx ? i + 1 : i); a++) {
+                            const float x = fmaxf(density[((size_t)c * ny + b) * nx + a], 0.0f);
+                            mx = fmaxf(mx, x);
+                            mn = fminf(mn, x);
+                        }
+                float e = 0.0f;
+                if (mx > 0.0f) {
+                    const float t = fminf(fmaxf(((mx - mn) / mx - 0.5f) / 0.4f, 0.0f), 1.0f);
+                    e = sharpness * t * t * (3.0f - 2.0f * t);
+                }
+                float *o = rgb + 3 * (((size_t)k * ny + j) * nx + i);
+                o[0] = density[((size_t)k * ny + j) * nx + i];
+                o[1] = mx;
+                o[2] = e;
+            }
+}
+
+/* Uploads the density when its version, size or storage changed (R32F, x fastest as GL; RGB32F
+ * with sharp edges). */
 static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
 {
     sq__volume_pass *vp = r->volume;
     if (vp->have_data && vp->version == v->version && vp->data == v->density &&
-        vp->dnx == v->nx && vp->dny == v->ny && vp->dnz == v->nz)
+        vp->dnx == v->nx && vp->dny == v->ny && vp->dnz == v->nz &&
+        vp->density_sharp == (v->edge_sharpness > 0.0f))
         return SQ_OK;
     const size_t n = (size_t)v->nx * (size_t)v->ny * (size_t)v->nz;
     for (size_t i = 0; i < n; i++) {
@@ -681,19 +719,33 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
                             (double)v->density[i]);
         }
     }
-    if (!vp->density_tex || vp->dnx != v->nx || vp->dny != v->ny || vp->dnz != v->nz) {
+    const bool sharp = v->edge_sharpness > 0.0f;
+    if (!vp->density_tex || vp->dnx != v->nx || vp->dny != v->ny || vp->dnz != v->nz ||
+        vp->density_sharp != sharp) {
         if (vp->density_tex) glDeleteTextures(1, &vp->density_tex);
         if (vp->baked_tex) glDeleteTextures(1, &vp->baked_tex);
         vp->baked_tex = 0;
         glCreateTextures(GL_TEXTURE_3D, 1, &vp->density_tex);
-        glTextureStorage3D(vp->density_tex, 1, GL_R32F, v->nx, v->ny, v->nz);
+        glTextureStorage3D(vp->density_tex, 1, sharp ? GL_RGB32F : GL_R32F, v->nx, v->ny, v->nz);
         set_linear_clamp(vp->density_tex);
+        vp->density_sharp = sharp;
     }
     glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
     glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
     glPixelStorei(GL_UNPACK_IMAGE_HEIGHT, 0);
-    glTextureSubImage3D(vp->density_tex, 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RED, GL_FLOAT,
-                        v->density);
+    if (sharp) {
+        float *rgb = sq_alloc(r->ctx, sizeof(float) * 3 * n);
+        if (!rgb)
+            return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
+                            "volume pass: no memory for the sharp-edge texture of %zu voxels", n);
+        sq__volume_edge_texture(v->density, v->nx, v->ny, v->nz, v->edge_sharpness, rgb);
+        glTextureSubImage3D(vp->density_tex, 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RGB, GL_FLOAT,
+                            rgb);
+        sq_free(r->ctx, rgb);
+    } else {
+        glTextureSubImage3D(vp->density_tex, 0, 0, 0, 0, v->nx, v->ny, v->nz, GL_RED, GL_FLOAT,
+                            v->density);
+    }
     vp->have_data = true;
     vp->baked_valid = false;
     vp->key_valid = false;

@@ -891,6 +891,96 @@ SQ_TEST(ms_diffusion_reflectance_against_monte_carlo)
     }
 }
 
+/* ---- sharp dust edges (sq_volume_view.edge_sharpness) ------------------------------------ */
+/* What is checked. A cube of density 1 (cells 4..11 of a 16^3 grid of 10 m cells, beta 0.1 /m:
+ * opaque) in clear air, seen from 2 km (fov 4 deg, nearly orthographic) against the sky. Trilinear sampling spreads its side
+ * edge over the 10 m between the last dense and the first clear cell centre; with
+ * edge_sharpness 1 the edge is drawn at the half-maximum contour a fifth as wide. Along the
+ * middle row, the pixels between 10 % and 90 % of the way from the sky to the cube's face
+ * (the transition; the cube is black, so this is its opacity) must be at most half as many
+ * with sharp edges (and at least 3 without, so that the comparison means something); the face
+ * itself (the middle pixel) changes by less than 2 % of the sky. A density that varies smoothly (a linear ramp 1 -> 2 across the grid, less than
+ * half of its local maximum over two cells) must be drawn identically with and without. */
+static float *edge_frame(sq_renderer *r, const sq_world *w, bool ramp, float sharpness,
+                         const char *name)
+{
+    enum { N = 16 };
+    static float dens[N * N * N];
+    for (int k = 0; k < N; k++)
+        for (int j = 0; j < N; j++)
+            for (int i = 0; i < N; i++) {
+                const bool in = i >= 4 && i < 12 && j >= 4 && j < 12 && k >= 4 && k < 12;
+                dens[(k * N + j) * N + i] = ramp ? 1.0f + (float)i / (N - 1) : (in ? 1.0f : 0.0f);
+            }
+    sq_drawable d;
+    memset(&d, 0, sizeof d);
+    d.kind = SQ_DRAWABLE_VOLUME;
+    d.name = "edge";
+    sq_volume_view *v = &d.u.volume;
+    v->density = dens;
+    v->nx = v->ny = v->nz = N;
+    v->origin_m = sq_v3(200.0f, -80.0f, 0.0f);
+    v->size_m = sq_v3(160.0f, 160.0f, 160.0f);
+    for (int c = 0; c < 3; c++) {
+        v->sigma_ext[c] = ramp ? 0.01f : 0.1f;
+        v->albedo[c] = ramp ? 0.9f : 0.0f; /* the cube black: the pixels show its opacity */
+        v->g[c] = 0.6f;
+    }
+    v->density_max = ramp ? 2.0f : 1.0f;
+    v->edge_sharpness = sharpness;
+    v->version = ramp ? 11u : 12u;
+    const sq_camera cam = camera(sq_v3(-1800.0f, 0.0f, 80.0f), sq_v3(280.0f, 0.0f, 80.0f), 4.0f);
+    return render(r, w, &cam, &d, 1, 0.0, name);
+}
+
+static int edge_transition_px(const float *rgb)
+{
+    const int j = IMG_H / 2;
+    const double sky = rgb[3 * (j * IMG_W + 2) + 1], face = rgb[3 * (j * IMG_W + IMG_W / 2) + 1];
+    int n = 0;
+    for (int i = 0; i < IMG_W; i++) {
+        const double f = ((double)rgb[3 * (j * IMG_W + i) + 1] - sky) / (face - sky);
+        if (f > 0.1 && f < 0.9) n++;
+    }
+    return n;
+}
+
+SQ_TEST(sharp_edges_narrow_the_edge)
+{
+    sq_context *ctx = new_ctx();
+    sq_world *w = new_world(ctx, 4000.0f, NULL, 0);
+    sq_renderer *r = new_renderer(ctx, 128, false);
+    float *soft = NULL, *sharp = NULL, *rs = NULL, *rh = NULL;
+    if (!w || !r) goto done;
+    w->sun_dir = sq_v3_norm(sq_v3(-0.6f, -0.3f, 0.7f)); /* behind the camera, to the side */
+    soft = edge_frame(r, w, false, 0.0f, "edge_soft");
+    sharp = edge_frame(r, w, false, 1.0f, "edge_sharp");
+    rs = edge_frame(r, w, true, 0.0f, "ramp_soft");
+    rh = edge_frame(r, w, true, 1.0f, "ramp_sharp");
+    if (!soft || !sharp || !rs || !rh) goto done;
+    const int ws = edge_transition_px(soft), wh = edge_transition_px(sharp);
+    const size_t mid = (size_t)3 * ((IMG_H / 2) * IMG_W + IMG_W / 2) + 1;
+    const double face = fabs((double)sharp[mid] - soft[mid]) / sharp[3 * ((IMG_H / 2) * IMG_W + 2) + 1];
+    double sum = 0.0;
+    for (size_t k = 1; k < (size_t)3 * IMG_W * IMG_H; k += 3) sum += rs[k];
+    const double ramp_diff = image_l1(rs, rh) / sum;
+    printf("edge transition: %d px trilinear, %d px sharp; face changed by %.4f; smooth ramp "
+           "changed by %.3g (relative L1)\n",
+           ws, wh, face, ramp_diff);
+    SQ_CHECK(ws >= 3);
+    SQ_CHECK(2 * wh <= ws);
+    SQ_CHECK(face < 0.02);
+    SQ_CHECK(ramp_diff < 1e-6);
+done:
+    free(soft);
+    free(sharp);
+    free(rs);
+    free(rh);
+    sq_renderer_destroy(r);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
 /* ---- composition with opaque geometry ------------------------------------------------------ */
 /* A dense slab (beta 0.1 /m, 100 m thick: optical depth 10) stands 200-300 m ahead. A white box
  * in front of it (x = 120 m) must be untouched (identical pixels with and without the slab) and

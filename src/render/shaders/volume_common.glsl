@@ -26,10 +26,18 @@ float vol_hg(float cos_theta, float g)
 
 // Density at world point p (clamped into the box; the texture clamps to its edge texels).
 // Explicit LOD 0: the textures have one level, and llvmpipe skips the LOD computation.
+// Sharp edges (sq_volume_view.edge_sharpness; render_volume.c upload_density): the texture's
+// green holds the local maximum M of the density over the cell's 27 neighbours and blue the
+// edge weight e (0 where the density varies smoothly); the trilinear rho is moved toward
+// M smoothstep(0.4, 0.6, rho / M), which puts the edge at the half-maximum contour and makes
+// it five times steeper. One-channel textures read green = blue = 0: unchanged.
 float vol_density(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 {
     vec3 tc = (clamp(p, lo, lo + size) - lo) / size;
-    return max(textureLod(dens, tc, 0.0).r, 0.0);
+    vec3 s = textureLod(dens, tc, 0.0).rgb;
+    float rho = max(s.r, 0.0);
+    float f = clamp(rho / max(s.g, 1e-30), 0.0, 1.0);
+    return mix(rho, s.g * smoothstep(0.4, 0.6, f), clamp(s.b, 0.0, 1.0));
 }
 
 // Length of the slab [c - h, c + h] that lies inside [a, b] (0 if none).
