@@ -130,3 +130,62 @@ for net, (bw, lat) in NETS.items():
             t = comp + coarse + comm
             print(f"{p} | {name} | {comp * 1e3:.3g}, {coarse * 1e3:.3g}, {comm * 1e3:.3g} | "
                   f"{sent / 1e6:.3g} MB | {base / (p * t):.0%}")
+
+# ---- the sandstorm's whole step (slabs along x; docs/performance.md "MPI: the sandstorm's
+# step"). Per step a rank steps its slab (N/P cells at STEP_CELLS cell-steps/s per node), meets
+# its neighbours about MEET times (ghost fills, the advection's widened copy, the projection's
+# planes and sums) moving H_PLANES float planes of the slab face each way, does the
+# projection's coarse levels whole (N/7 cells at the projection's share of the step, not
+# divided) with the level-1 sum (N/8 floats per V-cycle, ~4 V-cycles), and - as implemented -
+# gathers the whole grid's (4 + bins) fields on every rank after every step (an allgather: each
+# rank's link carries (P-1)/P of N (4 + bins) floats). The "next step" rows gather only at the
+# output frames (every FRAME_STEPS steps) and reduce the cold-pool front by rows instead.
+STEP_CELLS = float(sys.argv[3]) if len(sys.argv) > 3 else 1.0e8  # cell-steps/s of one node
+H_PLANES = 140   # planes per neighbour and step (measured: bench sandstorm 64^3, 2 ranks)
+MEET = 80        # neighbour meetings and small sums per step
+PROJECT_SHARE = 0.12  # the projection's share of one rank's step (bench sandstorm, 64^3)
+FIELDS = 8       # 3 wind components, 4 dust bins, theta
+FRAME_STEPS = 16
+
+
+def sandstorm_step(p, bw, lat, gather_every=1, coarse_at=None):
+    import math
+    face = (GG[1] + 2) * (GG[2] + 2)
+    comp = NG / p / STEP_CELLS
+    if coarse_at is None:  # implemented: the projection's levels from 1 whole on every rank
+        coarse = PROJECT_SHARE * NG / 7 / STEP_CELLS if p > 1 else 0.0
+        level1 = 4 * (2 * (NG / 8) * 4 / bw + 2 * lat * math.log2(p)) if p > 1 else 0.0
+        lsent = 4 * 2 * (NG / 8) * 4
+    else:  # split levels down to coarse_at cells, gathered there
+        coarse = PROJECT_SHARE * coarse_at * 8 / 7 / STEP_CELLS if p > 1 else 0.0
+        level1 = 4 * (coarse_at * 4 / bw + lat * math.log2(p)) if p > 1 else 0.0
+        lsent = 4 * coarse_at * 4 / p
+    halo = MEET * lat + H_PLANES * 2 * 4 * face / bw if p > 1 else 0.0
+    gather = (NG * FIELDS * 4 * (p - 1) / p / bw + lat * math.log2(p)) / gather_every if p > 1 else 0.0
+    sent = (H_PLANES * 2 * 4 * face + lsent +
+            NG / p * FIELDS * 4 * (p - 1) / gather_every) if p > 1 else 0
+    return comp, coarse + halo + level1 + gather, sent
+
+
+print(f"\nSandstorm step (slabs along x), grid {GG[0]}x{GG[1]}x{GG[2]}, one node "
+      f"{STEP_CELLS:.3g} cell-steps/s")
+for net, (bw, lat) in NETS.items():
+    print(f"\n{net}")
+    print("ranks | whole-grid gather, projection coarse levels | compute ms | "
+          "communication and coarse ms | bytes sent/rank/step | efficiency")
+    for p in (1, 4, 16, 64, 256):
+        for name, ge, ca in (("every step, coarse levels whole (implemented)", 1, None),
+                             (f"every {FRAME_STEPS} steps, coarse whole", FRAME_STEPS, None),
+                             (f"every {FRAME_STEPS} steps, coarse gathered at 2^21 (next steps)",
+                              FRAME_STEPS, 2 ** 21)):
+            if p == 1 and ge != 1:
+                continue
+            comp, comm, sent = sandstorm_step(p, bw, lat, ge, ca)
+            print(f"{p} | {name} | {comp * 1e3:.4g} | {comm * 1e3:.4g} | {sent / 1e6:.4g} MB | "
+                  f"{comp / (comp + comm):.0%}")
+    # slab thickness (cells along x) at which the halo alone costs as much as the work
+    face = (GG[1] + 2) * (GG[2] + 2)
+    t_halo = MEET * lat + H_PLANES * 2 * 4 * face / bw
+    n = t_halo * STEP_CELLS / (GG[1] * GG[2])
+    print(f"the halo exchange alone equals the work below slabs of about {n:.1f} cells along x "
+          f"({GG[0] / max(n, 1e-9):.0f} ranks)")

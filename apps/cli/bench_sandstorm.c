@@ -14,12 +14,17 @@
  * noise coordinates, display only, amplitude M metres; the stats are read outside the timed
  * calls; --turbulence smagorinsky|tke: that closure instead of the mixing length, its cost in
  * ms_diffuse), the last projection's residual
- * and iterations, and the memory per cell. SPEC §1.11 (step recipe). */
+ * and iterations, and the memory per cell. Under mpirun the grid is split in slabs along x
+ * (docs/mpi.md): rank 0 prints the line, with the slowest rank's step time as ms_step_slowest,
+ * the total throughput (all cells / slowest step), the bytes all ranks sent per step and a
+ * per_rank list (cells, median ms per step, Mcells/s, bytes sent per step). SPEC §1.11 (step
+ * recipe). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "cases.h"
+#include "squall/par.h"
 #include "squall/sandstorm.h"
 #include "squall/world.h"
 
@@ -167,10 +172,36 @@ int sq_bench_sandstorm(const sq_bench_args *a)
         sq_sandstorm_get_stats(b.s, &s0);
         sq_bench_stats st = sq_bench_time(step, &b, 0, a->reps);
         sq_sandstorm_get_stats(b.s, &s1);
+        /* under mpirun: every rank's figures to rank 0 (collective, before any rank prints) */
+        const int nr = sq_par_size(), me = sq_par_rank();
+        char ranks_json[4096] = "";
+        double slowest = st.median_ms, comm = 0.0;
+        if (nr > 1 && nr <= 64 && b.err == SQ_OK) {
+            const double nst = (double)(s1.steps - s0.steps);
+            const double mine[3] = {(double)s1.slab_cells, st.median_ms,
+                                    nst > 0 ? (double)(s1.bytes_exchanged - s0.bytes_exchanged) / nst : 0.0};
+            double all[3 * 64];
+            int64_t cnt[64];
+            for (int q = 0; q < nr; q++) cnt[q] = 3;
+            (void)sq_par_allgather_f64(mine, cnt, all);
+            size_t len = (size_t)snprintf(ranks_json, sizeof ranks_json, "[");
+            slowest = 0.0;
+            for (int q = 0; q < nr && len < sizeof ranks_json; q++) {
+                const double *rq = all + 3 * q;
+                slowest = rq[1] > slowest ? rq[1] : slowest;
+                comm += rq[2];
+                len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len,
+                                        "%s{\"rank\": %d, \"cells\": %.0f, \"ms_step\": %.6g, "
+                                        "\"mcells_per_s\": %.6g, \"bytes_sent_per_step\": %.0f}",
+                                        q ? ", " : "", q, rq[0], rq[1],
+                                        rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, rq[2]);
+            }
+            if (len < sizeof ranks_json) snprintf(ranks_json + len, sizeof ranks_json - len, "]");
+        }
         if (b.err != SQ_OK) {
             sq_cli_error("bench sandstorm: %s", sq_last_error());
             code = sq_cli_exit_code(b.err);
-        } else {
+        } else if (me == 0) {
             const double steps = (double)(s1.steps - s0.steps);
             double m0[ST_COUNT], m1[ST_COUNT];
             stage_ms(&s0, m0);
@@ -194,6 +225,14 @@ int sq_bench_sandstorm(const sq_bench_args *a)
             sq_json_int(&j, "pressure_iterations", s1.pressure_iterations);
             sq_json_num(&j, "max_wind_mps", s1.max_wind_mps);
             sq_json_num(&j, "bytes_per_cell", (double)sq_sandstorm_memory_bytes(&d) / cells);
+            sq_json_int(&j, "ranks", nr);
+            if (nr > 1 && nr <= 64) {
+                sq_json_str(&j, "decomposition", n[0] >= n[1] ? "slabs along x" : "slabs along y");
+                sq_json_num(&j, "ms_step_slowest", slowest);
+                sq_json_num(&j, "mcells_per_s_total", slowest > 0 ? cells / (slowest * 1e-3) / 1e6 : (double)NAN);
+                sq_json_num(&j, "comm_bytes_per_step", comm);
+                sq_json_raw(&j, "per_rank", ranks_json);
+            }
             sq_json_end(&j, stdout);
         }
     }

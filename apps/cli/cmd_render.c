@@ -392,12 +392,14 @@ int sq_cmd_render(int argc, char **argv)
     const char *frames_dir = !simulate && out->frames_dir[0] ? out->frames_dir : NULL;
     const char *metrics_path = out->metrics[0] ? out->metrics : NULL;
     sq_run *run = NULL;
-    /* a distributed run (mpirun): the snowdrift's wind lattice is split over the ranks; rank 0
-     * renders and writes from the gathered fields, the others only step (docs/mpi.md) */
+    /* a distributed run (mpirun): the snowdrift's wind lattice and the sandstorm's grid are
+     * split over the ranks; rank 0 renders and writes from the gathered fields, the others only
+     * step (docs/mpi.md) */
     const bool root = sq_par_rank() == 0;
     if (sq_par_size() > 1 && root && !quiet) {
         for (int i = 0; i < sq_scene_layer_count(scene); i++)
-            if (strcmp(sq_scene_layer_type(scene, i), "snowdrift") != 0)
+            if (strcmp(sq_scene_layer_type(scene, i), "snowdrift") != 0 &&
+                strcmp(sq_scene_layer_type(scene, i), "sandstorm") != 0)
                 fprintf(stderr, "squall: warning: layer '%s' (%s) is not split over the %d "
                         "ranks: every rank computes it whole (the same answer, no speed-up)\n",
                         sq_scene_layer_name(scene, i), sq_scene_layer_type(scene, i),

@@ -142,8 +142,12 @@ typedef struct sq_grid_desc {
     bool decompose;              /* under mpirun (squall/par.h, more than one rank): this rank's
                                     grid is its slab of `cells` along the longer horizontal axis
                                     (slabs >= 4 cells; sq_grid_get_block says which), create is
-                                    collective. What is distributed so far: sq_grid_project
-                                    (collective; agrees with one rank to the tolerance). Fields,
+                                    collective. Every stage is then collective (call them in the
+                                    same order on every rank): advection (bit-identical to one
+                                    rank split along a non-periodic axis), forces, confinement,
+                                    diffusion and closures (one ghost plane from each neighbour),
+                                    the projection (to its tolerance), the checks, and
+                                    sq_grid_max_speed / cfl_dt / divergence_max (global). Fields,
                                     views, solid masks and cell indices are the slab's (local).
                                     false, or one rank: the whole grid (docs/mpi.md) */
 } sq_grid_desc;
@@ -195,6 +199,10 @@ SQ_API void sq_grid_destroy(sq_grid *g); /* accepts NULL */
  * its first cell per axis, global = the whole grid's cells (lo = 0 and the grid's own cells
  * when not decomposed). */
 SQ_API sq_result sq_grid_get_block(const sq_grid *g, int lo[3], sq_dims *global);
+/* Collective: the velocity and scalars of every rank's slab into `whole`, a grid of the
+ * whole grid's cells and scalars that is not decomposed (on every rank: outputs, views). Its
+ * ghosts are not filled (sq_grid_apply_boundary does). With g not decomposed: a copy. */
+SQ_API sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole);
 /* Bytes this rank sent to its neighbouring slabs since create (0 when not decomposed). */
 SQ_API uint64_t sq_grid_bytes_exchanged(const sq_grid *g);
 /* Sizes, spacing and the pressure solver's set-up of the grid. */

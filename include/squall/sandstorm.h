@@ -156,6 +156,9 @@ typedef struct sq_sandstorm_stats {
     double front_m;                 /* cold-pool front: distance from the west face (m) */
     double front_speed_mps;         /* its speed over the last ~30 s of simulated time */
     uint64_t memory_bytes;
+    int64_t slab_cells;             /* cells this rank steps (under mpirun its slab, else all) */
+    uint64_t bytes_exchanged;       /* under mpirun: bytes this rank sent to the others since
+                                       create (halos, sums, the gather of the whole grid) */
 } sq_sandstorm_stats;
 
 /* Copies in to out with zero fields replaced by their defaults (the table of `squall params

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "sandstorm_internal.h"
+#include "squall/par.h"
 #include "squall/rng.h"
 
 /* ---- optics of the size bins -------------------------------------------------------------- */
@@ -174,6 +175,9 @@ static void inflow_fn(void *user, double x, double y, double z, float vel[3])
     vel[2] = v.z;
 }
 
+/* The views of the grid (the whole grid; under mpirun its gathered copy). */
+static inline const sq_grid *view_grid(const sq_sandstorm *s) { return s->whole ? s->whole : s->grid; }
+
 static void fill_velocity(sq_sandstorm *s, double ramp)
 {
     for (int axis = 0; axis < 3; axis++) {
@@ -181,8 +185,8 @@ static void fill_velocity(sq_sandstorm *s, double ramp)
         for (int k = 0; k < f->n.nz; k++)
             for (int j = 0; j < f->n.ny; j++)
                 for (int i = 0; i < f->n.nx; i++) {
-                    double x = s->origin[0] + (i + (axis == 0 ? 0.0 : 0.5)) * s->h;
-                    double y = s->origin[1] + (j + (axis == 1 ? 0.0 : 0.5)) * s->h;
+                    double x = s->origin[0] + (i + s->lo[0] + (axis == 0 ? 0.0 : 0.5)) * s->h;
+                    double y = s->origin[1] + (j + s->lo[1] + (axis == 1 ? 0.0 : 0.5)) * s->h;
                     double z = s->origin[2] + (k + (axis == 2 ? 0.0 : 0.5)) * s->h;
                     sq_vec3 v = initial_wind(s, x, y, z, ramp);
                     *sq_field3_at(f, i, j, k) = axis == 0 ? v.x : axis == 1 ? v.y : v.z;
@@ -213,11 +217,12 @@ static void fill_temperature(sq_sandstorm *s)
     sq_field3 *T = sq_grid_scalar_field(s->grid, s->temp_idx);
     for (int k = 0; k < s->nz; k++) {
         s->theta_ref[k] = (float)theta_background(s, (k + 0.5) * s->h);
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) {
-                double x = s->origin[0] + (i + 0.5) * s->h, y = s->origin[1] + (j + 0.5) * s->h;
+        for (int j = 0; j < s->ln[1]; j++)
+            for (int i = 0; i < s->ln[0]; i++) {
+                const int gi = i + s->lo[0], gj = j + s->lo[1];
+                double x = s->origin[0] + (gi + 0.5) * s->h, y = s->origin[1] + (gj + 0.5) * s->h;
                 double th = theta_initial(s, x, y, (k + 0.5) * s->h);
-                if ((i + 0.5) * s->h < s->d.coldpool_length_m) { /* the outflow so far */
+                if ((gi + 0.5) * s->h < s->d.coldpool_length_m) { /* the outflow so far */
                     double zg = s->origin[2] + (k + 0.5) * s->h -
                                 (double)sq_world_height_at(s->world, (float)x, (float)y);
                     th -= s->d.coldpool_delta_t_k * coldpool_fraction(s, zg);
@@ -229,21 +234,53 @@ static void fill_temperature(sq_sandstorm *s)
 
 /* The air entering through the west face has the interior's temperature profile (the ghost
  * cells just outside the face, x = origin - h/2), less the cold pool's deficit below its top. */
-static sq_result set_temperature_inflow(sq_sandstorm *s)
+static bool has_west_inflow(const sq_grid *g)
 {
+    return g && sq_grid_get_desc(g).boundary[SQ_FACE_XMIN] == SQ_BOUNDARY_INFLOW;
+}
+
+static sq_result grid_temperature_inflow(sq_sandstorm *s, sq_grid *g, int jlo)
+{
+    if (!has_west_inflow(g)) return SQ_OK; /* a slab away from the west face */
     int na = 0, nb = 0;
-    float *t = sq_grid_scalar_inflow_data(s->grid, SQ_FACE_XMIN, s->temp_idx, &na, &nb);
+    float *t = sq_grid_scalar_inflow_data(g, SQ_FACE_XMIN, s->temp_idx, &na, &nb);
     if (!t) return SQ_ERR_OUT_OF_MEMORY;
     const double x = s->origin[0] - 0.5 * s->h;
     for (int k = 0; k < nb; k++)
         for (int j = 0; j < na; j++) {
-            const double y = s->origin[1] + (j + 0.5) * s->h;
+            const double y = s->origin[1] + (j + jlo + 0.5) * s->h;
             const double zg = s->origin[2] + (k + 0.5) * s->h -
                               (double)sq_world_height_at(s->world, (float)x, (float)y);
             t[(size_t)k * na + j] = (float)(theta_initial(s, x, y, (k + 0.5) * s->h) -
                                             s->d.coldpool_delta_t_k * coldpool_fraction(s, zg));
         }
     return SQ_OK;
+}
+
+/* The air entering through the west face (the slab that holds it, and the whole grid's copy
+ * so that its boundary values are the slab's). */
+static sq_result set_temperature_inflow(sq_sandstorm *s)
+{
+    sq_result r = grid_temperature_inflow(s, s->grid, s->lo[1]);
+    if (r == SQ_OK && s->whole) r = grid_temperature_inflow(s, s->whole, 0);
+    return r;
+}
+
+static sq_result set_wind_inflow(sq_sandstorm *s)
+{
+    sq_result r = has_west_inflow(s->grid) ? sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s) : SQ_OK;
+    if (r == SQ_OK && s->whole) r = sq_grid_set_inflow(s->whole, SQ_FACE_XMIN, inflow_fn, s);
+    return r;
+}
+
+/* Under mpirun: the slabs' wind, dust and temperature into the whole grid on every rank
+ * (collective), its boundary values as the slabs'. */
+static sq_result gather_whole(sq_sandstorm *s)
+{
+    if (!s->whole) return SQ_OK;
+    sq_result r = sq_grid_gather(s->grid, s->whole);
+    if (r == SQ_OK) sq_grid_apply_boundary(s->whole);
+    return r;
 }
 
 /* ---- create / destroy --------------------------------------------------------------------- */
@@ -297,8 +334,27 @@ static sq_result create_grid(sq_sandstorm *s)
     g.scalar_count = s->nbins + 1 + (tke ? 1 : 0);
     g.scalar_nonnegative = (1ull << g.scalar_count) - 1ull;
     s->temp_idx = s->nbins;
+    /* under mpirun the grid is split in slabs (docs/mpi.md); the whole grid's copy holds the
+     * gathered fields for everything that is not the step */
+    g.decompose = true;
     sq_result r = sq_grid_create(s->ctx, &g, &s->grid);
     if (r != SQ_OK) return r;
+    {
+        int lo[3];
+        sq_dims whole;
+        r = sq_grid_get_block(s->grid, lo, &whole);
+        const sq_dims n = sq_grid_get_info(s->grid).cells;
+        s->lo[0] = lo[0];
+        s->lo[1] = lo[1];
+        s->ln[0] = n.nx;
+        s->ln[1] = n.ny;
+        if (r == SQ_OK && (n.nx != s->nx || n.ny != s->ny)) {
+            g.decompose = false;
+            r = sq_grid_create(s->ctx, &g, &s->whole);
+        }
+        r = sq_par_agree(r);
+        if (r != SQ_OK) return r;
+    }
     /* the mixing-length closure also carries the dust and the heat (K = nu_t / Pr_t), and with
      * buoyancy it feels the stratification of theta (Lilly 1962) */
     r = sq_grid_set_eddy_scalars(s->grid, SQ_SAND_PRANDTL_T,
@@ -353,12 +409,29 @@ static sq_result create_grid(sq_sandstorm *s)
             float z1 = k0 >= 0 ? (float)(s->origin[2] + (k0 + 0.5) * s->h) - zt : 0.0f;
             s->ground_z1[(size_t)j * s->nx + i] = z1 > (float)(0.1 * s->h) ? z1 : (float)(0.1 * s->h);
         }
+    if (s->whole) { /* the whole mask to the copy, the slab's part to the slab */
+        r = sq_grid_set_solid_mask(s->whole, mask);
+        const size_t ln = (size_t)s->ln[0] * s->ln[1] * s->nz;
+        uint8_t *sm = r == SQ_OK ? (uint8_t *)sq_alloc(s->ctx, ln) : NULL;
+        if (r == SQ_OK && !sm) r = SQ_ERR_OUT_OF_MEMORY;
+        for (int k = 0; sm && k < s->nz; k++)
+            for (int j = 0; j < s->ln[1]; j++)
+                memcpy(sm + ((size_t)k * s->ln[1] + j) * s->ln[0],
+                       mask + ((size_t)k * s->ny + j + s->lo[1]) * s->nx + s->lo[0], (size_t)s->ln[0]);
+        sq_free(s->ctx, mask);
+        mask = sm;
+        r = sq_par_agree(r);
+        if (r != SQ_OK) {
+            sq_free(s->ctx, mask);
+            return r;
+        }
+    }
     r = sq_grid_set_solid_mask(s->grid, mask);
     sq_free(s->ctx, mask);
     if (r != SQ_OK) return r;
     fill_velocity(s, ramp_factor(s, 0.0));
     fill_temperature(s);
-    r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s);
+    r = set_wind_inflow(s);
     if (r != SQ_OK) return r;
     r = set_temperature_inflow(s);
     if (r != SQ_OK) return r;
@@ -366,6 +439,7 @@ static sq_result create_grid(sq_sandstorm *s)
     /* SPEC §1.6 ⚠3: the initial field is not divergence-free: project once */
     sq_grid_project_stats ps;
     r = sq_grid_project(s->grid, 1.0, &ps);
+    if (r == SQ_OK) r = gather_whole(s);
     return r;
 }
 
@@ -445,6 +519,7 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     if (!s) return;
     sq_context *ctx = s->ctx;
     sq_grid_destroy(s->grid);
+    sq_grid_destroy(s->whole);
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
@@ -467,14 +542,20 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
  * y-rows) with their reductions kept as per-plane / per-row partial sums in double that are
  * added in a fixed order, so budgets do not depend on the thread count. */
 
-/* Suspended mass of every bin (kg) in one pass. */
-static void dust_masses(const sq_sandstorm *s, double *mass)
+/* Global sums of a distributed run (no-op on one rank); every rank passes the same n. */
+static void sum_ranks(const sq_sandstorm *s, double *v, int n)
 {
-    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    if (s->whole) sq_par_sum_f64(v, n);
+}
+
+/* Suspended mass of every bin (kg) in grid g (nx x ny columns) in one pass. */
+static void dust_masses(const sq_sandstorm *s, const sq_grid *g, int nx, int ny, double *mass)
+{
+    const int nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
     sq_field_view c[SQ_SANDSTORM_MAX_BINS];
-    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(s->grid, b);
+    for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_view(g, b);
     double *pm = s->plane_mass;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < nz; k++)
@@ -493,26 +574,28 @@ static void dust_masses(const sq_sandstorm *s, double *mass)
 }
 
 /* Dust carried out through the open faces during dt by the face velocities (upwind), per
- * bin. */
+ * bin (a slab counts the domain faces it holds; summed over the ranks). */
 static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
 {
     sq_field_view u = sq_grid_velocity_view(s->grid, 0), v = sq_grid_velocity_view(s->grid, 1),
                   w = sq_grid_velocity_view(s->grid, 2);
-    const int nx = s->nx, ny = s->ny, nz = s->nz;
+    const int nx = s->ln[0], ny = s->ln[1], nz = s->nz;
+    const bool west = s->lo[0] == 0, east = s->lo[0] + nx == s->nx;
+    const bool south = s->lo[1] == 0, north = s->lo[1] + ny == s->ny;
     for (int b = 0; b < s->nbins; b++) {
         sq_field_view c = sq_grid_scalar_view(s->grid, b);
         double o = 0.0;
         for (int k = 0; k < nz; k++)
             for (int j = 0; j < ny; j++) {
-                o += fmax(0.0, (double)sq_view_get(&u, nx, j, k)) * (double)sq_view_get(&c, nx - 1, j, k);
-                o += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
+                if (east) o += fmax(0.0, (double)sq_view_get(&u, nx, j, k)) * (double)sq_view_get(&c, nx - 1, j, k);
+                if (west) o += fmax(0.0, -(double)sq_view_get(&u, 0, j, k)) * (double)sq_view_get(&c, 0, j, k);
             }
         for (int k = 0; k < nz && s->d.side_boundary == 0; k++) { /* periodic: no faces */
             const float *vl = v.data + (ptrdiff_t)k * v.sz, *vh = vl + (ptrdiff_t)ny * v.sy;
             const float *cl = c.data + (ptrdiff_t)k * c.sz, *ch = cl + (ptrdiff_t)(ny - 1) * c.sy;
             for (int i = 0; i < nx; i++) {
-                o += fmax(0.0, (double)vh[i]) * (double)ch[i];
-                o += fmax(0.0, -(double)vl[i]) * (double)cl[i];
+                if (north) o += fmax(0.0, (double)vh[i]) * (double)ch[i];
+                if (south) o += fmax(0.0, -(double)vl[i]) * (double)cl[i];
             }
         }
         for (int j = 0; j < ny; j++) {
@@ -522,6 +605,20 @@ static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
         }
         out[b] = o * dt * (double)s->h * s->h;
     }
+    sum_ranks(s, out, s->nbins);
+}
+
+/* Cell-centred wind of cell (i,j,k) of g, ghost cells included (sq_grid_cell_velocity's
+ * arithmetic): a slab reads its neighbours' cells next to it. */
+static sq_vec3 cell_wind(const sq_grid *g, int i, int j, int k)
+{
+    const sq_field_view u = sq_grid_velocity_view(g, 0), v = sq_grid_velocity_view(g, 1),
+                        w = sq_grid_velocity_view(g, 2);
+    sq_vec3 r;
+    r.x = 0.5f * (sq_view_get(&u, i, j, k) + sq_view_get(&u, i + 1, j, k));
+    r.y = 0.5f * (sq_view_get(&v, i, j, k) + sq_view_get(&v, i, j + 1, k));
+    r.z = 0.5f * (sq_view_get(&w, i, j, k) + sq_view_get(&w, i, j, k + 1));
+    return r;
 }
 
 /* Dust emission in the ground layer (SPEC §1.9) with the momentum the new grains take from the
@@ -535,7 +632,12 @@ static double emit_dust(sq_sandstorm *s, double dt)
         s->stats.max_u_star_mps = 0.0;
         return 0.0;
     }
-    const int nx = s->nx, ny = s->ny, nb = s->nbins;
+    /* the slab's columns (local i, j; global column index col), and on a side toward a
+     * neighbouring slab one column more: its momentum factor acts on the face between them */
+    const int nx = s->ln[0], ny = s->ln[1], NX = s->nx, nb = s->nbins;
+    const int ox = s->lo[0], oy = s->lo[1];
+    const int i0 = ox > 0 ? -1 : 0, i1 = ox + nx < NX ? nx + 1 : nx;
+    const int j0 = oy > 0 ? -1 : 0, j1 = oy + ny < s->ny ? ny + 1 : ny;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
     sq_field3 *fu = sq_grid_velocity_field(s->grid, 0), *fv = sq_grid_velocity_field(s->grid, 1);
@@ -543,64 +645,77 @@ static double emit_dust(sq_sandstorm *s, double dt)
     for (int b = 0; b < nb; b++) c[b] = sq_grid_scalar_field(s->grid, b);
     double *acc = s->row_acc;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int j = 0; j < ny; j++) {
+    for (int j = j0; j < j1; j++) {
         double total = 0.0, max_us = 0.0;
         int emitting = 0, cols = 0;
-        for (int i = 0; i < nx; i++) {
-            const size_t col = (size_t)j * nx + i;
+        for (int i = i0; i < i1; i++) {
+            const bool own = i >= 0 && i < nx && j >= 0 && j < ny;
+            const size_t col = (size_t)(j + oy) * NX + (size_t)(i + ox);
             const int k0 = s->ground_k[col];
             s->keep[col] = 1.0f;
             if (k0 < 0) continue;
-            cols++;
-            sq_vec3 uc = sq_grid_cell_velocity(s->grid, i, j, k0);
+            cols += own;
+            sq_vec3 uc = cell_wind(s->grid, i, j, k0);
             double uh = sqrt((double)uc.x * (double)uc.x + (double)uc.y * (double)uc.y);
             double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
-            if (us > max_us) max_us = us;
+            if (us > max_us && own) max_us = us;
             double F = sq_dust_emission_flux(us, s->u_star_t, s->d.emission_coeff);
             if (F <= 0.0) continue;
-            emitting++;
             double dc = F * dt / s->h; /* kg/m³ added to the ground cell */
-            for (int b = 0; b < nb; b++)
-                *sq_field3_at(c[b], i, j, k0) += (float)(dc * s->bins[b].mass_fraction);
-            total += dc;
+            if (own) {
+                emitting++;
+                for (int b = 0; b < nb; b++)
+                    *sq_field3_at(c[b], i, j, k0) += (float)(dc * s->bins[b].mass_fraction);
+                total += dc;
+            }
             /* grains start at rest: the air gives them momentum dc*u (exact mixing) */
             s->keep[col] = (float)(1.0 - 0.5 * dc / (SQ_SAND_AIR_DENSITY + dc));
         }
-        acc[4 * j] = total;
-        acc[4 * j + 1] = max_us;
-        acc[4 * j + 2] = emitting;
-        acc[4 * j + 3] = cols;
+        acc[4 * (j - j0)] = total;
+        acc[4 * (j - j0) + 1] = max_us;
+        acc[4 * (j - j0) + 2] = emitting;
+        acc[4 * (j - j0) + 3] = cols;
     }
-    /* u faces: a row's faces belong to that row only */
+    /* u faces: a row's faces belong to that row only; face f takes the factor of column f - 1
+     * (its east face), then of column f (its west face) */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < ny; j++)
-        for (int i = 0; i < nx; i++) {
-            const size_t col = (size_t)j * nx + i;
-            const float kp = s->keep[col];
-            if (kp == 1.0f) continue;
-            const int k0 = s->ground_k[col];
-            *sq_field3_at(fu, i, j, k0) *= kp;
-            *sq_field3_at(fu, i + 1, j, k0) *= kp;
+        for (int f = 0; f <= nx; f++) {
+            const int g = f + ox;
+            const size_t row = (size_t)(j + oy) * NX;
+            if (g > 0 && s->keep[row + g - 1] != 1.0f)
+                *sq_field3_at(fu, f, j, s->ground_k[row + g - 1]) *= s->keep[row + g - 1];
+            if (g < NX && s->keep[row + g] != 1.0f)
+                *sq_field3_at(fu, f, j, s->ground_k[row + g]) *= s->keep[row + g];
         }
     /* v faces: face row jf takes the factors of columns jf - 1 (its upper face) and jf */
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int jf = 0; jf <= ny; jf++)
         for (int i = 0; i < nx; i++) {
-            if (jf > 0) {
-                const size_t col = (size_t)(jf - 1) * nx + i;
+            const int g = jf + oy;
+            if (g > 0) {
+                const size_t col = (size_t)(g - 1) * NX + (size_t)(i + ox);
                 if (s->keep[col] != 1.0f) *sq_field3_at(fv, i, jf, s->ground_k[col]) *= s->keep[col];
             }
-            if (jf < ny) {
-                const size_t col = (size_t)jf * nx + i;
+            if (g < s->ny) {
+                const size_t col = (size_t)g * NX + (size_t)(i + ox);
                 if (s->keep[col] != 1.0f) *sq_field3_at(fv, i, jf, s->ground_k[col]) *= s->keep[col];
             }
         }
     double total = 0.0, max_us = 0.0, emitting = 0.0, cols = 0.0;
-    for (int j = 0; j < ny; j++) {
+    for (int j = 0; j < j1 - j0; j++) {
         total += acc[4 * j];
         max_us = acc[4 * j + 1] > max_us ? acc[4 * j + 1] : max_us;
         emitting += acc[4 * j + 2];
         cols += acc[4 * j + 3];
+    }
+    if (s->whole) {
+        double v[3] = {total, emitting, cols};
+        sq_par_sum_f64(v, 3);
+        sq_par_max_f64(&max_us, 1);
+        total = v[0];
+        emitting = v[1];
+        cols = v[2];
     }
     s->stats.max_u_star_mps = max_us;
     s->stats.emitting_fraction = cols > 0.0 ? emitting / cols : 0.0;
@@ -612,7 +727,7 @@ static double emit_dust(sq_sandstorm *s, double dt)
  * (before[b], kg) for the budget. */
 static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
 {
-    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nx = s->ln[0], ny = s->ln[1], nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
     const float gr = (float)(SQ_SAND_GRAVITY / SQ_SAND_AIR_DENSITY);
@@ -639,6 +754,7 @@ static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
         for (int k = 0; k < nz; k++) m += pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b];
         before[b] = m * vol;
     }
+    sum_ranks(s, before, nb);
     sq_field_view az = {s->accel_z, {nx, ny, nz}, 1, nx, (ptrdiff_t)nx * ny};
     return sq_grid_add_acceleration_field(s->grid, NULL, NULL, &az, dt);
 }
@@ -648,7 +764,8 @@ static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
 static double inflow_dust(sq_sandstorm *s)
 {
     if (s->d.inflow_dust_kg_m3 <= 0.0) return 0.0;
-    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    /* the slab that holds the west face (its rows j, global row j + oy) */
+    const int nx = s->nx, ny = s->lo[0] == 0 ? s->ln[1] : 0, oy = s->lo[1], nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
     const double ramp = ramp_factor(s, s->time_s);
@@ -658,15 +775,16 @@ static double inflow_dust(sq_sandstorm *s)
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int j = 0; j < ny; j++) {
         double added = 0.0;
-        const int k0 = s->ground_k[(size_t)j * nx];
+        const size_t col = (size_t)(j + oy) * nx;
+        const int k0 = s->ground_k[col];
         if (k0 >= 0) {
             double lateral = 1.0;
             if (s->d.inflow_dust_width_m > 0.0) {
-                double yc = (j + 0.5 - 0.5 * ny) * s->h / s->d.inflow_dust_width_m;
+                double yc = (j + oy + 0.5 - 0.5 * s->ny) * s->h / s->d.inflow_dust_width_m;
                 lateral = exp(-0.5 * yc * yc);
             }
             for (int k = k0; k < nz; k++) {
-                const double zg = (k - k0) * (double)s->h + (double)s->ground_z1[(size_t)j * nx];
+                const double zg = (k - k0) * (double)s->h + (double)s->ground_z1[col];
                 const double prof =
                     ramp * lateral * s->d.inflow_dust_kg_m3 * exp(-zg / s->d.inflow_dust_height_m);
                 for (int b = 0; b < nb; b++) {
@@ -683,6 +801,7 @@ static double inflow_dust(sq_sandstorm *s)
     }
     double added = 0.0;
     for (int j = 0; j < ny; j++) added += acc[4 * j];
+    sum_ranks(s, &added, 1);
     return added * (double)s->h * s->h * s->h;
 }
 
@@ -693,7 +812,7 @@ static double inflow_dust(sq_sandstorm *s)
 static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
 {
     const uint8_t *solid = sq_grid_solid(s->grid);
-    const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
+    const int nx = s->ln[0], ny = s->ln[1], nz = s->nz, nb = s->nbins;
     const ptrdiff_t plane = (ptrdiff_t)nx * ny;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
@@ -722,6 +841,7 @@ static double settle_dust(sq_sandstorm *s, double dt, const float *scale)
     }
     double dep = 0.0;
     for (int j = 0; j < ny; j++) dep += acc[4 * j];
+    sum_ranks(s, &dep, 1);
     return dep * (double)s->h * s->h * s->h;
 }
 
@@ -731,9 +851,9 @@ static void heat_surface(sq_sandstorm *s, double dt)
 {
     const float dth = (float)(s->d.surface_heat_flux_w_m2 * dt / (SQ_SAND_AIR_DENSITY * SQ_SAND_CP * s->h));
     sq_field3 *T = sq_grid_scalar_field(s->grid, s->temp_idx);
-    for (int j = 0; j < s->ny; j++)
-        for (int i = 0; i < s->nx; i++) {
-            const int k0 = s->ground_k[(size_t)j * s->nx + i];
+    for (int j = 0; j < s->ln[1]; j++)
+        for (int i = 0; i < s->ln[0]; i++) {
+            const int k0 = s->ground_k[(size_t)(j + s->lo[1]) * s->nx + (size_t)(i + s->lo[0])];
             if (k0 >= 0) *sq_field3_at(T, i, j, k0) += dth;
         }
 }
@@ -749,7 +869,7 @@ static int cmp_d(const void *a, const void *b)
  * crossing); the median over the rows (0 where no cold air). */
 static double coldpool_front(sq_sandstorm *s)
 {
-    sq_field_view t = sq_grid_scalar_view(s->grid, s->temp_idx);
+    sq_field_view t = sq_grid_scalar_view(view_grid(s), s->temp_idx);
     const double half = 0.5 * s->d.coldpool_delta_t_k;
     double *xs = s->row_acc; /* ny of the 4 ny scratch entries */
     for (int j = 0; j < s->ny; j++) {
@@ -802,7 +922,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     double before[SQ_SANDSTORM_MAX_BINS], out[SQ_SANDSTORM_MAX_BINS], after[SQ_SANDSTORM_MAX_BINS];
     /* wind (W1–W5; SPEC §1.11) */
     if (s->d.ramp_s > 0.0 && s->time_s < s->d.ramp_s + dt)
-        r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s); /* the trough arrives */
+        r = set_wind_inflow(s);                                            /* the trough arrives */
     if (r == SQ_OK) r = sq_grid_advect_velocity(s->grid, dt);             /* MacCormack + limiter */
     double t1 = sq_time_now();
     if (r == SQ_OK) r = add_dust_loading(s, dt, before);                   /* dust weight on air */
@@ -831,7 +951,8 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     r = sq_grid_advect_scalars(s->grid, dt);                               /* dust bins and T */
     if (r != SQ_OK) return r;
     double t7 = sq_time_now();
-    dust_masses(s, after);
+    dust_masses(s, s->grid, s->ln[0], s->ln[1], after);
+    sum_ranks(s, after, s->nbins);
     double corr = 0.0, outflow = 0.0;
     float scale[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < s->nbins; b++) {
@@ -860,6 +981,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     s->stats.pressure_residual = ps.residual;
     s->stats.pressure_iterations = ps.iterations;
     r = sq_grid_check_finite(s->grid, s->step);
+    if (r == SQ_OK) r = gather_whole(s); /* under mpirun: the whole grid for views and front */
     s->time_s += dt;
     if (r == SQ_OK) track_front(s);
     return r;
@@ -869,7 +991,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
  * drift with the local wind, fade in with age and out near the region's edge. */
 static sq_vec3 local_wind(const sq_sandstorm *s, sq_vec3 p)
 {
-    if (s->grid) return sq_grid_sample_velocity(s->grid, p);
+    if (s->grid) return sq_grid_sample_velocity(view_grid(s), p);
     double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
     double v = bernoulli_speed(&s->d, 0.0) * 0.3;
     return sq_v3((float)(v * cos(a)), (float)(v * sin(a)), 0.0f);
@@ -934,7 +1056,7 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
                             "step %g s at a wind of %g m/s is %d times the CFL sub-step limit "
                             "%g s (solver.cfl = %g, cell %g m), more than 100: lower "
                             "wind.speed_mps, wave.pressure_amp_pa or coldpool.delta_t_k, or the "
-                            "frame step (output.time_scale)", dt, sq_grid_max_speed(s->grid), n,
+                            "frame step (output.time_scale)", dt, sq_grid_max_speed(view_grid(s)), n,
                             lim, s->d.cfl, s->h);
         if (n > 1 && s->step == 0)
             sq_log(s->ctx, SQ_LOG_INFO, "sandstorm",
@@ -945,7 +1067,7 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
             s->stats.steps++;
             if (r == SQ_OK && s->detail.enabled) { /* display only: the detail follows the wind */
                 const double t0 = sq_time_now();
-                sq__sand_detail_advect(&s->detail, s->grid, dt / n, sq_context_threads(s->ctx));
+                sq__sand_detail_advect(&s->detail, view_grid(s), dt / n, sq_context_threads(s->ctx));
                 s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
             }
         }
@@ -970,7 +1092,7 @@ double sq_sandstorm_max_stable_dt(const sq_sandstorm *s)
     if (!s->grid) return 0.0;
     /* semi-Lagrangian transport is unconditionally stable; the CFL bound keeps the MacCormack
      * correction and the emission/settling splitting accurate */
-    double v = sq_grid_max_speed(s->grid);
+    double v = sq_grid_max_speed(view_grid(s));
     return v > 1e-6 ? s->d.cfl * s->h / v : 0.0;
 }
 
@@ -980,7 +1102,7 @@ void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
     out->suspended_kg = 0.0;
     if (s->grid) {
         double m[SQ_SANDSTORM_MAX_BINS];
-        dust_masses(s, m);
+        dust_masses(s, view_grid(s), s->nx, s->ny, m);
         for (int b = 0; b < s->nbins; b++) out->suspended_kg += m[b];
     }
 }
@@ -988,7 +1110,9 @@ void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
 void sq_sandstorm_get_stats(const sq_sandstorm *s, sq_sandstorm_stats *out)
 {
     *out = s->stats;
-    out->max_wind_mps = s->grid ? sq_grid_max_speed(s->grid) : 0.0;
+    out->max_wind_mps = s->grid ? sq_grid_max_speed(view_grid(s)) : 0.0;
+    out->slab_cells = s->grid ? (int64_t)s->ln[0] * s->ln[1] * s->nz : 0;
+    out->bytes_exchanged = s->grid ? sq_grid_bytes_exchanged(s->grid) : 0;
 }
 
 /* ---- derived fields: extinction volume, visibility planes --------------------------------- */
@@ -1004,7 +1128,7 @@ static void update_derived(sq_sandstorm *s)
     sq_field_view c[SQ_SANDSTORM_MAX_BINS];
     float kb[SQ_SANDSTORM_MAX_BINS];
     for (int b = 0; b < nb; b++) {
-        c[b] = sq_grid_scalar_view(s->grid, b);
+        c[b] = sq_grid_scalar_view(view_grid(s), b);
         kb[b] = (float)s->k_ext[b][3];
     }
     /* beta_ext(550 nm) = sum_b k_b c_b, bins added in order (per cell, thread-independent) */
@@ -1229,7 +1353,7 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
             PUT("front_m", s->stats.front_m, "m");
             PUT("front_speed_mps", s->stats.front_speed_mps, "m/s");
         }
-        const double vmax = sq_grid_max_speed(s->grid);
+        const double vmax = sq_grid_max_speed(view_grid(s));
         if (vmax > 100.0 && !(s->warned & 1)) {
             s->warned |= 1;
             sq_log(s->ctx, SQ_LOG_WARN, "sandstorm",
@@ -1271,7 +1395,7 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
     memset(conc, 0, n * sizeof(float));
     memset(beta, 0, n * sizeof(float));
     for (int b = 0; b < s->nbins; b++) {
-        sq_field_view c = sq_grid_scalar_view(s->grid, b);
+        sq_field_view c = sq_grid_scalar_view(view_grid(s), b);
         const float kb = (float)s->k_ext[b][3];
         for (int k = 0; k < s->nz; k++)
             for (int j = 0; j < s->ny; j++)
@@ -1282,12 +1406,12 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
                     beta[id] += kb * cv; /* untapered, unlike the drawable */
                 }
     }
-    sq_field_view tv = sq_grid_scalar_view(s->grid, s->temp_idx);
+    sq_field_view tv = sq_grid_scalar_view(view_grid(s), s->temp_idx);
     for (int k = 0; k < s->nz; k++)
         for (int j = 0; j < s->ny; j++)
             for (int i = 0; i < s->nx; i++) {
                 size_t id = ((size_t)k * s->ny + j) * s->nx + i;
-                sq_vec3 c = sq_grid_cell_velocity(s->grid, i, j, k);
+                sq_vec3 c = sq_grid_cell_velocity(view_grid(s), i, j, k);
                 u[id] = c.x;
                 v[id] = c.y;
                 w[id] = c.z;
@@ -1311,7 +1435,7 @@ int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
     for (int i = 0; i < 6 && cnt < max; i++)
         out[cnt++] = (sq_named_field){f[i].name, f[i].units, f[i].longn, f[i].stdn, f[i].data,
                                       s->nx, s->ny, s->nz, o, sp,
-                                      sq_grid_solid(s->grid), /* terrain and obstacles: no air */
+                                      sq_grid_solid(view_grid(s)), /* terrain and obstacles: no air */
                                       SQ_FIELD_LEVEL_ALTITUDE};
     /* visibility planes as 2D maps, each at its height above the terrain */
     for (int q = 0; q < s->d.vis_height_count && cnt < max; q++) {
@@ -1346,7 +1470,7 @@ sq_result sq__sandstorm_apply_live(sq_sandstorm *s, const sq_sandstorm_desc *d)
     s->u_star_t = (double)d->u_star_t0_mps * d->roughness_factor * d->moisture_factor *
                   d->compactness_factor;
     sq_result r = SQ_OK;
-    if (s->grid) r = sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s);
+    if (s->grid) r = set_wind_inflow(s);
     if (r != SQ_OK) {
         s->d = old;
         s->u_star_t = (double)old.u_star_t0_mps * old.roughness_factor * old.moisture_factor *

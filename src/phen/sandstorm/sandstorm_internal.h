@@ -74,8 +74,11 @@ struct sq_sandstorm {
     const sq_world *world;
     uint64_t memory_bytes;
     /* grid (desert) */
-    sq_grid *grid;
-    int nx, ny, nz;
+    sq_grid *grid;    /* under mpirun: this rank's slab (the whole grid's columns lo .. lo+ln) */
+    sq_grid *whole;   /* under mpirun: the whole grid, gathered after every step for the views,
+                         metrics, outputs and the front (never stepped); NULL: grid is whole */
+    int lo[2], ln[2]; /* the slab's first column (x, y) and its columns; 0 and nx, ny if whole */
+    int nx, ny, nz;   /* the whole grid's cells */
     double h;
     double origin[3];
     sq_grid_sgs_desc sgs; /* the subgrid closure (solver.turbulence = smagorinsky or tke) */

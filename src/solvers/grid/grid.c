@@ -648,6 +648,8 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
         SQ_OMP(omp for schedule(static))
         for (int q = -1; q <= m[tb]; q++) fill_face_row(g, o, st, m, L, &gf[f], q);
     }
+    /* a decomposed grid: the ghost planes toward the neighbouring slabs are their samples */
+    sq__grid_dist_halo_lattice(g, o, sy, sz, L);
 }
 
 /* ---- fixed faces --------------------------------------------------------------------------- */
@@ -918,6 +920,8 @@ double sq__grid_sum_planes(const sq_grid *g, int slot)
 }
 
 /* ---- diagnostics ---------------------------------------------------------------------------- */
+static double local_max_speed(const sq_grid *g);
+
 static const char *vel_name(int c) { return c == 0 ? "u (x-face)" : c == 1 ? "v (y-face)" : "w (z-face)"; }
 
 /* First sample of row j of plane k of f outside the finite range (|v| <= lim fails: NaN,
@@ -967,7 +971,7 @@ static sq_result check_finite_local(sq_grid *g, int64_t step)
                 snprintf(name, sizeof name, "scalar %d", fi - 3);
             else
                 snprintf(name, sizeof name, "pressure");
-            double vmax = sq_grid_max_speed(g);
+            double vmax = local_max_speed(g); /* this rank alone fails here: not collective */
             memset(g->plane_sum, 0, ((size_t)g->n[2] + 2) * 4 * sizeof(double));
             return sq__fail(g->ctx, SQ_ERR_UNSTABLE, MOD,
                             "step %lld: %s at (%d,%d,%d) is %g (%s); the largest finite speed is "
@@ -992,6 +996,13 @@ sq_result sq_grid_check_finite(sq_grid *g, int64_t step)
 double sq_grid_max_speed(const sq_grid *g)
 {
     if (!g) return 0.0;
+    double m = local_max_speed(g);
+    sq__grid_dist_max(g, &m, 1); /* a decomposed grid: the largest over the ranks */
+    return m;
+}
+
+static double local_max_speed(const sq_grid *g)
+{
     float m = 0.0f;
     const int nt = (size_t)g->n[0] * (size_t)g->n[1] * (size_t)g->n[2] > 32768
                        ? sq_context_threads(g->ctx)
@@ -1047,6 +1058,7 @@ double sq_grid_divergence_max(const sq_grid *g)
                 d = fabs(d);
                 if (d > m) m = d;
             }
+    sq__grid_dist_max(g, &m, 1);
     return m / g->d.cell_size_m;
 }
 

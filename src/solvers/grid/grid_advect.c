@@ -439,9 +439,12 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
  * kernels read; its CFL number is the largest over the ranks. */
 static sq_result ensure_displacements(sq_grid *g, float dt, float drift, bool fwd)
 {
-    if (g->trace_valid && g->trace_version == g->vel_version && g->trace_dt == (double)dt &&
-        g->trace_drift == (double)drift && (g->trace_fwd || !fwd))
-        return SQ_OK;
+    bool valid = g->trace_valid && g->trace_version == g->vel_version &&
+                 g->trace_dt == (double)dt && g->trace_drift == (double)drift &&
+                 (g->trace_fwd || !fwd);
+    /* a decomposed grid: one slab's change (its inflow face) is every slab's recompute */
+    if (g->halo) valid = !sq__grid_dist_any(g, !valid);
+    if (valid) return SQ_OK;
     sq__grid_enforce_velocity(g);
     sq_grid *w = g;
     if (g->halo) { /* faces held by two slabs: the upper slab's (as before a projection) */

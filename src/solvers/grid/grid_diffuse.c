@@ -289,13 +289,16 @@ static void molecular(sq_grid *g, float nu_mol, float s, bool implicit)
         } else {
             float *u = f->origin;
             const float den = 1.0f / (1.0f + 6.0f * a);
+            const int par = sq__grid_dist_parity(g); /* colours by the global index */
             for (int it = 0; it < g->d.diffusion_iterations; it++) {
                 for (int colour = 0; colour < 2; colour++) {
+                    /* a decomposed grid: the neighbours' other colour, just updated */
+                    if (colour == 1) sq__grid_dist_halo_lattice(g, f->origin, fsy, fsz, c + 1);
                     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
                     for (int k = 0; k < mz; k++)
                         for (int j = 0; j < my; j++) {
                             const ptrdiff_t r0 = sq__cidx(g, 0, j, k);
-                            for (int i = (j + k + colour) & 1; i < mx; i += 2) {
+                            for (int i = (j + k + colour + par) & 1; i < mx; i += 2) {
                                 const ptrdiff_t hi = r0 + i, lo = hi - off;
                                 if ((fl[lo] | fl[hi]) & SQ__CF_FIXED) continue;
                                 const ptrdiff_t p =
@@ -446,7 +449,12 @@ sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double d
     const float mol = (float)nu_mol * s;
     const bool do_mol = mol > MOLECULAR_THRESHOLD;
     float *nu = g->scratch[0];
-    const float ntmax = kappa > 0.0 ? eddy_viscosity(g, nu, (float)kappa) : 0.0f;
+    float ntmax = kappa > 0.0 ? eddy_viscosity(g, nu, (float)kappa) : 0.0f;
+    if (g->halo) { /* a decomposed grid: every slab takes the same branches */
+        double m = (double)ntmax;
+        sq__grid_dist_max(g, &m, 1);
+        ntmax = (float)m;
+    }
     g->stats.last_diffusion_number = (double)((ntmax + (float)nu_mol) * s);
     g->stats.last_diffusion_implicit = ntmax > 0.0f || mol > 1.0f / 6.0f;
     if (ntmax > 0.0f) {

@@ -84,7 +84,8 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
             h->nb[f] = h->inner[f] ? b.neighbour[f] : -1;
             if (h->inner[f]) {
                 d->boundary[f] = SQ_BOUNDARY_OPEN;
-                const size_t p = (size_t)(n[ta] + 2) * (size_t)(n[tb] + 2);
+                /* the largest plane of any lattice, ghosts included */
+                const size_t p = (size_t)(n[ta] + 3) * (size_t)(n[tb] + 3);
                 if (p > plane) plane = p;
             }
         }
@@ -162,6 +163,60 @@ void sq__grid_halo_cells(sq_grid *g, void *base, size_t elem)
         for (int s = 0; s < 2; s++)
             if (nb[s] >= 0) plane_copy(g, o, elem, a, s ? g->n[a] : -1, rb[s], true);
     }
+}
+
+static size_t planes_copy(unsigned char *o, ptrdiff_t sy, ptrdiff_t sz, size_t elem, const int m[3],
+                          int a, int p0, int cnt, unsigned char *buf, bool unpack);
+static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t *sz);
+
+void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
+{
+    sq__grid_halo *h = g->halo;
+    if (!h) return;
+    const int a = h->ax;
+    int m[3];
+    ptrdiff_t y, z;
+    lat_layout(g->n, L, m, &y, &z);
+    const bool face = L - 1 == a;
+    const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
+    unsigned char *sb[2] = {h->buf, h->buf + h->plane_bytes};
+    unsigned char *rb[2] = {h->buf + 2 * h->plane_bytes, h->buf + 3 * h->plane_bytes};
+    unsigned char *ob = (unsigned char *)o;
+    size_t by[2] = {0, 0};
+    /* to the minus side: my first sample past the shared face (face lattice) or cell 0; to
+     * the plus side: my last cell, or the face before the shared one */
+    if (nb[0] >= 0) by[0] = planes_copy(ob, sy, sz, 4, m, a, face ? 1 : 0, 1, sb[0], false);
+    if (nb[1] >= 0) by[1] = planes_copy(ob, sy, sz, 4, m, a, face ? m[a] - 2 : m[a] - 1, 1, sb[1], false);
+    const void *const sbuf[2] = {sb[0], sb[1]};
+    void *const rbuf[2] = {rb[0], rb[1]};
+    (void)sq_par_exchange_pair(nb, sbuf, by, rbuf, by); /* planes fit buf (setup) */
+    h->bytes_exchanged += by[0] + by[1];
+    if (nb[0] >= 0) planes_copy(ob, sy, sz, 4, m, a, -1, 1, rb[0], true);
+    if (nb[1] >= 0) planes_copy(ob, sy, sz, 4, m, a, m[a], 1, rb[1], true);
+}
+
+void sq__grid_dist_face_links(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
+{
+    sq__grid_halo *h = g->halo;
+    if (!h) return;
+    const int a = h->ax;
+    int m[3];
+    ptrdiff_t y, z;
+    lat_layout(g->n, L, m, &y, &z);
+    const int n = g->n[a]; /* faces 0 .. n, links 0 .. n-1 inside */
+    const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
+    unsigned char *sb[2] = {h->buf, h->buf + h->plane_bytes};
+    unsigned char *rb[2] = {h->buf + 2 * h->plane_bytes, h->buf + 3 * h->plane_bytes};
+    unsigned char *ob = (unsigned char *)o;
+    size_t by[2] = {0, 0};
+    if (nb[0] >= 0) by[0] = planes_copy(ob, sy, sz, 4, m, a, 0, 1, sb[0], false);
+    if (nb[1] >= 0) by[1] = planes_copy(ob, sy, sz, 4, m, a, n - 1, 1, sb[1], false);
+    const void *const sbuf[2] = {sb[0], sb[1]};
+    void *const rbuf[2] = {rb[0], rb[1]};
+    (void)sq_par_exchange_pair(nb, sbuf, by, rbuf, by);
+    h->bytes_exchanged += by[0] + by[1];
+    if (nb[0] >= 0) planes_copy(ob, sy, sz, 4, m, a, -1, 1, rb[0], true);
+    if (nb[1] >= 0) planes_copy(ob, sy, sz, 4, m, a, n, 1, rb[1], true);
 }
 
 void sq__grid_dist_frame(const sq_grid *g, int n0[3], int lo[3])
@@ -561,4 +616,95 @@ void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *sla
             memcpy(slab + (ptrdiff_t)j * sy + (ptrdiff_t)k * sz,
                    wide + (ptrdiff_t)(j + dy) * wsy + (ptrdiff_t)(k + dz) * wsz + dx,
                    (size_t)m[0] * sizeof(float));
+}
+
+/* ---- the whole grid from the slabs (outputs) ------------------------------------------------ */
+sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole)
+{
+    if (!g || !whole || whole->halo)
+        return sq__fail(g ? g->ctx : NULL, SQ_ERR_INVALID_ARG, MOD,
+                        "sq_grid_gather: the slab and a whole (not decomposed) grid are needed");
+    sq__grid_halo *h = g->halo;
+    int n0[3], lo[3];
+    sq__grid_dist_frame(g, n0, lo);
+    if (whole->n[0] != n0[0] || whole->n[1] != n0[1] || whole->n[2] != n0[2] ||
+        whole->d.scalar_count != g->d.scalar_count)
+        return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "sq_grid_gather: whole grid %dx%dx%d with %d scalars; the grid is "
+                        "%dx%dx%d with %d", whole->n[0], whole->n[1], whole->n[2],
+                        whole->d.scalar_count, n0[0], n0[1], n0[2], g->d.scalar_count);
+    const int nf = 3 + g->d.scalar_count, size = h ? sq_par_size() : 1, rank = h ? sq_par_rank() : 0;
+    /* every rank's block (a pure function of the rank) */
+    sq_par_block bl[64];
+    const sq_par_block *b = bl;
+    sq_par_block *heap = NULL;
+    if (size > 64) {
+        heap = (sq_par_block *)sq_alloc(g->ctx, (size_t)size * sizeof *heap);
+        if (!heap) return SQ_ERR_OUT_OF_MEMORY;
+        b = heap;
+    }
+    sq_par_block *bw = heap ? heap : bl;
+    if (h) {
+        int split[3] = {0, 0, 0}, per[3];
+        split[h->ax] = 1;
+        for (int a = 0; a < 3; a++) per[a] = h->gperiodic[a];
+        const sq_dims gd = {n0[0], n0[1], n0[2]};
+        for (int q = 0; q < size; q++) (void)sq_par_decompose(gd, split, per, 4, size, q, &bw[q]);
+    } else {
+        memset(bw, 0, sizeof *bw);
+        bw[0].n = (sq_dims){n0[0], n0[1], n0[2]};
+    }
+    int64_t counts[64], *cnt = counts;
+    if (size > 64) cnt = (int64_t *)sq_alloc(g->ctx, (size_t)size * sizeof(int64_t));
+    size_t total = 0;
+    for (int q = 0; q < size; q++) {
+        const int nq[3] = {b[q].n.nx, b[q].n.ny, b[q].n.nz};
+        total += wide_count(nq); /* >= any lattice's samples */
+    }
+    float *mine = NULL, *all = NULL;
+    if (cnt) {
+        mine = (float *)sq_alloc(g->ctx, wide_count(g->n) * sizeof(float));
+        all = (float *)sq_alloc(g->ctx, total * sizeof(float));
+    }
+    sq_result r = cnt && mine && all ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
+    if (h && sq__grid_dist_any(g, r != SQ_OK) && r == SQ_OK) r = SQ_ERR_OUT_OF_MEMORY;
+    for (int c = 0; c < nf && r == SQ_OK; c++) {
+        const int L = c < 3 ? c + 1 : SQ__L_CELL;
+        const sq_field3 *f = c < 3 ? &g->vel[c] : &g->scalar[c - 3];
+        sq_field3 *F = c < 3 ? &whole->vel[c] : &whole->scalar[c - 3];
+        int m[3];
+        ptrdiff_t y, z;
+        for (int q = 0; q < size; q++) {
+            const int nq[3] = {b[q].n.nx, b[q].n.ny, b[q].n.nz};
+            lat_layout(nq, L, m, &y, &z);
+            cnt[q] = (int64_t)m[0] * m[1] * m[2];
+        }
+        lat_layout(g->n, L, m, &y, &z);
+        size_t t = 0;
+        for (int k = 0; k < m[2]; k++)
+            for (int j = 0; j < m[1]; j++, t += (size_t)m[0])
+                memcpy(mine + t, sq_field3_at(f, 0, j, k), (size_t)m[0] * sizeof(float));
+        if (h) {
+            r = sq_par_allgather_f32(mine, cnt, all);
+            h->bytes_exchanged += (uint64_t)cnt[rank] * sizeof(float) * (uint64_t)(size - 1);
+        } else {
+            memcpy(all, mine, t * sizeof(float));
+        }
+        size_t off = 0;
+        for (int q = 0; q < size && r == SQ_OK; q++) {
+            const int nq[3] = {b[q].n.nx, b[q].n.ny, b[q].n.nz};
+            lat_layout(nq, L, m, &y, &z);
+            for (int k = 0; k < m[2]; k++)
+                for (int j = 0; j < m[1]; j++, off += (size_t)m[0])
+                    memcpy(sq_field3_at(F, b[q].lo[0], j + b[q].lo[1], k + b[q].lo[2]), all + off,
+                           (size_t)m[0] * sizeof(float));
+        }
+    }
+    sq_free(g->ctx, mine);
+    sq_free(g->ctx, all);
+    if (cnt != counts) sq_free(g->ctx, cnt);
+    sq_free(g->ctx, heap);
+    whole->vel_version++;
+    whole->trace_valid = false;
+    return r;
 }

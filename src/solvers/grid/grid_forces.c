@@ -198,6 +198,12 @@ sq_result sq_grid_add_buoyancy(sq_grid *g, int tidx, const float *tref_k, double
                 sum += ((p[0] + p[4]) + (p[1] + p[5])) + ((p[2] + p[6]) + (p[3] + p[7]));
                 cnt += (double)n;
             }
+            tr[4 * k] = sum;
+            tr[4 * k + 1] = cnt;
+        }
+        sq__grid_dist_sum(g, tr, 4 * nz); /* a decomposed grid: the whole level's mean */
+        for (int k = 0; k < nz; k++) {
+            const double sum = tr[4 * k], cnt = tr[4 * k + 1];
             tr[4 * k + 3] = cnt > 0.0 ? sum / cnt : 1.0;
         }
     }

@@ -250,6 +250,13 @@ void sq__grid_dist_sum_f32(sq_grid *g, float *v, size_t n);
  * slab's (its face 0; across a split periodic axis the first slab's, as one rank's periodic
  * face n copies face 0). */
 void sq__grid_dist_sync_faces(sq_grid *g);
+/* Collective: the ghost planes toward neighbouring slabs of a padded lattice-L array (origin
+ * o, strides sy, sz) become the neighbours' samples next to them (no-op when whole). */
+void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L);
+/* Collective: link coefficients a (origin, strides) of face lattice L normal to the split
+ * axis: the links across the slab faces (a[-1], a[n]) become the neighbours' (their a[n-1]
+ * and a[0]), which they compute from their own cells. */
+void sq__grid_dist_face_links(sq_grid *g, float *a, ptrdiff_t sy, ptrdiff_t sz, int L);
 /* Collective: v[0..n) summed over the ranks. */
 void sq__grid_dist_sum(const sq_grid *g, double *v, int n);
 /* Collective: v[0..n) the largest over the ranks. */

@@ -238,13 +238,20 @@ static float closure_coefficients(sq_grid *g, const sq_grid_sgs_desc *d, float d
     const bool tke = d->closure == SQ_SGS_TKE;
     const float gfac = (float)(tke ? d->gravity_mps2 : d->gravity_mps2 / d->prandtl_t);
     strain_and_stratification(g, d, gfac, s2, n2, g->scratch[1], g->scratch[2], g->scratch[3]);
+    const ptrdiff_t c0 = sq__cidx(g, 0, 0, 0);
     if (!tke) {
         *kh_out = nu;
-        return sgs_viscosity(g, d, nu, s2, n2);
+        const float m = sgs_viscosity(g, d, nu, s2, n2);
+        /* a decomposed grid: the neighbours' coefficients next to the slab (the domain's
+         * ghosts stay 0) */
+        sq__grid_dist_halo_lattice(g, nu + c0, g->sy, g->sz, SQ__L_CELL);
+        return m;
     }
     float *l = g->scratch[9], *kh = g->scratch[10];
     const float kmax = sq__grid_tke_coefficients(g, d, n2, l, nu, kh);
     if (dt > 0.0f) sq__grid_tke_sources(g, d, s2, n2, l, nu, kh, dt);
+    sq__grid_dist_halo_lattice(g, nu + c0, g->sy, g->sz, SQ__L_CELL);
+    sq__grid_dist_halo_lattice(g, kh + c0, g->sy, g->sz, SQ__L_CELL);
     *kh_out = kh;
     return kmax;
 }
@@ -280,15 +287,29 @@ static void link_coefficients(sq_grid *g, const lattice *L, const float *nu, flo
     const ptrdiff_t cs[3] = {1, g->sy, g->sz}, off = L->cell_off;
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
+    /* a decomposed grid: links across a slab face exist (lo: the ghost sample's link to
+     * sample 0, hi: the last sample's to the ghost); a lattice normal to the face gets them
+     * from the neighbours below instead (they need nu two cells away) */
+    int lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+    bool normal_split = false;
+    for (int a = 0; a < 3; a++) {
+        const bool ilo = sq__grid_dist_inner(g, 2 * a), ihi = sq__grid_dist_inner(g, 2 * a + 1);
+        if ((ilo || ihi) && !L->cells && off == cs[a]) {
+            normal_split = true;
+            continue;
+        }
+        lo[a] = ilo ? -1 : 0;
+        hi[a] = ihi ? 1 : 0;
+    }
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < mz; k++)
-        for (int j = 0; j < my; j++)
-            for (int i = 0; i < mx; i++) {
+    for (int k = lo[2]; k < mz; k++)
+        for (int j = lo[1]; j < my; j++)
+            for (int i = lo[0]; i < mx; i++) {
                 const ptrdiff_t p = (ptrdiff_t)i + j * L->sy + k * L->sz;
                 const ptrdiff_t c = sq__cidx(g, i, j, k);
                 if (!sample_free(g, L, c)) continue;
                 const float vp = L->cells ? nu[c] : 0.5f * (nu[c] + nu[c - off]);
-                const bool inside[3] = {i + 1 < mx, j + 1 < my, k + 1 < mz};
+                const bool inside[3] = {i + 1 < mx + hi[0], j + 1 < my + hi[1], k + 1 < mz + hi[2]};
                 float *a[3] = {ax, ay, az};
                 for (int e = 0; e < 3; e++) {
                     if (!inside[e]) continue;
@@ -298,6 +319,11 @@ static void link_coefficients(sq_grid *g, const lattice *L, const float *nu, flo
                     a[e][p] = 0.5f * s * (vp + vq);
                 }
             }
+    if (normal_split) {
+        float *a[3] = {ax, ay, az};
+        for (int e = 0; e < 3; e++)
+            if (off == cs[e]) sq__grid_dist_face_links(g, a[e], L->sy, L->sz, e + 1);
+    }
 }
 
 /* One explicit sub-step of dc/dt = div (a grad c) on lattice L with the link coefficients
@@ -403,7 +429,12 @@ sq_result sq_grid_diffuse_sgs(sq_grid *g, const sq_grid_sgs_desc *desc, double d
     const bool tke = d.closure == SQ_SGS_TKE;
     float *nu = g->scratch[0], *kh = NULL;
     /* Smagorinsky: nu_t; TKE: K_m, K_h, and e advanced by its sources */
-    const float numax = closure_coefficients(g, &d, (float)dt_s, &kh);
+    float numax = closure_coefficients(g, &d, (float)dt_s, &kh);
+    if (g->halo) { /* a decomposed grid: every slab takes as many sub-steps */
+        double m = (double)numax;
+        sq__grid_dist_max(g, &m, 1);
+        numax = (float)m;
+    }
     g->trace_valid = false; /* scratch 4..10 (the cached trace) are used from here on */
     const float ih2 = 1.0f / (g->h * g->h);
     /* the largest diffusion number: Smagorinsky's scalars (K = nu_t / Pr_t) for Pr_t < 1; the
