@@ -331,6 +331,9 @@ SQ_TEST(fresh_dust_albedo_in_the_measured_range)
     }
     SQ_CHECK(w[0] >= 0.92 && w[0] <= 0.995);
     SQ_CHECK(w[1] < w[0] && w[2] < w[1]);
+    /* 8 µm, the airborne SAMUM plumes' effective diameter (Weinzierl et al. 2009) and the haboob
+     * preset's: still inside the measured fresh-dust SSA */
+    SQ_CHECK(w[1] >= 0.92 && w[1] <= 0.995);
     SQ_CHECK(w[2] < 0.92); /* spheres of 19.4 µm: below the measured fresh-dust SSA */
 }
 

@@ -97,7 +97,7 @@ static int32_t eddy_row(const eddy_par *p, const uint8_t *restrict fl,
          * is 3e-5 K at 300 K), not stratification: without this dead band an exactly neutral
          * column without shear would convect on round-off */
         const float dthc = dth * h;
-        const float dths = sq__fselm(-(int32_t)(dthc > 1e-3f || dthc < -1e-3f), dth, 0.0f);
+        const float dths = sq__fselm(-(int32_t)((dthc > 1e-3f) | (dthc < -1e-3f)), dth, 0.0f);
         const float ith = sq__fselm(-(int32_t)(t0[i] > 0.0f), 1.0f / t0[i], 0.0f);
         const float s2 = du * du + dv * dv - g_pr * dths * ith;
         nu[i] = sq__fselm(-(int32_t)(s2 > 0.0f), s2, 0.0f);
@@ -332,10 +332,16 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
     const ptrdiff_t sz = g->sz;
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
-    /* coefficient of the link between cell k and k + 1 (0: no link) */
+    /* per x-z slice of columns (one j): the slice's coefficients, then every scalar in turn;
+     * the coefficients and the increments stay in the cache across the scalars, and each
+     * scalar's slice is read and written once (forward elimination, then the back substitution
+     * adding each increment as it is found). iden overwrites the slice's nu once its links are
+     * known (nu is not needed afterwards). */
+    float *iden = (float *)nu;
+    const int ns = g->d.scalar_count;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < nz; k++)
-        for (int j = 0; j < ny; j++) {
+    for (int j = 0; j < ny; j++) {
+        for (int k = 0; k < nz; k++) { /* coefficient of the link between cell k and k + 1 */
             const ptrdiff_t c = sq__cidx(g, 0, j, k);
             const int32_t top = -(int32_t)(k == nz - 1);
             for (int i = 0; i < nx; i++) {
@@ -344,12 +350,7 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
                 ahi[c + i] = sq__fselm(open, 0.5f * s_pr * (nu[c + i] + nu[c + i + sz]), 0.0f);
             }
         }
-    /* the elimination's coefficients are the same for every scalar: cp and 1/den once (iden
-     * overwrites nu, which is no longer needed) */
-    float *iden = (float *)nu;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int j = 0; j < ny; j++)
-        for (int k = 0; k < nz; k++) {
+        for (int k = 0; k < nz; k++) { /* the elimination's cp and 1/den, shared by the scalars */
             const ptrdiff_t c = sq__cidx(g, 0, j, k);
             const int32_t bottom = -(int32_t)(k == 0);
             for (int i = 0; i < nx; i++) {
@@ -361,13 +362,6 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
                 iden[c + i] = inv;
             }
         }
-    /* per x-z slice of columns (one j), every scalar in turn: the slice's coefficients and
-     * increments stay in the cache across the scalars, and each scalar's slice is read and
-     * written once (forward elimination, then the back substitution adding each increment as
-     * it is found) */
-    const int ns = g->d.scalar_count;
-    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int j = 0; j < ny; j++) {
         for (int sidx = 0; sidx < ns; sidx++) {
             float *f = g->scalar[sidx].base;
             for (int k = 0; k < nz; k++) { /* forward elimination, a row of columns at once */
