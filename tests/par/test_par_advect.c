@@ -25,6 +25,7 @@
 #include "sq_test.h"
 #include "squall/grid.h"
 #include "squall/par.h"
+#include "par_gather.h"
 
 SQ_LABEL(unit)
 
@@ -82,24 +83,12 @@ static float value0(int c, int i, int j, int k)
     }
 }
 
-static void lattice_dims(sq_dims n, int c, int m[3])
-{
-    m[0] = n.nx + (c == 0);
-    m[1] = n.ny + (c == 1);
-    m[2] = n.nz + (c == 2);
-}
-
-static sq_field3 *field_of(sq_grid *g, int c)
-{
-    return c < 3 ? sq_grid_velocity_field(g, c) : sq_grid_scalar_field(g, c - 3);
-}
-
 static void setup(sq_grid *g, const int lo[3], sq_dims n)
 {
     for (int c = 0; c < 5; c++) {
-        sq_field3 *f = field_of(g, c);
+        sq_field3 *f = par_field_of(g, c);
         int m[3];
-        lattice_dims(n, c, m);
+        par_lattice_dims(n, c, m);
         for (int k = 0; k < m[2]; k++)
             for (int j = 0; j < m[1]; j++)
                 for (int i = 0; i < m[0]; i++)
@@ -124,57 +113,6 @@ static void advance(sq_grid *g, double dt, int steps)
         SQ_CHECK_OK(sq_grid_advect_velocity(g, dt));
         SQ_CHECK_OK(sq_grid_advect_scalars(g, dt));
     }
-}
-
-/* Every slab's samples of component c assembled into a global array (every rank gets it) */
-static float *gather(sq_grid *g, int c)
-{
-    const int size = sq_par_size(), rank = sq_par_rank();
-    int lo[3];
-    sq_dims global;
-    SQ_CHECK_OK(sq_grid_get_block(g, lo, &global));
-    const sq_dims n = sq_grid_get_info(g).cells;
-    int64_t meta[6 * 64] = {0};
-    SQ_CHECK(size <= 64);
-    const int64_t mine_meta[6] = {lo[0], lo[1], lo[2], n.nx, n.ny, n.nz};
-    memcpy(meta + 6 * rank, mine_meta, sizeof mine_meta);
-    sq_par_sum_i64(meta, 6 * size);
-    int64_t counts[64];
-    size_t tot = 0;
-    for (int q = 0; q < size; q++) {
-        int m[3];
-        lattice_dims((sq_dims){(int)meta[6 * q + 3], (int)meta[6 * q + 4], (int)meta[6 * q + 5]}, c, m);
-        counts[q] = (int64_t)m[0] * m[1] * m[2];
-        tot += (size_t)counts[q];
-    }
-    int m[3];
-    lattice_dims(n, c, m);
-    float *mine = (float *)malloc((size_t)counts[rank] * sizeof(float));
-    const sq_field3 *f = field_of(g, c);
-    size_t t = 0;
-    for (int k = 0; k < m[2]; k++)
-        for (int j = 0; j < m[1]; j++)
-            for (int i = 0; i < m[0]; i++) mine[t++] = *sq_field3_at(f, i, j, k);
-    float *all = (float *)malloc(tot * sizeof(float));
-    SQ_CHECK_OK(sq_par_allgather_f32(mine, counts, all));
-    int gm[3];
-    lattice_dims(G, c, gm);
-    float *out = (float *)calloc((size_t)gm[0] * gm[1] * gm[2], sizeof(float));
-    size_t off = 0;
-    for (int q = 0; q < size; q++) {
-        int mq[3];
-        lattice_dims((sq_dims){(int)meta[6 * q + 3], (int)meta[6 * q + 4], (int)meta[6 * q + 5]}, c, mq);
-        for (int k = 0; k < mq[2]; k++)
-            for (int j = 0; j < mq[1]; j++)
-                for (int i = 0; i < mq[0]; i++) {
-                    const size_t gi = (size_t)(i + meta[6 * q]) +
-                                      (size_t)gm[0] * ((size_t)(j + meta[6 * q + 1]) + (size_t)gm[1] * (size_t)(k + meta[6 * q + 2]));
-                    out[gi] = all[off++];
-                }
-    }
-    free(mine);
-    free(all);
-    return out;
 }
 
 typedef struct result {
@@ -213,10 +151,10 @@ static result run(double dt, int steps)
     setup(ref, z, G);
     advance(ref, dt, steps);
     for (int c = 0; c < 5; c++) {
-        float *a = gather(dist, c);
+        float *a = par_gather(dist, c, G);
         int gm[3];
-        lattice_dims(G, c, gm);
-        const sq_field3 *f = field_of(ref, c);
+        par_lattice_dims(G, c, gm);
+        const sq_field3 *f = par_field_of(ref, c);
         double lo_v = 1e30, hi_v = -1e30;
         for (int k = 0; k < gm[2]; k++)
             for (int j = 0; j < gm[1]; j++)
