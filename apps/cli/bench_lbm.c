@@ -131,34 +131,15 @@ int sq_bench_lbm(const sq_bench_args *a)
                                 s.median_ms,
                                 steps_done > 0 ? (double)(sq_par_bytes_sent() - sent0) /
                                                      steps_done : 0.0};
-        double *all = (double *)calloc((size_t)(3 * nr), sizeof(double));
-        int64_t *cnt = (int64_t *)calloc((size_t)nr, sizeof(int64_t));
-        if (!all || !cnt) {
-            free(all);
-            free(cnt);
+        const sq_bench_rank_keys keys = {"ms_per_step", "mlups", "bytes_sent_per_step"};
+        double slowest = 0;
+        if (sq_bench_per_rank(mine, &keys, ranks_json, sizeof ranks_json, &slowest,
+                              &comm_bytes) == SQ_ERR_OUT_OF_MEMORY) {
             sq_lbm_destroy(b.l);
-            sq_cli_error("out of memory for the per-rank figures");
+            sq_cli_error("%s", sq_last_error());
             return SQ_EXIT_RUNTIME;
         }
-        for (int q = 0; q < nr; q++) cnt[q] = 3;
-        (void)sq_par_allgather_f64(mine, cnt, all);
-        double slowest = 0;
-        size_t len = 0;
-        len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len, "[");
-        for (int q = 0; q < nr && len < sizeof ranks_json; q++) {
-            const double *rq = all + 3 * q;
-            if (rq[1] > slowest) slowest = rq[1];
-            comm_bytes += rq[2];
-            len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len,
-                                    "%s{\"rank\": %d, \"cells\": %.0f, \"ms_per_step\": %.6g, "
-                                    "\"mlups\": %.6g, \"bytes_sent_per_step\": %.0f}",
-                                    q ? ", " : "", q, rq[0], rq[1],
-                                    rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, rq[2]);
-        }
-        if (len < sizeof ranks_json) snprintf(ranks_json + len, sizeof ranks_json - len, "]");
         total_mlups = slowest > 0 ? (double)cells / (slowest * 1e-3) / 1e6 : (double)NAN;
-        free(all);
-        free(cnt);
         if (me != 0) {
             sq_lbm_destroy(b.l);
             return SQ_EXIT_OK;

@@ -127,26 +127,11 @@ int sq_bench_project(const sq_bench_args *a)
     const int nr = sq_par_size(), me = sq_par_rank();
     const double mine[3] = {(double)n.nx * n.ny * n.nz, ms,
                             b.rep > 0 ? (double)(sq_grid_bytes_exchanged(b.g) - sent0) / b.rep : 0.0};
-    double all[3 * 64];
     char ranks_json[4096] = "";
     double slowest = ms, comm = 0.0;
-    if (nr > 1 && nr <= 64) {
-        int64_t cnt[64];
-        for (int q = 0; q < nr; q++) cnt[q] = 3;
-        (void)sq_par_allgather_f64(mine, cnt, all);
-        size_t len = (size_t)snprintf(ranks_json, sizeof ranks_json, "[");
-        slowest = 0.0;
-        for (int q = 0; q < nr && len < sizeof ranks_json; q++) {
-            const double *rq = all + 3 * q;
-            if (rq[1] > slowest) slowest = rq[1];
-            comm += rq[2];
-            len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len,
-                                    "%s{\"rank\": %d, \"cells\": %.0f, \"ms_project\": %.6g, "
-                                    "\"mcells_per_s\": %.6g, \"bytes_sent_per_project\": %.0f}",
-                                    q ? ", " : "", q, rq[0], rq[1],
-                                    rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, rq[2]);
-        }
-        if (len < sizeof ranks_json) snprintf(ranks_json + len, sizeof ranks_json - len, "]");
+    if (nr > 1) {
+        const sq_bench_rank_keys keys = {"ms_project", "mcells_per_s", "bytes_sent_per_project"};
+        (void)sq_bench_per_rank(mine, &keys, ranks_json, sizeof ranks_json, &slowest, &comm);
     }
     if (me == 0) {
         sq_json j;
@@ -158,7 +143,7 @@ int sq_bench_project(const sq_bench_args *a)
         sq_json_int(&j, "cg_iterations", b.last.iterations);
         sq_json_num(&j, "residual", b.last.residual);
         sq_json_int(&j, "ranks", nr);
-        if (nr > 1 && nr <= 64) {
+        if (nr > 1) {
             sq_json_str(&j, "decomposition", nx >= ny ? "slabs along x" : "slabs along y");
             sq_json_num(&j, "comm_bytes_per_project", comm);
             sq_json_raw(&j, "per_rank", ranks_json);

@@ -176,27 +176,12 @@ int sq_bench_sandstorm(const sq_bench_args *a)
         const int nr = sq_par_size(), me = sq_par_rank();
         char ranks_json[4096] = "";
         double slowest = st.median_ms, comm = 0.0;
-        if (nr > 1 && nr <= 64 && b.err == SQ_OK) {
+        if (nr > 1 && b.err == SQ_OK) {
             const double nst = (double)(s1.steps - s0.steps);
             const double mine[3] = {(double)s1.slab_cells, st.median_ms,
                                     nst > 0 ? (double)(s1.bytes_exchanged - s0.bytes_exchanged) / nst : 0.0};
-            double all[3 * 64];
-            int64_t cnt[64];
-            for (int q = 0; q < nr; q++) cnt[q] = 3;
-            (void)sq_par_allgather_f64(mine, cnt, all);
-            size_t len = (size_t)snprintf(ranks_json, sizeof ranks_json, "[");
-            slowest = 0.0;
-            for (int q = 0; q < nr && len < sizeof ranks_json; q++) {
-                const double *rq = all + 3 * q;
-                slowest = rq[1] > slowest ? rq[1] : slowest;
-                comm += rq[2];
-                len += (size_t)snprintf(ranks_json + len, sizeof ranks_json - len,
-                                        "%s{\"rank\": %d, \"cells\": %.0f, \"ms_step\": %.6g, "
-                                        "\"mcells_per_s\": %.6g, \"bytes_sent_per_step\": %.0f}",
-                                        q ? ", " : "", q, rq[0], rq[1],
-                                        rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, rq[2]);
-            }
-            if (len < sizeof ranks_json) snprintf(ranks_json + len, sizeof ranks_json - len, "]");
+            const sq_bench_rank_keys keys = {"ms_step", "mcells_per_s", "bytes_sent_per_step"};
+            (void)sq_bench_per_rank(mine, &keys, ranks_json, sizeof ranks_json, &slowest, &comm);
         }
         if (b.err != SQ_OK) {
             sq_cli_error("bench sandstorm: %s", sq_last_error());
@@ -226,7 +211,7 @@ int sq_bench_sandstorm(const sq_bench_args *a)
             sq_json_num(&j, "max_wind_mps", s1.max_wind_mps);
             sq_json_num(&j, "bytes_per_cell", (double)sq_sandstorm_memory_bytes(&d) / cells);
             sq_json_int(&j, "ranks", nr);
-            if (nr > 1 && nr <= 64) {
+            if (nr > 1) {
                 sq_json_str(&j, "decomposition", n[0] >= n[1] ? "slabs along x" : "slabs along y");
                 sq_json_num(&j, "ms_step_slowest", slowest);
                 sq_json_num(&j, "mcells_per_s_total", slowest > 0 ? cells / (slowest * 1e-3) / 1e6 : (double)NAN);

@@ -66,6 +66,16 @@ sq_bench_stats sq_bench_time(int (*fn)(void *user), void *user, int warmup, int 
 /* Median of v[0..n) (sorts v in place); NaN for n <= 0. */
 double sq_bench_median(double *v, int n);
 
+/* Under mpirun (collective): every rank's (cells, ms per step, bytes sent per step) gathered on
+ * every rank; json gets the array of per-rank objects {"rank", "cells", keys->ms, keys->rate
+ * (Mcells/s of the rank's cells), keys->bytes}, *slowest_ms the slowest rank's ms and
+ * *bytes_total the bytes of all ranks. */
+typedef struct sq_bench_rank_keys {
+    const char *ms, *rate, *bytes;
+} sq_bench_rank_keys;
+sq_result sq_bench_per_rank(const double mine[3], const sq_bench_rank_keys *keys, char *json,
+                            size_t size, double *slowest_ms, double *bytes_total);
+
 /* STREAM triad a[i] = b[i] + s*c[i] over arrays much larger than the caches, best of several
  * runs, in GB/s (counting 3 x 8 bytes per element, as STREAM does for doubles). */
 double sq_bench_stream_triad_gbps(int threads);

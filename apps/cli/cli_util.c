@@ -235,6 +235,39 @@ double sq_bench_median(double *v, int n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+sq_result sq_bench_per_rank(const double mine[3], const sq_bench_rank_keys *keys, char *json,
+                            size_t size, double *slowest_ms, double *bytes_total)
+{
+    const int nr = sq_par_size();
+    double *all = (double *)calloc((size_t)(3 * nr), sizeof(double));
+    int64_t *cnt = (int64_t *)calloc((size_t)nr, sizeof(int64_t));
+    if (!all || !cnt) {
+        free(all);
+        free(cnt);
+        return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "out of memory for the per-rank figures");
+    }
+    for (int q = 0; q < nr; q++) cnt[q] = 3;
+    const sq_result r = sq_par_allgather_f64(mine, cnt, all);
+    *slowest_ms = 0.0;
+    *bytes_total = 0.0;
+    size_t len = (size_t)snprintf(json, size, "[");
+    for (int q = 0; q < nr && len < size; q++) {
+        const double *rq = all + 3 * q;
+        if (rq[1] > *slowest_ms) *slowest_ms = rq[1];
+        *bytes_total += rq[2];
+        len += (size_t)snprintf(json + len, size - len,
+                                "%s{\"rank\": %d, \"cells\": %.0f, \"%s\": %.6g, \"%s\": %.6g, "
+                                "\"%s\": %.0f}",
+                                q ? ", " : "", q, rq[0], keys->ms, rq[1], keys->rate,
+                                rq[1] > 0 ? rq[0] / (rq[1] * 1e-3) / 1e6 : 0.0, keys->bytes,
+                                rq[2]);
+    }
+    if (len < size) snprintf(json + len, size - len, "]");
+    free(all);
+    free(cnt);
+    return r;
+}
+
 sq_bench_stats sq_bench_time(int (*fn)(void *user), void *user, int warmup, int reps)
 {
     sq_bench_stats s = {0, 0, 0, 0};
