@@ -3,7 +3,10 @@
 #ifndef SQ_TEST_PAR_GATHER_H
 #define SQ_TEST_PAR_GATHER_H
 
+#include <stdbool.h>
 #include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "sq_test.h"
 #include "squall/grid.h"
@@ -21,6 +24,31 @@ static inline void par_lattice_dims(sq_dims n, int c, int m[3])
 static inline sq_field3 *par_field_of(sq_grid *g, int c)
 {
     return c < 3 ? sq_grid_velocity_field(g, c) : sq_grid_scalar_field(g, c - 3);
+}
+
+/* Fills a grid (whole, or the slab at lo with n cells) with components 0..count-1 of a field
+ * given by global sample index (value(c, i, j, k)) and its solid cells (solid(i, j, k)). */
+static inline void par_fill(sq_grid *g, const int lo[3], sq_dims n, int count,
+                            float (*value)(int c, int i, int j, int k),
+                            bool (*solid)(int i, int j, int k))
+{
+    for (int c = 0; c < count; c++) {
+        sq_field3 *f = par_field_of(g, c);
+        int m[3];
+        par_lattice_dims(n, c, m);
+        for (int k = 0; k < m[2]; k++)
+            for (int j = 0; j < m[1]; j++)
+                for (int i = 0; i < m[0]; i++)
+                    *sq_field3_at(f, i, j, k) = value(c, i + lo[0], j + lo[1], k + lo[2]);
+    }
+    uint8_t *mask = (uint8_t *)calloc((size_t)n.nx * n.ny * n.nz, 1);
+    SQ_CHECK(mask != NULL);
+    for (int k = 0; mask && k < n.nz; k++)
+        for (int j = 0; j < n.ny; j++)
+            for (int i = 0; i < n.nx; i++)
+                mask[i + (size_t)n.nx * (j + (size_t)n.ny * k)] = solid(i + lo[0], j + lo[1], k + lo[2]);
+    if (mask) SQ_CHECK_OK(sq_grid_set_solid_mask(g, mask));
+    free(mask);
 }
 
 /* Collective: every slab's samples of component c in one array of the whole grid G (x

@@ -77,22 +77,7 @@ static float value0(int c, int i, int j, int k)
 
 static void setup(sq_grid *g, const int lo[3], sq_dims n)
 {
-    for (int c = 0; c < NF; c++) {
-        sq_field3 *f = par_field_of(g, c);
-        int m[3];
-        par_lattice_dims(n, c, m);
-        for (int k = 0; k < m[2]; k++)
-            for (int j = 0; j < m[1]; j++)
-                for (int i = 0; i < m[0]; i++)
-                    *sq_field3_at(f, i, j, k) = value0(c, i + lo[0], j + lo[1], k + lo[2]);
-    }
-    uint8_t *mask = (uint8_t *)calloc((size_t)n.nx * n.ny * n.nz, 1);
-    for (int k = 0; k < n.nz; k++)
-        for (int j = 0; j < n.ny; j++)
-            for (int i = 0; i < n.nx; i++)
-                mask[i + (size_t)n.nx * (j + (size_t)n.ny * k)] = solid_at(i + lo[0], j + lo[1], k + lo[2]);
-    SQ_CHECK_OK(sq_grid_set_solid_mask(g, mask));
-    free(mask);
+    par_fill(g, lo, n, NF, value0, solid_at);
     if (sq_grid_get_desc(g).boundary[SQ_FACE_XMIN] == SQ_BOUNDARY_INFLOW) /* slab 0 only */
         SQ_CHECK_OK(sq_grid_set_inflow_uniform(g, SQ_FACE_XMIN, 5.0, 0.0, 0.0));
     SQ_CHECK_OK(sq_grid_set_scalar_inflow(g, 0, 1e-4));
