@@ -1,12 +1,13 @@
 #!/bin/bash
 # label: unit
 # A full disk is a runtime error (exit 1) that says "no space left on device" for every output
-# format (MP4, PNG frames, NetCDF, VTK, metrics CSV), and leaves nothing behind: no final name,
-# no temporary; also when the disk fills up while a file is being written (a few blocks left, so
-# the temporary is created and part of the data fits: HDF5 under libnetcdf used to crash at exit
-# after such a failed flush). The outputs go to a tmpfs filled to the last block, mounted in a private mount
-# namespace (unshare -m) so nothing outlives the test; without the right to mount (not root,
-# no user namespaces) the test says so and passes without checking.
+# format (MP4, PNG frames, NetCDF, VTK, metrics CSV, wrf export, hazard rasters), and leaves
+# nothing behind: no final name, no temporary; also when the disk fills up while a file is being
+# written (a few blocks left, so the temporary is created and part of the data fits: HDF5 under
+# libnetcdf used to crash at exit after such a failed flush). The outputs go to a tmpfs filled to
+# the last block, mounted in a private mount namespace (unshare -m) so nothing outlives the test;
+# without the right to mount (not root, no user namespaces) the test says so and passes without
+# checking.
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 if ! unshare -m true 2>/dev/null; then
     echo "skipped: cannot create a mount namespace for a small tmpfs (needs root)"
@@ -60,5 +61,13 @@ fi
 WRF="$SRC/data/wrf/wrf_d01_allvars_cropped.nc"
 if has_feature wrf && [ -f "$WRF" ]; then
     FREE_KB=64 run "wrf export (filling up)" wrf export "$WRF" --time 0 -o full/w.nc
+fi
+# hazard rasters (GDAL): GeoTIFF on a full disk, ESRI ASCII filling up (GDAL lost errno and the
+# CLI said "TIFFWriteDirectoryTagData:IO error writing tag data", exit 2)
+if has_feature gdal && has_feature avalanche; then
+    run "rasters tif" simulate "$SRC/tests/cli/data/dem-avalanche.yaml" --rasters full/r \
+        --threads 1
+    FREE_KB=8 run "rasters asc (filling up)" simulate "$SRC/tests/cli/data/dem-avalanche.yaml" \
+        --rasters full/r --raster-format asc --threads 1
 fi
 finish
