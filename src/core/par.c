@@ -425,6 +425,7 @@ void sq_par_broadcast(void *data, size_t bytes, int root)
 /* Allgatherv (root < 0) or Gatherv to root (out needed on root only). */
 static sq_result gather(const void *mine, const int64_t *counts, void *out, size_t elem, int root)
 {
+    (void)root; /* unused without MPI */
     if (par_size == 1 || !par_active) {
         if (out && out != mine) memmove(out, mine, (size_t)counts[0] * elem);
         return SQ_OK;
