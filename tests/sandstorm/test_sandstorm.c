@@ -459,6 +459,42 @@ SQ_TEST(haboob_cold_pool_lifts_its_own_dust)
     sq_context_destroy(ctx);
 }
 
+/* The station's wind (wind_10m_observer_mps, max_wind_10m_mps): what an anemometer 10 m above
+ * the ground would measure. A wind of U = 12 m/s with the log profile below 100 m over desert
+ * roughness (z0 = 5e-4 m), flat ground, no pressure wave: at every height z below 100 m the air
+ * moves at U ln(z/z0) / ln(100/z0), so 10 m above the ground at U ln(10/z0) / ln(100/z0) =
+ * 0.8114 U (9.74 m/s), whatever the cells' size, everywhere (the 3-D maximum, max_wind_mps, is
+ * the wind at the top of the log layer and above, U). */
+SQ_TEST(station_wind_is_the_log_law_at_10_m)
+{
+    sq_context *ctx = mkctx();
+    sq_world *w = flat_world(ctx);
+    sq_sandstorm_desc d = small_desc();
+    d.wind_speed_mps = 12.0;
+    d.roughness_m = 5e-4;
+    d.log_layer_m = 100.0;
+    sq_sandstorm *s = NULL;
+    SQ_CHECK_OK(sq_sandstorm_create(ctx, &d, w, &s));
+    if (!s) return;
+    const double want = 12.0 * log(10.0 / 5e-4) / log(100.0 / 5e-4);
+    sq_metric m[40];
+    const int nm = sq__sandstorm_metrics(s, m, 40);
+    double at = -1.0, mx = -1.0, m3 = -1.0;
+    for (int i = 0; i < nm; i++) {
+        if (strcmp(m[i].name, "wind_10m_observer_mps") == 0) at = m[i].value;
+        if (strcmp(m[i].name, "max_wind_10m_mps") == 0) mx = m[i].value;
+        if (strcmp(m[i].name, "max_wind_mps") == 0) m3 = m[i].value;
+    }
+    printf("  10 m wind: observer %.4f, largest %.4f m/s (log law %.4f); 3-D maximum %.3f m/s\n",
+           at, mx, want, m3);
+    SQ_CHECK_REL(at, want, 1e-3);
+    SQ_CHECK_REL(mx, want, 1e-3);
+    SQ_CHECK_REL(m3, 12.0, 1e-3);
+    sq_sandstorm_destroy(s);
+    sq_world_destroy(ctx, w);
+    sq_context_destroy(ctx);
+}
+
 /* The haboob under a lid (domain.top: free-slip): the cold pool of the test above under a
  * top 400 m up (H/D = 0.375). Under the open top its slumping draws air in through the top
  * face (|w| > 0 there); under the lid no air crosses it (w = 0 on every top face), and the

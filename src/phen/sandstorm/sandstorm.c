@@ -1528,6 +1528,22 @@ void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam)
     if (first) step_near_field(s, 1e-3);
 }
 
+/* The wind a weather station would measure at column (i, j): the horizontal wind of the
+ * column's first fluid cell (centre z1 above the surface) carried to the anemometer's height by
+ * the log law the ground stress and the emission's u* use, u(z) = (u* / kappa) ln(z / z0)
+ * (sq_friction_velocity); 0 for a column without air. A mean over the cell and the step, not a
+ * 3-s gust. */
+static double station_wind(const sq_sandstorm *s, int i, int j)
+{
+    const size_t col = (size_t)j * s->nx + i;
+    const int k0 = s->ground_k[col];
+    if (k0 < 0) return 0.0;
+    const sq_vec3 c = cell_wind(view_grid(s), i, j, k0);
+    const double uh = sqrt((double)c.x * (double)c.x + (double)c.y * (double)c.y);
+    const double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
+    return us / SQ_SAND_KARMAN * log(SQ_SAND_ANEMOMETER_M / s->d.roughness_m);
+}
+
 int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
 {
     /* under mpirun: the frame's reductions (every rank computes them in frame_sync; a caller
@@ -1575,6 +1591,12 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         oi = oi < 0 ? 0 : oi >= s->nx ? s->nx - 1 : oi;
         oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
         PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
+        /* the station's wind: 10 m above the ground at the observer, and the largest anywhere */
+        double w10 = 0.0;
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++) w10 = fmax(w10, station_wind(s, i, j));
+        PUT("wind_10m_observer_mps", station_wind(s, oi, oj), "m/s");
+        PUT("max_wind_10m_mps", w10, "m/s");
         PUT("wall_height_m", s->wall_height_m, "m");
         PUT("wall_top_seen_m", s->wall_seen_m, "m");
         if (s->d.coldpool_delta_t_k > 0.0) {

@@ -17,6 +17,9 @@
 /* the wall: where the dust's extinction reaches 3e-3 1/m (visibility <= 1 km at 5 % contrast) */
 #define SQ_SAND_WALL_BETA 3.0e-3
 #define SQ_SAND_KARMAN 0.4            /* von Kármán constant (S0) */
+/* Height of a weather station's anemometer above the ground (WMO standard exposure, 10 m): the
+ * station_wind metrics give the resolved wind there, from the first fluid cell by the log law. */
+#define SQ_SAND_ANEMOMETER_M 10.0
 #define SQ_SAND_NU_AIR 1.5e-5         /* m²/s kinematic viscosity of air (SPEC §1.5) */
 /* Cap on the mixing length kappa d (m): kappa x 250 m. The mixing length grows with height only
  * through the surface layer; above it stays of the order of Blackadar's asymptotic length
