@@ -1277,6 +1277,25 @@ static void update_derived(sq_sandstorm *s)
     s->density_max = mx;
 }
 
+/* The wind a weather station would measure at column (i, j): the horizontal wind of the
+ * column's first fluid cell (centre z1 above the surface) carried to the anemometer's height by
+ * the log law the ground stress and the emission's u* use, u(z) = (u* / kappa) ln(z / z0)
+ * (sq_friction_velocity); 0 for a column without air. A mean over the cell and the step, not a
+ * 3-s gust. */
+static double station_wind(const sq_sandstorm *s, const sq_grid *g, int i, int j)
+{
+    int lo[3] = {0, 0, 0};
+    sq_dims whole;
+    if (g == s->grid) (void)sq_grid_get_block(g, lo, &whole); /* a slab: its columns */
+    const size_t col = (size_t)(j + lo[1]) * s->nx + (size_t)(i + lo[0]);
+    const int k0 = s->ground_k[col];
+    if (k0 < 0) return 0.0;
+    const sq_vec3 c = cell_wind(g, i, j, k0);
+    const double uh = sqrt((double)c.x * (double)c.x + (double)c.y * (double)c.y);
+    const double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
+    return us / SQ_SAND_KARMAN * log(SQ_SAND_ANEMOMETER_M / s->d.roughness_m);
+}
+
 /* ---- under mpirun: the frame's reductions over the slabs ----------------------------------- */
 /* The wall's top as seen from ahead (sq__sand_wall_seen) over the slabs: each level's optical
  * depth along a row is summed in the one-rank order (x ascending), each slab continuing the sums
@@ -1370,7 +1389,7 @@ sq_result sq__sandstorm_frame_sync(void *self, bool gather)
     for (int v = 0; v < nv; v++)
         sq__sand_visibility_plane(beta, lx, ly, nz, s->slab_gk, s->slab_gz1, (float)s->h,
                                   s->d.vis_heights_m[v], s->d.contrast, s->slab_vis + (size_t)v * lc);
-    double mx[2] = {0.0, 0.0}; /* the wall's height, the largest extinction */
+    double mx[3] = {0.0, 0.0, 0.0}; /* the wall's height, the largest extinction, ... */
     for (size_t col = 0; col < lc; col++) {
         const int k0 = s->slab_gk[col];
         if (k0 < 0) continue;
@@ -1381,9 +1400,24 @@ sq_result sq__sandstorm_frame_sync(void *self, bool gather)
             }
     }
     for (size_t q = 0; q < lc * (size_t)nz; q++) mx[1] = fmax(mx[1], (double)beta[q]);
-    sq_par_max_f64(mx, 2);
+    /* the station's wind: its largest, and at the observer's column (the slab holding it) */
+    mx[2] = 0.0;
+    for (int j = 0; j < ly; j++)
+        for (int i = 0; i < lx; i++) mx[2] = fmax(mx[2], station_wind(s, s->grid, i, j));
+    double w10 = 0.0;
+    {
+        int oi = (int)floor((s->d.observer_m[0] - s->origin[0]) / s->h),
+            oj = (int)floor((s->d.observer_m[1] - s->origin[1]) / s->h);
+        oi = (oi < 0 ? 0 : oi >= s->nx ? s->nx - 1 : oi) - s->lo[0];
+        oj = (oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj) - s->lo[1];
+        if (oi >= 0 && oi < lx && oj >= 0 && oj < ly) w10 = station_wind(s, s->grid, oi, oj);
+    }
+    sq_par_max_f64(mx, 3);
+    sq_par_sum_f64(&w10, 1); /* one slab's value and zeros */
     s->wall_height_m = mx[0];
     s->sync_beta_max = mx[1];
+    s->sync_w10[0] = w10;
+    s->sync_w10[1] = mx[2];
     s->wall_seen_m = wall_seen_slabs(s, beta);
     /* the visibility planes of every slab, into the whole planes */
     const int nr = sq_par_size();
@@ -1528,22 +1562,6 @@ void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam)
     if (first) step_near_field(s, 1e-3);
 }
 
-/* The wind a weather station would measure at column (i, j): the horizontal wind of the
- * column's first fluid cell (centre z1 above the surface) carried to the anemometer's height by
- * the log law the ground stress and the emission's u* use, u(z) = (u* / kappa) ln(z / z0)
- * (sq_friction_velocity); 0 for a column without air. A mean over the cell and the step, not a
- * 3-s gust. */
-static double station_wind(const sq_sandstorm *s, int i, int j)
-{
-    const size_t col = (size_t)j * s->nx + i;
-    const int k0 = s->ground_k[col];
-    if (k0 < 0) return 0.0;
-    const sq_vec3 c = cell_wind(view_grid(s), i, j, k0);
-    const double uh = sqrt((double)c.x * (double)c.x + (double)c.y * (double)c.y);
-    const double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
-    return us / SQ_SAND_KARMAN * log(SQ_SAND_ANEMOMETER_M / s->d.roughness_m);
-}
-
 int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
 {
     /* under mpirun: the frame's reductions (every rank computes them in frame_sync; a caller
@@ -1592,10 +1610,10 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
         PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
         /* the station's wind: 10 m above the ground at the observer, and the largest anywhere */
-        double w10 = 0.0;
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) w10 = fmax(w10, station_wind(s, i, j));
-        PUT("wind_10m_observer_mps", station_wind(s, oi, oj), "m/s");
+        double w10 = s->dist ? s->sync_w10[1] : 0.0;
+        for (int j = 0; j < s->ny && !s->dist; j++)
+            for (int i = 0; i < s->nx; i++) w10 = fmax(w10, station_wind(s, s->grid, i, j));
+        PUT("wind_10m_observer_mps", s->dist ? s->sync_w10[0] : station_wind(s, s->grid, oi, oj), "m/s");
         PUT("max_wind_10m_mps", w10, "m/s");
         PUT("wall_height_m", s->wall_height_m, "m");
         PUT("wall_top_seen_m", s->wall_seen_m, "m");

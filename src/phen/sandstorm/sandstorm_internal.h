@@ -90,6 +90,7 @@ struct sq_sandstorm {
     double *tau;      /* under mpirun: ny * nz optical depths along x (the wall seen) */
     int64_t synced_step; /* under mpirun: the step of the last frame sync (-1: none) */
     double sync_suspended_kg, sync_max_wind, sync_beta_max; /* its global reductions */
+    double sync_w10[2];      /* and the station's wind at the observer and its largest */
     double detail_pending_s; /* under mpirun: time the detail has not followed yet (rank 0) */
     int detail_pending_n;
     int nx, ny, nz;   /* the whole grid's cells */
