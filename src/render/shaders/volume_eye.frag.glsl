@@ -102,7 +102,8 @@ void main()
     float len = min(t + 0.5 * dt, bounds.y) - lo;
     if (len <= 0.0) discard;
 
-    float rho = vol_density(u_density, v_world, u_box_lo, u_box_size);
+    // the edge on the smooth (cubic B-spline) field: no facets up close (volume_common.glsl)
+    float rho = vol_density_smooth(u_density, v_world, u_box_lo, u_box_size);
     if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the target as it is)
     vec3 beta = rho * u_sigma_ext;
 #if VOL_GREY_EXT
