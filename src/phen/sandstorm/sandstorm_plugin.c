@@ -194,6 +194,8 @@ static sq_result sandstorm_apply_live(void *self, const void *desc)
 
 #undef SQ__PHEN_APPLY_LIVE
 #define SQ__PHEN_APPLY_LIVE sandstorm_apply_live
+#undef SQ__PHEN_FRAME_SYNC
+#define SQ__PHEN_FRAME_SYNC sq__sandstorm_frame_sync
 #undef SQ__PHEN_STATE_SAVE
 #define SQ__PHEN_STATE_SAVE sq__sandstorm_save_state
 #undef SQ__PHEN_STATE_LOAD
