@@ -156,23 +156,48 @@ static double ramp_factor(const sq_sandstorm *s, double t)
 }
 
 /* The west face: the ambient wind, and below the cold pool's top the cold outflow entering at
- * its own speed along wind.prevailing_dir_deg (log profile near the ground). */
+ * its own speed along wind.prevailing_dir_deg (log profile near the ground); above it, with
+ * coldpool.return_flow, the ambient wind less the return speed (air leaving aloft). */
 static void inflow_fn(void *user, double x, double y, double z, float vel[3])
 {
     const sq_sandstorm *s = (const sq_sandstorm *)user;
     sq_vec3 v = initial_wind(s, x, y, z, ramp_factor(s, s->time_s));
     double zg = z - (double)sq_world_height_at(s->world, (float)x, (float)y);
     double f = coldpool_fraction(s, zg);
-    if (f > 0.0) {
+    if (f > 0.0 || s->return_mps != 0.0) {
         const double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
         const double uc = coldpool_speed(&s->d) * log_profile(s, zg);
-        v = sq_v3((float)((1.0 - f) * (double)v.x + f * uc * cos(a)),
+        v = sq_v3((float)((1.0 - f) * ((double)v.x - s->return_mps) + f * uc * cos(a)),
                   (float)((1.0 - f) * (double)v.y + f * uc * sin(a)),
                   v.z);
     }
     vel[0] = v.x;
     vel[1] = v.y;
     vel[2] = v.z;
+}
+
+/* coldpool.return_flow: the speed R of the outflow through the west face above the cold pool
+ * that carries out what the cold inflow brings in beyond the ambient wind, so that the face's
+ * net volume flux is the ambient wind's (the storm's inflow aloft feeding its downdraft). Over
+ * the face's fluid cells of the column at its centre (heights zg_k above the ground),
+ * sum_k f_k (u_c,k - v_k) = R sum_k (1 - f_k): u_c the cold inflow's x component, v the ambient
+ * wind's, f the share of cold air (the inflow's own profiles). */
+static double coldpool_return_speed(const sq_sandstorm *s)
+{
+    if (!s->d.coldpool_return_flow || s->d.coldpool_delta_t_k <= 0.0) return 0.0;
+    const double x = s->origin[0], y = s->origin[1] + 0.5 * s->ny * s->h;
+    const double zs = (double)sq_world_height_at(s->world, (float)x, (float)y);
+    const double a = s->d.prevailing_dir_deg * SQ_PI / 180.0, ramp = ramp_factor(s, s->time_s);
+    double excess = 0.0, above = 0.0;
+    for (int k = 0; k < s->nz; k++) {
+        const double z = s->origin[2] + (k + 0.5) * s->h, zg = z - zs;
+        if (zg <= 0.0) continue;
+        const double f = coldpool_fraction(s, zg);
+        const double uc = coldpool_speed(&s->d) * log_profile(s, zg) * cos(a);
+        excess += f * (uc - (double)initial_wind(s, x, y, z, ramp).x);
+        above += 1.0 - f;
+    }
+    return above > 0.0 ? excess / above : 0.0;
 }
 
 /* The views of the grid (the whole grid; under mpirun its gathered copy). */
@@ -268,6 +293,7 @@ static sq_result set_temperature_inflow(sq_sandstorm *s)
 
 static sq_result set_wind_inflow(sq_sandstorm *s)
 {
+    s->return_mps = coldpool_return_speed(s);
     sq_result r = has_west_inflow(s->grid) ? sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s) : SQ_OK;
     if (r == SQ_OK && s->whole) r = sq_grid_set_inflow(s->whole, SQ_FACE_XMIN, inflow_fn, s);
     return r;

@@ -105,6 +105,8 @@ struct sq_sandstorm {
     /* drawable and metric buffers */
     float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
     float density_max;
+    double return_mps;                       /* coldpool.return_flow: the west face's outflow
+                                                aloft (m/s, subtracted above the cold pool) */
     double wall_height_m;                    /* highest dust with beta >= SQ_SAND_WALL_BETA */
     double wall_seen_m;                      /* the wall's top seen from ahead (sq__sand_wall_seen) */
     float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */
