@@ -203,6 +203,9 @@ SQ_API sq_result sq_grid_get_block(const sq_grid *g, int lo[3], sq_dims *global)
  * whole grid's cells and scalars that is not decomposed (on every rank: outputs, views). Its
  * ghosts are not filled (sq_grid_apply_boundary does). With g not decomposed: a copy. */
 SQ_API sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole);
+/* Collective: the same into `whole` on rank 0 only (NULL on the other ranks, which only send
+ * their slab): a rank-0 output without the whole grid's copy on every rank. */
+SQ_API sq_result sq_grid_gather_root(const sq_grid *g, sq_grid *whole);
 /* Bytes this rank sent to its neighbouring slabs since create (0 when not decomposed). */
 SQ_API uint64_t sq_grid_bytes_exchanged(const sq_grid *g);
 /* Sizes, spacing and the pressure solver's set-up of the grid. */

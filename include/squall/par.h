@@ -96,7 +96,9 @@ SQ_API void sq_par_broadcast(void *data, size_t bytes, int root);
 /* Collective: concatenates every rank's `counts[rank]` floats (rank order) into out on every
  * rank (out holds the sum of counts). */
 SQ_API sq_result sq_par_allgather_f32(const float *mine, const int64_t *counts, float *out);
-/* Collective: the same for doubles. */
+/* Collective: the same into out on rank 0 only (out may be NULL on the other ranks). */
+SQ_API sq_result sq_par_gather_f32(const float *mine, const int64_t *counts, float *out);
+/* Collective: the same as sq_par_allgather_f32 for doubles. */
 SQ_API sq_result sq_par_allgather_f64(const double *mine, const int64_t *counts, double *out);
 
 /* Bytes this rank sent through sq_par calls since sq_par_init (communication volume for the

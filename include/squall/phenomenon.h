@@ -88,6 +88,10 @@ SQ_API sq_result sq_phenomenon_step(sq_phenomenon *p, double dt_s);
 /* The camera of the next frame (phenomena with near-field particles place them around it; the
  * others ignore it). Invalidates the drawables. */
 SQ_API void sq_phenomenon_observe(sq_phenomenon *p, const sq_camera *camera);
+/* A distributed run (mpirun): collective, once per frame on every rank after the steps, before
+ * the frame's views; gather: rank 0 reads the drawables or fields of this frame. Invalidates
+ * every view. Nothing for a phenomenon that is not split. */
+SQ_API sq_result sq_phenomenon_frame_sync(sq_phenomenon *p, bool gather);
 
 /* ---- live changes (interactive front ends) -------------------------------------------------- */
 /* What a live change did: applied (changed > 0), nothing to do (changed == 0), or refused because

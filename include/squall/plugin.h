@@ -119,6 +119,12 @@ typedef struct sq_phen_plugin {
      * touching the simulated state or time. On failure the instance is unchanged. NULL: the
      * phenomenon takes no live change; a change of any of its keys rebuilds the layer. */
     sq_result (*apply_live)(void *self, const void *desc);
+    /* Optional (distributed runs, squall/par.h): collective, called by every rank once per
+     * frame after the frame's steps and before its drawables, metrics and fields. The
+     * phenomenon computes there what its metrics need from every rank (reductions), and with
+     * gather (rank 0 draws or writes fields this frame) collects its state on rank 0. NULL:
+     * the phenomenon is not split, or needs nothing per frame. */
+    sq_result (*frame_sync)(void *self, bool gather);
 } sq_phen_plugin;
 
 /* Whether a change of entry p applies to a running scene (sq_scene_apply_live; an interactive

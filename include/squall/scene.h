@@ -158,6 +158,10 @@ SQ_API double sq_scene_frame_dt(const sq_scene *s);
 SQ_API sq_result sq_scene_check_camera(const sq_scene *s);
 /* Advances every layer by dt (each sub-cycled to its max stable step). */
 SQ_API sq_result sq_scene_step(sq_scene *s, double dt_s);
+/* A distributed run (mpirun): collective, once per frame on every rank after the frame's steps
+ * and before its views (sq_run does it); gather: rank 0 draws or writes the fields of this
+ * frame. Each layer's sq_phenomenon_frame_sync. */
+SQ_API sq_result sq_scene_frame_sync(sq_scene *s, bool gather);
 /* The camera at the current time (calls each layer's observe hook). */
 SQ_API sq_camera sq_scene_camera(sq_scene *s);
 SQ_API int sq_scene_drawables(sq_scene *s, sq_drawable *out, int max);

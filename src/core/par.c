@@ -422,22 +422,24 @@ void sq_par_broadcast(void *data, size_t bytes, int root)
 #endif
 }
 
-static sq_result allgather(const void *mine, const int64_t *counts, void *out, size_t elem)
+/* Allgatherv (root < 0) or Gatherv to root (out needed on root only). */
+static sq_result gather(const void *mine, const int64_t *counts, void *out, size_t elem, int root)
 {
+    (void)root; /* unused without MPI */
     if (par_size == 1 || !par_active) {
-        if (out != mine) memmove(out, mine, (size_t)counts[0] * elem);
+        if (out && out != mine) memmove(out, mine, (size_t)counts[0] * elem);
         return SQ_OK;
     }
 #if SQ_HAVE_MPI
     int *cnt = (int *)malloc(2 * (size_t)par_size * sizeof(int));
-    if (!cnt) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "allgather counts");
+    if (!cnt) return sq_set_error(SQ_ERR_OUT_OF_MEMORY, "gather counts");
     int *disp = cnt + par_size;
     int64_t at = 0;
     for (int r = 0; r < par_size; r++) {
         if (counts[r] > INT_MAX || at > INT_MAX) {
             free(cnt);
             return sq_set_error(SQ_ERR_TOO_LARGE,
-                                "allgather: %lld values per rank exceed MPI's int counts",
+                                "gather: %lld values per rank exceed MPI's int counts",
                                 (long long)counts[r]);
         }
         cnt[r] = (int)counts[r];
@@ -445,8 +447,13 @@ static sq_result allgather(const void *mine, const int64_t *counts, void *out, s
         at += counts[r];
     }
     const MPI_Datatype t = elem == sizeof(float) ? MPI_FLOAT : MPI_DOUBLE;
-    par_sent += (uint64_t)counts[par_rank] * elem * (uint64_t)(par_size - 1);
-    MPI_Allgatherv(mine, cnt[par_rank], t, out, cnt, disp, t, MPI_COMM_WORLD);
+    if (root < 0) {
+        par_sent += (uint64_t)counts[par_rank] * elem * (uint64_t)(par_size - 1);
+        MPI_Allgatherv(mine, cnt[par_rank], t, out, cnt, disp, t, MPI_COMM_WORLD);
+    } else {
+        if (par_rank != root) par_sent += (uint64_t)counts[par_rank] * elem;
+        MPI_Gatherv(mine, cnt[par_rank], t, out, cnt, disp, t, root, MPI_COMM_WORLD);
+    }
     free(cnt);
 #endif
     return SQ_OK;
@@ -454,10 +461,15 @@ static sq_result allgather(const void *mine, const int64_t *counts, void *out, s
 
 sq_result sq_par_allgather_f32(const float *mine, const int64_t *counts, float *out)
 {
-    return allgather(mine, counts, out, sizeof(float));
+    return gather(mine, counts, out, sizeof(float), -1);
+}
+
+sq_result sq_par_gather_f32(const float *mine, const int64_t *counts, float *out)
+{
+    return gather(mine, counts, out, sizeof(float), 0);
 }
 
 sq_result sq_par_allgather_f64(const double *mine, const int64_t *counts, double *out)
 {
-    return allgather(mine, counts, out, sizeof(double));
+    return gather(mine, counts, out, sizeof(double), -1);
 }

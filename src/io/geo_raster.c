@@ -2,13 +2,16 @@
  * predictor) with CRS, geotransform, no-data value, band description and unit, or an ESRI ASCII
  * grid (.asc) with its .prj (the CRS as ESRI WKT). Rows are flipped from the world's south-first
  * order to the north-up order both formats use. Every file goes through a temporary name and is
- * renamed when complete (io_internal.h). */
+ * renamed when complete (io_internal.h); a GeoTIFF is built in GDAL's memory filesystem and
+ * written by output.c's loop, so a full disk is reported like any other output's. */
 #include "sq_config.h"
 
 #if SQ_HAVE_GDAL
 #include <cpl_conv.h>
 #include <cpl_string.h>
+#include <cpl_vsi.h>
 #include <errno.h>
+#include <stdatomic.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -19,15 +22,20 @@
 
 #define MOD "raster"
 
-static sq_result write_geotiff(sq_context *ctx, const sq_raster_desc *d, const char *tmp)
+/* The GeoTIFF is built in /vsimem/ and its bytes written to d->path (temporary + rename). */
+static sq_result write_geotiff(sq_context *ctx, const sq_raster_desc *d)
 {
+    static atomic_uint serial;
+    char mem[96];
+    snprintf(mem, sizeof mem, "/vsimem/squall-raster-%ld-%u.tif", (long)getpid(),
+             atomic_fetch_add(&serial, 1u));
     GDALDriverH drv = GDALGetDriverByName("GTiff");
     if (!drv) return sq__fail(ctx, SQ_ERR_UNSUPPORTED, MOD, "GDAL has no GTiff driver");
     char **opt = NULL;
     opt = CSLSetNameValue(opt, "COMPRESS", "DEFLATE");
     opt = CSLSetNameValue(opt, "PREDICTOR", "3");
     opt = CSLSetNameValue(opt, "TILED", d->nx >= 512 && d->ny >= 512 ? "YES" : "NO");
-    GDALDatasetH ds = GDALCreate(drv, tmp, d->nx, d->ny, 1, GDT_Float32, opt);
+    GDALDatasetH ds = GDALCreate(drv, mem, d->nx, d->ny, 1, GDT_Float32, opt);
     CSLDestroy(opt);
     if (!ds)
         return sq__fail(ctx, SQ_ERR_IO, MOD, "cannot create '%s': %s", d->path, sq__geo_reason());
@@ -55,16 +63,24 @@ static sq_result write_geotiff(sq_context *ctx, const sq_raster_desc *d, const c
     GDALClose(ds); /* flushes; GDAL 3.6 reports a failure only through the error state */
     if (CPLGetLastErrorType() >= CE_Failure && r == SQ_OK)
         r = sq__fail(ctx, SQ_ERR_IO, MOD, "writing '%s': %s", d->path, sq__geo_reason());
+    vsi_l_offset size = 0;
+    GByte *bytes = r == SQ_OK ? VSIGetMemFileBuffer(mem, &size, FALSE) : NULL;
+    if (r == SQ_OK && !bytes)
+        r = sq__fail(ctx, SQ_ERR_IO, MOD, "writing '%s': GDAL's memory file is missing", d->path);
+    if (r == SQ_OK)
+        r = sq__io_relog(ctx, sq_output_write_file(d->path, bytes, (size_t)size, d->overwrite));
+    VSIUnlink(mem);
     return r;
 }
 
 /* ESRI ASCII grid: header, then rows north first; values with 7 significant digits. */
-static sq_result write_ascii(sq_context *ctx, const sq_raster_desc *d, int fd, const char *tmp)
+static sq_result write_ascii(sq_context *ctx, const sq_raster_desc *d, int fd)
 {
     FILE *f = fdopen(fd, "w");
     if (!f) {
+        const int e = errno;
         close(fd);
-        return sq__fail(ctx, SQ_ERR_IO, MOD, "cannot write '%s': %s", tmp, strerror(errno));
+        return sq__write_error(ctx, d->path, e, NULL);
     }
     fprintf(f, "ncols %d\nnrows %d\nxllcorner %.6f\nyllcorner %.6f\ncellsize %.9g\n"
                "NODATA_value %.9g\n", d->nx, d->ny, d->x0, d->y0, d->cell_m, d->nodata);
@@ -74,10 +90,9 @@ static sq_result write_ascii(sq_context *ctx, const sq_raster_desc *d, int fd, c
             fprintf(f, x ? " %.7g" : "%.7g", isfinite(src[x]) ? (double)src[x] : d->nodata);
         fputc('\n', f);
     }
-    const int bad = ferror(f);
-    if (fclose(f) != 0 || bad)
-        return sq__fail(ctx, SQ_ERR_IO, MOD, "writing '%s': %s", d->path, strerror(errno));
-    return SQ_OK;
+    int e = ferror(f) ? errno : 0;
+    if (fclose(f) != 0 && !e) e = errno;
+    return e ? sq__write_error(ctx, d->path, e, NULL) : SQ_OK;
 }
 
 /* The name of the .prj beside an ASCII grid: the grid's name with .prj for its extension. */
@@ -128,17 +143,18 @@ sq_result sq_raster_write(sq_context *ctx, const sq_raster_desc *d)
         r = sq_output_check_inputs(ctx, prj, false); /* before the grid is written */
     }
     if (r != SQ_OK) return r;
+    if (d->format != SQ_RASTER_ASCII) {
+        r = sq__io_relog(ctx, sq_output_check(d->path, d->overwrite));
+        if (r != SQ_OK) return r;
+        sq__geo_quiet_begin();
+        r = write_geotiff(ctx, d);
+        sq__geo_quiet_end();
+        return r;
+    }
     r = sq__output_open_temp(d->path, d->overwrite, tmp, sizeof tmp, &fd);
     if (r != SQ_OK) return sq__io_relog(ctx, r);
-    sq__geo_quiet_begin();
-    if (d->format == SQ_RASTER_ASCII) {
-        r = write_ascii(ctx, d, fd, tmp);
-    } else {
-        close(fd); /* the temporary is ours (created exclusively); GDAL rewrites it */
-        r = write_geotiff(ctx, d, tmp);
-    }
-    sq__geo_quiet_end();
-    if (r == SQ_OK && d->format == SQ_RASTER_ASCII) r = write_prj(ctx, d);
+    r = write_ascii(ctx, d, fd);
+    if (r == SQ_OK) r = write_prj(ctx, d);
     if (r != SQ_OK) {
         sq__output_discard(tmp);
         return r;

@@ -60,4 +60,19 @@ sq_result sq__field_file_check(sq_context *ctx, const sq_field_file_desc *desc,
 sq_result sq__png_decode_rgba8(sq_context *ctx, const void *data, size_t size, const char *name,
                                uint8_t **rgba_out, int *width, int *height);
 
+/* netCDF-4 files are built in memory and written whole through sq_output_write_file
+ * (nc_memory.c): HDF5 never writes to disk itself. A flush that fails inside HDF5 (a disk that
+ * fills up while the file is written) leaves its file open after nc_close, and HDF5 then
+ * crashes at exit flushing it again; in memory, the write fails in output.c's loop instead
+ * (temporary removed, "no space left on device"). */
+#if SQ_HAVE_NETCDF
+/* nc_create_mem with mode; size_hint (bytes) sizes the first buffer. A netCDF status. */
+int sq__nc_create_memory(const char *path, int mode, size_t size_hint, int *ncid);
+/* Closes ncid (from sq__nc_create_memory) and writes its bytes to path (temporary + rename;
+ * overwrite as in sq_output_check). On failure nothing is left at path or its temporary and the
+ * error (naming path) is logged on ctx under module. */
+sq_result sq__nc_write_memory(sq_context *ctx, int ncid, const char *path, bool overwrite,
+                              const char *module);
+#endif
+
 #endif

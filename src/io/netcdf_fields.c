@@ -33,8 +33,8 @@
  *               the field marks invalid (inside solids, below the ground) and wherever it is NaN.
  *   globals     Conventions "CF-1.8", title, source, history ("<UTC time> squall <version>:
  *               written"; SOURCE_DATE_EPOCH, when set, replaces the clock for reproducibility).
- * The file is written to a temporary name and renamed when closed (output.c); a full disk is
- * reported as "no space left on device" naming the file. */
+ * The file is built in memory and written whole to a temporary name, renamed when complete
+ * (nc_memory.c, output.c); a full disk is reported as "no space left on device" naming the file. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -89,9 +89,7 @@ typedef struct nc_writer {
 
 static sq_result nc_fail(const nc_writer *w, int status, const char *doing)
 {
-    /* HDF5 reports a full disk as a generic "HDF error": errno or the filesystem tells */
-    if (status != NC_ENOMEM && sq__io_no_space(w->path, errno))
-        return sq__write_error(w->ctx, w->path, ENOSPC, NULL);
+    /* the file is built in memory (nc_memory.c): a full disk is reported by the write */
     return sq__fail(w->ctx, status == NC_ENOMEM ? SQ_ERR_OUT_OF_MEMORY : SQ_ERR_IO, "io",
                     "cannot write '%s' (%s): %s", w->path, doing, nc_strerror(status));
 }
@@ -341,28 +339,21 @@ sq_result sq_netcdf_write_fields(sq_context *ctx, const sq_field_file_desc *desc
                         "NetCDF file '%s': reference_time = '%s'; must be \"YYYY-MM-DD\" or "
                         "\"YYYY-MM-DD hh:mm:ss\"",
                         desc->path, reference);
-    char tmp[SQ__TEMP_NAME_MAX];
-    int fd = -1;
     r = sq_output_check_inputs(ctx, desc->path, false);
+    if (r == SQ_OK) r = sq__io_relog(ctx, sq_output_check(desc->path, desc->overwrite));
     if (r != SQ_OK) return r;
-    r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
-    if (r != SQ_OK) return sq__io_relog(ctx, r);
-    close(fd); /* reserved exclusively; libnetcdf recreates it */
 
     nc_writer w = {.ctx = ctx, .path = desc->path, .ncid = -1};
-    int st = nc_create(tmp, NC_NETCDF4 | NC_CLASSIC_MODEL | NC_CLOBBER, &w.ncid);
-    if (st != NC_NOERR) {
-        r = nc_fail(&w, st, "creating the temporary");
-        sq__output_discard(tmp);
-        return r;
-    }
+    size_t bytes = 65536;
+    for (int i = 0; i < count; i++)
+        bytes += (size_t)fields[i].nx * (size_t)fields[i].ny * (size_t)fields[i].nz * sizeof(float);
+    int st = sq__nc_create_memory(desc->path, NC_NETCDF4 | NC_CLASSIC_MODEL, bytes, &w.ncid);
+    if (st != NC_NOERR) return nc_fail(&w, st, "creating it in memory");
     r = write_contents(&w, desc, fields, count, reference);
-    st = nc_close(w.ncid);
-    if (r == SQ_OK && st != NC_NOERR) r = nc_fail(&w, st, "closing");
     if (r == SQ_OK)
-        r = sq__io_relog(ctx, sq__output_finish(tmp, desc->path, desc->overwrite));
+        r = sq__nc_write_memory(ctx, w.ncid, desc->path, desc->overwrite, "io");
     else
-        sq__output_discard(tmp);
+        nc_abort(w.ncid);
     if (r == SQ_OK) sq_log(ctx, SQ_LOG_INFO, "io", "wrote '%s' (%d fields)", desc->path, count);
     return r;
 }

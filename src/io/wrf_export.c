@@ -296,32 +296,25 @@ sq_result sq_wrf_export_netcdf(sq_wrf *w, const sq_wrf_export_desc *desc)
                              : 0.0));
     sq_wrf_cloud_optical_depth(in, &s, tau);
 
-    char tmp[SQ__TEMP_NAME_MAX];
-    int fd = -1;
-    r = sq__output_open_temp(desc->path, desc->overwrite, tmp, sizeof tmp, &fd);
+    r = sq__io_relog(w->ctx, sq_output_check(desc->path, desc->overwrite));
     if (r != SQ_OK) {
         sq_free(w->ctx, ext);
-        return sq__io_relog(w->ctx, r);
+        return r;
     }
-    close(fd); /* reserved exclusively; libnetcdf recreates it */
     int ncid = -1;
-    int st = nc_create(tmp, NC_NETCDF4 | NC_CLOBBER, &ncid);
+    int st = sq__nc_create_memory(desc->path, NC_NETCDF4, 1u << 20, &ncid);
     if (st != NC_NOERR) {
-        sq__output_discard(tmp);
         sq_free(w->ctx, ext);
-        return sq__fail(w->ctx, SQ_ERR_IO, "wrf", "cannot write '%s' (creating the temporary): %s",
-                        desc->path, nc_strerror(st));
+        return sq__fail(w->ctx, st == NC_ENOMEM ? SQ_ERR_OUT_OF_MEMORY : SQ_ERR_IO, "wrf",
+                        "cannot write '%s' (creating it in memory): %s", desc->path,
+                        nc_strerror(st));
     }
     r = write_file(w, ncid, &s, ext, tau, desc->path);
-    st = nc_close(ncid);
     sq_free(w->ctx, ext);
-    if (r == SQ_OK && st != NC_NOERR)
-        r = sq__fail(w->ctx, SQ_ERR_IO, "wrf", "cannot write '%s' (closing): %s", desc->path,
-                     nc_strerror(st));
     if (r == SQ_OK)
-        r = sq__io_relog(w->ctx, sq__output_finish(tmp, desc->path, desc->overwrite));
+        r = sq__nc_write_memory(w->ctx, ncid, desc->path, desc->overwrite, "wrf");
     else
-        sq__output_discard(tmp);
+        nc_abort(ncid);
     if (r == SQ_OK) sq_log(w->ctx, SQ_LOG_INFO, "wrf", "wrote '%s'", desc->path);
     return r;
 }

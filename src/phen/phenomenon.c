@@ -289,6 +289,13 @@ void sq_phenomenon_observe(sq_phenomenon *p, const sq_camera *camera)
     p->plugin->observe(p->self, camera);
 }
 
+sq_result sq_phenomenon_frame_sync(sq_phenomenon *p, bool gather)
+{
+    if (!p || !p->self || !p->plugin->frame_sync) return SQ_OK;
+    invalidate(p);
+    return p->plugin->frame_sync(p->self, gather);
+}
+
 /* ---- views ------------------------------------------------------------------------------- */
 static void need_fields(sq_phenomenon *p)
 {

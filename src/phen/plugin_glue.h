@@ -121,6 +121,7 @@
         .save_state = SQ__PHEN_STATE_SAVE,                                                         \
         .load_state = SQ__PHEN_STATE_LOAD,                                                         \
         .apply_live = SQ__PHEN_APPLY_LIVE,                                                         \
+        .frame_sync = SQ__PHEN_FRAME_SYNC,                                                         \
     }
 
 /* Checkpoint hooks: a plug-in that can be checkpointed says, after including this file,
@@ -140,6 +141,14 @@
  * before its SQ__PHEN_PLUGIN line; without it every change rebuilds the layer. */
 #ifndef SQ__PHEN_APPLY_LIVE
 #define SQ__PHEN_APPLY_LIVE NULL
+#endif
+
+/* Distributed runs: a plug-in split over the ranks says
+ *   #undef SQ__PHEN_FRAME_SYNC
+ *   #define SQ__PHEN_FRAME_SYNC sq__<n>_frame_sync   (sq_result (void *self, bool gather))
+ * before its SQ__PHEN_PLUGIN line (see sq_phen_plugin.frame_sync). */
+#ifndef SQ__PHEN_FRAME_SYNC
+#define SQ__PHEN_FRAME_SYNC NULL
 #endif
 
 /* Without a camera hook. */

@@ -339,6 +339,16 @@ sq_result sq_run_advance(sq_run *run)
     const int frame = run->next;
     sq_result r = step_to_frame(run);
     if (r != SQ_OK) return r;
+    const bool due = sq__run_outputs_fields_due(&run->outs, frame);
+    if (sq_par_size() > 1) {
+        /* a distributed run: the split layers' frame reductions (their metrics), and their
+         * state gathered to rank 0 only when it draws this frame or writes its fields (the
+         * last frame too: the rasters after the run read it) */
+        double gather = renders(run) || due || run->desc.sinks.fields || frame + 1 == run->frames;
+        sq_par_max_f64(&gather, 1);
+        r = sq_scene_frame_sync(run->scene, gather > 0.0);
+        if (r != SQ_OK) return r;
+    }
     const double t = sq_scene_time(run->scene);
     const sq_camera cam = frame_camera(run);
     if (renders(run)) {
@@ -350,7 +360,6 @@ sq_result sq_run_advance(sq_run *run)
     r = sq__run_outputs_metrics(&run->outs, frame, t, mv, nm);
     if (r == SQ_OK && run->desc.sinks.metrics)
         r = run->desc.sinks.metrics(run->desc.sinks.user, frame, t, mv, nm);
-    const bool due = sq__run_outputs_fields_due(&run->outs, frame);
     if (r == SQ_OK && (due || run->desc.sinks.fields)) {
         if (cancelled(run)) return interrupted(run);
         sq_named_field fv[SQ_RUN_MAX_FIELDS];

@@ -121,14 +121,21 @@ static sq_result stage(sq__run_outputs *o, const char *final, char *staged, size
     return SQ_OK;
 }
 
-/* Forgets (and removes) the last staged file after its writer failed. */
-static void unstage_last(sq__run_outputs *o)
+/* Forgets (and removes) the last staged file after its writer failed with r, and returns r with
+ * the error text naming the file the user asked for instead of its staging name. */
+static sq_result unstage_last(sq__run_outputs *o, sq_result r)
 {
-    if (o->staged_count == 0) return;
+    if (o->staged_count == 0) return r;
     struct sq__run_staged *e = &o->staged[--o->staged_count];
     (void)unlink(e->staged);
+    char text[2 * PATH_MAX_RUN + 512];
+    snprintf(text, sizeof text, "%s", sq_last_error());
+    const char *at = strstr(text, e->staged);
+    if (at)
+        sq__set_error(r, "%.*s%s%s", (int)(at - text), text, e->final, at + strlen(e->staged));
     free(e->staged);
     free(e->final);
+    return r;
 }
 
 sq_result sq__run_outputs_frame(sq__run_outputs *o, int frame, const uint8_t *rgba,
@@ -142,7 +149,7 @@ sq_result sq__run_outputs_frame(sq__run_outputs *o, int frame, const uint8_t *rg
         r = stage(o, path, staged, sizeof staged);
         if (r == SQ_OK) {
             r = sq_png_write_rgba8(staged, o->width, o->height, rgba, false);
-            if (r != SQ_OK) unstage_last(o);
+            if (r != SQ_OK) r = unstage_last(o, r);
         }
         if (r == SQ_OK) o->frames_written = frame + 1;
         if (r == SQ_OK && linear_rgb) {
@@ -150,7 +157,7 @@ sq_result sq__run_outputs_frame(sq__run_outputs *o, int frame, const uint8_t *rg
             r = stage(o, path, staged, sizeof staged);
             if (r == SQ_OK) {
                 r = sq_pfm_write(staged, o->width, o->height, linear_rgb, false);
-                if (r != SQ_OK) unstage_last(o);
+                if (r != SQ_OK) r = unstage_last(o, r);
             }
         }
     }
@@ -303,7 +310,7 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
             r = stage(o, path, staged, sizeof staged);
             if (r == SQ_OK) {
                 r = sq_netcdf_write_fields(o->ctx, &fd, fs, nfs);
-                if (r != SQ_OK) unstage_last(o);
+                if (r != SQ_OK) r = unstage_last(o, r);
             }
         }
         if (r == SQ_OK && o->fields_format != SQ_FIELDS_NETCDF) {
@@ -311,7 +318,7 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
             r = stage(o, path, staged, sizeof staged);
             if (r == SQ_OK) {
                 r = sq_vtk_write_fields(o->ctx, &fd, fs, nfs);
-                if (r != SQ_OK) unstage_last(o);
+                if (r != SQ_OK) r = unstage_last(o, r);
             }
             if (r == SQ_OK) r = note_vti(o, g, tag, path, time_s);
         }
@@ -325,7 +332,7 @@ sq_result sq__run_outputs_fields(sq__run_outputs *o, int frame, double time_s,
             r = stage(o, path, staged, sizeof staged);
             if (r == SQ_OK) {
                 r = write_depth_png(staged, &fv[q], false);
-                if (r != SQ_OK) unstage_last(o);
+                if (r != SQ_OK) r = unstage_last(o, r);
             }
         }
     return r;

@@ -1097,6 +1097,14 @@ sq_result sq_scene_step(sq_scene *s, double dt_s)
     return SQ_OK;
 }
 
+sq_result sq_scene_frame_sync(sq_scene *s, bool gather)
+{
+    sq_result r = SQ_OK;
+    for (int i = 0; i < s->layer_count && r == SQ_OK; i++)
+        r = sq_phenomenon_frame_sync(s->layers[i].ph, gather);
+    return r;
+}
+
 sq_camera sq_scene_camera(sq_scene *s)
 {
     double video_t = s->out.time_scale > 0.0 ? (s->time_s - s->out.warmup_s) / s->out.time_scale

@@ -200,7 +200,8 @@ static double coldpool_return_speed(const sq_sandstorm *s)
     return above > 0.0 ? excess / above : 0.0;
 }
 
-/* The views of the grid (the whole grid; under mpirun its gathered copy). */
+/* The views of the grid (the whole grid; under mpirun rank 0's gathered copy, the other ranks
+ * their slab, whose views they never publish). */
 static inline const sq_grid *view_grid(const sq_sandstorm *s) { return s->whole ? s->whole : s->grid; }
 
 static void fill_velocity(sq_sandstorm *s, double ramp)
@@ -299,13 +300,37 @@ static sq_result set_wind_inflow(sq_sandstorm *s)
     return r;
 }
 
-/* Under mpirun: the slabs' wind, dust and temperature into the whole grid on every rank
+/* Under mpirun: the slabs' wind, dust and temperature into the whole grid on rank 0
  * (collective), its boundary values as the slabs'. */
 static sq_result gather_whole(sq_sandstorm *s)
 {
-    if (!s->whole) return SQ_OK;
-    sq_result r = sq_grid_gather(s->grid, s->whole);
-    if (r == SQ_OK) sq_grid_apply_boundary(s->whole);
+    if (!s->dist) return SQ_OK;
+    sq_result r = sq_grid_gather_root(s->grid, s->whole);
+    if (r == SQ_OK && s->whole) sq_grid_apply_boundary(s->whole);
+    return r;
+}
+
+/* Under mpirun: every rank's slab (lo x, lo y, n x, n y) and the neighbours along the split
+ * axis (slabs in rank order along it: sq_par_decompose). */
+static sq_result find_slabs(sq_sandstorm *s)
+{
+    const int nr = sq_par_size(), me = sq_par_rank(), ax = s->ln[0] != s->nx ? 0 : 1;
+    const int n = ax == 0 ? s->nx : s->ny;
+    s->nb_lo = s->lo[ax] > 0 ? me - 1 : -1;
+    s->nb_hi = s->lo[ax] + s->ln[ax] < n ? me + 1 : -1;
+    int64_t *cnt = (int64_t *)sq_alloc(s->ctx, (size_t)nr * sizeof(int64_t));
+    double *all = (double *)sq_alloc(s->ctx, (size_t)nr * 4 * sizeof(double));
+    s->blocks = (int *)sq_alloc(s->ctx, (size_t)nr * 4 * sizeof(int));
+    sq_result r = cnt && all && s->blocks ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
+    r = sq_par_agree(r);
+    if (r == SQ_OK) {
+        const double mine[4] = {s->lo[0], s->lo[1], s->ln[0], s->ln[1]};
+        for (int q = 0; q < nr; q++) cnt[q] = 4;
+        r = sq_par_allgather_f64(mine, cnt, all);
+        for (int q = 0; q < 4 * nr && r == SQ_OK; q++) s->blocks[q] = (int)all[q];
+    }
+    sq_free(s->ctx, cnt);
+    sq_free(s->ctx, all);
     return r;
 }
 
@@ -374,11 +399,14 @@ static sq_result create_grid(sq_sandstorm *s)
         s->lo[1] = lo[1];
         s->ln[0] = n.nx;
         s->ln[1] = n.ny;
+        s->synced_step = -1;
         if (r == SQ_OK && (n.nx != s->nx || n.ny != s->ny)) {
+            s->dist = true;
             g.decompose = false;
-            r = sq_grid_create(s->ctx, &g, &s->whole);
+            if (sq_par_rank() == 0) r = sq_grid_create(s->ctx, &g, &s->whole);
         }
         r = sq_par_agree(r);
+        if (r == SQ_OK && s->dist) r = find_slabs(s);
         if (r != SQ_OK) return r;
     }
     /* the mixing-length closure also carries the dust and the heat (K = nu_t / Pr_t), and with
@@ -435,8 +463,19 @@ static sq_result create_grid(sq_sandstorm *s)
             float z1 = k0 >= 0 ? (float)(s->origin[2] + (k0 + 0.5) * s->h) - zt : 0.0f;
             s->ground_z1[(size_t)j * s->nx + i] = z1 > (float)(0.1 * s->h) ? z1 : (float)(0.1 * s->h);
         }
-    if (s->whole) { /* the whole mask to the copy, the slab's part to the slab */
-        r = sq_grid_set_solid_mask(s->whole, mask);
+    if (s->dist) { /* the whole mask to rank 0's copy, the slab's part to the slab */
+        const size_t lc = (size_t)s->ln[0] * s->ln[1];
+        s->slab_gk = (int *)xalloc(s, lc * sizeof(int), &ok);
+        s->slab_gz1 = (float *)xalloc(s, lc * sizeof(float), &ok);
+        s->slab_vis = (float *)xalloc(s, lc * (size_t)(d->vis_height_count + 1) * sizeof(float), &ok);
+        s->tau = (double *)xalloc(s, (size_t)s->ny * s->nz * sizeof(double), &ok);
+        for (int j = 0; ok && j < s->ln[1]; j++)
+            for (int i = 0; i < s->ln[0]; i++) {
+                const size_t col = (size_t)(j + s->lo[1]) * s->nx + (size_t)(i + s->lo[0]);
+                s->slab_gk[(size_t)j * s->ln[0] + i] = s->ground_k[col];
+                s->slab_gz1[(size_t)j * s->ln[0] + i] = s->ground_z1[col];
+            }
+        r = !ok ? SQ_ERR_OUT_OF_MEMORY : s->whole ? sq_grid_set_solid_mask(s->whole, mask) : SQ_OK;
         const size_t ln = (size_t)s->ln[0] * s->ln[1] * s->nz;
         uint8_t *sm = r == SQ_OK ? (uint8_t *)sq_alloc(s->ctx, ln) : NULL;
         if (r == SQ_OK && !sm) r = SQ_ERR_OUT_OF_MEMORY;
@@ -520,6 +559,7 @@ sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, co
         s->urban_conc = d.urban_conc_kg_m3[0];
     }
     if (r == SQ_OK) r = create_near_field(s);
+    s->mirror_sides_m = (float)d.detail_mirror_sides_m;
     if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0) {
         r = sq__sand_detail_init(&s->detail, ctx, s->nx, s->ny, s->nz, s->h, d.detail_amplitude_m,
                                  d.detail_scale_m, d.detail_period_s, d.seed);
@@ -546,6 +586,11 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_context *ctx = s->ctx;
     sq_grid_destroy(s->grid);
     sq_grid_destroy(s->whole);
+    sq_free(ctx, s->blocks);
+    sq_free(ctx, s->slab_gk);
+    sq_free(ctx, s->slab_gz1);
+    sq_free(ctx, s->slab_vis);
+    sq_free(ctx, s->tau);
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
@@ -571,7 +616,7 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
 /* Global sums of a distributed run (no-op on one rank); every rank passes the same n. */
 static void sum_ranks(const sq_sandstorm *s, double *v, int n)
 {
-    if (s->whole) sq_par_sum_f64(v, n);
+    if (s->dist) sq_par_sum_f64(v, n);
 }
 
 /* Suspended mass of every bin (kg) in grid g (nx x ny columns) in one pass. */
@@ -735,7 +780,7 @@ static double emit_dust(sq_sandstorm *s, double dt)
         emitting += acc[4 * j + 2];
         cols += acc[4 * j + 3];
     }
-    if (s->whole) {
+    if (s->dist) {
         double v[3] = {total, emitting, cols};
         sq_par_sum_f64(v, 3);
         sq_par_max_f64(&max_us, 1);
@@ -892,31 +937,52 @@ static int cmp_d(const void *a, const void *b)
 
 /* The cold pool's front: per row, the distance from the west face to the last ground cell whose
  * potential temperature is below the background by more than dT/2 (interpolated to the
- * crossing); the median over the rows (0 where no cold air). */
+ * crossing); the median over the rows (0 where no cold air). A slab finds the last cold cell
+ * of its part of each row (the crossing with the next slab's first column, whose ground
+ * temperature that slab sends); the row's front is the largest over the slabs, as on one
+ * rank (a cold cell further east always gives a larger x). */
 static double coldpool_front(sq_sandstorm *s)
 {
-    sq_field_view t = sq_grid_scalar_view(view_grid(s), s->temp_idx);
+    sq_field_view t = sq_grid_scalar_view(s->grid, s->temp_idx);
     const double half = 0.5 * s->d.coldpool_delta_t_k;
-    double *xs = s->row_acc; /* ny of the 4 ny scratch entries */
-    for (int j = 0; j < s->ny; j++) {
+    const int NX = s->nx, lx = s->ln[0], ly = s->ln[1], ox = s->lo[0], oy = s->lo[1];
+    double *xs = s->row_acc, *first = s->row_acc + s->ny, *east = s->row_acc + 2 * s->ny;
+    if (s->dist && lx != NX) { /* split along x: the first column's ground temperature west */
+        for (int j = 0; j < ly; j++) {
+            const int k0 = s->ground_k[(size_t)(j + oy) * NX + ox];
+            first[j] = k0 >= 0 ? (double)sq_view_get(&t, 0, j, k0) : 0.0;
+        }
+        double none = 0.0;
+        const int nb[2] = {s->nb_lo, s->nb_hi};
+        const void *const sb[2] = {first, &none};
+        void *const rb[2] = {&none, east};
+        const size_t bytes[2] = {s->nb_lo >= 0 ? (size_t)ly * sizeof(double) : 0, 0},
+                     rbytes[2] = {0, s->nb_hi >= 0 ? (size_t)ly * sizeof(double) : 0};
+        (void)sq_par_exchange_pair(nb, sb, bytes, rb, rbytes);
+    }
+    for (int j = 0; j < s->ny; j++) xs[j] = 0.0;
+    for (int j = 0; j < ly; j++) {
+        const size_t row = (size_t)(j + oy) * NX;
         double x = 0.0;
-        for (int i = s->nx - 1; i >= 0; i--) {
-            const int k0 = s->ground_k[(size_t)j * s->nx + i];
+        for (int i = lx - 1; i >= 0; i--) {
+            const int k0 = s->ground_k[row + i + ox];
             if (k0 < 0) continue;
             const double a = (double)sq_view_get(&t, i, j, k0) - (double)s->theta_ref[k0] + half;
             if (a < 0.0) { /* cold: find the crossing with the next column east */
                 double f = 0.5;
-                if (i + 1 < s->nx && s->ground_k[(size_t)j * s->nx + i + 1] >= 0) {
-                    const int k1 = s->ground_k[(size_t)j * s->nx + i + 1];
-                    const double b = (double)sq_view_get(&t, i + 1, j, k1) - (double)s->theta_ref[k1] + half;
+                if (i + ox + 1 < NX && s->ground_k[row + i + ox + 1] >= 0) {
+                    const int k1 = s->ground_k[row + i + ox + 1];
+                    const double tb = i + 1 < lx ? (double)sq_view_get(&t, i + 1, j, k1) : east[j];
+                    const double b = tb - (double)s->theta_ref[k1] + half;
                     f = b > a ? (0.0 - a) / (b - a) : 0.5;
                 }
-                x = (i + 0.5 + f) * s->h;
+                x = (i + ox + 0.5 + f) * s->h;
                 break;
             }
         }
-        xs[j] = x;
+        xs[j + oy] = x;
     }
+    if (s->dist) sq_par_max_f64(xs, s->ny);
     qsort(xs, (size_t)s->ny, sizeof *xs, cmp_d);
     return s->ny % 2 ? xs[s->ny / 2] : 0.5 * (xs[s->ny / 2 - 1] + xs[s->ny / 2]);
 }
@@ -1007,7 +1073,6 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     s->stats.pressure_residual = ps.residual;
     s->stats.pressure_iterations = ps.iterations;
     r = sq_grid_check_finite(s->grid, s->step);
-    if (r == SQ_OK) r = gather_whole(s); /* under mpirun: the whole grid for views and front */
     s->time_s += dt;
     if (r == SQ_OK) track_front(s);
     return r;
@@ -1049,7 +1114,8 @@ static void spawn_particle(sq_sandstorm *s, int i, bool anywhere)
 
 static void step_near_field(sq_sandstorm *s, double dt)
 {
-    if (!s->np || !s->have_camera) return;
+    /* under mpirun rank 0 draws them (in the wind of the last gathered frame) */
+    if (!s->np || !s->have_camera || (s->dist && !s->whole)) return;
     const float R = (float)s->d.near_radius_m;
     for (int i = 0; i < s->np; i++) {
         if (s->p_age[i] < 0.0f) {
@@ -1082,7 +1148,7 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
                             "step %g s at a wind of %g m/s is %d times the CFL sub-step limit "
                             "%g s (solver.cfl = %g, cell %g m), more than 100: lower "
                             "wind.speed_mps, wave.pressure_amp_pa or coldpool.delta_t_k, or the "
-                            "frame step (output.time_scale)", dt, sq_grid_max_speed(view_grid(s)), n,
+                            "frame step (output.time_scale)", dt, s->d.cfl * s->h / lim, n,
                             lim, s->d.cfl, s->h);
         if (n > 1 && s->step == 0)
             sq_log(s->ctx, SQ_LOG_INFO, "sandstorm",
@@ -1091,7 +1157,10 @@ sq_result sq_sandstorm_step(sq_sandstorm *s, double dt)
             r = step_desert(s, dt / n);
             s->step++;
             s->stats.steps++;
-            if (r == SQ_OK && s->detail.enabled) { /* display only: the detail follows the wind */
+            if (r == SQ_OK && s->detail.enabled && s->dist) { /* at the next gathered frame */
+                s->detail_pending_s += dt / n;
+                s->detail_pending_n++;
+            } else if (r == SQ_OK && s->detail.enabled) { /* display only: it follows the wind */
                 const double t0 = sq_time_now();
                 sq__sand_detail_advect(&s->detail, view_grid(s), dt / n, sq_context_threads(s->ctx));
                 s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
@@ -1118,7 +1187,7 @@ double sq_sandstorm_max_stable_dt(const sq_sandstorm *s)
     if (!s->grid) return 0.0;
     /* semi-Lagrangian transport is unconditionally stable; the CFL bound keeps the MacCormack
      * correction and the emission/settling splitting accurate */
-    double v = sq_grid_max_speed(view_grid(s));
+    double v = sq_grid_max_speed(s->grid); /* under mpirun: collective, the global largest */
     return v > 1e-6 ? s->d.cfl * s->h / v : 0.0;
 }
 
@@ -1128,7 +1197,8 @@ void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
     out->suspended_kg = 0.0;
     if (s->grid) {
         double m[SQ_SANDSTORM_MAX_BINS];
-        dust_masses(s, view_grid(s), s->nx, s->ny, m);
+        dust_masses(s, s->grid, s->ln[0], s->ln[1], m); /* under mpirun: collective */
+        sum_ranks(s, m, s->nbins);
         for (int b = 0; b < s->nbins; b++) out->suspended_kg += m[b];
     }
 }
@@ -1136,7 +1206,7 @@ void sq_sandstorm_get_budget(const sq_sandstorm *s, sq_sandstorm_budget *out)
 void sq_sandstorm_get_stats(const sq_sandstorm *s, sq_sandstorm_stats *out)
 {
     *out = s->stats;
-    out->max_wind_mps = s->grid ? sq_grid_max_speed(view_grid(s)) : 0.0;
+    out->max_wind_mps = s->grid ? sq_grid_max_speed(s->grid) : 0.0; /* mpirun: collective */
     out->slab_cells = s->grid ? (int64_t)s->ln[0] * s->ln[1] * s->nz : 0;
     out->bytes_exchanged = s->grid ? sq_grid_bytes_exchanged(s->grid) : 0;
 }
@@ -1147,7 +1217,7 @@ static void update_derived(sq_sandstorm *s)
     if (!s->derived_dirty) return;
     s->derived_dirty = false;
     s->version++;
-    if (!s->grid) return;
+    if (!s->grid || (s->dist && !s->whole)) return; /* under mpirun: rank 0, gathered frames */
     const int nx = s->nx, ny = s->ny, nz = s->nz, nb = s->nbins;
     const int nt = sq_context_threads(s->ctx);
     (void)nt; /* unused without OpenMP */
@@ -1169,7 +1239,8 @@ static void update_derived(sq_sandstorm *s)
             }
         }
     /* Display only: the drawable fades to zero over the outer 2.5 cells of the open faces (not
-     * the ground) so the finite domain shows no box edges, and the ground cells are filled from
+     * the ground, nor the north and south faces where the dust is drawn mirrored beyond them)
+     * so the finite domain shows no box edges, and the ground cells are filled from
      * above (below); metrics and fields use the unmodified values (the visibility planes are
      * computed before these edits). */
     for (int v = 0; v < s->d.vis_height_count; v++)
@@ -1214,13 +1285,15 @@ static void update_derived(sq_sandstorm *s)
         s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
     }
     float mx = 0.0f;
+    /* drawn beyond its north and south faces (mirrored), the dust continues there: no fade */
+    const bool fade_y = !(s->mirror_sides_m > 0.0f);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : mx))
     for (int kk = 0; kk < nz; kk++)
         for (int j = 0; j < ny; j++) {
             float *d = s->density + ((size_t)kk * ny + j) * nx;
             for (int i = 0; i < nx; i++) {
                 float dmin = (float)(i < nx - 1 - i ? i : nx - 1 - i);
-                float dj = (float)(j < ny - 1 - j ? j : ny - 1 - j);
+                float dj = fade_y ? (float)(j < ny - 1 - j ? j : ny - 1 - j) : 1e9f;
                 float dk = (float)(nz - 1 - kk);
                 dmin = dj < dmin ? dj : dmin;
                 dmin = dk < dmin ? dk : dmin;
@@ -1234,6 +1307,191 @@ static void update_derived(sq_sandstorm *s)
     s->density_max = mx;
 }
 
+/* The wind a weather station would measure at column (i, j): the horizontal wind of the
+ * column's first fluid cell (centre z1 above the surface) carried to the anemometer's height by
+ * the log law the ground stress and the emission's u* use, u(z) = (u* / kappa) ln(z / z0)
+ * (sq_friction_velocity); 0 for a column without air. A mean over the cell and the step, not a
+ * 3-s gust. */
+static double station_wind(const sq_sandstorm *s, const sq_grid *g, int i, int j)
+{
+    int lo[3] = {0, 0, 0};
+    sq_dims whole;
+    if (g == s->grid) (void)sq_grid_get_block(g, lo, &whole); /* a slab: its columns */
+    const size_t col = (size_t)(j + lo[1]) * s->nx + (size_t)(i + lo[0]);
+    const int k0 = s->ground_k[col];
+    if (k0 < 0) return 0.0;
+    const sq_vec3 c = cell_wind(g, i, j, k0);
+    const double uh = sqrt((double)c.x * (double)c.x + (double)c.y * (double)c.y);
+    const double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
+    return us / SQ_SAND_KARMAN * log(SQ_SAND_ANEMOMETER_M / s->d.roughness_m);
+}
+
+/* ---- under mpirun: the frame's reductions over the slabs ----------------------------------- */
+/* The wall's top as seen from ahead (sq__sand_wall_seen) over the slabs: each level's optical
+ * depth along a row is summed in the one-rank order (x ascending), each slab continuing the sums
+ * of the slab before it (split along x: a chain from west to east, ny nz doubles per face); the
+ * slab that ends the rows finds their tops, the others add zeros. beta: the slab's extinction. */
+static double wall_seen_slabs(sq_sandstorm *s, const float *beta)
+{
+    const int NX = s->nx, ny = s->ny, nz = s->nz, lx = s->ln[0], ly = s->ln[1], ox = s->lo[0],
+              oy = s->lo[1];
+    const bool xsplit = lx != NX;
+    const float h = (float)s->h;
+    const size_t lc = (size_t)lx * ly, nt = (size_t)ny * nz;
+    double *tau = s->tau, none = 0.0, *rows = s->row_acc;
+    for (size_t q = 0; q < nt; q++) tau[q] = 0.0;
+    if (xsplit && s->nb_lo >= 0) { /* the sums so far, from the west */
+        const int nb[2] = {s->nb_lo, -1};
+        const void *const sb[2] = {&none, &none};
+        void *const rb[2] = {tau, &none};
+        const size_t bytes[2] = {0, 0}, rbytes[2] = {nt * sizeof(double), 0};
+        (void)sq_par_exchange_pair(nb, sb, bytes, rb, rbytes);
+    }
+    for (int j = 0; j < ly; j++)
+        for (int k = 0; k < nz; k++) {
+            double t = tau[(size_t)(j + oy) * nz + k];
+            for (int i = 0; i < lx; i++) {
+                const int kg = s->ground_k[(size_t)(j + oy) * NX + i + ox];
+                if (kg >= 0 && k >= kg) t += (double)beta[(size_t)k * lc + (size_t)j * lx + i] * (double)h;
+            }
+            tau[(size_t)(j + oy) * nz + k] = t;
+        }
+    if (xsplit && s->nb_hi >= 0) { /* and on to the east */
+        const int nb[2] = {-1, s->nb_hi};
+        const void *const sb[2] = {&none, tau};
+        void *const rb[2] = {&none, &none};
+        const size_t bytes[2] = {0, nt * sizeof(double)}, rbytes[2] = {0, 0};
+        (void)sq_par_exchange_pair(nb, sb, bytes, rb, rbytes);
+    }
+    const double tau_min = log(1.0 / s->d.contrast);
+    for (int j = 0; j < ny; j++) rows[j] = 0.0;
+    for (int j = 0; j < ly && ox + lx == NX; j++) {
+        const int J = j + oy;
+        int kg = nz;
+        float z1 = 0.5f * h;
+        for (int i = 0; i < NX; i++) {
+            const int k0 = s->ground_k[(size_t)J * NX + i];
+            if (k0 >= 0 && k0 < kg) {
+                kg = k0;
+                z1 = s->ground_z1[(size_t)J * NX + i];
+            }
+        }
+        double top = 0.0;
+        for (int k = nz - 1; k >= kg && top == 0.0; k--)
+            if (tau[(size_t)J * nz + k] >= tau_min) top = (k - kg + 0.5) * (double)h + (double)z1;
+        rows[J] = top;
+    }
+    sq_par_sum_f64(rows, ny);
+    return sq__sand_median_rows(rows, ny);
+}
+
+/* Under mpirun, collective, once per frame (sq_phen_plugin.frame_sync): what the metrics need
+ * from every slab — the visibility planes (each slab's columns, gathered on every rank: 4 bytes
+ * per column and plane), the wall's height and the largest extinction (maxima), the wall seen
+ * from ahead (chained sums), the suspended dust and the largest wind — and with gather the
+ * slabs' fields on rank 0 for its drawables and field files. The front is found every step. */
+sq_result sq__sandstorm_frame_sync(void *self, bool gather)
+{
+    sq_sandstorm *s = (sq_sandstorm *)self;
+    if (!s->grid || !s->dist) return SQ_OK;
+    const int lx = s->ln[0], ly = s->ln[1], nz = s->nz, nb = s->nbins, nv = s->d.vis_height_count;
+    const size_t lc = (size_t)lx * ly;
+    const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
+    /* the slab's extinction at 550 nm, per cell as update_derived (the whole grid's buffer) */
+    float *beta = s->density;
+    sq_field_view c[SQ_SANDSTORM_MAX_BINS];
+    float kb[SQ_SANDSTORM_MAX_BINS];
+    for (int b = 0; b < nb; b++) {
+        c[b] = sq_grid_scalar_view(s->grid, b);
+        kb[b] = (float)s->k_ext[b][3];
+    }
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt))
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ly; j++) {
+            float *d = beta + (size_t)k * lc + (size_t)j * lx;
+            for (int i = 0; i < lx; i++) d[i] = 0.0f;
+            for (int b = 0; b < nb; b++) {
+                const float *row = c[b].data + (ptrdiff_t)j * c[b].sy + (ptrdiff_t)k * c[b].sz;
+                for (int i = 0; i < lx; i++) d[i] += kb[b] * row[i];
+            }
+        }
+    for (int v = 0; v < nv; v++)
+        sq__sand_visibility_plane(beta, lx, ly, nz, s->slab_gk, s->slab_gz1, (float)s->h,
+                                  s->d.vis_heights_m[v], s->d.contrast, s->slab_vis + (size_t)v * lc);
+    double mx[3] = {0.0, 0.0, 0.0}; /* the wall's height, the largest extinction, ... */
+    for (size_t col = 0; col < lc; col++) {
+        const int k0 = s->slab_gk[col];
+        if (k0 < 0) continue;
+        for (int k = nz - 1; k >= k0; k--)
+            if (beta[(size_t)k * lc + col] >= (float)SQ_SAND_WALL_BETA) {
+                mx[0] = fmax(mx[0], (k - k0 + 0.5) * s->h + (double)s->slab_gz1[col]);
+                break;
+            }
+    }
+    for (size_t q = 0; q < lc * (size_t)nz; q++) mx[1] = fmax(mx[1], (double)beta[q]);
+    /* the station's wind: its largest, and at the observer's column (the slab holding it) */
+    mx[2] = 0.0;
+    for (int j = 0; j < ly; j++)
+        for (int i = 0; i < lx; i++) mx[2] = fmax(mx[2], station_wind(s, s->grid, i, j));
+    double w10 = 0.0;
+    {
+        int oi = (int)floor((s->d.observer_m[0] - s->origin[0]) / s->h),
+            oj = (int)floor((s->d.observer_m[1] - s->origin[1]) / s->h);
+        oi = (oi < 0 ? 0 : oi >= s->nx ? s->nx - 1 : oi) - s->lo[0];
+        oj = (oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj) - s->lo[1];
+        if (oi >= 0 && oi < lx && oj >= 0 && oj < ly) w10 = station_wind(s, s->grid, oi, oj);
+    }
+    sq_par_max_f64(mx, 3);
+    sq_par_sum_f64(&w10, 1); /* one slab's value and zeros */
+    s->wall_height_m = mx[0];
+    s->sync_beta_max = mx[1];
+    s->sync_w10[0] = w10;
+    s->sync_w10[1] = mx[2];
+    s->wall_seen_m = wall_seen_slabs(s, beta);
+    /* the visibility planes of every slab, into the whole planes */
+    const int nr = sq_par_size();
+    int64_t cnt[64], *cn = nr > 64 ? (int64_t *)sq_alloc(s->ctx, (size_t)nr * sizeof(int64_t)) : cnt;
+    float *all = s->export_buf[0]; /* nx ny nz >= nx ny nv floats (nz >= 4 >= nv) */
+    sq_result r = cn ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
+    if (sq_par_agree(r) == SQ_OK && r == SQ_OK) {
+        for (int q = 0; q < nr; q++) cn[q] = (int64_t)s->blocks[4 * q + 2] * s->blocks[4 * q + 3] * nv;
+        r = sq_par_allgather_f32(s->slab_vis, cn, all);
+        size_t off = 0;
+        for (int q = 0; q < nr && r == SQ_OK; q++) {
+            const int *bq = s->blocks + 4 * q;
+            for (int v = 0; v < nv; v++)
+                for (int j = 0; j < bq[3]; j++, off += (size_t)bq[2])
+                    memcpy(s->vis[v] + (size_t)(j + bq[1]) * s->nx + bq[0], all + off,
+                           (size_t)bq[2] * sizeof(float));
+        }
+    } else if (r == SQ_OK) {
+        r = SQ_ERR_OUT_OF_MEMORY;
+    }
+    if (cn != cnt) sq_free(s->ctx, cn);
+    if (r != SQ_OK) return r;
+    sq_sandstorm_budget b;
+    sq_sandstorm_get_budget(s, &b);
+    s->sync_suspended_kg = b.suspended_kg;
+    s->sync_max_wind = sq_grid_max_speed(s->grid);
+    s->synced_step = s->step;
+    if (!gather) return SQ_OK;
+    /* rank 0 draws or writes this frame: the slabs' fields into its whole grid */
+    r = gather_whole(s);
+    s->derived_dirty = true;
+    if (r == SQ_OK && s->whole && s->detail.enabled && s->detail_pending_n > 0) {
+        /* display only: the detail follows the wind since the last gathered frame */
+        const double t0 = sq_time_now();
+        const double dt = s->detail_pending_s / s->detail_pending_n;
+        for (int q = 0; q < s->detail_pending_n; q++)
+            sq__sand_detail_advect(&s->detail, s->whole, dt, nt);
+        s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
+    }
+    s->detail_pending_s = 0.0;
+    s->detail_pending_n = 0;
+    return r;
+}
+
 static int cmp_f(const void *a, const void *b)
 {
     float x = *(const float *)a, y = *(const float *)b;
@@ -1245,7 +1503,7 @@ int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max)
 {
     update_derived(s);
     int n = 0;
-    if (max < 1) return 0;
+    if (max < 1 || (s->dist && !s->whole)) return 0; /* under mpirun: rank 0 draws */
     sq_drawable *d = &out[n++];
     memset(d, 0, sizeof *d);
     d->kind = SQ_DRAWABLE_VOLUME;
@@ -1262,6 +1520,7 @@ int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max)
         /* with the flow-following detail (the look of a haboob's head): the dust's edge
          * against clear air drawn as the sharp interface the 60 m cells blur */
         v->edge_sharpness = s->detail.enabled ? 1.0f : 0.0f;
+        v->mirror_y_m = s->mirror_sides_m;
     } else {
         float beta = (float)((double)s->urban_conc * s->k_ext_total_550);
         for (int i = 0; i < 8; i++) s->urban_density[i] = beta;
@@ -1334,25 +1593,12 @@ void sq__sandstorm_observe(sq_sandstorm *s, const sq_camera *cam)
     if (first) step_near_field(s, 1e-3);
 }
 
-/* The wind a weather station would measure at column (i, j): the horizontal wind of the
- * column's first fluid cell (centre z1 above the surface) carried to the anemometer's height by
- * the log law the ground stress and the emission's u* use, u(z) = (u* / kappa) ln(z / z0)
- * (sq_friction_velocity); 0 for a column without air. A mean over the cell and the step, not a
- * 3-s gust. */
-static double station_wind(const sq_sandstorm *s, int i, int j)
-{
-    const size_t col = (size_t)j * s->nx + i;
-    const int k0 = s->ground_k[col];
-    if (k0 < 0) return 0.0;
-    const sq_vec3 c = cell_wind(view_grid(s), i, j, k0);
-    const double uh = sqrt((double)c.x * (double)c.x + (double)c.y * (double)c.y);
-    const double us = sq_friction_velocity(uh, s->ground_z1[col], s->d.roughness_m);
-    return us / SQ_SAND_KARMAN * log(SQ_SAND_ANEMOMETER_M / s->d.roughness_m);
-}
-
 int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
 {
-    update_derived(s);
+    /* under mpirun: the frame's reductions (every rank computes them in frame_sync; a caller
+     * that did not sync makes it here, collectively) */
+    if (s->dist && s->synced_step != s->step) (void)sq__sandstorm_frame_sync(s, false);
+    if (!s->dist) update_derived(s);
     int n = 0;
 #define PUT(nm, val, un)                                                                       \
     do {                                                                                       \
@@ -1375,7 +1621,12 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         }
         free(tmp);
         sq_sandstorm_budget b;
-        sq_sandstorm_get_budget(s, &b);
+        if (s->dist) {
+            b = s->budget;
+            b.suspended_kg = s->sync_suspended_kg;
+        } else {
+            sq_sandstorm_get_budget(s, &b);
+        }
         PUT("dust_suspended_kg", b.suspended_kg, "kg");
         PUT("dust_emitted_kg", b.emitted_kg, "kg");
         PUT("dust_deposited_kg", b.deposited_kg, "kg");
@@ -1390,10 +1641,10 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
         oj = oj < 0 ? 0 : oj >= s->ny ? s->ny - 1 : oj;
         PUT("visibility_observer_m", s->vis[0][(size_t)oj * s->nx + oi], "m");
         /* the station's wind: 10 m above the ground at the observer, and the largest anywhere */
-        double w10 = 0.0;
-        for (int j = 0; j < s->ny; j++)
-            for (int i = 0; i < s->nx; i++) w10 = fmax(w10, station_wind(s, i, j));
-        PUT("wind_10m_observer_mps", station_wind(s, oi, oj), "m/s");
+        double w10 = s->dist ? s->sync_w10[1] : 0.0;
+        for (int j = 0; j < s->ny && !s->dist; j++)
+            for (int i = 0; i < s->nx; i++) w10 = fmax(w10, station_wind(s, s->grid, i, j));
+        PUT("wind_10m_observer_mps", s->dist ? s->sync_w10[0] : station_wind(s, s->grid, oi, oj), "m/s");
         PUT("max_wind_10m_mps", w10, "m/s");
         PUT("wall_height_m", s->wall_height_m, "m");
         PUT("wall_top_seen_m", s->wall_seen_m, "m");
@@ -1401,7 +1652,7 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
             PUT("front_m", s->stats.front_m, "m");
             PUT("front_speed_mps", s->stats.front_speed_mps, "m/s");
         }
-        const double vmax = sq_grid_max_speed(view_grid(s));
+        const double vmax = s->dist ? s->sync_max_wind : sq_grid_max_speed(s->grid);
         if (vmax > 100.0 && !(s->warned & 1)) {
             s->warned |= 1;
             sq_log(s->ctx, SQ_LOG_WARN, "sandstorm",
@@ -1409,7 +1660,8 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
                    "wind.speed_mps, wave.pressure_amp_pa, coldpool.delta_t_k, coldpool.speed_mps",
                    vmax, s->time_s);
         }
-        const double cmax = s->k_ext_total_550 > 0.0 ? (double)s->density_max / s->k_ext_total_550 : 0.0;
+        const double bmax = s->dist ? s->sync_beta_max : (double)s->density_max;
+        const double cmax = s->k_ext_total_550 > 0.0 ? bmax / s->k_ext_total_550 : 0.0;
         if (cmax > 1.0 && !(s->warned & 2)) {
             s->warned |= 2;
             sq_log(s->ctx, SQ_LOG_WARN, "sandstorm",
@@ -1434,7 +1686,8 @@ int sq__sandstorm_metrics(sq_sandstorm *s, sq_metric *out, int max)
 
 int sq__sandstorm_fields(sq_sandstorm *s, sq_named_field *out, int max)
 {
-    if (!s->grid || max < 6 + s->d.vis_height_count) return 0;
+    /* under mpirun: rank 0, from the slabs gathered at this frame (frame_sync with gather) */
+    if (!s->grid || max < 6 + s->d.vis_height_count || (s->dist && !s->whole)) return 0;
     update_derived(s);
     size_t n = (size_t)s->nx * s->ny * s->nz;
     float *conc = s->export_buf[0], *u = s->export_buf[1], *v = s->export_buf[2],

@@ -78,9 +78,21 @@ struct sq_sandstorm {
     uint64_t memory_bytes;
     /* grid (desert) */
     sq_grid *grid;    /* under mpirun: this rank's slab (the whole grid's columns lo .. lo+ln) */
-    sq_grid *whole;   /* under mpirun: the whole grid, gathered after every step for the views,
-                         metrics, outputs and the front (never stepped); NULL: grid is whole */
+    bool dist;        /* the grid is split over the ranks (every reduction is then global) */
+    sq_grid *whole;   /* under mpirun, on rank 0 only: the whole grid, gathered at the frames
+                         it draws or writes (sq__sandstorm_frame_sync; never stepped) */
     int lo[2], ln[2]; /* the slab's first column (x, y) and its columns; 0 and nx, ny if whole */
+    int nb_lo, nb_hi; /* under mpirun: the ranks of the slabs before and after (-1: none) */
+    int *blocks;      /* under mpirun: lo x, lo y, n x, n y of every rank's slab */
+    int *slab_gk;     /* under mpirun: ground_k and ground_z1 of the slab's columns */
+    float *slab_gz1;
+    float *slab_vis;  /* under mpirun: the slab's visibility planes (vis_height_count of them) */
+    double *tau;      /* under mpirun: ny * nz optical depths along x (the wall seen) */
+    int64_t synced_step; /* under mpirun: the step of the last frame sync (-1: none) */
+    double sync_suspended_kg, sync_max_wind, sync_beta_max; /* its global reductions */
+    double sync_w10[2];      /* and the station's wind at the observer and its largest */
+    double detail_pending_s; /* under mpirun: time the detail has not followed yet (rank 0) */
+    int detail_pending_n;
     int nx, ny, nz;   /* the whole grid's cells */
     double h;
     double origin[3];
@@ -130,6 +142,7 @@ struct sq_sandstorm {
     /* flow-following detail of the drawable (display only) */
     sq__sand_detail detail;
     float *detail_out; /* nx*ny*nz: the drawable's extinction with the detail */
+    float mirror_sides_m; /* detail.mirror_sides_m: the drawable beyond the y faces */
     /* near field */
     int np;
     float *p_pos, *p_radius, *p_rot, *p_spin, *p_tau, *p_fade, *p_age;
@@ -161,6 +174,8 @@ void sq__sand_block_settle(float *c, ptrdiff_t cy, ptrdiff_t cs, const uint8_t *
  * depth along x reaches ln(1/contrast)); rows: ny doubles of scratch. */
 double sq__sand_wall_seen(const float *beta, int nx, int ny, int nz, const int *ground_k,
                           const float *ground_z1, float h, double contrast, double *rows);
+/* The median of rows[0 .. ny) (sorts them). */
+double sq__sand_median_rows(double *rows, int ny);
 void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
                                const float *ground_z1, float h, float height_m, double contrast,
                                float *out);
@@ -175,6 +190,9 @@ const float *sq__sandstorm_visibility_plane(sq_sandstorm *s, int v, int *nx, int
 /* checkpoint hooks (sandstorm_state.c) */
 sq_result sq__sandstorm_save_state(const void *self, sq_state_writer *w);
 sq_result sq__sandstorm_load_state(void *self, sq_state_reader *r);
+
+/* distributed runs: the frame's reductions, and the slabs gathered to rank 0 with gather */
+sq_result sq__sandstorm_frame_sync(void *self, bool gather);
 
 /* live changes (end of sandstorm.c): d differs from the running desc only in live keys */
 sq_result sq__sandstorm_apply_live(sq_sandstorm *s, const sq_sandstorm_desc *d);

@@ -185,6 +185,11 @@ double sq__sand_wall_seen(const float *beta, int nx, int ny, int nz, const int *
         }
         rows[j] = top;
     }
+    return sq__sand_median_rows(rows, ny);
+}
+
+double sq__sand_median_rows(double *rows, int ny)
+{
     /* median (insertion sort: ny is at most a few hundred) */
     for (int a = 1; a < ny; a++)
         for (int b = a; b > 0 && rows[b] < rows[b - 1]; b--) {

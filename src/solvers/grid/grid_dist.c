@@ -619,16 +619,18 @@ void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *sla
 }
 
 /* ---- the whole grid from the slabs (outputs) ------------------------------------------------ */
-sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole)
+/* root < 0: into whole on every rank; else into whole on rank root only (NULL elsewhere). */
+static sq_result gather_grid(const sq_grid *g, sq_grid *whole, int root)
 {
-    if (!g || !whole || whole->halo)
+    sq__grid_halo *h = g ? g->halo : NULL;
+    const bool here = root < 0 || !h || sq_par_rank() == root;
+    if (!g || (here && (!whole || whole->halo)))
         return sq__fail(g ? g->ctx : NULL, SQ_ERR_INVALID_ARG, MOD,
                         "sq_grid_gather: the slab and a whole (not decomposed) grid are needed");
-    sq__grid_halo *h = g->halo;
     int n0[3], lo[3];
     sq__grid_dist_frame(g, n0, lo);
-    if (whole->n[0] != n0[0] || whole->n[1] != n0[1] || whole->n[2] != n0[2] ||
-        whole->d.scalar_count != g->d.scalar_count)
+    if (here && (whole->n[0] != n0[0] || whole->n[1] != n0[1] || whole->n[2] != n0[2] ||
+        whole->d.scalar_count != g->d.scalar_count))
         return sq__fail(g->ctx, SQ_ERR_INVALID_ARG, MOD,
                         "sq_grid_gather: whole grid %dx%dx%d with %d scalars; the grid is "
                         "%dx%dx%d with %d", whole->n[0], whole->n[1], whole->n[2],
@@ -664,14 +666,14 @@ sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole)
     float *mine = NULL, *all = NULL;
     if (cnt) {
         mine = (float *)sq_alloc(g->ctx, wide_count(g->n) * sizeof(float));
-        all = (float *)sq_alloc(g->ctx, total * sizeof(float));
+        all = here ? (float *)sq_alloc(g->ctx, total * sizeof(float)) : NULL;
     }
-    sq_result r = cnt && mine && all ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
+    sq_result r = cnt && mine && (all || !here) ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
     if (h && sq__grid_dist_any(g, r != SQ_OK) && r == SQ_OK) r = SQ_ERR_OUT_OF_MEMORY;
     for (int c = 0; c < nf && r == SQ_OK; c++) {
         const int L = c < 3 ? c + 1 : SQ__L_CELL;
         const sq_field3 *f = c < 3 ? &g->vel[c] : &g->scalar[c - 3];
-        sq_field3 *F = c < 3 ? &whole->vel[c] : &whole->scalar[c - 3];
+        sq_field3 *F = !here ? NULL : c < 3 ? &whole->vel[c] : &whole->scalar[c - 3];
         int m[3];
         ptrdiff_t y, z;
         for (int q = 0; q < size; q++) {
@@ -684,14 +686,17 @@ sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole)
         for (int k = 0; k < m[2]; k++)
             for (int j = 0; j < m[1]; j++, t += (size_t)m[0])
                 memcpy(mine + t, sq_field3_at(f, 0, j, k), (size_t)m[0] * sizeof(float));
-        if (h) {
+        if (h && root < 0) {
             r = sq_par_allgather_f32(mine, cnt, all);
             h->bytes_exchanged += (uint64_t)cnt[rank] * sizeof(float) * (uint64_t)(size - 1);
+        } else if (h) {
+            r = sq_par_gather_f32(mine, cnt, all);
+            if (rank != root) h->bytes_exchanged += (uint64_t)cnt[rank] * sizeof(float);
         } else {
             memcpy(all, mine, t * sizeof(float));
         }
         size_t off = 0;
-        for (int q = 0; q < size && r == SQ_OK; q++) {
+        for (int q = 0; q < size && r == SQ_OK && here; q++) {
             const int nq[3] = {b[q].n.nx, b[q].n.ny, b[q].n.nz};
             lat_layout(nq, L, m, &y, &z);
             for (int k = 0; k < m[2]; k++)
@@ -704,7 +709,13 @@ sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole)
     sq_free(g->ctx, all);
     if (cnt != counts) sq_free(g->ctx, cnt);
     sq_free(g->ctx, heap);
-    whole->vel_version++;
-    whole->trace_valid = false;
+    if (here) {
+        whole->vel_version++;
+        whole->trace_valid = false;
+    }
     return r;
 }
+
+sq_result sq_grid_gather(const sq_grid *g, sq_grid *whole) { return gather_grid(g, whole, -1); }
+
+sq_result sq_grid_gather_root(const sq_grid *g, sq_grid *whole) { return gather_grid(g, whole, 0); }
