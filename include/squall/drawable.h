@@ -47,6 +47,11 @@ typedef struct sq_volume_view {
      * edge at the half-maximum contour, this much sharper (1: a fifth of a cell wide);
      * docs/validation.md, "Sharp dust edges" */
     float edge_sharpness;
+    /* 0 (default): nothing is drawn outside the box. > 0: the box is drawn this far (m)
+     * beyond its two y faces with the density mirrored at them, so a body wider than its grid
+     * (a storm's wall running across the view beyond a strip-shaped domain) does not end at
+     * the grid's sides; docs/validation.md, "Dust beyond the domain's sides" */
+    float mirror_y_m;
     uint64_t version;      /* increments whenever density changes */
 } sq_volume_view;
 

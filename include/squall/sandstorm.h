@@ -130,6 +130,7 @@ typedef struct sq_sandstorm_desc {
     double detail_amplitude_m;      /* largest displacement; 0 = off */
     double detail_scale_m;          /* noise feature size; 0 -> 4 cells */
     double detail_period_s;         /* re-seeding period of the advected coordinates; 0 -> 20 s */
+    double detail_mirror_sides_m;   /* dust drawn beyond the y faces, mirrored; 0 = none */
     /* near-field soft particles (S3) */
     bool near_field;
     int near_particles;            /* 0 -> 4000 */

@@ -69,7 +69,8 @@
 #define VOL_LIGHT_GROUP 8          /* slabs per light pass without the blur ring (<= 8 outputs) */
 
 typedef struct vol_plan {
-    sq_vec3 lo, size, hi;
+    sq_vec3 lo, size, hi;   /* the box drawn: the density's, widened by mirror_y_m in y */
+    sq_vec3 tex_lo, tex_size; /* the density's box: where texture coordinates run 0..1 */
     sq_vec3 wl, s, sun_dir;
     bool front_to_back;
     float spacing, dlambda;
@@ -280,9 +281,11 @@ static float project_extent(sq_vec3 axis, sq_vec3 size)
 static void make_plan(const sq_renderer *r, const sq_volume_view *v, vol_plan *p)
 {
     memset(p, 0, sizeof *p);
-    p->lo = v->origin_m;
-    p->size = v->size_m;
-    p->hi = sq_v3_add(v->origin_m, v->size_m);
+    p->tex_lo = p->lo = v->origin_m;
+    p->tex_size = p->size = v->size_m;
+    p->lo.y -= v->mirror_y_m;
+    p->size.y += 2.0f * v->mirror_y_m;
+    p->hi = sq_v3_add(p->lo, p->size);
     p->sun_dir = sq_v3_norm(r->world->sun_dir);
     if (sq_v3_len(p->sun_dir) == 0.0f) p->sun_dir = sq_v3(0.0f, 0.0f, 1.0f);
     p->wl = sq_v3_scale(p->sun_dir, -1.0f);
@@ -381,6 +384,15 @@ static void set_linear_clamp(GLuint tex)
     glTextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     glTextureParameteri(tex, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+}
+
+/* y wrap of the textures indexed by the density's voxels: mirrored beyond the y faces when the
+ * view draws the box beyond them (sq_volume_view.mirror_y_m), else clamped like x and z. */
+static void set_wrap_y(GLuint tex, const sq_volume_view *v)
+{
+    if (tex)
+        glTextureParameteri(tex, GL_TEXTURE_WRAP_T,
+                            v->mirror_y_m > 0.0f ? GL_MIRRORED_REPEAT : GL_CLAMP_TO_EDGE);
 }
 
 static sq_result make_noise_texture(sq_renderer *r, sq__volume_pass *vp)
@@ -638,6 +650,10 @@ static sq_result validate_view(sq_renderer *r, const sq_volume_view *v)
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
                         "volume edge_sharpness = %g; must be in [0, 1] (0 = off)",
                         (double)v->edge_sharpness);
+    if (!(v->mirror_y_m >= 0.0f) || !isfinite(v->mirror_y_m))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
+                        "volume mirror_y_m = %g; must be finite and >= 0 m (0 = the box only)",
+                        (double)v->mirror_y_m);
     if (!finite3(v->origin_m) || !finite3(v->size_m) || !(v->size_m.x > 0.0f) ||
         !(v->size_m.y > 0.0f) || !(v->size_m.z > 0.0f))
         return sq__fail(ctx, SQ_ERR_INVALID_ARG, "render",
@@ -838,6 +854,7 @@ static sq_result ambient_texture(sq_renderer *r, const sq_volume_view *v, GLuint
         glTextureStorage3D(vp->sky_tex, 1, GL_RGB32F, v->nx, v->ny, v->nz);
         set_linear_clamp(vp->sky_tex);
     }
+    set_wrap_y(vp->sky_tex, v);
     float *rad = vp->sky_work;
     const float *vs = vp->sky_buf, *vg = vp->sky_buf + 3 * n;
     for (size_t q = 0; q < 3 * n; q += 3)
@@ -881,6 +898,8 @@ static void set_common_uniforms(GLuint prog, const sq_volume_view *v, const vol_
 {
     u3(prog, "u_box_lo", p->lo);
     u3(prog, "u_box_size", p->size);
+    u3(prog, "u_tex_lo", p->tex_lo);
+    u3(prog, "u_tex_size", p->tex_size);
     u3(prog, "u_s", p->s);
     u3(prog, "u_wl", p->wl);
     u1f(prog, "u_dlambda", p->dlambda);
@@ -1281,6 +1300,8 @@ static sq_result prepare(sq_renderer *r, const sq_volume_view *v, vol_plan *p)
     sq_result res = validate_view(r, v);
     if (res == SQ_OK) res = upload_density(r, v);
     if (res != SQ_OK) return res;
+    set_wrap_y(r->volume->density_tex, v);
+    set_wrap_y(r->volume->baked_tex, v);
     make_plan(r, v, p);
     if (p->n > r->volume->plane_cap) p->n = r->volume->plane_cap; /* K + 64; not reached */
     return SQ_OK;

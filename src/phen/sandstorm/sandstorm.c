@@ -537,6 +537,7 @@ sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, co
         s->urban_conc = d.urban_conc_kg_m3[0];
     }
     if (r == SQ_OK) r = create_near_field(s);
+    s->mirror_sides_m = (float)d.detail_mirror_sides_m;
     if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0 && (!s->dist || s->whole)) {
         r = sq__sand_detail_init(&s->detail, ctx, s->nx, s->ny, s->nz, s->h, d.detail_amplitude_m,
                                  d.detail_scale_m, d.detail_period_s, d.seed);
@@ -1495,6 +1496,7 @@ int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max)
         /* with the flow-following detail (the look of a haboob's head): the dust's edge
          * against clear air drawn as the sharp interface the 60 m cells blur */
         v->edge_sharpness = s->detail.enabled ? 1.0f : 0.0f;
+        v->mirror_y_m = s->mirror_sides_m;
     } else {
         float beta = (float)((double)s->urban_conc * s->k_ext_total_550);
         for (int i = 0; i < 8; i++) s->urban_density[i] = beta;

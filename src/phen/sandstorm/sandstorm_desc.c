@@ -137,6 +137,9 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
     if (!(d.detail_period_s > 0.0) || !isfinite(d.detail_period_s))
         BAD("%sdetail.period_s = %g; the re-seeding period must be > 0 s", P,
             (double)d.detail_period_s);
+    if (d.detail_mirror_sides_m < 0.0 || !isfinite(d.detail_mirror_sides_m))
+        BAD("%sdetail.mirror_sides_m = %g; a distance must be >= 0 m (0 = the domain only)", P,
+            (double)d.detail_mirror_sides_m);
     if (d.inflow_dust_kg_m3 < 0.0)
         BAD("%sdust.inflow_kg_m3 = %g; a concentration must be >= 0", P, (double)d.inflow_dust_kg_m3);
     for (int i = 0; i < d.urban_conc_count; i++)

@@ -141,6 +141,7 @@ struct sq_sandstorm {
     /* flow-following detail of the drawable (display only) */
     sq__sand_detail detail;
     float *detail_out; /* nx*ny*nz: the drawable's extinction with the detail */
+    float mirror_sides_m; /* detail.mirror_sides_m: the drawable beyond the y faces */
     /* near field */
     int np;
     float *p_pos, *p_radius, *p_rot, *p_spin, *p_tau, *p_fade, *p_age;

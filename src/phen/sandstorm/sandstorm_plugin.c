@@ -170,6 +170,10 @@ static const sq_param params[] = {
     D("detail.period_s", detail_period_s, "s", 20, 0.01, 1e5, 0,
       "Re-seeding period of the advected noise coordinates (two phases half a period apart, "
       "blended, so the flow's shear never stretches the pattern for longer than this)."),
+    D("detail.mirror_sides_m", detail_mirror_sides_m, "m", 0, 0, 1e5, Z,
+      "Display only: the dust is drawn this far beyond the domain's south and north faces, "
+      "mirrored at them, so a wall wider than the simulated strip does not end inside the "
+      "view (metrics and fields keep the domain). 0 = the domain only."),
     B("near.enabled", near_field, "Soft-particle near field around the camera (S3)."),
     I("near.particles", near_particles, "1", 4000, 1, 1000000, "Near-field particle count."),
     D("near.radius_m", near_radius_m, "m", 80, 1, 1e4, 0, "Radius of the region around the camera."),

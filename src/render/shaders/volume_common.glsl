@@ -24,7 +24,17 @@ float vol_hg(float cos_theta, float g)
     return (1.0 - g * g) / (4.0 * VOL_PI * d * sqrt(d));
 }
 
-// Density at world point p (clamped into the box; the texture clamps to its edge texels).
+// Texture coordinates of world point p in the density's box [lo, lo + size]: x and z clamped,
+// y left to the texture's wrap (clamp to edge, or mirrored: sq_volume_view.mirror_y_m).
+vec3 vol_tc(vec3 p, vec3 lo, vec3 size)
+{
+    vec3 tc = (p - lo) / size;
+    return vec3(clamp(tc.x, 0.0, 1.0), tc.y, clamp(tc.z, 0.0, 1.0));
+}
+
+// Density at world point p; lo, size: the density's box (u_tex_lo, u_tex_size). Clamped into the
+// box in x and z; in y the texture's wrap decides: clamped to the edge texels, or mirrored at the
+// y faces when the view draws the box beyond them (sq_volume_view.mirror_y_m).
 // Explicit LOD 0: the textures have one level, and llvmpipe skips the LOD computation.
 // Sharp edges (sq_volume_view.edge_sharpness; render_volume.c upload_density): the texture's
 // green holds the local maximum M of the density over the cell's 27 neighbours and blue the
@@ -33,7 +43,7 @@ float vol_hg(float cos_theta, float g)
 // it five times steeper. One-channel textures read green = blue = 0: unchanged.
 float vol_density(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 {
-    vec3 tc = (clamp(p, lo, lo + size) - lo) / size;
+    vec3 tc = vol_tc(p, lo, size);
     vec3 s = textureLod(dens, tc, 0.0).rgb;
     float rho = max(s.r, 0.0);
     float f = clamp(rho / max(s.g, 1e-30), 0.0, 1.0);
@@ -50,7 +60,7 @@ float vol_density(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 // width as vol_density's, docs/validation.md "Sharp dust edges").
 float vol_density_smooth(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 {
-    vec3 tc = (clamp(p, lo, lo + size) - lo) / size;
+    vec3 tc = vol_tc(p, lo, size);
     vec3 s = textureLod(dens, tc, 0.0).rgb;
     float rho = max(s.r, 0.0), e = clamp(s.b, 0.0, 1.0);
     if (e <= 0.0) return rho;

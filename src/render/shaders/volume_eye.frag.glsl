@@ -39,7 +39,7 @@ layout(binding = 2) uniform sampler2D u_bounds;     // per pixel: t_in, t_out, d
 layout(binding = 3) uniform sampler2D u_phase;      // per pixel: phase toward the eye
 
 uniform vec3 u_cam;
-uniform vec3 u_box_lo, u_box_size;
+uniform vec3 u_tex_lo, u_tex_size; // the density's box (texture coordinates 0..1)
 uniform float u_dlambda;       // light slab length spacing / (s . wl) (m)
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_sun_radiance;   // sun irradiance E
@@ -103,7 +103,7 @@ void main()
     if (len <= 0.0) discard;
 
     // the edge on the smooth (cubic B-spline) field: no facets up close (volume_common.glsl)
-    float rho = vol_density_smooth(u_density, v_world, u_box_lo, u_box_size);
+    float rho = vol_density_smooth(u_density, v_world, u_tex_lo, u_tex_size);
     if (rho <= 0.0) discard; // clear air: T = 1, no light (leaves the target as it is)
     vec3 beta = rho * u_sigma_ext;
 #if VOL_GREY_EXT
@@ -148,7 +148,7 @@ void main()
             Ls += w * (b * max(exp(-a * tau) - direct, 0.0) * vol_hg(phase.a, g));
         }
     }
-    vec3 tc = (clamp(v_world, u_box_lo, u_box_lo + u_box_size) - u_box_lo) / u_box_size;
+    vec3 tc = vol_tc(v_world, u_tex_lo, u_tex_size);
     vec3 J = u_sun_radiance * Ls + textureLod(u_ambient, tc, 0.0).rgb;
     o_color = vec4(u_albedo * J * (1.0 - T), 0.0);
     o_trans = vec4(T, 1.0);

@@ -35,7 +35,7 @@ uniform int u_src;             // layer holding L_old
 uniform vec2 u_size;           // light buffer texels
 uniform vec3 u_wl;             // light propagation direction
 uniform float u_dlambda;       // light slab length spacing / (s . wl): next plane's lambda step
-uniform vec3 u_box_lo, u_box_size;
+uniform vec3 u_tex_lo, u_tex_size; // the density's box (texture coordinates 0..1)
 uniform vec3 u_sigma_ext, u_albedo;
 uniform vec3 u_forward;        // F: fraction of scattered light kept in the beam, per channel
 uniform vec2 u_blur;           // blur radius in texture coordinates
@@ -52,7 +52,7 @@ void main()
     for (int i = 0; i < VOL_LIGHT_STEPS; i++) {
         float dl = float(i) * u_dlambda;
         float len = vol_clip_len(v_lambda + dl, 0.5 * u_dlambda, box.x, box.y); // 0: misses
-        float rho = vol_density(u_density, v_p + u_wl * dl, u_box_lo, u_box_size);
+        float rho = vol_density(u_density, v_p + u_wl * dl, u_tex_lo, u_tex_size);
         vec3 T = exp(-rho * u_sigma_ext * len);
         tau += rho * u_sigma_ext.g * len;
 #if VOL_LIGHT_MODE == 0
