@@ -1,4 +1,5 @@
-/* validate_sph.c — `squall validate dam-break [--particles 25] [--gate-speed 0] [--t-end T]`:
+/* validate_sph.c — `squall validate dam-break [--particles 25] [--gate-speed 0] [--t-end T]
+ * [--front-depth H]`:
  * the classic collapse of a water column (width a, height 2a, n² = 2; a = 2.25 in = 0.05715 m
  * as in the experiment) against the wall of a tank, on the SPH solver (include/squall/sph.h) as
  * a thin periodic slab (2-D-like): Tait EOS with c_s = 10 sqrt(2 g · 2a), water viscosity
@@ -12,7 +13,9 @@
  * particle that still belongs to the fluid, ρ ≥ ½ ρ₀, plus half a spacing — measured from the
  * tank wall), then Martin & Moyce's (1952) measured Z at that T (n² = 2, a = 2.25 in; their
  * front stations every ½ inch, as reproduced in the SPH/MPS literature, e.g. Koshizuka & Oka
- * 1996), t in s, the front in m, the largest speed, the particle count and the sub-steps of
+ * 1996); with --front-depth H (m) the front is instead the farthest column of the lattice (dx
+ * wide, the slab deep) in which the fluid is at least H deep (the thin tip ahead of it is not
+ * counted: the front as an observer who misses a film thinner than H sees it), t in s, the front in m, the largest speed, the particle count and the sub-steps of
  * the interval. The summary line on stderr: the mean and largest |Z − Z_MM| / Z_MM over
  * 0.8 ≤ T ≤ 4 (the experiment's points end at T = 3.33), the front speed dZ/dT over
  * 2 ≤ T ≤ 3.33 (least-squares slopes of the rows and of the experiment's points), and the
@@ -83,8 +86,8 @@ static void rel_error(const double *T, const double *Z, int n, double delay_T, d
 /* The summary line on stderr: the error with no time origin fitted, the front speed, and —
  * as a diagnosis of what the error is — the constant delay of the simulated clock that fits
  * the experiment best (scanned 0 ... 0.6 in T) with the error left after it. */
-static void summarise(double a, double dx, size_t particles, double gate, const double *T,
-                      const double *Z, int n)
+static void summarise(double a, double dx, size_t particles, double gate, double depth,
+                      const double *T, const double *Z, int n)
 {
     double mean, worst, worst_T;
     int count;
@@ -121,11 +124,12 @@ static void summarise(double a, double dx, size_t particles, double gate, const 
         }
     }
     fprintf(stderr,
-            "dam-break: a = %g m, dx = %g m (%d across), %zu particles, gate %g m/s: "
+            "dam-break: a = %g m, dx = %g m (%d across), %zu particles, gate %g m/s, "
+            "front depth %g m: "
             "|Z - Z_MM|/Z_MM over 0.8 <= T <= 4: mean %.1f %%, max %.1f %% at T = %.2f (%d rows); "
             "dZ/dT over 2 <= T <= %.2f: %.3f vs Martin & Moyce %.3f (%+.1f %%); "
             "best constant delay %.3f in T (%.1f ms): mean %.1f %%, max %.1f %%\n",
-            a, dx, (int)lround(a / dx), particles, gate, 100.0 * mean, 100.0 * worst, worst_T,
+            a, dx, (int)lround(a / dx), particles, gate, depth, 100.0 * mean, 100.0 * worst, worst_T,
             count, T_last, v_sim, v_mm, 100.0 * (v_sim / v_mm - 1.0), best_d,
             1e3 * best_d / sqrt(2.0 * 9.81 / a), 100.0 * best_mean, 100.0 * best_worst);
 }
@@ -134,7 +138,7 @@ int sq_validate_dam_break(int argc, char **argv)
 {
     const double g = 9.81, a_mm = 2.25 * 0.0254;
     double a = a_mm, dx = 0.0, t_end = 0.0, alpha = 0.02, every = 0.005, length = 5.0,
-           gate = 0.0;
+           gate = 0.0, front_depth = 0.0;
     int across = 25;
     if (!sq_cli_double(argc, argv, "--a", a_mm, 0.01, 10.0, &a) ||
         !sq_cli_int(argc, argv, "--particles", 25, 4, 1000, &across) ||
@@ -143,7 +147,8 @@ int sq_validate_dam_break(int argc, char **argv)
         !sq_cli_double(argc, argv, "--alpha", 0.02, 0.0, 1.0, &alpha) ||
         !sq_cli_double(argc, argv, "--every", 0.005, 0.001, 10.0, &every) ||
         !sq_cli_double(argc, argv, "--length", 5.0, 2.0, 50.0, &length) ||
-        !sq_cli_double(argc, argv, "--gate-speed", 0.0, 0.0, 1000.0, &gate))
+        !sq_cli_double(argc, argv, "--gate-speed", 0.0, 0.0, 1000.0, &gate) ||
+        !sq_cli_double(argc, argv, "--front-depth", 0.0, 0.0, 1.0, &front_depth))
         return SQ_EXIT_USAGE;
     if (dx == 0.0) dx = a / across;                 /* --spacing overrides --particles */
     if (t_end == 0.0) t_end = 4.0 / sqrt(2.0 * g / a); /* T = 4 */
@@ -219,6 +224,15 @@ int sq_validate_dam_break(int argc, char **argv)
     /* the gate is clear of the water once its lower edge is above the column */
     const double t_gate = gate > 0.0 ? (2.0 * a + 2.0 * dx) / gate : 0.0;
     const double tscale = sqrt(2.0 * g / a); /* T = t tscale */
+    /* --front-depth: the fluid's depth per column of the lattice (dx wide, the slab deep) */
+    const size_t ncol = (size_t)ceil(L / dx) + 2;
+    double *depth = front_depth > 0.0 ? (double *)calloc(ncol, sizeof(double)) : NULL;
+    if (front_depth > 0.0 && !depth) {
+        sq_cli_error("out of memory for %zu columns", ncol);
+        sq_sph_destroy(s);
+        sq_context_destroy(ctx);
+        return SQ_EXIT_RUNTIME;
+    }
     printf("T,Z,Z_martin_moyce_1952,t_s,front_m,max_speed_mps,particles,substeps\n");
     double t = 0.0;
     enum { MAXROWS = 8192 };
@@ -230,6 +244,20 @@ int sq_validate_dam_break(int argc, char **argv)
         for (size_t i = 0; i < v.count; i++)
             if ((double)v.density[i] >= 500.0 || t == 0.0) front = fmax(front, (double)v.x[i]);
         front += 0.5 * dx;
+        if (depth && t > 0.0) {
+            memset(depth, 0, ncol * sizeof(double));
+            for (size_t i = 0; i < v.count; i++) {
+                const double xi = (double)v.x[i] / dx;
+                if ((double)v.density[i] >= 500.0 && xi >= 0.0 && xi < (double)ncol)
+                    depth[(size_t)xi] += dx * dx / slab; /* a particle's volume dx³ over dx·slab */
+            }
+            front = 0.0;
+            for (size_t b = ncol; b-- > 0;)
+                if (depth[b] >= front_depth) {
+                    front = (double)(b + 1) * dx;
+                    break;
+                }
+        }
         const double T = t * tscale, Z = front / a, Zm = martin_moyce(T);
         const sq_sph_stats st = sq_sph_get_stats(s);
         if (isnan(Zm))
@@ -265,13 +293,15 @@ int sq_validate_dam_break(int argc, char **argv)
         }
         if (r != SQ_OK) {
             sq_cli_error("%s", sq_last_error());
+            free(depth);
             sq_sph_destroy(s);
             sq_context_destroy(ctx);
             return sq_cli_exit_code(r);
         }
         t += step;
     }
-    summarise(a, dx, (size_t)(nx * ny * nz), gate, rowT, rowZ, rows);
+    summarise(a, dx, (size_t)(nx * ny * nz), gate, front_depth, rowT, rowZ, rows);
+    free(depth);
     sq_sph_destroy(s);
     sq_context_destroy(ctx);
     return SQ_EXIT_OK;

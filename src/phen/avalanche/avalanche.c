@@ -36,6 +36,9 @@ void sq_avalanche_destroy(sq_avalanche *a)
     sq_free(ctx, a->pw_density);
     sq_free(ctx, a->pw_tmp);
     sq_free(ctx, a->pw_ground);
+    sq_free(ctx, a->pw_vel);
+    sq_free(ctx, a->pw_work);
+    sq_free(ctx, a->pw_show);
     sq__aval_hazard_free(a);
     sq_free(ctx, a);
 }
@@ -97,11 +100,17 @@ static sq_result alloc_buffers(sq_avalanche *a)
         const size_t nv = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1] * (size_t)pl->pw_n[2];
         a->pw_density = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
         a->pw_tmp = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
-        a->pw_ground = (int *)sq_alloc_zero(ctx, (size_t)pl->pw_n[0] * pl->pw_n[1] * sizeof(int));
-        if (!a->pw_density || !a->pw_tmp || !a->pw_ground)
+        const size_t cols = (size_t)pl->pw_n[0] * pl->pw_n[1];
+        a->pw_ground = (int *)sq_alloc_zero(ctx, cols * sizeof(int));
+        a->pw_vel = (float *)sq_alloc_zero(ctx, 4 * cols * sizeof(float));
+        a->pw_work = (float *)sq_alloc_zero(ctx, 2 * cols * sizeof(float));
+        a->pw_show = (float *)sq_alloc_zero(ctx, nv * sizeof(float));
+        if (!a->pw_density || !a->pw_tmp || !a->pw_ground || !a->pw_vel || !a->pw_work ||
+            !a->pw_show)
             return sq__fail(ctx, SQ_ERR_OUT_OF_MEMORY, MOD, "out of memory for the powder grid");
         memcpy(a->pw_origin, pl->pw_origin, sizeof a->pw_origin);
         sq__aval_powder_ground(a);
+        sq_noise_init(&a->pw_noise, 0x706f776465ull); /* fixed: the same billows every run */
     }
     for (int j = 0; j < pl->dep_ny; j++)
         for (int i = 0; i < pl->dep_nx; i++)
@@ -365,6 +374,10 @@ const float *sq_avalanche_positions(sq_avalanche *a, size_t *count)
  * (exponential decay) — a visual model with a closed budget (docs/phen/avalanche.md). */
 #define POWDER_DIFFUSIVITY 8.0  /* m²/s */
 #define POWDER_DECAY_S 6.0      /* s */
+/* The cloud's top rises by entraining air at E |u| (E: entrainment coefficient of a turbulent
+ * gravity current at small Richardson number, Ellison & Turner 1959, E = (0.08 - 0.1 Ri) /
+ * (1 + 5 Ri) -> 0.08). */
+#define POWDER_ENTRAINMENT 0.08
 
 void sq__aval_powder_ground(sq_avalanche *a)
 {
@@ -443,6 +456,32 @@ void sq__aval_update_powder(sq_avalanche *a)
                                                      pl->d.density_kgm3),
                                              pl->pw_n, a->pw_origin, pl->pw_cell, a->pw_ground,
                                              a->pw_density);
+    /* carried with the flow beneath it (and rising by entrainment): donor-cell steps of at most
+     * half a cell per step summed over the axes */
+    sq__aval_powder_velocity(v.x, v.y, v.vx, v.vy, v.vz, v.count, pl->pw_n, a->pw_origin,
+                             pl->pw_cell, (float)POWDER_ENTRAINMENT, a->pw_vel, a->pw_work);
+    const size_t cols = (size_t)pl->pw_n[0] * (size_t)pl->pw_n[1];
+    float um[3] = {0.0f, 0.0f, 0.0f}; /* per axis: a cell's outflow is at most 2 sum um dt */
+    for (size_t col = 0; col < cols; col++)
+        for (int d = 0; d < 3; d++) {
+            const float u = fabsf(a->pw_vel[4 * col + (size_t)d]);
+            um[d] = u > um[d] ? u : um[d];
+        }
+    const float umax = um[0] + um[1] + um[2];
+    if (umax > 0.0f) {
+        int nadv = (int)ceil((double)umax * dt / 0.5);
+        if (nadv > 256) nadv = 256; /* a frame of minutes: the cloud has long settled */
+        const float h = (float)(dt / nadv);
+        const float scale = (float)umax * h > 0.5f ? 0.5f / ((float)umax * h) : 1.0f;
+        for (int s = 0; s < nadv; s++) {
+            a->pw_left += cell_volume * sq__aval_powder_advect(a->pw_density, a->pw_tmp, pl->pw_n,
+                                                               a->pw_ground, a->pw_vel,
+                                                               h * scale);
+            float *t = a->pw_density;
+            a->pw_density = a->pw_tmp;
+            a->pw_tmp = t;
+        }
+    }
     const double kmax = 1.0 / 6.0;
     const double ktot = POWDER_DIFFUSIVITY * dt / (pl->pw_cell * pl->pw_cell);
     int nsub = (int)ceil(ktot / kmax);
@@ -461,6 +500,49 @@ void sq__aval_update_powder(sq_avalanche *a)
     float mx = 0.0f;
     for (size_t c = 0; c < nv; c++) mx = a->pw_density[c] > mx ? a->pw_density[c] : mx;
     a->pw_max = mx;
+}
+
+/* The drawn cloud (display only; metrics and the budget use the simulated density): the grid's
+ * diffusion gives a smooth body with a soft, wide margin, while a powder cloud's margin is a
+ * cauliflower of billows — turbulent lobes with clefts between them — thinning into
+ * translucent wisps. The margin (cells whose optical depth per cell, σ ρ c, is below
+ * BILLOW_TAU) is carved by a billow field b in [0, 1] (gradient-noise fBm, lobes of
+ * BILLOW_SCALE_M and two finer octaves, rising at BILLOW_RISE_MPS as the head's surface does):
+ * with r = σ ρ c / BILLOW_TAU and the erosion e = BILLOW_EROSION (1 − b), the drawn density is
+ * ρ max(0, (r − e) / (1 − e)) / r, so a lobe (b ≈ 1) keeps the margin, a cleft (b ≈ 0) cuts it
+ * away, and the thin outer margin survives only in the lobes. The opaque body (r ≥ 1) is kept. */
+#define BILLOW_TAU 2.0f
+#define BILLOW_SCALE_M 10.0f
+#define BILLOW_RISE_MPS 1.5f
+#define BILLOW_EROSION 0.85f
+#define POWDER_SIGMA 16.0f /* m²/kg: the mass extinction of the drawn cloud (below) */
+
+static void powder_billows(sq_avalanche *a)
+{
+    const sq__aval_plan *pl = &a->plan;
+    const int nx = pl->pw_n[0], ny = pl->pw_n[1], nz = pl->pw_n[2];
+    const float c = (float)pl->pw_cell, tau_cell = POWDER_SIGMA * c;
+    const float inv = 1.0f / BILLOW_SCALE_M;
+    const float rise = (float)a->time_s * BILLOW_RISE_MPS * inv;
+    size_t i = 0;
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++)
+            for (int ii = 0; ii < nx; ii++, i++) {
+                const float d = a->pw_density[i];
+                const float r = d * tau_cell / BILLOW_TAU;
+                if (!(r > 1e-6f) || r >= 1.0f) {
+                    a->pw_show[i] = d > 0.0f ? d : 0.0f;
+                    continue;
+                }
+                const float x = (float)(a->pw_origin[0] + (ii + 0.5) * (double)c) * inv;
+                const float y = (float)(a->pw_origin[1] + (j + 0.5) * (double)c) * inv;
+                const float z = (float)(a->pw_origin[2] + (k + 0.5) * (double)c) * inv - rise;
+                float b = 0.5f + 1.2f * sq_noise_fbm3(&a->pw_noise, x, y, z, 3, 2.0f, 0.5f);
+                b = b < 0.0f ? 0.0f : b > 1.0f ? 1.0f : b;
+                const float e = BILLOW_EROSION * (1.0f - b);
+                const float m = (r - e) / (1.0f - e);
+                a->pw_show[i] = m > 0.0f ? d * m / r : 0.0f;
+            }
 }
 
 double sq__aval_powder_suspended(const sq_avalanche *a)
@@ -543,7 +625,9 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         d->kind = SQ_DRAWABLE_PARTICLES;
         d->name = "avalanche-snow";
         sq_particles_view *p = &d->u.particles;
-        p->count = spheres ? (int)a->st.particles : (int)collect_spray(a);
+        /* with the powder cloud on, the airborne snow is drawn as the cloud it feeds (spray
+         * spheres in and under a translucent cloud read as dark grains in its shadow) */
+        p->count = spheres ? (int)a->st.particles : a->pw_density ? 0 : (int)collect_spray(a);
         p->position = spheres ? a->pos : a->spray;
         p->radius_default_m = (float)(pl->d.radius_factor * pl->spacing);
         p->tau_default = 1.0f;
@@ -579,7 +663,8 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
         d->kind = SQ_DRAWABLE_VOLUME;
         d->name = "avalanche-powder";
         sq_volume_view *vv = &d->u.volume;
-        vv->density = a->pw_density;
+        powder_billows(a);
+        vv->density = a->pw_show;
         vv->nx = pl->pw_n[0];
         vv->ny = pl->pw_n[1];
         vv->nz = pl->pw_n[2];
@@ -593,7 +678,7 @@ int sq__avalanche_drawables(sq_avalanche *a, sq_drawable *out, int max)
          * slicing renderer carries only forward scattering, so the cloud takes an effective
          * g = 0.3 — with 0.8 a thick cloud seen from the side is a grey shadow, not white. */
         for (int c = 0; c < 3; c++) {
-            vv->sigma_ext[c] = 16.0f;
+            vv->sigma_ext[c] = POWDER_SIGMA;
             vv->albedo[c] = 0.99f;
             vv->g[c] = 0.3f;
         }

@@ -448,8 +448,10 @@ static uint64_t plan_bytes(const sq__aval_plan *pl)
     b += cells * (8u + 5u * 4u);
     b += (uint64_t)pl->hz_nx * (uint64_t)pl->hz_ny * (8u + 6u * 4u); /* hazard maps */
     b += (uint64_t)pl->count * (4u + 12u + 16u); /* scratch, positions, travel tracking */
-    b += 2u * 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1] * (uint64_t)pl->pw_n[2];
-    b += 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1]; /* powder ground index */
+    /* powder: density, its scratch and the drawn density; per column the ground index, the
+     * carrier velocity and its smoothing scratch */
+    b += 3u * 4u * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1] * (uint64_t)pl->pw_n[2];
+    b += (4u + 6u * 4u) * (uint64_t)pl->pw_n[0] * (uint64_t)pl->pw_n[1];
     return b + 4096u;
 }
 

@@ -4,6 +4,7 @@
 
 #include "core/core_internal.h"
 #include "squall/avalanche.h"
+#include "squall/noise.h"
 #include "squall/sph.h"
 
 #define SQ_AVAL_GRAVITY 9.81 /* m/s² */
@@ -80,6 +81,10 @@ struct sq_avalanche {
     /* powder cloud */
     float *pw_density, *pw_tmp;   /* pw_n[0]*pw_n[1]*pw_n[2] */
     int *pw_ground;               /* pw_n[0]*pw_n[1]: ground cells at the bottom of each column */
+    float *pw_vel;                /* 4 pw_n[0]*pw_n[1]: the carrier velocity per column (cells/s) */
+    float *pw_work;               /* 2 pw_n[0]*pw_n[1]: smoothing scratch */
+    float *pw_show;               /* pw_n[0]*pw_n[1]*pw_n[2]: the drawn density (billows) */
+    sq_noise pw_noise;            /* the billows' noise (fixed seed) */
     float pw_max;
     double pw_time_s;             /* time up to which the powder has been advanced */
     double pw_origin[3];          /* the box's current origin (moves with the flow by whole cells) */
@@ -119,6 +124,22 @@ double sq__aval_powder_source(const float *x, const float *y, const float *z, co
  * not overlap; ground cells are set to 0. Returns the sum removed by the decay (settled). */
 double sq__aval_powder_diffuse(const float *src, float *dst, const int nn[3], const int *ground,
                                float k, float decay);
+/* The powder's carrier velocity per column (cells per second; vel[4 col + 0..2] = x, y, z, and
+ * vel[4 col + 3] a work slot): the mean velocity of the particles in each column of the box,
+ * smoothed twice with the 3x3 binomial filter (the cloud beside the flow is dragged too), plus
+ * the rise of the cloud's top by entrainment, e_rise |u_h| (upward). Columns without particles
+ * after smoothing are still. Serial, fixed order. */
+void sq__aval_powder_velocity(const float *x, const float *y, const float *vx, const float *vy,
+                              const float *vz, size_t n, const int nn[3], const double o[3],
+                              double c, float e_rise, float *vel, float *work);
+/* One conservative donor-cell advection step of dt seconds by the column velocities vel (cells
+ * per second, sq__aval_powder_velocity): the flux through a face between two air cells is the
+ * upwind cell's content times the face velocity (the mean of the two columns' for side faces)
+ * times dt; no flux into or out of ground cells; what crosses the box's faces leaves.
+ * Requires (|u| + |v| + |w|) dt <= 1 in every column. dst and src must not overlap. Returns the
+ * sum that left through the box's faces. */
+double sq__aval_powder_advect(const float *src, float *dst, const int nn[3], const int *ground,
+                              const float *vel, float dt);
 /* Moves the box by whole cells: dst[i] = src[i + shift] (0 where that is outside). Returns the
  * sum of the cells that fell out of the box (left behind). */
 double sq__aval_powder_shift(const float *src, float *dst, const int nn[3], const int shift[3]);

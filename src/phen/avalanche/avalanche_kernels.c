@@ -3,7 +3,9 @@
  * ordered dither of the release columns, and the powder cloud's source and diffusion.
  * No allocation, no logging, no globals except const tables. */
 #include <math.h>
+#include <stdbool.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "avalanche_internal.h"
 
@@ -167,6 +169,99 @@ double sq__aval_powder_shift(const float *src, float *dst, const int nn[3], cons
                 const float v = src[(size_t)sk * sz + (size_t)sj * (size_t)nx + (size_t)si];
                 dst[c] = v;
                 left -= (double)v;
+            }
+    return left;
+}
+
+void sq__aval_powder_velocity(const float *x, const float *y, const float *vx, const float *vy,
+                              const float *vz, size_t n, const int nn[3], const double o[3],
+                              double c, float e_rise, float *vel, float *work)
+{
+    const int nx = nn[0], ny = nn[1];
+    const size_t cols = (size_t)nx * (size_t)ny;
+    const double inv = 1.0 / c;
+    memset(vel, 0, 4 * cols * sizeof(float));
+    for (size_t p = 0; p < n; p++) {
+        const double fx = ((double)x[p] - o[0]) * inv, fy = ((double)y[p] - o[1]) * inv;
+        if (!(fx >= 0.0 && fy >= 0.0 && fx < nx && fy < ny)) continue;
+        float *v = &vel[4 * ((size_t)fy * (size_t)nx + (size_t)fx)];
+        v[0] += vx[p];
+        v[1] += vy[p];
+        v[2] += vz[p];
+        v[3] += 1.0f;
+    }
+    /* column means weighted by the column's particle count, smoothed as sums: the smoothed
+     * velocity is sum(w v) / sum(w), and the weight itself is smoothed and capped at 1 so a
+     * column with a few particles beside the flow moves with a share of the flow's speed */
+    for (int comp = 0; comp < 4; comp++) {
+        float *a = work, *b = work + cols;
+        for (size_t k = 0; k < cols; k++) a[k] = vel[4 * k + comp];
+        sq__aval_smooth3(a, b, nx, ny);
+        sq__aval_smooth3(b, a, nx, ny);
+        for (size_t k = 0; k < cols; k++) vel[4 * k + comp] = a[k];
+    }
+    for (size_t k = 0; k < cols; k++) {
+        float *v = &vel[4 * k];
+        const float w = v[3];
+        if (!(w > 1e-6f)) {
+            v[0] = v[1] = v[2] = v[3] = 0.0f;
+            continue;
+        }
+        const float share = (w < 1.0f ? w : 1.0f) / w;
+        for (int d = 0; d < 3; d++) v[d] *= share * (float)inv;
+        v[2] += e_rise * sqrtf(v[0] * v[0] + v[1] * v[1]);
+        v[3] = 0.0f;
+    }
+}
+
+/* what leaves cell c through a face of the box */
+static inline void powder_out(float *dst, size_t c, float f, double *left)
+{
+    dst[c] -= f;
+    *left += (double)f;
+}
+
+double sq__aval_powder_advect(const float *src, float *dst, const int nn[3], const int *ground,
+                              const float *vel, float dt)
+{
+    const int nx = nn[0], ny = nn[1], nz = nn[2];
+    const size_t sy = (size_t)nx, sz = (size_t)nx * (size_t)ny;
+    double left = 0.0;
+    memcpy(dst, src, sz * (size_t)nz * sizeof(float));
+    /* every face once, in a fixed order: the flux from the upwind cell to the downwind one */
+    for (int kz = 0; kz < nz; kz++)
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                const size_t col = (size_t)j * sy + (size_t)i, c = (size_t)kz * sz + col;
+                if (kz < ground[col]) continue;
+                const float *v = &vel[4 * col];
+                /* the box's low faces */
+                if (i == 0 && v[0] < 0.0f) powder_out(dst, c, -v[0] * dt * src[c], &left);
+                if (j == 0 && v[1] < 0.0f) powder_out(dst, c, -v[1] * dt * src[c], &left);
+                /* +x, +y: the mean of the two columns' velocities; none into a ground cell */
+                const size_t nb[2] = {1, sy};
+                const bool last[2] = {i == nx - 1, j == ny - 1};
+                for (int d = 0; d < 2; d++) {
+                    if (last[d]) {
+                        if (v[d] > 0.0f) powder_out(dst, c, v[d] * dt * src[c], &left);
+                        continue;
+                    }
+                    const size_t o = col + nb[d];
+                    if (kz < ground[o]) continue;
+                    const float u = 0.5f * (v[d] + vel[4 * o + (size_t)d]);
+                    const float f = u * dt * (u > 0.0f ? src[c] : src[c + nb[d]]);
+                    dst[c] -= f;
+                    dst[c + nb[d]] += f;
+                }
+                /* +z: the column's own w (the ground is only below ground[col]); the bottom face
+                 * of the lowest air cell is the ground: no flux */
+                if (kz == nz - 1) {
+                    if (v[2] > 0.0f) powder_out(dst, c, v[2] * dt * src[c], &left);
+                } else {
+                    const float f = v[2] * dt * (v[2] > 0.0f ? src[c] : src[c + sz]);
+                    dst[c] -= f;
+                    dst[c + sz] += f;
+                }
             }
     return left;
 }

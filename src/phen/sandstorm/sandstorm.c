@@ -434,14 +434,17 @@ static sq_result create_grid(sq_sandstorm *s)
     bool ok = mask != NULL;
     s->ground_k = (int *)xalloc(s, cols * sizeof(int), &ok);
     s->ground_z1 = (float *)xalloc(s, cols * sizeof(float), &ok);
-    s->accel_z = (float *)xalloc(s, n * sizeof(float), &ok);
+    /* under mpirun the ranks other than 0 hold the slab's 3-D scratch and no whole-grid views */
+    const bool views = !s->dist || s->whole;
+    const size_t slab = (size_t)s->ln[0] * s->ln[1] * s->nz;
+    s->accel_z = (float *)xalloc(s, slab * sizeof(float), &ok);
     s->theta_ref = (float *)xalloc(s, (size_t)s->nz * sizeof(float), &ok);
     s->keep = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->row_acc = (double *)xalloc(s, (size_t)s->ny * 4 * sizeof(double), &ok);
     s->plane_mass = (double *)xalloc(s, (size_t)s->nz * SQ_SANDSTORM_MAX_BINS * sizeof(double), &ok);
-    s->density = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->density = (float *)xalloc(s, (views ? n : slab) * sizeof(float), &ok);
     for (int v = 0; v < d->vis_height_count; v++) s->vis[v] = (float *)xalloc(s, cols * sizeof(float), &ok);
-    for (int e = 0; e < 6; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
+    for (int e = 0; e < 6 && views; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
     if (!ok) {
         sq_free(s->ctx, mask);
         return SQ_ERR_OUT_OF_MEMORY;
@@ -469,6 +472,7 @@ static sq_result create_grid(sq_sandstorm *s)
         s->slab_gz1 = (float *)xalloc(s, lc * sizeof(float), &ok);
         s->slab_vis = (float *)xalloc(s, lc * (size_t)(d->vis_height_count + 1) * sizeof(float), &ok);
         s->tau = (double *)xalloc(s, (size_t)s->ny * s->nz * sizeof(double), &ok);
+        s->vis_all = (float *)xalloc(s, cols * (size_t)(d->vis_height_count + 1) * sizeof(float), &ok);
         for (int j = 0; ok && j < s->ln[1]; j++)
             for (int i = 0; i < s->ln[0]; i++) {
                 const size_t col = (size_t)(j + s->lo[1]) * s->nx + (size_t)(i + s->lo[0]);
@@ -560,7 +564,7 @@ sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, co
     }
     if (r == SQ_OK) r = create_near_field(s);
     s->mirror_sides_m = (float)d.detail_mirror_sides_m;
-    if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0) {
+    if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0 && (!s->dist || s->whole)) {
         r = sq__sand_detail_init(&s->detail, ctx, s->nx, s->ny, s->nz, s->h, d.detail_amplitude_m,
                                  d.detail_scale_m, d.detail_period_s, d.seed);
         s->detail_out = r == SQ_OK
@@ -591,6 +595,7 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->slab_gz1);
     sq_free(ctx, s->slab_vis);
     sq_free(ctx, s->tau);
+    sq_free(ctx, s->vis_all);
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
@@ -1452,7 +1457,7 @@ sq_result sq__sandstorm_frame_sync(void *self, bool gather)
     /* the visibility planes of every slab, into the whole planes */
     const int nr = sq_par_size();
     int64_t cnt[64], *cn = nr > 64 ? (int64_t *)sq_alloc(s->ctx, (size_t)nr * sizeof(int64_t)) : cnt;
-    float *all = s->export_buf[0]; /* nx ny nz >= nx ny nv floats (nz >= 4 >= nv) */
+    float *all = s->vis_all;
     sq_result r = cn ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
     if (sq_par_agree(r) == SQ_OK && r == SQ_OK) {
         for (int q = 0; q < nr; q++) cn[q] = (int64_t)s->blocks[4 * q + 2] * s->blocks[4 * q + 3] * nv;
