@@ -136,10 +136,11 @@ for net, (bw, lat) in NETS.items():
 # its neighbours about MEET times (ghost fills, the advection's widened copy, the projection's
 # planes and sums) moving H_PLANES float planes of the slab face each way, does the
 # projection's coarse levels whole (N/7 cells at the projection's share of the step, not
-# divided) with the level-1 sum (N/8 floats per V-cycle, ~4 V-cycles), and - as implemented -
-# gathers the whole grid's (4 + bins) fields on every rank after every step (an allgather: each
-# rank's link carries (P-1)/P of N (4 + bins) floats). The "next step" rows gather only at the
-# output frames (every FRAME_STEPS steps) and reduce the cold-pool front by rows instead.
+# divided) with the level-1 sum (N/8 floats per V-cycle, ~4 V-cycles). Once per output frame
+# (every FRAME_STEPS steps) the slabs' (4 + bins) fields are gathered to rank 0 (its link
+# carries (P-1)/P of N (4 + bins) floats) and the metrics are reduced: the wall seen from ahead
+# is a chain of ny nz doubles from the west slab to the east one (P - 1 hops). The first rows
+# are the step before this (the whole grid gathered on every rank after every step).
 STEP_CELLS = float(sys.argv[3]) if len(sys.argv) > 3 else 1.0e8  # cell-steps/s of one node
 H_PLANES = 140   # planes per neighbour and step (measured: bench sandstorm 64^3, 2 ranks)
 MEET = 80        # neighbour meetings and small sums per step
@@ -151,6 +152,7 @@ FRAME_STEPS = 16
 def sandstorm_step(p, bw, lat, gather_every=1, coarse_at=None):
     import math
     face = (GG[1] + 2) * (GG[2] + 2)
+    chain = (p - 1) * (lat + GG[1] * GG[2] * 8 / bw) / gather_every if gather_every > 1 else 0.0
     comp = NG / p / STEP_CELLS
     if coarse_at is None:  # implemented: the projection's levels from 1 whole on every rank
         coarse = PROJECT_SHARE * NG / 7 / STEP_CELLS if p > 1 else 0.0
@@ -163,8 +165,8 @@ def sandstorm_step(p, bw, lat, gather_every=1, coarse_at=None):
     halo = MEET * lat + H_PLANES * 2 * 4 * face / bw if p > 1 else 0.0
     gather = (NG * FIELDS * 4 * (p - 1) / p / bw + lat * math.log2(p)) / gather_every if p > 1 else 0.0
     sent = (H_PLANES * 2 * 4 * face + lsent +
-            NG / p * FIELDS * 4 * (p - 1) / gather_every) if p > 1 else 0
-    return comp, coarse + halo + level1 + gather, sent
+            NG / p * FIELDS * 4 * ((p - 1) if gather_every == 1 else 1) / gather_every) if p > 1 else 0
+    return comp, coarse + halo + level1 + gather + chain, sent
 
 
 print(f"\nSandstorm step (slabs along x), grid {GG[0]}x{GG[1]}x{GG[2]}, one node "
@@ -174,9 +176,10 @@ for net, (bw, lat) in NETS.items():
     print("ranks | whole-grid gather, projection coarse levels | compute ms | "
           "communication and coarse ms | bytes sent/rank/step | efficiency")
     for p in (1, 4, 16, 64, 256):
-        for name, ge, ca in (("every step, coarse levels whole (implemented)", 1, None),
-                             (f"every {FRAME_STEPS} steps, coarse whole", FRAME_STEPS, None),
-                             (f"every {FRAME_STEPS} steps, coarse gathered at 2^21 (next steps)",
+        for name, ge, ca in (("every step on every rank, coarse levels whole (before)", 1, None),
+                             (f"rank 0 every {FRAME_STEPS} steps, coarse whole (implemented)",
+                              FRAME_STEPS, None),
+                             (f"rank 0 every {FRAME_STEPS} steps, coarse gathered at 2^21 (next)",
                               FRAME_STEPS, 2 ** 21)):
             if p == 1 and ge != 1:
                 continue

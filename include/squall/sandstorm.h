@@ -84,6 +84,9 @@ typedef struct sq_sandstorm_desc {
     double coldpool_depth_m;        /* depth H above the ground; 0 -> 1000 m */
     double coldpool_length_m;       /* extent from the west face at t = 0; 0 is physical */
     double coldpool_speed_mps;      /* inflow speed of the cold air; 0 -> √(g ΔT H / θ) */
+    bool coldpool_return_flow;     /* above the cold pool the west face lets out as much air as
+                                       the cold inflow brings in beyond the ambient wind's (the
+                                       storm's inflow aloft): no net volume enters */
     double observer_m[2];           /* fixed observer (x, y) of the visibility metric; 0 physical */
     int top_boundary;              /* 0 open (p = 0, air may leave or enter), 1 free-slip lid */
     int side_boundary;             /* north and south faces: 0 open, 1 periodic (a storm line

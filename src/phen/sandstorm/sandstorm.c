@@ -156,23 +156,48 @@ static double ramp_factor(const sq_sandstorm *s, double t)
 }
 
 /* The west face: the ambient wind, and below the cold pool's top the cold outflow entering at
- * its own speed along wind.prevailing_dir_deg (log profile near the ground). */
+ * its own speed along wind.prevailing_dir_deg (log profile near the ground); above it, with
+ * coldpool.return_flow, the ambient wind less the return speed (air leaving aloft). */
 static void inflow_fn(void *user, double x, double y, double z, float vel[3])
 {
     const sq_sandstorm *s = (const sq_sandstorm *)user;
     sq_vec3 v = initial_wind(s, x, y, z, ramp_factor(s, s->time_s));
     double zg = z - (double)sq_world_height_at(s->world, (float)x, (float)y);
     double f = coldpool_fraction(s, zg);
-    if (f > 0.0) {
+    if (f > 0.0 || s->return_mps != 0.0) {
         const double a = s->d.prevailing_dir_deg * SQ_PI / 180.0;
         const double uc = coldpool_speed(&s->d) * log_profile(s, zg);
-        v = sq_v3((float)((1.0 - f) * (double)v.x + f * uc * cos(a)),
+        v = sq_v3((float)((1.0 - f) * ((double)v.x - s->return_mps) + f * uc * cos(a)),
                   (float)((1.0 - f) * (double)v.y + f * uc * sin(a)),
                   v.z);
     }
     vel[0] = v.x;
     vel[1] = v.y;
     vel[2] = v.z;
+}
+
+/* coldpool.return_flow: the speed R of the outflow through the west face above the cold pool
+ * that carries out what the cold inflow brings in beyond the ambient wind, so that the face's
+ * net volume flux is the ambient wind's (the storm's inflow aloft feeding its downdraft). Over
+ * the face's fluid cells of the column at its centre (heights zg_k above the ground),
+ * sum_k f_k (u_c,k - v_k) = R sum_k (1 - f_k): u_c the cold inflow's x component, v the ambient
+ * wind's, f the share of cold air (the inflow's own profiles). */
+static double coldpool_return_speed(const sq_sandstorm *s)
+{
+    if (!s->d.coldpool_return_flow || s->d.coldpool_delta_t_k <= 0.0) return 0.0;
+    const double x = s->origin[0], y = s->origin[1] + 0.5 * s->ny * s->h;
+    const double zs = (double)sq_world_height_at(s->world, (float)x, (float)y);
+    const double a = s->d.prevailing_dir_deg * SQ_PI / 180.0, ramp = ramp_factor(s, s->time_s);
+    double excess = 0.0, above = 0.0;
+    for (int k = 0; k < s->nz; k++) {
+        const double z = s->origin[2] + (k + 0.5) * s->h, zg = z - zs;
+        if (zg <= 0.0) continue;
+        const double f = coldpool_fraction(s, zg);
+        const double uc = coldpool_speed(&s->d) * log_profile(s, zg) * cos(a);
+        excess += f * (uc - (double)initial_wind(s, x, y, z, ramp).x);
+        above += 1.0 - f;
+    }
+    return above > 0.0 ? excess / above : 0.0;
 }
 
 /* The views of the grid (the whole grid; under mpirun rank 0's gathered copy, the other ranks
@@ -269,6 +294,7 @@ static sq_result set_temperature_inflow(sq_sandstorm *s)
 
 static sq_result set_wind_inflow(sq_sandstorm *s)
 {
+    s->return_mps = coldpool_return_speed(s);
     sq_result r = has_west_inflow(s->grid) ? sq_grid_set_inflow(s->grid, SQ_FACE_XMIN, inflow_fn, s) : SQ_OK;
     if (r == SQ_OK && s->whole) r = sq_grid_set_inflow(s->whole, SQ_FACE_XMIN, inflow_fn, s);
     return r;
@@ -408,14 +434,17 @@ static sq_result create_grid(sq_sandstorm *s)
     bool ok = mask != NULL;
     s->ground_k = (int *)xalloc(s, cols * sizeof(int), &ok);
     s->ground_z1 = (float *)xalloc(s, cols * sizeof(float), &ok);
-    s->accel_z = (float *)xalloc(s, n * sizeof(float), &ok);
+    /* under mpirun the ranks other than 0 hold the slab's 3-D scratch and no whole-grid views */
+    const bool views = !s->dist || s->whole;
+    const size_t slab = (size_t)s->ln[0] * s->ln[1] * s->nz;
+    s->accel_z = (float *)xalloc(s, slab * sizeof(float), &ok);
     s->theta_ref = (float *)xalloc(s, (size_t)s->nz * sizeof(float), &ok);
     s->keep = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->row_acc = (double *)xalloc(s, (size_t)s->ny * 4 * sizeof(double), &ok);
     s->plane_mass = (double *)xalloc(s, (size_t)s->nz * SQ_SANDSTORM_MAX_BINS * sizeof(double), &ok);
-    s->density = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->density = (float *)xalloc(s, (views ? n : slab) * sizeof(float), &ok);
     for (int v = 0; v < d->vis_height_count; v++) s->vis[v] = (float *)xalloc(s, cols * sizeof(float), &ok);
-    for (int e = 0; e < 6; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
+    for (int e = 0; e < 6 && views; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
     if (!ok) {
         sq_free(s->ctx, mask);
         return SQ_ERR_OUT_OF_MEMORY;
@@ -443,6 +472,7 @@ static sq_result create_grid(sq_sandstorm *s)
         s->slab_gz1 = (float *)xalloc(s, lc * sizeof(float), &ok);
         s->slab_vis = (float *)xalloc(s, lc * (size_t)(d->vis_height_count + 1) * sizeof(float), &ok);
         s->tau = (double *)xalloc(s, (size_t)s->ny * s->nz * sizeof(double), &ok);
+        s->vis_all = (float *)xalloc(s, cols * (size_t)(d->vis_height_count + 1) * sizeof(float), &ok);
         for (int j = 0; ok && j < s->ln[1]; j++)
             for (int i = 0; i < s->ln[0]; i++) {
                 const size_t col = (size_t)(j + s->lo[1]) * s->nx + (size_t)(i + s->lo[0]);
@@ -534,7 +564,7 @@ sq_result sq_sandstorm_create(sq_context *ctx, const sq_sandstorm_desc *desc, co
     }
     if (r == SQ_OK) r = create_near_field(s);
     s->mirror_sides_m = (float)d.detail_mirror_sides_m;
-    if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0) {
+    if (r == SQ_OK && s->grid && d.detail_amplitude_m > 0.0 && (!s->dist || s->whole)) {
         r = sq__sand_detail_init(&s->detail, ctx, s->nx, s->ny, s->nz, s->h, d.detail_amplitude_m,
                                  d.detail_scale_m, d.detail_period_s, d.seed);
         s->detail_out = r == SQ_OK
@@ -565,6 +595,7 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->slab_gz1);
     sq_free(ctx, s->slab_vis);
     sq_free(ctx, s->tau);
+    sq_free(ctx, s->vis_all);
     sq_free(ctx, s->ground_k);
     sq_free(ctx, s->ground_z1);
     sq_free(ctx, s->accel_z);
@@ -1213,7 +1244,8 @@ static void update_derived(sq_sandstorm *s)
             }
         }
     /* Display only: the drawable fades to zero over the outer 2.5 cells of the open faces (not
-     * the ground) so the finite domain shows no box edges, and the ground cells are filled from
+     * the ground, nor the north and south faces where the dust is drawn mirrored beyond them)
+     * so the finite domain shows no box edges, and the ground cells are filled from
      * above (below); metrics and fields use the unmodified values (the visibility planes are
      * computed before these edits). */
     for (int v = 0; v < s->d.vis_height_count; v++)
@@ -1258,13 +1290,15 @@ static void update_derived(sq_sandstorm *s)
         s->stats.ms_detail += (sq_time_now() - t0) * 1e3;
     }
     float mx = 0.0f;
+    /* drawn beyond its north and south faces (mirrored), the dust continues there: no fade */
+    const bool fade_y = !(s->mirror_sides_m > 0.0f);
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(max : mx))
     for (int kk = 0; kk < nz; kk++)
         for (int j = 0; j < ny; j++) {
             float *d = s->density + ((size_t)kk * ny + j) * nx;
             for (int i = 0; i < nx; i++) {
                 float dmin = (float)(i < nx - 1 - i ? i : nx - 1 - i);
-                float dj = (float)(j < ny - 1 - j ? j : ny - 1 - j);
+                float dj = fade_y ? (float)(j < ny - 1 - j ? j : ny - 1 - j) : 1e9f;
                 float dk = (float)(nz - 1 - kk);
                 dmin = dj < dmin ? dj : dmin;
                 dmin = dk < dmin ? dk : dmin;
@@ -1423,7 +1457,7 @@ sq_result sq__sandstorm_frame_sync(void *self, bool gather)
     /* the visibility planes of every slab, into the whole planes */
     const int nr = sq_par_size();
     int64_t cnt[64], *cn = nr > 64 ? (int64_t *)sq_alloc(s->ctx, (size_t)nr * sizeof(int64_t)) : cnt;
-    float *all = s->export_buf[0]; /* nx ny nz >= nx ny nv floats (nz >= 4 >= nv) */
+    float *all = s->vis_all;
     sq_result r = cn ? SQ_OK : SQ_ERR_OUT_OF_MEMORY;
     if (sq_par_agree(r) == SQ_OK && r == SQ_OK) {
         for (int q = 0; q < nr; q++) cn[q] = (int64_t)s->blocks[4 * q + 2] * s->blocks[4 * q + 3] * nv;

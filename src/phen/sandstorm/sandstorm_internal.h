@@ -87,6 +87,7 @@ struct sq_sandstorm {
     int *slab_gk;     /* under mpirun: ground_k and ground_z1 of the slab's columns */
     float *slab_gz1;
     float *slab_vis;  /* under mpirun: the slab's visibility planes (vis_height_count of them) */
+    float *vis_all;   /* under mpirun: every slab's planes, as gathered */
     double *tau;      /* under mpirun: ny * nz optical depths along x (the wall seen) */
     int64_t synced_step; /* under mpirun: the step of the last frame sync (-1: none) */
     double sync_suspended_kg, sync_max_wind, sync_beta_max; /* its global reductions */
@@ -117,6 +118,8 @@ struct sq_sandstorm {
     /* drawable and metric buffers */
     float *density;                          /* nx*ny*nz, beta_ext at 550 nm (1/m) */
     float density_max;
+    double return_mps;                       /* coldpool.return_flow: the west face's outflow
+                                                aloft (m/s, subtracted above the cold pool) */
     double wall_height_m;                    /* highest dust with beta >= SQ_SAND_WALL_BETA */
     double wall_seen_m;                      /* the wall's top seen from ahead (sq__sand_wall_seen) */
     float *vis[SQ_SANDSTORM_MAX_VIS];        /* nx*ny visibility planes (m) */

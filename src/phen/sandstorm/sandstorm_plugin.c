@@ -67,6 +67,12 @@ static const sq_param params[] = {
       "How far the outflow has already come in from the west face at t = 0."),
     D("coldpool.speed_mps", coldpool_speed_mps, "m/s", 0, 0, 100, Z,
       "Inflow speed of the cold air; 0 = the density current's scale sqrt(g dT H / T_s)."),
+    B("coldpool.return_flow", coldpool_return_flow,
+      "Above the cold pool the west face lets out as much air as the cold inflow brings in "
+      "beyond the ambient wind (the thunderstorm's inflow aloft that feeds its downdraft), so "
+      "that no net volume enters the domain: the air ahead of the front keeps the ambient "
+      "wind. Off: the cold inflow's volume must leave through the other faces (with periodic "
+      "sides, the east face: the air ahead of the front is pushed)."),
     D("surface.heat_flux_w_m2", surface_heat_flux_w_m2, "W/m2", 0, -200, 1000, Z,
       "Sensible heat flux from the sunlit ground into the lowest air (SPEC §1.10): "
       "d theta/dt = H_s / (rho c_p h); with temperature.buoyancy_gain the warm air rises."),
