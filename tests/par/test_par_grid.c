@@ -19,6 +19,7 @@
 #include "sq_test.h"
 #include "squall/grid.h"
 #include "squall/par.h"
+#include "par_gather.h"
 
 SQ_LABEL(unit)
 
@@ -75,33 +76,10 @@ static float u0(int c, int i, int j, int k)
     return (float)(0.6 * sin(0.2 * x + 0.3 * y) + 0.5 * noise);
 }
 
-static void face_dims(sq_dims n, int c, int m[3])
-{
-    m[0] = n.nx + (c == 0);
-    m[1] = n.ny + (c == 1);
-    m[2] = n.nz + (c == 2);
-}
-
 /* fills a grid (whole or slab at lo) with the field and the solids */
 static void setup(sq_grid *g, const int lo[3], sq_dims n)
 {
-    for (int c = 0; c < 3; c++) {
-        sq_field3 *f = sq_grid_velocity_field(g, c);
-        int m[3];
-        face_dims(n, c, m);
-        for (int k = 0; k < m[2]; k++)
-            for (int j = 0; j < m[1]; j++)
-                for (int i = 0; i < m[0]; i++)
-                    *sq_field3_at(f, i, j, k) = u0(c, i + lo[0], j + lo[1], k + lo[2]);
-    }
-    uint8_t *mask = (uint8_t *)calloc((size_t)n.nx * n.ny * n.nz, 1);
-    for (int k = 0; k < n.nz; k++)
-        for (int j = 0; j < n.ny; j++)
-            for (int i = 0; i < n.nx; i++)
-                mask[i + (size_t)n.nx * (j + (size_t)n.ny * k)] =
-                    solid_at(i + lo[0], j + lo[1], k + lo[2]);
-    SQ_CHECK_OK(sq_grid_set_solid_mask(g, mask));
-    free(mask);
+    par_fill(g, lo, n, 3, u0, solid_at);
     if (sq_grid_get_desc(g).boundary[SQ_FACE_XMIN] == SQ_BOUNDARY_INFLOW) /* slab 0 only */
         SQ_CHECK_OK(sq_grid_set_inflow_uniform(g, SQ_FACE_XMIN, 4.0, 0.0, 0.0));
     sq_grid_apply_boundary(g);
@@ -161,11 +139,11 @@ static result run(double tol)
         int m[3];
         size_t tot = 0;
         for (int q = 0; q < size; q++) {
-            face_dims(ns[q], c, m);
+            par_lattice_dims(ns[q], c, m);
             counts[q] = (int64_t)m[0] * m[1] * m[2];
             tot += (size_t)counts[q];
         }
-        face_dims(n, c, m);
+        par_lattice_dims(n, c, m);
         mine[c] = (float *)malloc((size_t)counts[rank] * sizeof(float));
         const sq_field3 *f = sq_grid_velocity_field(dist, c);
         size_t t = 0;
@@ -187,12 +165,12 @@ static result run(double tol)
         float *U[3];
         int gm[3][3];
         for (int c = 0; c < 3; c++) {
-            face_dims(G, c, gm[c]);
+            par_lattice_dims(G, c, gm[c]);
             U[c] = (float *)calloc((size_t)gm[c][0] * gm[c][1] * gm[c][2], sizeof(float));
             size_t off = 0;
             for (int q = 0; q < size; q++) {
                 int m[3];
-                face_dims(ns[q], c, m);
+                par_lattice_dims(ns[q], c, m);
                 for (int k = 0; k < m[2]; k++)
                     for (int j = 0; j < m[1]; j++)
                         for (int i = 0; i < m[0]; i++) {
