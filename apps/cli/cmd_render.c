@@ -409,7 +409,13 @@ int sq_cmd_render(int argc, char **argv)
     }
     if (rasters && !root) rasters = NULL; /* rank 0 writes them */
     if (rasters) {
-        r = sq_cli_rasters_check(ctx, scene, rasters, raster_format, overwrite, &rasters_created);
+        const char *const others[][2] = {
+            {"the metrics (output.metrics)", metrics_path},
+            {"the video (output.video)", video},
+            {"the checkpoint (--checkpoint)", ck_every > 0.0 ? ck_path : NULL},
+            {NULL, NULL}};
+        r = sq_cli_rasters_check(ctx, scene, rasters, raster_format, overwrite, others,
+                                 &rasters_created);
         if (r != SQ_OK) {
             rc = fail(r, NULL);
             goto done;
