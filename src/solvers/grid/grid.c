@@ -658,6 +658,7 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
+    sq__grid_dist_batch_begin(g); /* the three components' ghost planes in one message */
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];
         const ptrdiff_t off = c == 0 ? 1 : c == 1 ? g->sy : g->sz; /* cell lo -> hi */
@@ -712,15 +713,18 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
         }
         sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
     }
+    sq__grid_dist_batch_end(g);
 }
 
 void sq_grid_apply_boundary(sq_grid *g)
 {
     if (!g) return;
     if (g->topology_dirty) sq__grid_update_topology(g);
+    sq__grid_dist_batch_begin(g);
     sq__grid_enforce_velocity(g);
     for (int s = 0; s < g->d.scalar_count; s++)
         sq__grid_fill_ghosts(g, g->scalar[s].origin, g->sy, g->sz, SQ__L_CELL, s);
+    sq__grid_dist_batch_end(g);
     g->vel_version++;
 }
 

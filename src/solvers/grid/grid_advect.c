@@ -534,8 +534,10 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
         }
     }
     if (!mac) return;
+    sq__grid_dist_batch_begin(g);
     for (int f = 0; f < nf; f++)
         sq__grid_fill_ghosts(g, hat[f], sy, sz, L, scalar0 >= 0 ? scalar0 + f : -1);
+    sq__grid_dist_batch_end(g);
     const bool clamp = g->d.limiter == SQ_LIMITER_CLAMP;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < mzn; k++) {
@@ -654,10 +656,12 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
         const float *src[3];
         float *hat[3], *out[3], *rhi[3];
         unsigned nonneg = 0;
+        sq__grid_dist_batch_begin(g);
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
         }
+        sq__grid_dist_batch_end(g);
         if (w != g) sq__grid_dist_widen_scalars(g, b0, nb); /* into w->scalar[0 .. nb) */
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = w == g ? &g->scalar[b0 + q] : &w->scalar[q];
@@ -669,6 +673,7 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
         }
         lat F = make_lat(w, src[0], w->sy, w->sz, SQ__L_CELL);
         advect_fields(w, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
+        sq__grid_dist_batch_begin(g);
         for (int q = 0; q < nb; q++) {
             sq_field3 *f = &g->scalar[b0 + q];
             if (w == g)
@@ -677,6 +682,7 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
                 sq__grid_dist_narrow(g, out[q], SQ__L_CELL, f->origin);
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
         }
+        sq__grid_dist_batch_end(g);
     }
     return SQ_OK;
 }

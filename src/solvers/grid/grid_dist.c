@@ -30,6 +30,10 @@
 
 #define MOD "grid"
 
+/* Ghost fills of several arrays that travel in one message per neighbour (see
+ * sq__grid_dist_batch_begin); more arrays than this flush early. */
+#define HALO_BATCH 8
+
 struct sq__grid_halo {
     sq_par_block b;
     int parity;       /* (lo x + lo y + lo z) & 1: global red-black colour of local cell 0 */
@@ -37,8 +41,16 @@ struct sq__grid_halo {
     int nb[6];        /* its rank (-1: no inner face) */
     sq_boundary boundary[6]; /* the whole grid's faces (swapped in for the coarse levels) */
     bool periodic[3];
-    unsigned char *buf; /* 2 send + 2 receive planes of the largest face, 4 bytes a cell */
+    unsigned char *buf; /* 2 send + 2 receive regions of HALO_BATCH planes of the largest face,
+                           4 bytes a cell */
     size_t plane_bytes;
+    /* the ghost fills recorded since the open batch began (sq__grid_dist_batch_begin) */
+    int batch_depth, npend;
+    struct {
+        float *o;
+        ptrdiff_t sy, sz;
+        int L;
+    } pend[HALO_BATCH];
     uint64_t bytes_exchanged;
     /* advection: the slab widened along the split axis (see sq__grid_dist_widen) */
     int ax;              /* the split axis */
@@ -96,7 +108,7 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
     for (int a = 0; a < 3; a++) d->origin_m[a] += (double)b.lo[a] * d->cell_size_m;
     d->cells = b.n;
     h->plane_bytes = plane * sizeof(float);
-    h->buf = (unsigned char *)sq_alloc(ctx, 4 * h->plane_bytes);
+    h->buf = (unsigned char *)sq_alloc(ctx, 4 * HALO_BATCH * h->plane_bytes);
     if (!h->buf) {
         sq_free(ctx, h);
         return SQ_ERR_OUT_OF_MEMORY;
@@ -169,30 +181,75 @@ static size_t planes_copy(unsigned char *o, ptrdiff_t sy, ptrdiff_t sz, size_t e
                           int a, int p0, int cnt, unsigned char *buf, bool unpack);
 static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t *sz);
 
-void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
+/* Exchanges the ghost planes along the split axis of the recorded arrays, all in one message
+ * per neighbour (the arrays' planes one after another, in the order they were recorded). */
+static void halo_flush(sq_grid *g)
 {
     sq__grid_halo *h = g->halo;
-    if (!h) return;
-    const int a = h->ax;
-    int m[3];
-    ptrdiff_t y, z;
-    lat_layout(g->n, L, m, &y, &z);
-    const bool face = L - 1 == a;
+    const int a = h->ax, np = h->npend;
+    h->npend = 0;
+    if (np == 0) return;
     const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
-    unsigned char *sb[2] = {h->buf, h->buf + h->plane_bytes};
-    unsigned char *rb[2] = {h->buf + 2 * h->plane_bytes, h->buf + 3 * h->plane_bytes};
-    unsigned char *ob = (unsigned char *)o;
+    const size_t region = HALO_BATCH * h->plane_bytes;
+    unsigned char *sb[2] = {h->buf, h->buf + region};
+    unsigned char *rb[2] = {h->buf + 2 * region, h->buf + 3 * region};
     size_t by[2] = {0, 0};
-    /* to the minus side: my first sample past the shared face (face lattice) or cell 0; to
-     * the plus side: my last cell, or the face before the shared one */
-    if (nb[0] >= 0) by[0] = planes_copy(ob, sy, sz, 4, m, a, face ? 1 : 0, 1, sb[0], false);
-    if (nb[1] >= 0) by[1] = planes_copy(ob, sy, sz, 4, m, a, face ? m[a] - 2 : m[a] - 1, 1, sb[1], false);
+    for (int e = 0; e < np; e++) {
+        int m[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, h->pend[e].L, m, &y, &z);
+        const bool face = h->pend[e].L - 1 == a;
+        unsigned char *ob = (unsigned char *)h->pend[e].o;
+        /* to the minus side: my first sample past the shared face (face lattice) or cell 0;
+         * to the plus side: my last cell, or the face before the shared one */
+        if (nb[0] >= 0)
+            by[0] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, face ? 1 : 0, 1,
+                                 sb[0] + by[0], false);
+        if (nb[1] >= 0)
+            by[1] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, face ? m[a] - 2 : m[a] - 1,
+                                 1, sb[1] + by[1], false);
+    }
     const void *const sbuf[2] = {sb[0], sb[1]};
     void *const rbuf[2] = {rb[0], rb[1]};
     (void)sq_par_exchange_pair(nb, sbuf, by, rbuf, by); /* planes fit buf (setup) */
     h->bytes_exchanged += by[0] + by[1];
-    if (nb[0] >= 0) planes_copy(ob, sy, sz, 4, m, a, -1, 1, rb[0], true);
-    if (nb[1] >= 0) planes_copy(ob, sy, sz, 4, m, a, m[a], 1, rb[1], true);
+    size_t off[2] = {0, 0};
+    for (int e = 0; e < np; e++) {
+        int m[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, h->pend[e].L, m, &y, &z);
+        unsigned char *ob = (unsigned char *)h->pend[e].o;
+        if (nb[0] >= 0)
+            off[0] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, -1, 1, rb[0] + off[0], true);
+        if (nb[1] >= 0)
+            off[1] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, m[a], 1, rb[1] + off[1], true);
+    }
+}
+
+void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
+{
+    sq__grid_halo *h = g->halo;
+    if (!h) return;
+    if (h->npend == HALO_BATCH) halo_flush(g);
+    h->pend[h->npend].o = o;
+    h->pend[h->npend].sy = sy;
+    h->pend[h->npend].sz = sz;
+    h->pend[h->npend].L = L;
+    h->npend++;
+    if (h->batch_depth == 0) halo_flush(g);
+}
+
+void sq__grid_dist_batch_begin(sq_grid *g)
+{
+    if (g->halo) g->halo->batch_depth++;
+}
+
+void sq__grid_dist_batch_end(sq_grid *g)
+{
+    sq__grid_halo *h = g->halo;
+    if (!h) return;
+    if (h->batch_depth > 0) h->batch_depth--;
+    if (h->batch_depth == 0) halo_flush(g);
 }
 
 void sq__grid_dist_face_links(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)

@@ -253,6 +253,12 @@ void sq__grid_dist_sync_faces(sq_grid *g);
 /* Collective: the ghost planes toward neighbouring slabs of a padded lattice-L array (origin
  * o, strides sy, sz) become the neighbours' samples next to them (no-op when whole). */
 void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L);
+/* Batches the ghost exchanges of several arrays: between begin and end (nestable),
+ * sq__grid_dist_halo_lattice only records its array, and end (the outermost) sends every
+ * recorded array's planes in one message per neighbour. The recorded arrays must not be
+ * written, nor their ghost planes read, until the batch ends. No-op on an undivided grid. */
+void sq__grid_dist_batch_begin(sq_grid *g);
+void sq__grid_dist_batch_end(sq_grid *g);
 /* Collective: link coefficients a (origin, strides) of face lattice L normal to the split
  * axis: the links across the slab faces (a[-1], a[n]) become the neighbours' (their a[n-1]
  * and a[0]), which they compute from their own cells. */
