@@ -59,6 +59,7 @@ const sq_cli_case sq_cli_validate_cases[] = {
      "--re 100|400|1000 --n 64", NULL, sq_validate_lbm_cavity, NULL},
     {"dam-break", "SPH water-column collapse (n^2 = 2): surge front Z(T) vs Martin & Moyce 1952",
      "--particles 25 (across a = 0.05715 m) --gate-speed 0 (m/s; 0 = instantaneous) "
+     "--gate-accel 0 (m/s^2: the gate starts from rest; 9.81 = opens in the free-fall time) "
      "--front-depth 0 (m; 0 = the farthest particle, H = the farthest column H deep) "
      "--every 0.005 --t-end (T = 4) --a --spacing --alpha 0.02 --kernel cubic|muller", NULL,
      sq_validate_dam_break, NULL},

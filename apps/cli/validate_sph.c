@@ -1,5 +1,5 @@
-/* validate_sph.c — `squall validate dam-break [--particles 25] [--gate-speed 0] [--t-end T]
- * [--front-depth H]`:
+/* validate_sph.c — `squall validate dam-break [--particles 25] [--gate-speed 0] [--gate-accel 0]
+ * [--t-end T] [--front-depth H]`:
  * the classic collapse of a water column (width a, height 2a, n² = 2; a = 2.25 in = 0.05715 m
  * as in the experiment) against the wall of a tank, on the SPH solver (include/squall/sph.h) as
  * a thin periodic slab (2-D-like): Tait EOS with c_s = 10 sqrt(2 g · 2a), water viscosity
@@ -8,7 +8,10 @@
  * The release is instantaneous by default; --gate-speed V_g (m/s) holds the column with a
  * frictionless gate (a box obstacle 2 dx thick on the column's face) lifted at V_g from t = 0,
  * the release of most later dam-break experiments (docs/validation.md: it does not reproduce
- * Martin & Moyce's delay; it adds a bed jet under the plate).
+ * Martin & Moyce's delay; it adds a bed jet under the plate); --gate-accel A (m/s²) starts the
+ * gate from rest at A up to V_g (V_g = 0: no limit). A gate lifted by a falling weight cannot
+ * exceed A = g, and from rest at g it clears the column of height h₀ in the free-fall time
+ * sqrt(2 h₀/g), the slowest release Lauber & Hager (1998) still count as instantaneous.
  * Prints CSV every --every s (0.005): T = t sqrt(2g/a), Z = z/a (the surge front — the farthest
  * particle that still belongs to the fluid, ρ ≥ ½ ρ₀, plus half a spacing — measured from the
  * tank wall), then Martin & Moyce's (1952) measured Z at that T (n² = 2, a = 2.25 in; their
@@ -83,10 +86,34 @@ static void rel_error(const double *T, const double *Z, int n, double delay_T, d
     *mean = *count ? sum / *count : (double)NAN;
 }
 
+/* The gate's lift at time t: from rest at acceleration A up to the speed V (A = 0: at V from
+ * t = 0; V = 0: accelerating all the way), and its speed. */
+static double gate_rise(double V, double A, double t)
+{
+    if (A <= 0.0) return V * t;
+    if (V <= 0.0 || t <= V / A) return 0.5 * A * t * t;
+    return 0.5 * V * V / A + V * (t - V / A);
+}
+
+static double gate_speed_at(double V, double A, double t)
+{
+    if (A <= 0.0) return V;
+    return V > 0.0 ? fmin(V, A * t) : A * t;
+}
+
+/* The time at which the gate has risen by z. */
+static double gate_time(double V, double A, double z)
+{
+    if (A <= 0.0) return z / V;
+    const double t_acc = sqrt(2.0 * z / A);
+    if (V <= 0.0 || t_acc <= V / A) return t_acc;
+    return V / A + (z - 0.5 * V * V / A) / V;
+}
+
 /* The summary line on stderr: the error with no time origin fitted, the front speed, and —
  * as a diagnosis of what the error is — the constant delay of the simulated clock that fits
  * the experiment best (scanned 0 ... 0.6 in T) with the error left after it. */
-static void summarise(double a, double dx, size_t particles, double gate, double depth,
+static void summarise(double a, double dx, size_t particles, double gate, double accel, double depth,
                       const double *T, const double *Z, int n)
 {
     double mean, worst, worst_T;
@@ -112,6 +139,8 @@ static void summarise(double a, double dx, size_t particles, double gate, double
             eZ[ne++] = mm_Z[i];
         }
     const double v_sim = ls_slope(fT, fZ, nf), v_mm = ls_slope(eT, eZ, ne);
+    char accel_txt[64] = "";
+    if (accel > 0.0) snprintf(accel_txt, sizeof accel_txt, " (from rest at %g m/s^2)", accel);
     double best_d = 0.0, best_mean = mean, best_worst = worst;
     for (int k = 1; k <= 120; k++) {
         double m, w, wT;
@@ -124,12 +153,12 @@ static void summarise(double a, double dx, size_t particles, double gate, double
         }
     }
     fprintf(stderr,
-            "dam-break: a = %g m, dx = %g m (%d across), %zu particles, gate %g m/s, "
+            "dam-break: a = %g m, dx = %g m (%d across), %zu particles, gate %g m/s%s, "
             "front depth %g m: "
             "|Z - Z_MM|/Z_MM over 0.8 <= T <= 4: mean %.1f %%, max %.1f %% at T = %.2f (%d rows); "
             "dZ/dT over 2 <= T <= %.2f: %.3f vs Martin & Moyce %.3f (%+.1f %%); "
             "best constant delay %.3f in T (%.1f ms): mean %.1f %%, max %.1f %%\n",
-            a, dx, (int)lround(a / dx), particles, gate, depth, 100.0 * mean, 100.0 * worst, worst_T,
+            a, dx, (int)lround(a / dx), particles, gate, accel_txt, depth, 100.0 * mean, 100.0 * worst, worst_T,
             count, T_last, v_sim, v_mm, 100.0 * (v_sim / v_mm - 1.0), best_d,
             1e3 * best_d / sqrt(2.0 * 9.81 / a), 100.0 * best_mean, 100.0 * best_worst);
 }
@@ -138,7 +167,7 @@ int sq_validate_dam_break(int argc, char **argv)
 {
     const double g = 9.81, a_mm = 2.25 * 0.0254;
     double a = a_mm, dx = 0.0, t_end = 0.0, alpha = 0.02, every = 0.005, length = 5.0,
-           gate = 0.0, front_depth = 0.0;
+           gate = 0.0, gate_accel = 0.0, front_depth = 0.0;
     int across = 25;
     if (!sq_cli_double(argc, argv, "--a", a_mm, 0.01, 10.0, &a) ||
         !sq_cli_int(argc, argv, "--particles", 25, 4, 1000, &across) ||
@@ -148,6 +177,7 @@ int sq_validate_dam_break(int argc, char **argv)
         !sq_cli_double(argc, argv, "--every", 0.005, 0.001, 10.0, &every) ||
         !sq_cli_double(argc, argv, "--length", 5.0, 2.0, 50.0, &length) ||
         !sq_cli_double(argc, argv, "--gate-speed", 0.0, 0.0, 1000.0, &gate) ||
+        !sq_cli_double(argc, argv, "--gate-accel", 0.0, 0.0, 1e5, &gate_accel) ||
         !sq_cli_double(argc, argv, "--front-depth", 0.0, 0.0, 1.0, &front_depth))
         return SQ_EXIT_USAGE;
     if (dx == 0.0) dx = a / across;                 /* --spacing overrides --particles */
@@ -207,7 +237,8 @@ int sq_validate_dam_break(int argc, char **argv)
     /* the column's face x = nx dx: its last particles are dx/2 inside, the contact clearance */
     const double gate_lo[3] = {(double)nx * dx, -dx, -dx},
                  gate_hi[3] = {(double)nx * dx + gate_thick, slab + dx, -dx + gate_tall};
-    if (r == SQ_OK && gate > 0.0) {
+    const bool gated = gate > 0.0 || gate_accel > 0.0;
+    if (r == SQ_OK && gated) {
         sq_sph_box_desc box;
         memset(&box, 0, sizeof box);
         memcpy(box.min_m, gate_lo, sizeof gate_lo);
@@ -222,7 +253,7 @@ int sq_validate_dam_break(int argc, char **argv)
         return sq_cli_exit_code(r);
     }
     /* the gate is clear of the water once its lower edge is above the column */
-    const double t_gate = gate > 0.0 ? (2.0 * a + 2.0 * dx) / gate : 0.0;
+    const double t_gate = gated ? gate_time(gate, gate_accel, 2.0 * a + 2.0 * dx) : 0.0;
     const double tscale = sqrt(2.0 * g / a); /* T = t tscale */
     /* --front-depth: the fluid's depth per column of the lattice (dx wide, the slab deep) */
     const size_t ncol = (size_t)ceil(L / dx) + 2;
@@ -276,16 +307,17 @@ int sq_validate_dam_break(int argc, char **argv)
          * the gate moves, frames in which it rises at most dx/4 */
         subs = 0;
         const double step = fmin(every, t_end - t);
-        const double fmax_s = t < t_gate ? fmin(0.01, 0.25 * dx / gate) : 0.01;
+        const double fmax_s =
+            t < t_gate ? fmin(0.01, 0.25 * dx / gate_speed_at(gate, gate_accel, t + step)) : 0.01;
         const int frames = (int)ceil(step / fmax_s - 1e-9);
         for (int f = 0; f < frames && r == SQ_OK; f++) {
             const double tf = t + step * f / frames;
-            if (gate > 0.0 && tf < t_gate + step) {
+            if (gated && tf < t_gate + step) {
                 double lo[3], hi[3];
                 memcpy(lo, gate_lo, sizeof lo);
                 memcpy(hi, gate_hi, sizeof hi);
-                lo[2] += gate * tf;
-                hi[2] += gate * tf;
+                lo[2] += gate_rise(gate, gate_accel, tf);
+                hi[2] += gate_rise(gate, gate_accel, tf);
                 r = sq_sph_move_box_obstacle(s, 0, lo, hi);
             }
             if (r == SQ_OK) r = sq_sph_step(s, step / frames);
@@ -300,7 +332,7 @@ int sq_validate_dam_break(int argc, char **argv)
         }
         t += step;
     }
-    summarise(a, dx, (size_t)(nx * ny * nz), gate, front_depth, rowT, rowZ, rows);
+    summarise(a, dx, (size_t)(nx * ny * nz), gate, gate_accel, front_depth, rowT, rowZ, rows);
     free(depth);
     sq_sph_destroy(s);
     sq_context_destroy(ctx);
