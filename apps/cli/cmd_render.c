@@ -68,8 +68,9 @@ static void render_usage(bool simulate)
            "Progress goes to stderr (a live line on a terminal, one summary line otherwise).\n"
            "Ctrl-C stops within a second and leaves nothing but the metrics rows so far\n"
            "(NAME.partial.csv); see docs/reliability.md.\n"
-           "Under mpirun (mpirun -np 4 squall %s ...) the snowdrift's wind lattice is split\n"
-           "over the ranks with bit-identical results; rank 0 writes%s; other layers are\n"
+           "Under mpirun (mpirun -np 4 squall %s ...) the snowdrift's wind lattice\n"
+           "(bit-identical results) and the sandstorm's grid (within the pressure solver's\n"
+           "tolerance) are split over the ranks; rank 0 writes%s; other layers are\n"
            "computed whole on every rank; no checkpoints (docs/mpi.md).\n"
            "Exit codes: 0 success, 1 runtime failure (GL, numerical blow-up), 2 usage/input error.\n",
            simulate ? "simulate" : "render", simulate ? "" : " and renders");
@@ -409,7 +410,13 @@ int sq_cmd_render(int argc, char **argv)
     }
     if (rasters && !root) rasters = NULL; /* rank 0 writes them */
     if (rasters) {
-        r = sq_cli_rasters_check(ctx, scene, rasters, raster_format, overwrite, &rasters_created);
+        const char *const others[][2] = {
+            {"the metrics (output.metrics)", metrics_path},
+            {"the video (output.video)", video},
+            {"the checkpoint (--checkpoint)", ck_every > 0.0 ? ck_path : NULL},
+            {NULL, NULL}};
+        r = sq_cli_rasters_check(ctx, scene, rasters, raster_format, overwrite, others,
+                                 &rasters_created);
         if (r != SQ_OK) {
             rc = fail(r, NULL);
             goto done;

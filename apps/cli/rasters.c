@@ -33,8 +33,21 @@ static int maps_of(sq_scene *scene, sq_named_field *out)
     return n;
 }
 
+/* A raster's name that is also another output of the run: refused before any work. */
+static sq_result not_another_output(const char *dir, const char *path,
+                                    const char *const (*others)[2])
+{
+    for (int i = 0; others && others[i][0]; i++)
+        if (others[i][1] && sq_output_same_file(path, others[i][1]))
+            return sq_set_error(SQ_ERR_INVALID_ARG,
+                                "--rasters '%s' writes '%s', which is also %s '%s': give each "
+                                "output its own name",
+                                dir, path, others[i][0], others[i][1]);
+    return SQ_OK;
+}
+
 sq_result sq_cli_rasters_check(sq_context *ctx, sq_scene *scene, const char *dir, int format,
-                               bool overwrite, bool *created)
+                               bool overwrite, const char *const (*others)[2], bool *created)
 {
     *created = false;
     struct stat st;
@@ -65,20 +78,23 @@ sq_result sq_cli_rasters_check(sq_context *ctx, sq_scene *scene, const char *dir
     const bool exists = stat(dir, &st) == 0;
     /* every file the end of the run writes (a DEM named peak_speed.tif in DIR is an input:
      * refused now, not after the run with half the maps written) */
-    for (int i = 0; i < n && r == SQ_OK && exists; i++) {
+    for (int i = 0; i < n && r == SQ_OK; i++) {
         snprintf(path, sizeof path, "%s/%s.%s", dir, maps[i].name, ext_of(format));
-        r = sq_output_check(path, overwrite);
-        if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
+        r = not_another_output(dir, path, others);
+        if (r == SQ_OK && exists) r = sq_output_check(path, overwrite);
+        if (r == SQ_OK && exists) r = sq_output_check_inputs(ctx, path, false);
         if (r == SQ_OK && format == SQ_RASTER_ASCII) {
             snprintf(path, sizeof path, "%s/%s.prj", dir, maps[i].name);
-            r = sq_output_check(path, overwrite);
-            if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
+            r = not_another_output(dir, path, others);
+            if (r == SQ_OK && exists) r = sq_output_check(path, overwrite);
+            if (r == SQ_OK && exists) r = sq_output_check_inputs(ctx, path, false);
         }
     }
-    if (r == SQ_OK && exists) {
+    if (r == SQ_OK) {
         snprintf(path, sizeof path, "%s/summary.json", dir);
-        r = sq_output_check(path, overwrite);
-        if (r == SQ_OK) r = sq_output_check_inputs(ctx, path, false);
+        r = not_another_output(dir, path, others);
+        if (r == SQ_OK && exists) r = sq_output_check(path, overwrite);
+        if (r == SQ_OK && exists) r = sq_output_check_inputs(ctx, path, false);
     }
     if (r == SQ_OK && !exists) {
         if (mkdir(dir, 0777) != 0)

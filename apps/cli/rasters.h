@@ -8,10 +8,12 @@
 #include "squall/scene.h"
 
 /* Checks every output name before the run (the maps the scene publishes now, their .prj,
- * summary.json): existing files need overwrite, inputs of the run (ctx) are refused; then
- * creates DIR if missing (*created). format: sq_raster_format. */
+ * summary.json): existing files need overwrite, inputs of the run (ctx) are refused, and none
+ * may be one of the run's other outputs (others: NULL-terminated pairs of what and path, e.g.
+ * "--metrics", "out/m.csv"; a NULL path is skipped); then creates DIR if missing (*created).
+ * format: sq_raster_format. */
 sq_result sq_cli_rasters_check(sq_context *ctx, sq_scene *scene, const char *dir, int format,
-                               bool overwrite, bool *created);
+                               bool overwrite, const char *const (*others)[2], bool *created);
 /* Writes the maps and summary.json (metrics: the last frame's); *seconds: the time it took. */
 sq_result sq_cli_rasters_write(sq_context *ctx, sq_scene *scene, const char *dir, int format,
                                bool overwrite, const sq_metric *metrics, int nmetrics,

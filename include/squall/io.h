@@ -20,6 +20,11 @@ extern "C" {
 /* Checks that path can be created: its directory exists and is writable, and the file does not
  * exist unless overwrite. Fails with SQ_ERR_IO (missing directory, named) or SQ_ERR_EXISTS. */
 SQ_API sq_result sq_output_check(const char *path, bool overwrite);
+/* Whether two output paths name the same file: the same existing file (symlinks followed, hard
+ * links included), or, when one does not exist yet, the same name in the same directory
+ * ("out/m.csv", "./out/m.csv" and "out/../out/m.csv" are one name). Two outputs of one run must
+ * not be the same file: the later would silently replace the earlier. */
+SQ_API bool sq_output_same_file(const char *a, const char *b);
 /* Builds the temporary-name prefix for path ("dir/.name.tmp-PID") into buf; the writers append
  * "-N", the first N whose file can be created exclusively. */
 SQ_API sq_result sq_output_temp_name(const char *path, char *buf, size_t size);

@@ -101,6 +101,8 @@ typedef struct sq_sandstorm_desc {
     double smagorinsky_c;           /* C_s of the subgrid closure; 0 -> 0.18 (Lilly 1967) */
     bool log_law_ground;           /* mixing length: the ground's stress from the log law (the
                                        subgrid closure always uses it); false: no-slip (S0) */
+    bool surface_layer_mixing;     /* the dust mixed up by the ground's turbulence: K = kappa u* z
+                                       (1 - z/h) / Sc below a bulk-Richardson depth h */
     double confinement;             /* ε_h; 0 is physical (off) */
     bool plain_confinement;        /* false: helicity-adaptive (S0); true: Fedkiw's constant eps */
     double cfl;                     /* max |u| dt / h per sub-step; 0 -> 2 */

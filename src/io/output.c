@@ -37,6 +37,32 @@ static void split_path(const char *path, char *dir, size_t dir_size, const char 
     }
 }
 
+/* The canonical name of a file that may not exist yet: its directory resolved (symlinks, "..")
+ * and its base name; false when the directory does not resolve either. */
+static bool canonical_name(const char *path, char *out, size_t size)
+{
+    char dir[SQ__TEMP_NAME_MAX];
+    const char *base = NULL;
+    split_path(path, dir, sizeof dir, &base);
+    char *real = realpath(dir, NULL);
+    if (!real) return false;
+    const int n = snprintf(out, size, "%s/%s", strcmp(real, "/") == 0 ? "" : real, base);
+    free(real);
+    return n > 0 && (size_t)n < size;
+}
+
+bool sq_output_same_file(const char *a, const char *b)
+{
+    if (!a || !b || !*a || !*b) return false;
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
+        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char ca[SQ__TEMP_NAME_MAX], cb[SQ__TEMP_NAME_MAX];
+    if (canonical_name(a, ca, sizeof ca) && canonical_name(b, cb, sizeof cb))
+        return strcmp(ca, cb) == 0;
+    return strcmp(a, b) == 0;
+}
+
 sq_result sq_output_check(const char *path, bool overwrite)
 {
     if (!path || !*path) return sq__set_error(SQ_ERR_INVALID_ARG, "output path is empty");

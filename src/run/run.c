@@ -181,6 +181,9 @@ sq_result sq_run_create(sq_context *ctx, const sq_run_desc *desc, sq_run **out)
     /* a camera under the terrain is named by its key and file:line before any work */
     sq_result r = images ? sq_scene_check_camera(desc->scene) : SQ_OK;
     if (r == SQ_OK) r = sq__run_outputs_check(o, images);
+    if (r == SQ_OK)
+        r = sq__run_outputs_distinct(o, desc->checkpoint_every_s > 0.0 ? desc->checkpoint_path
+                                                                       : NULL);
     if (r == SQ_OK && desc->checkpoint_every_s > 0.0) {
         r = sq_output_check(desc->checkpoint_path,
                             desc->overwrite || desc->checkpoint_replaces);

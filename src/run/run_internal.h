@@ -87,6 +87,10 @@ typedef struct sq__run_outputs {
 
 /* Checks every output of the scene's output section for this run (before any work). */
 sq_result sq__run_outputs_check(sq__run_outputs *o, bool rendering);
+/* No two outputs of the run are the same file (sq_output_same_file): the video, the frames
+ * directory, the metrics, the field indices and checkpoint (NULL when none) each need their own
+ * name; SQ_ERR_INVALID_ARG naming both otherwise. */
+sq_result sq__run_outputs_distinct(const sq__run_outputs *o, const char *checkpoint);
 /* Opens the temporaries (video writer, metrics file). */
 sq_result sq__run_outputs_open(sq__run_outputs *o);
 /* One image: video frame and/or PNG (and PFM for reference frames). */

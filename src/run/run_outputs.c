@@ -69,6 +69,30 @@ sq_result sq__run_outputs_check(sq__run_outputs *o, bool rendering)
     return r;
 }
 
+sq_result sq__run_outputs_distinct(const sq__run_outputs *o, const char *checkpoint)
+{
+    char pvd[PATH_MAX_RUN] = "", maps_pvd[PATH_MAX_RUN] = "";
+    if (o->fields) {
+        snprintf(pvd, sizeof pvd, "%s.pvd", o->fields);
+        snprintf(maps_pvd, sizeof maps_pvd, "%s_maps.pvd", o->fields);
+    }
+    const struct {
+        const char *what, *path;
+    } out[] = {{"output.video", o->video},     {"output.frames_dir", o->frames_dir},
+               {"output.metrics", o->metrics}, {"the fields' index", o->fields ? pvd : NULL},
+               {"the maps' index", o->fields ? maps_pvd : NULL},
+               {"the checkpoint", checkpoint}};
+    const int n = (int)(sizeof out / sizeof out[0]);
+    for (int i = 0; i < n; i++)
+        for (int j = i + 1; j < n; j++)
+            if (out[i].path && out[j].path && sq_output_same_file(out[i].path, out[j].path))
+                return sq__fail(o->ctx, SQ_ERR_INVALID_ARG, "run",
+                                "%s '%s' and %s '%s' are the same file: the one written later "
+                                "would replace the other; give each output its own name",
+                                out[i].what, out[i].path, out[j].what, out[j].path);
+    return SQ_OK;
+}
+
 sq_result sq__run_outputs_open(sq__run_outputs *o)
 {
     if (o->video) {

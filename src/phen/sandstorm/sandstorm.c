@@ -442,6 +442,8 @@ static sq_result create_grid(sq_sandstorm *s)
     s->keep = (float *)xalloc(s, cols * sizeof(float), &ok);
     s->row_acc = (double *)xalloc(s, (size_t)s->ny * 4 * sizeof(double), &ok);
     s->plane_mass = (double *)xalloc(s, (size_t)s->nz * SQ_SANDSTORM_MAX_BINS * sizeof(double), &ok);
+    s->mix_f = (float *)xalloc(s, (size_t)s->ln[1] * 4 * s->nz * sizeof(float), &ok);
+    s->mix_d = (double *)xalloc(s, (size_t)s->ln[1] * 2 * s->nz * sizeof(double), &ok);
     s->density = (float *)xalloc(s, (views ? n : slab) * sizeof(float), &ok);
     for (int v = 0; v < d->vis_height_count; v++) s->vis[v] = (float *)xalloc(s, cols * sizeof(float), &ok);
     for (int e = 0; e < 6 && views; e++) s->export_buf[e] = (float *)xalloc(s, n * sizeof(float), &ok);
@@ -603,6 +605,8 @@ void sq_sandstorm_destroy(sq_sandstorm *s)
     sq_free(ctx, s->keep);
     sq_free(ctx, s->row_acc);
     sq_free(ctx, s->plane_mass);
+    sq_free(ctx, s->mix_f);
+    sq_free(ctx, s->mix_d);
     sq_free(ctx, s->density);
     sq__sand_detail_free(&s->detail, ctx);
     sq_free(ctx, s->detail_out);
@@ -1086,6 +1090,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
         outflow += out[b];
     }
     double deposited = settle_dust(s, dt, scale);                          /* terminal speed per bin */
+    sq__sand_mix_dust(s, dt);                               /* the ground's turbulence lifts it */
     double t8 = sq_time_now();
     s->budget.emitted_kg += emitted;
     s->budget.inflow_kg += inflow;

@@ -106,6 +106,8 @@ struct sq_sandstorm {
     float *keep;      /* nx*ny: per-column momentum factor of this step's emission */
     double *row_acc;  /* 4 * ny per-row partial sums (fixed-order reductions) */
     double *plane_mass; /* nz * SQ_SANDSTORM_MAX_BINS per-plane partial dust masses */
+    float *mix_f;       /* 4 nz floats per slab row: the dust mixing's column (sandstorm_mixing.c) */
+    double *mix_d;      /* 2 nz doubles per slab row: its tridiagonal solve */
     /* dust */
     int nbins;
     sq_size_bin bins[SQ_SANDSTORM_MAX_BINS];
@@ -180,6 +182,15 @@ double sq__sand_median_rows(double *rows, int ny);
 void sq__sand_visibility_plane(const float *beta, int nx, int ny, int nz, const int *ground_k,
                                const float *ground_z1, float h, float height_m, double contrast,
                                float *out);
+
+/* the dust's mixing by the ground's turbulence (sandstorm_mixing.c) */
+void sq__sand_column_kmix(float *c, ptrdiff_t cs, int n, const float *kf, double h, double dt,
+                          double *work);
+double sq__sand_kprofile(float *kf, int n, double z1, double h, double ustar, double depth,
+                         double schmidt);
+double sq__sand_bulk_ri_depth(const float *theta, const float *u, const float *v, int n,
+                              double z1, double dz, double ustar, double gravity);
+void sq__sand_mix_dust(sq_sandstorm *s, double dt);
 
 /* used by the plug-in (sandstorm_plugin.c) and tests */
 int sq__sandstorm_drawables(sq_sandstorm *s, sq_drawable *out, int max);

@@ -116,6 +116,13 @@ static const sq_param params[] = {
       "emission's u*), instead of S0's wind 0 half a cell below, whose stress (kappa u)^2 is "
       "ln(z1/z0)^2 ~ 100x larger over desert roughness and brakes the near-ground wind. "
       "The smagorinsky closure always uses the log law."),
+    B("solver.surface_layer_mixing", surface_layer_mixing,
+      "The dust is mixed up through each column by the ground's own turbulence, which the "
+      "resolved closure misses on coarse cells: eddy diffusivity K = kappa u* z (1 - z/h) / Sc "
+      "(the parabolic profile of a log-law flow, Rouse 1937; u* the column's friction velocity, "
+      "Sc = 0.74) below the depth h where the bulk Richardson number reaches 0.25 (Vogelezang "
+      "& Holtslag 1996; in a cold pool its depth). The dust only; the heat and the wind keep "
+      "solver.turbulence. Off: the dust a strong wind raises can stay in the lowest cells."),
     D("solver.smagorinsky_c", smagorinsky_c, "1", 0.18, 0.05, 0.5, 0,
       "Smagorinsky constant C_s of solver.turbulence = smagorinsky (Lilly 1967: 0.17-0.18 for "
       "an inertial range; 0.1-0.23 in use)."),
