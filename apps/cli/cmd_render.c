@@ -294,6 +294,11 @@ int sq_cmd_render(int argc, char **argv)
             rc = SQ_EXIT_USAGE;
             break;
         }
+        /* a path option's value becomes a --set: its text is blamed on the option */
+        if ((strcmp(a, "-o") == 0 && !simulate) || strcmp(a, "--metrics") == 0 ||
+            strcmp(a, "--fields") == 0)
+            r = sq_cfg_check_text(a, v);
+        if (r != SQ_OK) break;
         if (strcmp(a, "--set") == 0) {
             r = sq_cfg_set(cfg, v);
         } else if (strcmp(a, "-o") == 0 && !simulate) {

@@ -55,6 +55,9 @@ SQ_API sq_cfg_node *sq_cfg_get(const sq_cfg_node *map, const char *key);
  * ']'. The whole text must be UTF-8 without control characters (what a scene file can hold).
  * On failure the tree is unchanged. */
 SQ_API sq_result sq_cfg_set(sq_cfg *cfg, const char *assignment);
+/* The rule for the text of an assignment (sq_cfg_set applies it as "--set"): UTF-8 without
+ * control characters. SQ_ERR_INVALID_ARG naming what (e.g. "--metrics") and the byte. */
+SQ_API sq_result sq_cfg_check_text(const char *what, const char *text);
 /* Writes the tree as YAML into a malloc'd string (free with free()); sq_cfg_parse reads it
  * back as the same tree. NULL (error text set) when the tree holds invalid UTF-8. */
 SQ_API char *sq_cfg_to_yaml(const sq_cfg *cfg);

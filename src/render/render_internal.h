@@ -283,10 +283,10 @@ static inline double sq__volume_ms_beam(double w, double g, double tau, double c
     return b > 0.0 ? b * (1.0 - f * f) / (4.0 * 3.14159265358979323846 * d * sqrt(d)) : 0.0;
 }
 
-/* The RGB density texture of sharp edges: density, local maximum over 27 voxels, edge weight
- * (render_volume.c; rgb holds 3 nx ny nz floats). */
+/* The RGBA density texture of sharp edges: density, local maximum over 27 voxels, edge weight,
+ * 0 (render_volume.c; rgba holds 4 nx ny nz floats). */
 void sq__volume_edge_texture(const float *density, int nx, int ny, int nz, float sharpness,
-                             float *rgb);
+                             float *rgba);
 sq_result sq__volume_pass_create(sq_renderer *r);
 void sq__volume_pass_destroy(sq_renderer *r);
 /* Uploads (if its version changed) and runs the light passes so sun_shadow_tex is ready. */

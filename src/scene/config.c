@@ -153,20 +153,20 @@ bool sq_cfg_text_ok(const char *text)
 }
 
 /* The --set text must be what a scene file could hold: UTF-8 without control characters. */
-static sq_result check_set_text(const char *assignment)
+sq_result sq_cfg_check_text(const char *what, const char *text)
 {
-    const long bad = utf8_invalid_at(assignment);
+    const long bad = utf8_invalid_at(text);
     if (bad >= 0)
         return sq__set_error(SQ_ERR_INVALID_ARG,
-                             "--set: byte %ld (0x%02X) is not valid UTF-8; keys and values are "
+                             "%s: byte %ld (0x%02X) is not valid UTF-8; keys and values are "
                              "UTF-8 text",
-                             bad + 1, (unsigned)(unsigned char)assignment[bad]);
-    for (const unsigned char *p = (const unsigned char *)assignment; *p; p++)
+                             what, bad + 1, (unsigned)(unsigned char)text[bad]);
+    for (const unsigned char *p = (const unsigned char *)text; *p; p++)
         if (*p < 0x20 || *p == 0x7F)
             return sq__set_error(SQ_ERR_INVALID_ARG,
-                                 "--set: byte %ld is a control character (0x%02X); keys and values "
+                                 "%s: byte %ld is a control character (0x%02X); keys and values "
                                  "are printable text",
-                                 (long)(p - (const unsigned char *)assignment) + 1, (unsigned)*p);
+                                 what, (long)(p - (const unsigned char *)text) + 1, (unsigned)*p);
     return SQ_OK;
 }
 
@@ -226,7 +226,7 @@ sq_result sq_cfg_set(sq_cfg *cfg, const char *assignment)
         return sq__set_error(SQ_ERR_INVALID_ARG,
                              "--set '%s': expected path.to.key=value (e.g. output.fps=30)",
                              assignment && sq_cfg_text_ok(assignment) ? assignment : "");
-    sq_result r = check_set_text(assignment);
+    sq_result r = sq_cfg_check_text("--set", assignment);
     if (r != SQ_OK) return r;
     char path[512];
     size_t plen = (size_t)(eq - assignment);

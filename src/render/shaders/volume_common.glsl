@@ -40,7 +40,7 @@ vec3 vol_tc(vec3 p, vec3 lo, vec3 size)
 // green holds the local maximum M of the density over the cell's 27 neighbours and blue the
 // edge weight e (0 where the density varies smoothly); the trilinear rho is moved toward
 // M smoothstep(0.4, 0.6, rho / M), which puts the edge at the half-maximum contour and makes
-// it five times steeper. One-channel textures read green = blue = 0: unchanged.
+// it five times steeper (alpha unused). One-channel textures read green = blue = 0: unchanged.
 float vol_density(sampler3D dens, vec3 p, vec3 lo, vec3 size)
 {
     vec3 tc = vol_tc(p, lo, size);
