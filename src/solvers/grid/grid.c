@@ -597,6 +597,13 @@ static void fill_face_row(const sq_grid *g, float *o, const ptrdiff_t st[3], con
 
 void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
 {
+    sq__grid_fill_ghosts_local(g, o, sy, sz, L, scalar);
+    /* a decomposed grid: the ghost planes toward the neighbouring slabs are their samples */
+    sq__grid_dist_halo_lattice(g, o, sy, sz, L);
+}
+
+void sq__grid_fill_ghosts_local(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
+{
     int m[3];
     lattice_dims(g, L, m);
     const ptrdiff_t st[3] = {1, sy, sz};
@@ -648,8 +655,6 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
         SQ_OMP(omp for schedule(static))
         for (int q = -1; q <= m[tb]; q++) fill_face_row(g, o, st, m, L, &gf[f], q);
     }
-    /* a decomposed grid: the ghost planes toward the neighbouring slabs are their samples */
-    sq__grid_dist_halo_lattice(g, o, sy, sz, L);
 }
 
 /* ---- fixed faces --------------------------------------------------------------------------- */
