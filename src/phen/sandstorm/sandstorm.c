@@ -1070,7 +1070,7 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
         em[3] = e[4];
     }
     const double emitted = emission_totals(s, em);
-    inflow *= (double)s->h * s->h * s->h;
+    inflow = inflow * (double)s->h * s->h * s->h; /* the one-rank rounding order */
     double t6 = sq_time_now();
     r = sq_grid_advect_scalars(s->grid, dt);                               /* dust bins and T */
     if (r != SQ_OK) return r;
