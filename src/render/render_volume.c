@@ -67,6 +67,9 @@
 #define VOL_VERT_FLOATS 4          /* slice vertex: world xyz, light layer */
 #define VOL_MAX_TRI_VERTS 12       /* a hexagon as 4 triangles */
 #define VOL_LIGHT_GROUP 8          /* slabs per light pass without the blur ring (<= 8 outputs) */
+#define VOL_TAU_STOP 20.0f         /* optical depth from the camera past which the eye pass draws
+                                      no slice (volume_bounds.frag): what lies behind reaches the
+                                      pixel through less than exp(-20) = 2e-9 of its radiance */
 
 typedef struct vol_plan {
     sq_vec3 lo, size, hi;   /* the box drawn: the density's, widened by mirror_y_m in y */
@@ -1054,6 +1057,13 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     for (int c = 0; c < 3; c++) g[c] = iso ? 0.0f : v->g[c];
     u3a(pb, "u_g", g);
     glProgramUniform2f(pb, glGetUniformLocation(pb, "u_g2w2"), iso ? 0.0f : v->g2, v->w2);
+    /* slices behind opaque dust are not drawn (volume_bounds.frag) */
+    u3(pb, "u_tex_lo", p->tex_lo);
+    u3(pb, "u_tex_size", p->tex_size);
+    u1f(pb, "u_d_first", p->d_first);
+    glProgramUniform1i(pb, glGetUniformLocation(pb, "u_planes"), p->n);
+    u1f(pb, "u_sigma_min", fminf(v->sigma_ext[0], fminf(v->sigma_ext[1], v->sigma_ext[2])));
+    u1f(pb, "u_tau_stop", VOL_TAU_STOP);
     return SQ_OK;
 }
 
@@ -1364,6 +1374,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
     /* per-pixel ray interval the volume may fill (box, camera, opaque depth) */
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, vp->bounds_fbo);
     glViewport(0, 0, r->width, r->height);
+    glBindTextureUnit(0, density);
     glBindTextureUnit(2, r->depth_tex);
     glUseProgram(vp->prog_bounds);
     glBindVertexArray(vp->vao_empty);

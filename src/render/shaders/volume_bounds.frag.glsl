@@ -13,8 +13,16 @@
 // point a slice fragment can stand for, t_out + half a slab along this ray (plus 2 % for
 // depth rounding), so that llvmpipe's early depth test drops the slice fragments behind it
 // (behind the terrain or past the box) before the eye shader runs; they would be discarded.
+// Opaque dust ends the ray too (u_tau_stop > 0): the pass walks the eye pass's own slices along
+// the ray front to back, summing the optical depth the eye pass will give their slabs (the same
+// density function at the same points, each slab's length clipped to the interval, so never
+// more than the eye pass's; the smallest channel's extinction), and stops at the first slice
+// past which it exceeds u_tau_stop: the slices behind it are not drawn. What they would have
+// added, and the scene behind, reach the pixel through a transmittance below exp(-u_tau_stop),
+// so the picture changes by less than that fraction of the radiance behind.
 #include "volume_common.glsl"
 
+layout(binding = 0) uniform sampler3D u_density; // as the eye pass samples it
 layout(binding = 2) uniform sampler2D u_depth; // opaque scene depth (window depth in [0, 1])
 
 uniform mat4 u_inv_view_proj;
@@ -29,6 +37,35 @@ uniform float u_near;          // near plane distance (m)
 uniform vec3 u_sun_dir;        // unit vector toward the sun
 uniform vec3 u_g;              // HG asymmetry per channel
 uniform vec2 u_g2w2;           // second lobe: asymmetry, weight
+uniform vec3 u_tex_lo, u_tex_size; // the density's box (texture coordinates 0..1)
+uniform float u_d_first;       // the eye pass's slice k lies on the plane s . x = d_first + k spacing
+uniform int u_planes;          // number of slices
+uniform float u_sigma_min;     // smallest extinction per density unit over the channels
+uniform float u_tau_stop;      // optical depth past which the slices are not drawn; 0: all drawn
+
+// The distance of the slice at which the optical depth from the camera first exceeds
+// u_tau_stop along the ray p + t dir inside [b.x, b.y] (3e38 if it does not). The slices meet
+// the ray at t_k = (d_first + k spacing - s . p) / (s . dir), dt apart; slice k stands for
+// [t_k - dt/2, t_k + dt/2] (the eye pass's slab), clipped here to [b.x, b.y].
+float opaque_distance(vec3 p, vec3 dir, vec2 b)
+{
+    float u = dot(u_s, dir);
+    if (u_tau_stop <= 0.0 || b.x >= b.y || abs(u) < 0.05) return 3.0e38;
+    float dt = u_spacing / abs(u);
+    // the plane coordinate at t = b.x, and the first slice whose slab reaches past b.x
+    float kf = (dot(u_s, p) + b.x * u - u_d_first) / u_spacing;
+    float k0 = u > 0.0 ? floor(kf - 0.5) + 1.0 : ceil(kf + 0.5) - 1.0;
+    float t0 = (u_d_first + k0 * u_spacing - dot(u_s, p)) / u;
+    float tau = 0.0;
+    for (int j = 0; j < u_planes; j++) {
+        float t = t0 + float(j) * dt;
+        if (t - 0.5 * dt >= b.y) break;
+        float len = max(min(t + 0.5 * dt, b.y) - max(t - 0.5 * dt, b.x), 0.0);
+        tau += vol_density_smooth(u_density, p + t * dir, u_tex_lo, u_tex_size) * u_sigma_min * len;
+        if (tau > u_tau_stop) return t;
+    }
+    return 3.0e38;
+}
 
 layout(location = 0) out vec4 o_bounds; // t_in, t_out, dt, t_clip (m)
 layout(location = 1) out vec4 o_phase;  // phase function toward the eye, per channel (1/sr);
@@ -54,8 +91,9 @@ void main()
     float cos_theta = dot(u_sun_dir, dir); // = (light propagation) . (propagation toward eye)
     vec3 p1 = vec3(vol_hg(cos_theta, u_g.r), vol_hg(cos_theta, u_g.g), vol_hg(cos_theta, u_g.b));
     o_phase = vec4(mix(p1, vec3(vol_hg(cos_theta, u_g2w2.x)), u_g2w2.y), cos_theta);
-    // the farthest point a slice fragment of this ray can stand for: t_out + half a slab
-    float t_far = (b.y + 0.5 * dt) * 1.02;
+    // the farthest point a slice fragment of this ray can stand for: t_out + half a slab, or
+    // the slice where the dust has become opaque
+    float t_far = (min(b.y, opaque_distance(u_cam, dir, b)) + 0.5 * dt) * 1.02;
     vec4 c = u_view_proj * vec4(u_cam + dir * min(t_far, 1.0e30), 1.0);
     float depth = c.w > 0.0 ? clamp(c.z / c.w * 0.5 + 0.5, 0.0, 1.0) : 1.0;
     gl_FragDepth = b.x < b.y ? depth : 0.0;
