@@ -110,6 +110,32 @@ static double coldpool_fraction(const sq_sandstorm *s, double zg)
     return 0.5 * (1.0 - tanh((zg - H) / (0.1 * H)));
 }
 
+/* coldpool.spanwise_variation: the deficit's relative variation xi(y) along y, rms 1 (0 when
+ * the key is 0): M equal-amplitude Fourier modes of the domain's width W, wavelengths W/m for
+ * m = 1..M down to 8 cells (periodic across the domain), their phases from the seed. */
+#define COLDPOOL_MODES_MAX 64
+static double coldpool_spanwise(const sq_sandstorm *s, double y)
+{
+    if (s->d.coldpool_spanwise <= 0.0) return 0.0;
+    const double W = s->ny * (double)s->h;
+    int M = s->ny / 8;
+    if (M < 1) M = 1;
+    if (M > COLDPOOL_MODES_MAX) M = COLDPOOL_MODES_MAX;
+    double xi = 0.0;
+    for (int m = 1; m <= M; m++) {
+        float u[4];
+        sq_rng_uniform4(s->d.seed, 0xC01D, (uint64_t)m, u);
+        xi += cos(2.0 * SQ_PI * m * (y - s->origin[1]) / W + 2.0 * SQ_PI * (double)u[0]);
+    }
+    return xi * sqrt(2.0 / M); /* each mode's mean square is 1/2 */
+}
+
+/* The deficit at y: dT (1 + a xi(y)) (a = coldpool.spanwise_variation). */
+static double coldpool_deficit(const sq_sandstorm *s, double y)
+{
+    return s->d.coldpool_delta_t_k * (1.0 + s->d.coldpool_spanwise * coldpool_spanwise(s, y));
+}
+
 /* The cold air's inflow speed: the key, or the density current's velocity scale sqrt(g' H),
  * g' = g dT / theta_s. */
 static double coldpool_speed(const sq_sandstorm_desc *d)
@@ -251,7 +277,7 @@ static void fill_temperature(sq_sandstorm *s)
                 if ((gi + 0.5) * s->h < s->d.coldpool_length_m) { /* the outflow so far */
                     double zg = s->origin[2] + (k + 0.5) * s->h -
                                 (double)sq_world_height_at(s->world, (float)x, (float)y);
-                    th -= s->d.coldpool_delta_t_k * coldpool_fraction(s, zg);
+                    th -= coldpool_deficit(s, y) * coldpool_fraction(s, zg);
                 }
                 *sq_field3_at(T, i, j, k) = (float)th;
             }
@@ -278,7 +304,7 @@ static sq_result grid_temperature_inflow(sq_sandstorm *s, sq_grid *g, int jlo)
             const double zg = s->origin[2] + (k + 0.5) * s->h -
                               (double)sq_world_height_at(s->world, (float)x, (float)y);
             t[(size_t)k * na + j] = (float)(theta_initial(s, x, y, (k + 0.5) * s->h) -
-                                            s->d.coldpool_delta_t_k * coldpool_fraction(s, zg));
+                                            coldpool_deficit(s, y) * coldpool_fraction(s, zg));
         }
     return SQ_OK;
 }
