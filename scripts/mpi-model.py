@@ -143,7 +143,7 @@ for net, (bw, lat) in NETS.items():
 # are the step before this (the whole grid gathered on every rank after every step).
 STEP_CELLS = float(sys.argv[3]) if len(sys.argv) > 3 else 1.0e8  # cell-steps/s of one node
 H_PLANES = 140   # planes per neighbour and step (measured: bench sandstorm 64^3, 2 ranks)
-MEET = 80        # neighbour meetings and small sums per step
+MEET = 66        # meetings per step (bench sandstorm 64^3, 2 ranks: meetings_per_step; was 114, ~80 est.)
 PROJECT_SHARE = 0.12  # the projection's share of one rank's step (bench sandstorm, 64^3)
 FIELDS = 8       # 3 wind components, 4 dust bins, theta
 FRAME_STEPS = 16

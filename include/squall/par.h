@@ -91,6 +91,10 @@ SQ_API void sq_par_sum_f64(double *v, int n);
 SQ_API void sq_par_sum_f32(float *v, int n);
 SQ_API void sq_par_max_f64(double *v, int n);
 SQ_API void sq_par_min_i64(int64_t *v, int n);
+/* Collective, one meeting: v[0 .. nsum) become their sums over the ranks (added in rank
+ * order) and v[nsum .. nsum + nmax) their largest values; every rank passes the same counts.
+ * Several small sums and maxima of one stage in one message. */
+SQ_API void sq_par_sum_max_f64(double *v, int nsum, int nmax);
 /* Collective: rank `root` sends `bytes` at data to every rank. */
 SQ_API void sq_par_broadcast(void *data, size_t bytes, int root);
 /* Collective: concatenates every rank's `counts[rank]` floats (rank order) into out on every
@@ -104,6 +108,11 @@ SQ_API sq_result sq_par_allgather_f64(const double *mine, const int64_t *counts,
 /* Bytes this rank sent through sq_par calls since sq_par_init (communication volume for the
  * benchmarks). */
 SQ_API uint64_t sq_par_bytes_sent(void);
+/* Meetings this rank took part in since sq_par_init: every collective (sum, maximum,
+ * broadcast, gather, agreement) and every exchange with a neighbouring rank counts one; a
+ * meeting waits for the slowest partner, so their number per step is what a contended or
+ * high-latency network pays (benchmarks). */
+SQ_API uint64_t sq_par_meetings(void);
 
 #ifdef __cplusplus
 }

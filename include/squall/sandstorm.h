@@ -87,6 +87,8 @@ typedef struct sq_sandstorm_desc {
     bool coldpool_return_flow;     /* above the cold pool the west face lets out as much air as
                                        the cold inflow brings in beyond the ambient wind's (the
                                        storm's inflow aloft): no net volume enters */
+    double coldpool_spanwise;       /* relative amplitude (rms) of the deficit's variation along y
+                                       at the west face (seeded Fourier modes); 0 = uniform */
     double observer_m[2];           /* fixed observer (x, y) of the visibility metric; 0 physical */
     int top_boundary;              /* 0 open (p = 0, air may leave or enter), 1 free-slip lid */
     int side_boundary;             /* north and south faces: 0 open, 1 periodic (a storm line

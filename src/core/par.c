@@ -15,11 +15,17 @@
 static int par_rank = 0, par_size = 1;
 static bool par_active = false; /* sq_par_init joined MPI_COMM_WORLD */
 static uint64_t par_sent = 0;
+static uint64_t par_meetings = 0; /* collectives and neighbour exchanges with another rank */
 
 bool sq_par_compiled(void) { return SQ_HAVE_MPI != 0; }
 int sq_par_rank(void) { return par_rank; }
 int sq_par_size(void) { return par_size; }
 uint64_t sq_par_bytes_sent(void) { return par_sent; }
+uint64_t sq_par_meetings(void) { return par_meetings; }
+
+#if SQ_HAVE_MPI
+static void meet(void) { par_meetings++; }
+#endif
 
 sq_result sq_par_init(int *argc, char ***argv)
 {
@@ -57,6 +63,7 @@ sq_result sq_par_agree(sq_result r)
 #if SQ_HAVE_MPI
     if (!par_active || par_size == 1) return r;
     int mine = r != SQ_OK ? par_rank : par_size, first = par_size;
+    meet();
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (first == par_size) return SQ_OK;
     struct {
@@ -69,6 +76,7 @@ sq_result sq_par_agree(sq_result r)
         const char *e = sq_last_error();
         strncpy(msg.text, e ? e : "", sizeof msg.text - 1);
     }
+    meet();
     MPI_Bcast(&msg, (int)sizeof msg, MPI_BYTE, first, MPI_COMM_WORLD);
     if (par_rank != first) {
         if (msg.text[0])
@@ -283,6 +291,7 @@ sq_result sq_par_halo_exchange(const sq_par_block *b, sq_field3 *f)
 #endif
         }
 #if SQ_HAVE_MPI
+        if (nreq) meet();
         if (nreq) MPI_Waitall(nreq, req, MPI_STATUSES_IGNORE);
 #endif
         for (int s = 0; s < 2; s++) {
@@ -336,6 +345,7 @@ void sq_par_exchange_end(sq_par_exchange *x)
     if (x->count > 0) {
         MPI_Request req[4];
         memcpy(req, x->requests, (size_t)x->count * sizeof(MPI_Request));
+        meet();
         MPI_Waitall(x->count, req, MPI_STATUSES_IGNORE);
     }
 #endif
@@ -356,8 +366,10 @@ sq_result sq_par_exchange_pair(const int nb[2], const void *const sbuf[2],
 void sq_par_sum_i64(int64_t *v, int n)
 {
 #if SQ_HAVE_MPI
-    if (par_active && par_size > 1)
+    if (par_active && par_size > 1) {
+        meet();
         MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    }
 #else
     (void)v;
     (void)n;
@@ -367,8 +379,10 @@ void sq_par_sum_i64(int64_t *v, int n)
 void sq_par_sum_f64(double *v, int n)
 {
 #if SQ_HAVE_MPI
-    if (par_active && par_size > 1)
+    if (par_active && par_size > 1) {
+        meet();
         MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    }
 #else
     (void)v;
     (void)n;
@@ -378,8 +392,10 @@ void sq_par_sum_f64(double *v, int n)
 void sq_par_sum_f32(float *v, int n)
 {
 #if SQ_HAVE_MPI
-    if (par_active && par_size > 1)
+    if (par_active && par_size > 1) {
+        meet();
         MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_FLOAT, MPI_SUM, MPI_COMM_WORLD);
+    }
 #else
     (void)v;
     (void)n;
@@ -389,8 +405,10 @@ void sq_par_sum_f32(float *v, int n)
 void sq_par_max_f64(double *v, int n)
 {
 #if SQ_HAVE_MPI
-    if (par_active && par_size > 1)
+    if (par_active && par_size > 1) {
+        meet();
         MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    }
 #else
     (void)v;
     (void)n;
@@ -400,11 +418,45 @@ void sq_par_max_f64(double *v, int n)
 void sq_par_min_i64(int64_t *v, int n)
 {
 #if SQ_HAVE_MPI
-    if (par_active && par_size > 1)
+    if (par_active && par_size > 1) {
+        meet();
         MPI_Allreduce(MPI_IN_PLACE, v, n, MPI_INT64_T, MPI_MIN, MPI_COMM_WORLD);
+    }
 #else
     (void)v;
     (void)n;
+#endif
+}
+
+void sq_par_sum_max_f64(double *v, int nsum, int nmax)
+{
+#if SQ_HAVE_MPI
+    const int n = nsum + nmax;
+    if (!par_active || par_size == 1 || n <= 0) return;
+    /* every rank's values to every rank, reduced here in rank order (the same numbers on
+     * every rank whatever the MPI's reduction tree); long vectors: two reductions */
+    enum { STACK = 4096 };
+    if ((int64_t)n * par_size > STACK) {
+        sq_par_sum_f64(v, nsum);
+        sq_par_max_f64(v + nsum, nmax);
+        return;
+    }
+    double all[STACK];
+    meet();
+    par_sent += (uint64_t)n * sizeof(double) * (uint64_t)(par_size - 1);
+    MPI_Allgather(v, n, MPI_DOUBLE, all, n, MPI_DOUBLE, MPI_COMM_WORLD);
+    for (int i = 0; i < n; i++) {
+        double x = all[i];
+        for (int r = 1; r < par_size; r++) {
+            const double y = all[(size_t)r * (size_t)n + (size_t)i];
+            x = i < nsum ? x + y : (y > x ? y : x);
+        }
+        v[i] = x;
+    }
+#else
+    (void)v;
+    (void)nsum;
+    (void)nmax;
 #endif
 }
 
@@ -413,6 +465,7 @@ void sq_par_broadcast(void *data, size_t bytes, int root)
 #if SQ_HAVE_MPI
     if (par_active && par_size > 1 && bytes > 0) {
         if (par_rank == root) par_sent += (uint64_t)bytes * (uint64_t)(par_size - 1);
+        meet();
         MPI_Bcast(data, (int)bytes, MPI_BYTE, root, MPI_COMM_WORLD);
     }
 #else
@@ -449,9 +502,11 @@ static sq_result gather(const void *mine, const int64_t *counts, void *out, size
     const MPI_Datatype t = elem == sizeof(float) ? MPI_FLOAT : MPI_DOUBLE;
     if (root < 0) {
         par_sent += (uint64_t)counts[par_rank] * elem * (uint64_t)(par_size - 1);
+        meet();
         MPI_Allgatherv(mine, cnt[par_rank], t, out, cnt, disp, t, MPI_COMM_WORLD);
     } else {
         if (par_rank != root) par_sent += (uint64_t)counts[par_rank] * elem;
+        meet();
         MPI_Gatherv(mine, cnt[par_rank], t, out, cnt, disp, t, root, MPI_COMM_WORLD);
     }
     free(cnt);

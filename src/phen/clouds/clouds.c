@@ -154,10 +154,21 @@ sq_result sq_clouds_create(sq_context *ctx, const sq_clouds_desc *desc, const sq
     return SQ_OK;
 }
 
+/* The field, its clouds and the particles' clusters follow the source's time: at most
+ * MAX_STEP_S per step. The particles' lives are resolved inside the step (particle_substeps). */
 double sq_clouds_max_stable_dt(const sq_clouds *c)
 {
+    (void)c;
+    return MAX_STEP_S;
+}
+
+/* A particle ages at most a sixth of its nominal life per particle sub-step, so that short lives
+ * (particles.lifetime_s down to its documented 1 s) end and respawn when they should; only the
+ * particles are sub-stepped (cheap), the field, segmentation, maps and clusters once per step. */
+static int particle_substeps(const sq_clouds *c, double dt_s)
+{
     const double life = c->d.lifetime_s / 6.0;
-    return life < MAX_STEP_S ? life : MAX_STEP_S;
+    return dt_s > life ? (int)ceil(dt_s / life - 1e-9) : 1;
 }
 
 /* ---- the step ------------------------------------------------------------------------------- */
@@ -297,7 +308,14 @@ static sq_result update(sq_clouds *c, double dt_s, particles_action act)
     compute_maps(c);
     sq__particles_prepare(&c->parts, &c->field, &c->pp);
     if (act == PARTICLES_SEED) sq__particles_seed(&c->parts, &c->field, &c->pp);
-    else if (act == PARTICLES_ADVANCE) sq__particles_advance(&c->parts, &c->field, &c->pp, dt_s);
+    else if (act == PARTICLES_ADVANCE) {
+        const int k = particle_substeps(c, dt_s);
+        for (int j = 0; j < k; j++) {
+            if (sq__cancelled(c->ctx))
+                return sq__fail_cancelled(c->ctx, "clouds", "while stepping (sq_context_cancel)");
+            sq__particles_advance(&c->parts, &c->field, &c->pp, dt_s / k);
+        }
+    }
     for (int i = 0; i < c->parts.n; i++)
         if (!isfinite(c->parts.pos[3 * i]) || !isfinite(c->parts.pos[3 * i + 2]) ||
             !isfinite(c->parts.tau[i]))

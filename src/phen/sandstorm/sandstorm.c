@@ -110,6 +110,32 @@ static double coldpool_fraction(const sq_sandstorm *s, double zg)
     return 0.5 * (1.0 - tanh((zg - H) / (0.1 * H)));
 }
 
+/* coldpool.spanwise_variation: the deficit's relative variation xi(y) along y, rms 1 (0 when
+ * the key is 0): M equal-amplitude Fourier modes of the domain's width W, wavelengths W/m for
+ * m = 1..M down to 8 cells (periodic across the domain), their phases from the seed. */
+#define COLDPOOL_MODES_MAX 64
+static double coldpool_spanwise(const sq_sandstorm *s, double y)
+{
+    if (s->d.coldpool_spanwise <= 0.0) return 0.0;
+    const double W = s->ny * (double)s->h;
+    int M = s->ny / 8;
+    if (M < 1) M = 1;
+    if (M > COLDPOOL_MODES_MAX) M = COLDPOOL_MODES_MAX;
+    double xi = 0.0;
+    for (int m = 1; m <= M; m++) {
+        float u[4];
+        sq_rng_uniform4(s->d.seed, 0xC01D, (uint64_t)m, u);
+        xi += cos(2.0 * SQ_PI * m * (y - s->origin[1]) / W + 2.0 * SQ_PI * (double)u[0]);
+    }
+    return xi * sqrt(2.0 / M); /* each mode's mean square is 1/2 */
+}
+
+/* The deficit at y: dT (1 + a xi(y)) (a = coldpool.spanwise_variation). */
+static double coldpool_deficit(const sq_sandstorm *s, double y)
+{
+    return s->d.coldpool_delta_t_k * (1.0 + s->d.coldpool_spanwise * coldpool_spanwise(s, y));
+}
+
 /* The cold air's inflow speed: the key, or the density current's velocity scale sqrt(g' H),
  * g' = g dT / theta_s. */
 static double coldpool_speed(const sq_sandstorm_desc *d)
@@ -251,7 +277,7 @@ static void fill_temperature(sq_sandstorm *s)
                 if ((gi + 0.5) * s->h < s->d.coldpool_length_m) { /* the outflow so far */
                     double zg = s->origin[2] + (k + 0.5) * s->h -
                                 (double)sq_world_height_at(s->world, (float)x, (float)y);
-                    th -= s->d.coldpool_delta_t_k * coldpool_fraction(s, zg);
+                    th -= coldpool_deficit(s, y) * coldpool_fraction(s, zg);
                 }
                 *sq_field3_at(T, i, j, k) = (float)th;
             }
@@ -278,7 +304,7 @@ static sq_result grid_temperature_inflow(sq_sandstorm *s, sq_grid *g, int jlo)
             const double zg = s->origin[2] + (k + 0.5) * s->h -
                               (double)sq_world_height_at(s->world, (float)x, (float)y);
             t[(size_t)k * na + j] = (float)(theta_initial(s, x, y, (k + 0.5) * s->h) -
-                                            s->d.coldpool_delta_t_k * coldpool_fraction(s, zg));
+                                            coldpool_deficit(s, y) * coldpool_fraction(s, zg));
         }
     return SQ_OK;
 }
@@ -654,7 +680,7 @@ static void dust_masses(const sq_sandstorm *s, const sq_grid *g, int nx, int ny,
 }
 
 /* Dust carried out through the open faces during dt by the face velocities (upwind), per
- * bin (a slab counts the domain faces it holds; summed over the ranks). */
+ * bin (a slab counts the domain faces it holds; the step sums them over the ranks). */
 static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
 {
     sq_field_view u = sq_grid_velocity_view(s->grid, 0), v = sq_grid_velocity_view(s->grid, 1),
@@ -685,7 +711,6 @@ static void boundary_outflow(const sq_sandstorm *s, double dt, double *out)
         }
         out[b] = o * dt * (double)s->h * s->h;
     }
-    sum_ranks(s, out, s->nbins);
 }
 
 /* Cell-centred wind of cell (i,j,k) of g, ghost cells included (sq_grid_cell_velocity's
@@ -705,13 +730,13 @@ static sq_vec3 cell_wind(const sq_grid *g, int i, int j, int k)
  * air (two-way exchange); returns the emitted mass (kg). Every column's friction velocity is
  * taken from the wind before any of this step's emission (phase 1, per column); then the
  * momentum factors are applied to the faces (phase 2, per face row: a face between two
- * emitting columns takes both factors). */
-static double emit_dust(sq_sandstorm *s, double dt)
+ * emitting columns takes both factors). The slab's part of the totals goes to part: the
+ * emitted concentration, emitting and ground columns, the largest friction velocity
+ * (emission_totals turns the sums over the ranks into the mass and the stats). */
+static void emit_dust(sq_sandstorm *s, double dt, double part[4])
 {
-    if (s->d.emission_coeff <= 0.0) {
-        s->stats.max_u_star_mps = 0.0;
-        return 0.0;
-    }
+    part[0] = part[1] = part[2] = part[3] = 0.0;
+    if (s->d.emission_coeff <= 0.0) return;
     /* the slab's columns (local i, j; global column index col), and on a side toward a
      * neighbouring slab one column more: its momentum factor acts on the face between them */
     const int nx = s->ln[0], ny = s->ln[1], NX = s->nx, nb = s->nbins;
@@ -789,21 +814,23 @@ static double emit_dust(sq_sandstorm *s, double dt)
         emitting += acc[4 * j + 2];
         cols += acc[4 * j + 3];
     }
-    if (s->dist) {
-        double v[3] = {total, emitting, cols};
-        sq_par_sum_f64(v, 3);
-        sq_par_max_f64(&max_us, 1);
-        total = v[0];
-        emitting = v[1];
-        cols = v[2];
-    }
-    s->stats.max_u_star_mps = max_us;
-    s->stats.emitting_fraction = cols > 0.0 ? emitting / cols : 0.0;
-    return total * (double)s->h * s->h * s->h;
+    part[0] = total;
+    part[1] = emitting;
+    part[2] = cols;
+    part[3] = max_us;
+}
+
+/* The emitted mass (kg) and the emission stats from the totals of emit_dust (over the ranks). */
+static double emission_totals(sq_sandstorm *s, const double part[4])
+{
+    s->stats.max_u_star_mps = part[3];
+    if (s->d.emission_coeff <= 0.0) return 0.0;
+    s->stats.emitting_fraction = part[2] > 0.0 ? part[1] / part[2] : 0.0;
+    return part[0] * (double)s->h * s->h * s->h;
 }
 
 /* The weight of the settling dust acts on the air through drag (SPEC §1.8: F_air = -F_cell):
- * a_z = -g sum_b c_b / rho_air. The same pass measures the suspended mass of every bin
+ * a_z = -g sum_b c_b / rho_air. The same pass measures the slab's suspended mass of every bin
  * (before[b], kg) for the budget. */
 static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
 {
@@ -832,15 +859,15 @@ static sq_result add_dust_loading(sq_sandstorm *s, double dt, double *before)
     for (int b = 0; b < nb; b++) {
         double m = 0.0;
         for (int k = 0; k < nz; k++) m += pm[(size_t)k * SQ_SANDSTORM_MAX_BINS + b];
-        before[b] = m * vol;
+        before[b] = m * vol; /* this slab's (the step sums them over the ranks) */
     }
-    sum_ranks(s, before, nb);
     sq_field_view az = {s->accel_z, {nx, ny, nz}, 1, nx, (ptrdiff_t)nx * ny};
     return sq_grid_add_acceleration_field(s->grid, NULL, NULL, &az, dt);
 }
 
 /* The upwind dust entering with the inflow: the westmost cell layer holds the inflow profile.
- * Returns the mass added (kg). */
+ * Returns the concentration added by this slab (kg/m³ summed over cells; times the cell
+ * volume, summed over the ranks: the mass). */
 static double inflow_dust(sq_sandstorm *s)
 {
     if (s->d.inflow_dust_kg_m3 <= 0.0) return 0.0;
@@ -881,8 +908,7 @@ static double inflow_dust(sq_sandstorm *s)
     }
     double added = 0.0;
     for (int j = 0; j < ny; j++) added += acc[4 * j];
-    sum_ranks(s, &added, 1);
-    return added * (double)s->h * s->h * s->h;
+    return added;
 }
 
 /* Mass fix (global conservation for the non-conservative semi-Lagrangian/MacCormack transport:
@@ -1044,10 +1070,33 @@ static sq_result step_desert(sq_sandstorm *s, double dt)
     double t4 = sq_time_now();
     if (r != SQ_OK) return r;
     /* dust (D1–D5) */
-    double emitted = emit_dust(s, dt);                                     /* u* > u*_t: F ~ u*^3 */
+    double em[4];
+    emit_dust(s, dt, em);                                                  /* u* > u*_t: F ~ u*^3 */
     double t5 = sq_time_now();
     double inflow = inflow_dust(s);                                        /* storm from upwind */
     boundary_outflow(s, dt, out);
+    if (s->dist) { /* the budget's slab parts over the ranks, and the largest u*: one meeting */
+        const int nb = s->nbins;
+        double v[2 * SQ_SANDSTORM_MAX_BINS + 5];
+        memcpy(v, before, (size_t)nb * sizeof *v);
+        memcpy(v + nb, out, (size_t)nb * sizeof *v);
+        double *e = v + 2 * nb; /* emitted, emitting, ground columns, inflow; then the max */
+        e[0] = em[0];
+        e[1] = em[1];
+        e[2] = em[2];
+        e[3] = inflow;
+        e[4] = em[3];
+        sq_par_sum_max_f64(v, 2 * nb + 4, 1);
+        memcpy(before, v, (size_t)nb * sizeof *v);
+        memcpy(out, v + nb, (size_t)nb * sizeof *v);
+        em[0] = e[0];
+        em[1] = e[1];
+        em[2] = e[2];
+        inflow = e[3];
+        em[3] = e[4];
+    }
+    const double emitted = emission_totals(s, em);
+    inflow = inflow * (double)s->h * s->h * s->h; /* the one-rank rounding order */
     double t6 = sq_time_now();
     r = sq_grid_advect_scalars(s->grid, dt);                               /* dust bins and T */
     if (r != SQ_OK) return r;

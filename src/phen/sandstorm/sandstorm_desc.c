@@ -103,6 +103,16 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
             BAD("%scoldpool.depth_m = %g m; the cold pool must lie inside the domain: at least 2 "
                 "cells (%g m) and at most 0.8 of its height (%g m; domain.nz x domain.cell_size_m)",
                 P, (double)d.coldpool_depth_m, 2.0 * d.cell_size_m, 0.8 * top);
+        /* the spanwise variation's modes (sandstorm.c, coldpool_spanwise) can add up to
+         * sqrt(2 M) times their rms: the deficit must stay > 0 and <= 20 K there */
+        int modes = d.cells[1] / 8;
+        modes = modes < 1 ? 1 : modes > 64 ? 64 : modes;
+        const double peak = d.coldpool_spanwise * sqrt(2.0 * modes);
+        if (!(d.coldpool_spanwise >= 0.0 && peak < 1.0 && d.coldpool_delta_t_k * (1.0 + peak) <= 20.0))
+            BAD("%scoldpool.spanwise_variation = %g; its %d modes can add up to %.3g x that, so "
+                "the deficit %g K x (1 +- %.3g) must stay > 0 and <= 20 K (at most %.3g here)", P,
+                (double)d.coldpool_spanwise, modes, sqrt(2.0 * modes), (double)d.coldpool_delta_t_k,
+                peak, fmin(1.0, 20.0 / d.coldpool_delta_t_k - 1.0) / sqrt(2.0 * modes));
         if (d.coldpool_length_m < 0.0 || d.coldpool_length_m >= len)
             BAD("%scoldpool.length_m = %g m; the initial outflow must start inside the domain "
                 "(0 <= length < %g m)", P, (double)d.coldpool_length_m, len);

@@ -73,6 +73,13 @@ static const sq_param params[] = {
       "that no net volume enters the domain: the air ahead of the front keeps the ambient "
       "wind. Off: the cold inflow's volume must leave through the other faces (with periodic "
       "sides, the east face: the air ahead of the front is pushed)."),
+    D("coldpool.spanwise_variation", coldpool_spanwise, "1", 0, 0, 0.5, Z,
+      "Relative rms variation of the cold pool's deficit dT along y (across the outflow) where it "
+      "enters, and in its initial part: dT (1 + a xi(y)), xi a sum of Fourier modes periodic over "
+      "the domain's width with wavelengths from the width down to 8 cells, equal amplitudes, "
+      "phases drawn from seed (reproducible), rms 1. A thunderstorm's outflow is fed by "
+      "downdraft cells and is not uniform across; the head's lobe-and-cleft instability grows "
+      "from such variations (Simpson 1972; Hartel et al. 2000). 0 = uniform."),
     D("surface.heat_flux_w_m2", surface_heat_flux_w_m2, "W/m2", 0, -200, 1000, Z,
       "Sensible heat flux from the sunlit ground into the lowest air (SPEC §1.10): "
       "d theta/dt = H_s / (rho c_p h); with temperature.buoyancy_gain the warm air rises."),

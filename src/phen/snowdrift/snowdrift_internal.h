@@ -64,7 +64,12 @@ typedef struct sq__snow_params {
     uint64_t seed;
 } sq__snow_params;
 
-/* Parameters of one snow step in lattice units, for the kernels. */
+/* Parameters of one snow step in lattice units, for the kernels. The arrays may be a z-slab
+ * of a larger lattice (a distributed snow, snowdrift_split.c): local plane k is global plane
+ * kz0 + k of the gnz planes, and the kernels update the local planes k0 .. k1-1 only (the
+ * planes outside are the neighbouring slabs' edge planes: read, and written only where a
+ * flake crosses into them). A whole lattice has k0 = kz0 = 0, k1 = gnz = nz. The random
+ * streams are drawn per global cell, so the flakes do not depend on the slabs. */
 typedef struct sq__snow_kparams {
     int nx, ny, nz;
     float dt_over_dx;           /* converts m/s to cells per step */
@@ -72,6 +77,7 @@ typedef struct sq__snow_kparams {
     bool periodic[2];
     uint64_t seed, step;
     int threads;
+    int k0, k1, kz0, gnz;
 } sq__snow_kparams;
 
 typedef struct sq__snow_budget {
@@ -122,6 +128,13 @@ void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float
  * land is cleared. */
 void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, uint32_t *land,
                      uint32_t *dep, uint32_t *air_next, uint8_t *changed);
+/* sq__snow_settle in its two halves (a slab hands the flakes rolled into the plane below
+ * over in between): the landed flakes rest, roll or drop; then cells over the threshold turn
+ * snow-solid. */
+void sq__snow_settle_land(const sq__snow_kparams *kp, uint8_t *kind, uint32_t *land,
+                          uint32_t *dep, uint32_t *air_next);
+void sq__snow_settle_solidify(const sq__snow_kparams *kp, int threshold, uint8_t *kind,
+                              uint32_t *dep, uint32_t *air_next, uint8_t *changed);
 
 /* Erosion (S1 eqs 12–13, see sq__snow_params): lifts flakes from the resting deposit of surface
  * cells, then from the snow-solid cell below (which turns fluid when emptied, changed = 2), into
@@ -163,6 +176,29 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
 void sq__snow_get_budget(const sq__snow *s, sq__snow_budget *out);
 /* Flakes per top cell per step for the current parameters (see the header comment). */
 double sq__snow_flakes_per_top_cell(const sq__snow_params *p);
+
+/* ---- the snow split in z slabs over the ranks (snowdrift_split.c) -------------------------- */
+typedef struct sq__snow_slab sq__snow_slab;
+/* Collective: this rank's slab of a global lattice (the wind lattice's z slabs). Its snow
+ * (sq__snow_slab_snow) holds the own planes from local plane local0 (sq__snow_slab_range)
+ * and, below and above them, the neighbouring slabs' edge planes; set the static solids of
+ * every local plane (sq__snow_set_static, local indices). */
+sq_result sq__snow_slab_create(sq_context *ctx, sq_dims global, const sq__snow_params *p,
+                               sq__snow_slab **out);
+void sq__snow_slab_destroy(sq__snow_slab *sl);
+/* Global first own plane, own planes, local index of the first own plane. */
+void sq__snow_slab_range(const sq__snow_slab *sl, int *lo, int *own, int *local0);
+sq__snow *sq__snow_slab_snow(sq__snow_slab *sl);
+/* Collective: one snow step of the slab (sq__snow_step's recipe without the wind coupling)
+ * from the wind ux, uy, uz and the friction velocity ustar (may be NULL) on the local lattice
+ * (the own planes are read); flakes crossing a slab face are handed over. changed marks the
+ * own cells that turned snow-solid (1) or fluid (2). */
+sq_result sq__snow_slab_step(sq__snow_slab *sl, const float *ux, const float *uy, const float *uz,
+                             const float *ustar);
+/* Collective: the whole lattice's budget (sums over the slabs). */
+void sq__snow_slab_budget(const sq__snow_slab *sl, sq__snow_budget *out);
+/* Flakes this rank handed to its neighbours since create. */
+uint64_t sq__snow_slab_handed(const sq__snow_slab *sl);
 
 /* ---- the phenomenon (snowdrift.c) ------------------------------------------------------- */
 struct sq_snowdrift {

@@ -98,15 +98,16 @@ uint64_t sq__snow_inject(const sq__snow_kparams *kp, double lambda, const uint8_
                          uint32_t *air)
 {
     if (!(lambda > 0)) return 0;
-    const int nx = kp->nx, ny = kp->ny, k = kp->nz - 1;
-    const int64_t base = (int64_t)k * nx * ny;
+    const int nx = kp->nx, ny = kp->ny, k = kp->gnz - 1 - kp->kz0; /* the top plane */
+    if (k < kp->k0 || k >= kp->k1) return 0;
+    const int64_t base = (int64_t)k * nx * ny, g0 = (int64_t)kp->kz0 * nx * ny;
     const double whole = floor(lambda), frac = lambda - whole;
     uint64_t added = 0;
     for (int64_t q = 0; q < (int64_t)nx * ny; q++) {
         const int64_t c = base + q;
         if (kind[c] != SQ_SNOW_AIR) continue;
         sq__snow_rng r;
-        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_INJECT, kp->step, c);
+        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_INJECT, kp->step, g0 + c);
         const uint32_t m = (uint32_t)whole + (sq__snow_rng_uniform_d(&r) < frac ? 1u : 0u);
         air[c] += m;
         added += m;
@@ -183,8 +184,8 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
                                  const uint32_t *air, uint32_t *air_next, uint32_t *land,
                                  uint64_t *out, bool atomic)
 {
-    const int nx = kp->nx, ny = kp->ny, nz = kp->nz;
-    const int64_t sy = nx, sz = (int64_t)nx * ny;
+    const int nx = kp->nx, ny = kp->ny;
+    const int64_t sy = nx, sz = (int64_t)nx * ny, g0 = (int64_t)kp->kz0 * sz;
     const float s = kp->dt_over_dx, fall = kp->fall_cells;
     const uint64_t stream = ((uint64_t)SQ_SNOW_RNG_TRANSPORT << 56) ^ kp->step;
     for (int i0 = 0; i0 < nx; i0 += SQ_SNOW_ROW) {
@@ -198,7 +199,7 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
         for (int i = 0; i < m; i++) { /* branch-free compaction (occupancy is random) */
             const uint32_t a = air[c0 + i];
             occ[no] = i;
-            idx[no] = (uint64_t)(c0 + i) << 20;
+            idx[no] = (uint64_t)(g0 + c0 + i) << 20;
             slot2[no] = a > 1 ? n2 : -1;
             idx2[n2] = idx[no] + 1;
             n2 += a > 1;
@@ -265,11 +266,11 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
                 int ti = i + ((q & 1) ? step[0] : 0);
                 int tj = j + ((q & 2) ? step[1] : 0);
                 const int tk = k + ((q & 4) ? step[2] : 0);
-                if (tk < 0) { /* the ground below the lattice */
+                if (tk + kp->kz0 < 0) { /* the ground below the lattice */
                     landed += cnt;
                     continue;
                 }
-                if (tk >= nz) { /* out through the top */
+                if (tk + kp->kz0 >= kp->gnz) { /* out through the top */
                     *out += cnt;
                     continue;
                 }
@@ -304,17 +305,17 @@ void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float
                         const float *uz, const uint8_t *kind, const uint32_t *air,
                         uint32_t *air_next, uint32_t *land, uint64_t *left)
 {
-    const int ny = kp->ny, nz = kp->nz, nt = kp->threads;
-    const int64_t n = (int64_t)kp->nx * ny * nz;
+    const int ny = kp->ny, k0 = kp->k0, k1 = kp->k1, nt = kp->threads;
+    const int64_t n = (int64_t)kp->nx * ny * (k1 - k0);
     uint64_t out = 0;
     if (nt > 1 && n >= SQ_SNOW_PAR_MIN) {
         /* flakes move at most one cell: neighbouring planes may write the same cells */
         SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(+:out))
-        for (int k = 0; k < nz; k++)
+        for (int k = k0; k < k1; k++)
             for (int j = 0; j < ny; j++)
                 transport_row(kp, j, k, ux, uy, uz, kind, air, air_next, land, &out, true);
     } else {
-        for (int k = 0; k < nz; k++)
+        for (int k = k0; k < k1; k++)
             for (int j = 0; j < ny; j++)
                 transport_row(kp, j, k, ux, uy, uz, kind, air, air_next, land, &out, false);
     }
@@ -323,21 +324,22 @@ void sq__snow_transport(const sq__snow_kparams *kp, const float *ux, const float
 
 /* ---- deposition and solidification ------------------------------------------------------- */
 
-void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, uint32_t *land,
-                     uint32_t *dep, uint32_t *air_next, uint8_t *changed)
+void sq__snow_settle_land(const sq__snow_kparams *kp, uint8_t *kind, uint32_t *land,
+                          uint32_t *dep, uint32_t *air_next)
 {
-    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
-    const int64_t sy = nx, sz = (int64_t)nx * ny;
-    const bool par = sz * nz >= SQ_SNOW_PAR_MIN;
+    const int nx = kp->nx, ny = kp->ny, k0 = kp->k0, k1 = kp->k1, nt = kp->threads;
+    const int64_t sy = nx, sz = (int64_t)nx * ny, g0 = (int64_t)kp->kz0 * sz;
+    const bool par = sz * (k1 - k0) >= SQ_SNOW_PAR_MIN;
+    (void)nt; /* unused without OpenMP */
     SQ_OMP(omp parallel for schedule(dynamic, 1) num_threads(nt) if(par))
-    for (int k = 0; k < nz; k++) {
+    for (int k = k0; k < k1; k++) {
         for (int j = 0; j < ny; j++) {
             for (int i = 0; i < nx; i++) {
                 const int64_t c = i + j * sy + k * sz;
                 const uint32_t m = land[c];
                 if (m == 0) continue;
                 land[c] = 0;
-                const bool below_solid = k == 0 || kind[c - sz] != SQ_SNOW_AIR;
+                const bool below_solid = k + kp->kz0 == 0 || kind[c - sz] != SQ_SNOW_AIR;
                 if (below_solid) {
                     dep[c] += m; /* stable: supported from below */
                     continue;
@@ -365,7 +367,7 @@ void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, u
                     continue;
                 }
                 sq__snow_rng r;
-                sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ROLL, kp->step, c);
+                sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ROLL, kp->step, g0 + c);
                 /* uniform choice among the free ones: sequential binomial splitting */
                 uint32_t rest = m;
                 for (int q = 0; q < nf && rest > 0; q++) {
@@ -377,11 +379,19 @@ void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, u
             }
         }
     }
+}
+
+void sq__snow_settle_solidify(const sq__snow_kparams *kp, int threshold, uint8_t *kind,
+                              uint32_t *dep, uint32_t *air_next, uint8_t *changed)
+{
     /* cells that filled up become snow-solid and engulf the flakes in their air */
-    const int64_t n = (int64_t)nx * ny * nz;
+    const int nt = kp->threads;
+    const int64_t sz = (int64_t)kp->nx * kp->ny, c0 = kp->k0 * sz, c1 = kp->k1 * sz;
+    const bool par = c1 - c0 >= SQ_SNOW_PAR_MIN;
+    (void)nt; /* unused without OpenMP */
     const uint32_t thr = (uint32_t)threshold;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(par))
-    for (int64_t c = 0; c < n; c++) {
+    for (int64_t c = c0; c < c1; c++) {
         if (kind[c] == SQ_SNOW_AIR && dep[c] > thr) {
             kind[c] = SQ_SNOW_SOLID;
             dep[c] += air_next[c];
@@ -391,25 +401,34 @@ void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, u
     }
 }
 
+void sq__snow_settle(const sq__snow_kparams *kp, int threshold, uint8_t *kind, uint32_t *land,
+                     uint32_t *dep, uint32_t *air_next, uint8_t *changed)
+{
+    sq__snow_settle_land(kp, kind, land, dep, air_next);
+    sq__snow_settle_solidify(kp, threshold, kind, dep, air_next, changed);
+}
+
 /* ---- erosion ----------------------------------------------------------------------------- */
 
 uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
                         const float *ustar, uint8_t *kind, uint32_t *dep, uint32_t *air_next,
                         uint8_t *changed)
 {
-    const int nx = kp->nx, ny = kp->ny, nz = kp->nz, nt = kp->threads;
-    const int64_t sz = (int64_t)nx * ny, n = sz * nz;
-    const bool par = n >= SQ_SNOW_PAR_MIN;
+    const int nx = kp->nx, ny = kp->ny, nt = kp->threads;
+    const int64_t sz = (int64_t)nx * ny, c0 = kp->k0 * sz, c1 = kp->k1 * sz;
+    const int64_t g0 = (int64_t)kp->kz0 * sz;
+    const bool par = c1 - c0 >= SQ_SNOW_PAR_MIN;
     const double ut = sp->ustar_threshold_mps, eff = sp->erosion_efficiency;
     const double rate = sp->speedup * sp->dt_s / sp->saturation_time_s;
     const double mflake = sp->snow_density_kgm3 * sp->dx_m * sp->dx_m * sp->dx_m / sp->threshold;
     const double nsat = sp->saltation_kgm3 * sp->dx_m * sp->dx_m * sp->dx_m / mflake;
     uint64_t lifted = 0;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(+:lifted) if(par))
-    for (int64_t c = 0; c < n; c++) {
+    for (int64_t c = c0; c < c1; c++) {
         if (kind[c] != SQ_SNOW_AIR) continue;
-        const int64_t b = c - sz; /* the cell below (b < 0: the ground) */
-        const bool supported = b < 0 || kind[b] != SQ_SNOW_AIR;
+        const int64_t b = c - sz; /* the cell below (b + g0 < 0: the ground) */
+        const bool ground = b + g0 < 0;
+        const bool supported = ground || kind[b] != SQ_SNOW_AIR;
         if (!supported) {
             /* resting flakes whose support eroded away fall again */
             if (dep[c]) {
@@ -421,14 +440,14 @@ uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
         if (!ustar) continue;
         const double us = ustar[c];
         if (!(us > ut)) continue;
-        const uint32_t avail = dep[c] + (b >= 0 && kind[b] == SQ_SNOW_SOLID ? dep[b] : 0u);
+        const uint32_t avail = dep[c] + (!ground && kind[b] == SQ_SNOW_SOLID ? dep[b] : 0u);
         if (avail == 0) continue;
         const double csat = eff * (1.0 - (ut * ut) / (us * us));
         const double csalt = air_next[c] / nsat;
         if (!(csat > csalt)) continue;
         const double e = rate * (csat - csalt) * nsat; /* expected flakes this step */
         sq__snow_rng r;
-        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ERODE, kp->step, c);
+        sq__snow_rng_init(&r, kp->seed, SQ_SNOW_RNG_ERODE, kp->step, g0 + c);
         const double x = e + sq__snow_rng_uniform_d(&r);
         uint32_t k = x >= (double)avail ? avail : (uint32_t)x;
         if (k == 0) continue;
@@ -443,9 +462,11 @@ uint64_t sq__snow_erode(const sq__snow_kparams *kp, const sq__snow_params *sp,
             if (dep[b] == 0) changed[b] = 2; /* the last flake eroded: back to air (below) */
         }
     }
-    /* kinds change only now, so every decision above saw the same state (thread-independent) */
+    /* kinds change only now, so every decision above saw the same state (thread-independent);
+     * the plane below the updated ones too (a slab's copy of its neighbour's edge plane) */
+    const int64_t e0 = c0 >= sz ? c0 - sz : 0;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(par))
-    for (int64_t c = 0; c < n; c++)
+    for (int64_t c = e0; c < c1; c++)
         if (changed[c] == 2) kind[c] = SQ_SNOW_AIR;
     return lifted;
 }

@@ -156,6 +156,8 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
     kp.seed = s->p.seed;
     kp.step = s->step;
     kp.threads = sq_context_threads(s->ctx);
+    kp.k0 = kp.kz0 = 0;
+    kp.k1 = kp.gnz = s->nz;
     const size_t bytes = (size_t)s->n * sizeof(uint32_t);
 
     double t0 = sq_time_now(), t1;

@@ -597,6 +597,13 @@ static void fill_face_row(const sq_grid *g, float *o, const ptrdiff_t st[3], con
 
 void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
 {
+    sq__grid_fill_ghosts_local(g, o, sy, sz, L, scalar);
+    /* a decomposed grid: the ghost planes toward the neighbouring slabs are their samples */
+    sq__grid_dist_halo_lattice(g, o, sy, sz, L);
+}
+
+void sq__grid_fill_ghosts_local(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L, int scalar)
+{
     int m[3];
     lattice_dims(g, L, m);
     const ptrdiff_t st[3] = {1, sy, sz};
@@ -648,8 +655,6 @@ void sq__grid_fill_ghosts(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int 
         SQ_OMP(omp for schedule(static))
         for (int q = -1; q <= m[tb]; q++) fill_face_row(g, o, st, m, L, &gf[f], q);
     }
-    /* a decomposed grid: the ghost planes toward the neighbouring slabs are their samples */
-    sq__grid_dist_halo_lattice(g, o, sy, sz, L);
 }
 
 /* ---- fixed faces --------------------------------------------------------------------------- */
@@ -658,6 +663,7 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
     const uint8_t *fl = g->flags;
     const int nt = sq_context_threads(g->ctx);
     (void)nt;
+    sq__grid_dist_batch_begin(g); /* the three components' ghost planes in one message */
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];
         const ptrdiff_t off = c == 0 ? 1 : c == 1 ? g->sy : g->sz; /* cell lo -> hi */
@@ -712,15 +718,18 @@ void sq__grid_enforce_velocity_ex(sq_grid *g, bool clip_backflow)
         }
         sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
     }
+    sq__grid_dist_batch_end(g);
 }
 
 void sq_grid_apply_boundary(sq_grid *g)
 {
     if (!g) return;
     if (g->topology_dirty) sq__grid_update_topology(g);
+    sq__grid_dist_batch_begin(g);
     sq__grid_enforce_velocity(g);
     for (int s = 0; s < g->d.scalar_count; s++)
         sq__grid_fill_ghosts(g, g->scalar[s].origin, g->sy, g->sz, SQ__L_CELL, s);
+    sq__grid_dist_batch_end(g);
     g->vel_version++;
 }
 

@@ -445,11 +445,13 @@ static sq_result ensure_displacements(sq_grid *g, float dt, float drift, bool fw
     /* a decomposed grid: one slab's change (its inflow face) is every slab's recompute */
     if (g->halo) valid = !sq__grid_dist_any(g, !valid);
     if (valid) return SQ_OK;
+    sq__grid_dist_batch_begin(g); /* ghost planes and shared faces in one message */
     sq__grid_enforce_velocity(g);
+    sq__grid_dist_sync_faces(g); /* faces held by two slabs: the upper slab's */
+    sq__grid_dist_batch_end(g);
     sq_grid *w = g;
-    if (g->halo) { /* faces held by two slabs: the upper slab's (as before a projection) */
+    if (g->halo) {
         g->trace_valid = false;
-        sq__grid_dist_sync_faces(g);
         const sq_result r = sq__grid_dist_widen(g, dt, &w);
         if (r != SQ_OK) return r;
     }
@@ -534,8 +536,10 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
         }
     }
     if (!mac) return;
+    sq__grid_dist_batch_begin(g);
     for (int f = 0; f < nf; f++)
         sq__grid_fill_ghosts(g, hat[f], sy, sz, L, scalar0 >= 0 ? scalar0 + f : -1);
+    sq__grid_dist_batch_end(g);
     const bool clamp = g->d.limiter == SQ_LIMITER_CLAMP;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
     for (int k = 0; k < mzn; k++) {
@@ -623,6 +627,7 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
         float *rhi[1] = {scratch_origin(w, SQ__S_BLOCK + 1, f)};
         advect_fields(w, c + 1, -1, &F, 1, src, hat, out, rhi, mac, 0u);
     }
+    sq__grid_dist_batch_begin(g); /* the shared faces with the ghost planes: one message */
     if (w == g) {
         for (int c = 0; c < 3; c++) swap_in(g, &g->vel[c], SQ__S_OUT + c);
     } else {
@@ -635,6 +640,7 @@ sq_result sq__grid_advect_velocity(sq_grid *g, float dt)
     g->trace_valid = false;
     g->vel_version++;
     sq__grid_enforce_velocity(g);
+    sq__grid_dist_batch_end(g);
     return SQ_OK;
 }
 
@@ -649,35 +655,50 @@ sq_result sq__grid_advect_scalars(sq_grid *g, int s0, int count, float dt, float
     sq_grid *w = sq__grid_dist_wide(g);
     g->stats.last_cfl = (double)g->trace_cfl;
     const int bs = mac ? 2 : 3; /* MacCormack: hats in 0..1, limiter highs in 2..3 */
-    for (int b0 = s0; b0 < s0 + count; b0 += bs) {
-        const int nb = s0 + count - b0 < bs ? s0 + count - b0 : bs;
-        const float *src[3];
-        float *hat[3], *out[3], *rhi[3];
-        unsigned nonneg = 0;
-        for (int q = 0; q < nb; q++) {
-            sq_field3 *f = &g->scalar[b0 + q];
-            sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+    /* a decomposed grid: groups of scalars widened in one exchange (their ghost planes toward
+     * the neighbours come with the widened copy); the results' ghost planes in one message */
+    const int gs = w == g ? count : sq__grid_dist_wide_scalars(g);
+    sq__grid_dist_batch_begin(g);
+    for (int g0 = s0; g0 < s0 + count; g0 += gs) {
+        const int ng = s0 + count - g0 < gs ? s0 + count - g0 : gs;
+        if (w != g) {
+            for (int q = 0; q < ng; q++) {
+                sq_field3 *f = &g->scalar[g0 + q];
+                sq__grid_fill_ghosts_local(g, f->origin, f->sy, f->sz, SQ__L_CELL, g0 + q);
+            }
+            sq__grid_dist_widen_scalars(g, g0, ng); /* into w->scalar[0 .. ng) */
         }
-        if (w != g) sq__grid_dist_widen_scalars(g, b0, nb); /* into w->scalar[0 .. nb) */
-        for (int q = 0; q < nb; q++) {
-            sq_field3 *f = w == g ? &g->scalar[b0 + q] : &w->scalar[q];
-            src[q] = f->origin;
-            hat[q] = scratch_origin(w, SQ__S_BLOCK + q, f);
-            out[q] = scratch_origin(w, SQ__S_OUT + q, f);
-            rhi[q] = scratch_origin(w, SQ__S_BLOCK + 2 + q, f);
-            if ((g->d.scalar_nonnegative >> (b0 + q)) & 1u) nonneg |= 1u << q;
-        }
-        lat F = make_lat(w, src[0], w->sy, w->sz, SQ__L_CELL);
-        advect_fields(w, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
-        for (int q = 0; q < nb; q++) {
-            sq_field3 *f = &g->scalar[b0 + q];
+        for (int b0 = g0; b0 < g0 + ng; b0 += bs) {
+            const int nb = g0 + ng - b0 < bs ? g0 + ng - b0 : bs;
+            const float *src[3];
+            float *hat[3], *out[3], *rhi[3];
+            unsigned nonneg = 0;
             if (w == g)
-                swap_in(g, f, SQ__S_OUT + q);
-            else
-                sq__grid_dist_narrow(g, out[q], SQ__L_CELL, f->origin);
-            sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+                for (int q = 0; q < nb; q++) {
+                    sq_field3 *f = &g->scalar[b0 + q];
+                    sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+                }
+            for (int q = 0; q < nb; q++) {
+                sq_field3 *f = w == g ? &g->scalar[b0 + q] : &w->scalar[b0 - g0 + q];
+                src[q] = f->origin;
+                hat[q] = scratch_origin(w, SQ__S_BLOCK + q, f);
+                out[q] = scratch_origin(w, SQ__S_OUT + q, f);
+                rhi[q] = scratch_origin(w, SQ__S_BLOCK + 2 + q, f);
+                if ((g->d.scalar_nonnegative >> (b0 + q)) & 1u) nonneg |= 1u << q;
+            }
+            lat F = make_lat(w, src[0], w->sy, w->sz, SQ__L_CELL);
+            advect_fields(w, SQ__L_CELL, b0, &F, nb, src, hat, out, mac ? rhi : NULL, mac, nonneg);
+            for (int q = 0; q < nb; q++) {
+                sq_field3 *f = &g->scalar[b0 + q];
+                if (w == g)
+                    swap_in(g, f, SQ__S_OUT + q);
+                else
+                    sq__grid_dist_narrow(g, out[q], SQ__L_CELL, f->origin);
+                sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, SQ__L_CELL, b0 + q);
+            }
         }
     }
+    sq__grid_dist_batch_end(g);
     return SQ_OK;
 }
 

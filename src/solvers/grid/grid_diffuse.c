@@ -391,9 +391,11 @@ static void scalars_vertical_implicit(sq_grid *g, float *nu, float s_pr, float *
             }
         }
     }
+    sq__grid_dist_batch_begin(g);
     for (int sidx = 0; sidx < ns; sidx++)
         sq__grid_fill_ghosts(g, g->scalar[sidx].origin, g->scalar[sidx].sy, g->scalar[sidx].sz,
                              SQ__L_CELL, sidx);
+    sq__grid_dist_batch_end(g);
 }
 
 sq_result sq_grid_set_eddy_scalars(sq_grid *g, double prandtl_t, int theta_idx,
@@ -453,12 +455,14 @@ sq_result sq_grid_diffuse_eddy(sq_grid *g, double nu_mol, double kappa, double d
     g->stats.last_diffusion_implicit = ntmax > 0.0f || mol > 1.0f / 6.0f;
     if (ntmax > 0.0f) {
         const float mol_in_z = do_mol ? 0.0f : (float)nu_mol;
+        sq__grid_dist_batch_begin(g); /* both components' ghost planes in one message */
         for (int c = 0; c < 2; c++) {
             sq_field3 *f = &g->vel[c];
             vertical_implicit(g, c, nu, mol_in_z, s, g->scratch[1] + (f->origin - f->base),
                               g->scratch[2] + (f->origin - f->base));
             sq__grid_fill_ghosts(g, f->origin, f->sy, f->sz, c + 1, -1);
         }
+        sq__grid_dist_batch_end(g);
     }
     if (ntmax > 0.0f && g->d.wall_roughness_m > 0.0) /* the ground's log-law stress */
         sq__grid_wall_stress(g, kappa, g->d.wall_roughness_m, (float)dt_s);

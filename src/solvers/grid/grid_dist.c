@@ -30,6 +30,12 @@
 
 #define MOD "grid"
 
+/* Ghost fills of several arrays that travel in one message per neighbour (see
+ * sq__grid_dist_batch_begin); more arrays than this flush early. */
+#define HALO_BATCH 8
+/* The widened copy holds up to this many scalars, widened in one exchange. */
+#define WIDE_SCALARS 8
+
 struct sq__grid_halo {
     sq_par_block b;
     int parity;       /* (lo x + lo y + lo z) & 1: global red-black colour of local cell 0 */
@@ -37,14 +43,25 @@ struct sq__grid_halo {
     int nb[6];        /* its rank (-1: no inner face) */
     sq_boundary boundary[6]; /* the whole grid's faces (swapped in for the coarse levels) */
     bool periodic[3];
-    unsigned char *buf; /* 2 send + 2 receive planes of the largest face, 4 bytes a cell */
+    unsigned char *buf; /* 2 send + 2 receive regions of HALO_BATCH planes of the largest face,
+                           4 bytes a cell */
     size_t plane_bytes;
+    /* the ghost fills recorded since the open batch began (sq__grid_dist_batch_begin), and
+     * whether the shared faces are to be synced with them */
+    int batch_depth, npend;
+    bool pend_faces;
+    struct {
+        float *o;
+        ptrdiff_t sy, sz;
+        int L;
+    } pend[HALO_BATCH];
     uint64_t bytes_exchanged;
     /* advection: the slab widened along the split axis (see sq__grid_dist_widen) */
     int ax;              /* the split axis */
     bool gperiodic[3];   /* the whole grid's periodic axes */
     sq_grid *wide;       /* the widened copy, NULL until the first advection */
     int width, cap;      /* planes taken from each neighbour now; allocated for cap */
+    int wscalars;        /* the copy's scalar arrays (the grid's scalars, 3 to WIDE_SCALARS) */
     unsigned char *xbuf; /* 2 send + 2 receive buffers of xside bytes */
     size_t xside;
 };
@@ -96,7 +113,7 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
     for (int a = 0; a < 3; a++) d->origin_m[a] += (double)b.lo[a] * d->cell_size_m;
     d->cells = b.n;
     h->plane_bytes = plane * sizeof(float);
-    h->buf = (unsigned char *)sq_alloc(ctx, 4 * h->plane_bytes);
+    h->buf = (unsigned char *)sq_alloc(ctx, 4 * (HALO_BATCH + 1) * h->plane_bytes);
     if (!h->buf) {
         sq_free(ctx, h);
         return SQ_ERR_OUT_OF_MEMORY;
@@ -107,12 +124,12 @@ sq_result sq__grid_dist_setup(sq_context *ctx, sq_grid_desc *d, sq__grid_halo **
     return SQ_OK;
 }
 
-static void wide_free(sq_context *ctx, sq_grid *w);
+static void wide_free(sq_context *ctx, sq_grid *w, int ns);
 
 void sq__grid_dist_free(sq_context *ctx, sq__grid_halo *h)
 {
     if (!h) return;
-    wide_free(ctx, h->wide);
+    wide_free(ctx, h->wide, h->wscalars);
     sq_free(ctx, h->xbuf);
     sq_free(ctx, h->buf);
     sq_free(ctx, h);
@@ -169,30 +186,90 @@ static size_t planes_copy(unsigned char *o, ptrdiff_t sy, ptrdiff_t sz, size_t e
                           int a, int p0, int cnt, unsigned char *buf, bool unpack);
 static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t *sz);
 
+/* Exchanges the ghost planes along the split axis of the recorded arrays, all in one message
+ * per neighbour (the arrays' planes one after another, in the order they were recorded). */
+static void halo_flush(sq_grid *g)
+{
+    sq__grid_halo *h = g->halo;
+    const int a = h->ax, np = h->npend;
+    const bool faces = h->pend_faces;
+    h->npend = 0;
+    h->pend_faces = false;
+    if (np == 0 && !faces) return;
+    const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
+    const size_t region = (HALO_BATCH + 1) * h->plane_bytes;
+    unsigned char *sb[2] = {h->buf, h->buf + region};
+    unsigned char *rb[2] = {h->buf + 2 * region, h->buf + 3 * region};
+    size_t by[2] = {0, 0};
+    for (int e = 0; e < np; e++) {
+        int m[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, h->pend[e].L, m, &y, &z);
+        const bool face = h->pend[e].L - 1 == a;
+        unsigned char *ob = (unsigned char *)h->pend[e].o;
+        /* to the minus side: my first sample past the shared face (face lattice) or cell 0;
+         * to the plus side: my last cell, or the face before the shared one */
+        if (nb[0] >= 0)
+            by[0] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, face ? 1 : 0, 1,
+                                 sb[0] + by[0], false);
+        if (nb[1] >= 0)
+            by[1] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, face ? m[a] - 2 : m[a] - 1,
+                                 1, sb[1] + by[1], false);
+    }
+    /* the shared faces: face 0 of the velocity normal to the split travels to the minus
+     * neighbour, whose face n it replaces (with its tangential ghosts: it is applied after
+     * the local ghost fills) */
+    size_t rby[2] = {by[0], by[1]};
+    sq_field3 *fv = &g->vel[a];
+    int mf[3];
+    ptrdiff_t fy, fz;
+    lat_layout(g->n, a + 1, mf, &fy, &fz);
+    if (faces && nb[0] >= 0)
+        by[0] += planes_copy((unsigned char *)fv->origin, fv->sy, fv->sz, 4, mf, a, 0, 1, sb[0] + by[0], false);
+    if (faces && nb[1] >= 0) rby[1] += (size_t)(mf[(a + 1) % 3] + 2) * (size_t)(mf[(a + 2) % 3] + 2) * 4;
+    const void *const sbuf[2] = {sb[0], sb[1]};
+    void *const rbuf[2] = {rb[0], rb[1]};
+    (void)sq_par_exchange_pair(nb, sbuf, by, rbuf, rby); /* planes fit buf (setup) */
+    h->bytes_exchanged += by[0] + by[1];
+    size_t off[2] = {0, 0};
+    for (int e = 0; e < np; e++) {
+        int m[3];
+        ptrdiff_t y, z;
+        lat_layout(g->n, h->pend[e].L, m, &y, &z);
+        unsigned char *ob = (unsigned char *)h->pend[e].o;
+        if (nb[0] >= 0)
+            off[0] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, -1, 1, rb[0] + off[0], true);
+        if (nb[1] >= 0)
+            off[1] += planes_copy(ob, h->pend[e].sy, h->pend[e].sz, 4, m, a, m[a], 1, rb[1] + off[1], true);
+    }
+    if (faces && nb[1] >= 0)
+        planes_copy((unsigned char *)fv->origin, fv->sy, fv->sz, 4, mf, a, mf[a] - 1, 1, rb[1] + off[1], true);
+}
+
 void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
 {
     sq__grid_halo *h = g->halo;
     if (!h) return;
-    const int a = h->ax;
-    int m[3];
-    ptrdiff_t y, z;
-    lat_layout(g->n, L, m, &y, &z);
-    const bool face = L - 1 == a;
-    const int nb[2] = {h->nb[2 * a], h->nb[2 * a + 1]};
-    unsigned char *sb[2] = {h->buf, h->buf + h->plane_bytes};
-    unsigned char *rb[2] = {h->buf + 2 * h->plane_bytes, h->buf + 3 * h->plane_bytes};
-    unsigned char *ob = (unsigned char *)o;
-    size_t by[2] = {0, 0};
-    /* to the minus side: my first sample past the shared face (face lattice) or cell 0; to
-     * the plus side: my last cell, or the face before the shared one */
-    if (nb[0] >= 0) by[0] = planes_copy(ob, sy, sz, 4, m, a, face ? 1 : 0, 1, sb[0], false);
-    if (nb[1] >= 0) by[1] = planes_copy(ob, sy, sz, 4, m, a, face ? m[a] - 2 : m[a] - 1, 1, sb[1], false);
-    const void *const sbuf[2] = {sb[0], sb[1]};
-    void *const rbuf[2] = {rb[0], rb[1]};
-    (void)sq_par_exchange_pair(nb, sbuf, by, rbuf, by); /* planes fit buf (setup) */
-    h->bytes_exchanged += by[0] + by[1];
-    if (nb[0] >= 0) planes_copy(ob, sy, sz, 4, m, a, -1, 1, rb[0], true);
-    if (nb[1] >= 0) planes_copy(ob, sy, sz, 4, m, a, m[a], 1, rb[1], true);
+    if (h->npend == HALO_BATCH) halo_flush(g);
+    h->pend[h->npend].o = o;
+    h->pend[h->npend].sy = sy;
+    h->pend[h->npend].sz = sz;
+    h->pend[h->npend].L = L;
+    h->npend++;
+    if (h->batch_depth == 0) halo_flush(g);
+}
+
+void sq__grid_dist_batch_begin(sq_grid *g)
+{
+    if (g->halo) g->halo->batch_depth++;
+}
+
+void sq__grid_dist_batch_end(sq_grid *g)
+{
+    sq__grid_halo *h = g->halo;
+    if (!h) return;
+    if (h->batch_depth > 0) h->batch_depth--;
+    if (h->batch_depth == 0) halo_flush(g);
 }
 
 void sq__grid_dist_face_links(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L)
@@ -259,6 +336,10 @@ void sq__grid_dist_sync_faces(sq_grid *g)
 {
     sq__grid_halo *h = g->halo;
     if (!h) return;
+    if (h->batch_depth > 0) { /* with the batch's ghost planes */
+        h->pend_faces = true;
+        return;
+    }
     for (int a = 0; a < 3; a++) {
         if (!h->inner[2 * a] && !h->inner[2 * a + 1]) continue;
         sq_field3 *f = &g->vel[a];
@@ -339,12 +420,12 @@ static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t
     *sz = *sy * (ptrdiff_t)(m[1] + 2);
 }
 
-static void wide_free(sq_context *ctx, sq_grid *w)
+static void wide_free(sq_context *ctx, sq_grid *w, int ns)
 {
     if (!w) return;
     for (int c = 0; c < 3; c++) sq_free(ctx, w->vel[c].base);
     if (w->scalar)
-        for (int q = 0; q < 3; q++) sq_free(ctx, w->scalar[q].base);
+        for (int q = 0; q < ns; q++) sq_free(ctx, w->scalar[q].base);
     sq_free(ctx, w->scalar);
     sq_free(ctx, w->flags);
     sq_free(ctx, w->scratch_block);
@@ -371,11 +452,13 @@ static sq_result wide_alloc(sq_grid *g, int cap)
 {
     sq__grid_halo *h = g->halo;
     sq_context *ctx = g->ctx;
-    wide_free(ctx, h->wide);
+    wide_free(ctx, h->wide, h->wscalars);
     sq_free(ctx, h->xbuf);
     h->wide = NULL;
     h->xbuf = NULL;
     h->cap = 0;
+    const int ns = g->d.scalar_count < 3 ? 3 : g->d.scalar_count < WIDE_SCALARS ? g->d.scalar_count : WIDE_SCALARS;
+    h->wscalars = ns;
     sq_grid *w = (sq_grid *)sq_alloc_zero(ctx, sizeof *w);
     if (!w) return SQ_ERR_OUT_OF_MEMORY;
     int n[3] = {g->n[0], g->n[1], g->n[2]};
@@ -384,21 +467,22 @@ static sq_result wide_alloc(sq_grid *g, int cap)
     w->scratch_count = count;
     bool ok = true;
     for (int c = 0; c < 3; c++) ok = ok && (w->vel[c].base = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
-    w->scalar = (sq_field3 *)sq_alloc_zero(ctx, 3 * sizeof(sq_field3));
+    w->scalar = (sq_field3 *)sq_alloc_zero(ctx, (size_t)ns * sizeof(sq_field3));
     ok = ok && w->scalar;
-    for (int q = 0; q < 3 && ok; q++) ok = (w->scalar[q].base = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
+    for (int q = 0; q < ns && ok; q++) ok = (w->scalar[q].base = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
     ok = ok && (w->flags = (uint8_t *)sq_alloc_zero(ctx, count));
     ok = ok && (w->scratch_block = (float *)sq_alloc_zero(ctx, 4 * count * sizeof(float)));
     for (int q = 0; q < 4 && ok; q++) w->scratch[q] = w->scratch_block + (size_t)q * count;
     for (int q = 4; q < SQ__SCRATCH && ok; q++) ok = (w->scratch[q] = (float *)sq_alloc_zero(ctx, count * sizeof(float)));
-    /* a side's message: cap planes of the 3 velocity components and the flags, or of 3
-     * scalars (the largest plane: n + 3 samples a tangential axis, ghosts included) */
+    /* a side's message: cap planes of the 3 velocity components and the flags, or of the
+     * copy's scalars (the largest plane: n + 3 samples a tangential axis, ghosts included) */
     const int ta = h->ax == 0 ? 1 : 0, tb = h->ax == 2 ? 1 : 2;
     const size_t plane = (size_t)(g->n[ta] + 3) * (size_t)(g->n[tb] + 3);
-    h->xside = (size_t)cap * plane * (3 * sizeof(float) + 1);
+    const size_t per = 3 * sizeof(float) + 1 > ns * sizeof(float) ? 3 * sizeof(float) + 1 : ns * sizeof(float);
+    h->xside = (size_t)cap * plane * per;
     h->xbuf = ok ? (unsigned char *)sq_alloc(ctx, 4 * h->xside) : NULL;
     if (!ok || !h->xbuf) {
-        wide_free(ctx, w);
+        wide_free(ctx, w, ns);
         return SQ_ERR_OUT_OF_MEMORY;
     }
     w->ctx = ctx;
@@ -425,7 +509,7 @@ static void wide_layout(sq_grid *g, int width)
     int m[3];
     lat_layout(w->n, SQ__L_CELL, m, &w->sy, &w->sz);
     w->cell_count = (size_t)w->sz * (size_t)(m[2] + 2);
-    for (int c = 0; c < 6; c++) {
+    for (int c = 0; c < 3 + h->wscalars; c++) {
         sq_field3 *f = c < 3 ? &w->vel[c] : &w->scalar[c - 3];
         lat_layout(w->n, c < 3 ? c + 1 : SQ__L_CELL, m, &f->sy, &f->sz);
         f->n = (sq_dims){m[0], m[1], m[2]};
@@ -592,14 +676,17 @@ sq_result sq__grid_dist_widen(sq_grid *g, float dt, sq_grid **out)
     return SQ_OK;
 }
 
+int sq__grid_dist_wide_scalars(const sq_grid *g) { return g->halo ? g->halo->wscalars : 0; }
+
 void sq__grid_dist_widen_scalars(sq_grid *g, int s0, int count)
 {
     sq_grid *w = g->halo->wide;
-    wide_arr arr[3];
-    for (int q = 0; q < count && q < 3; q++)
+    wide_arr arr[WIDE_SCALARS];
+    const int n = count < g->halo->wscalars ? count : g->halo->wscalars;
+    for (int q = 0; q < n; q++)
         arr[q] = (wide_arr){(unsigned char *)g->scalar[s0 + q].origin, (unsigned char *)w->scalar[q].origin,
                             g->sy, g->sz, w->sy, w->sz, SQ__L_CELL, sizeof(float)};
-    wide_fill(g, arr, count < 3 ? count : 3);
+    wide_fill(g, arr, n);
 }
 
 void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *slab)

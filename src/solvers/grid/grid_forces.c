@@ -386,8 +386,10 @@ sq_result sq_grid_confine_vorticity(sq_grid *g, double eps, bool helicity_adapti
             }
         }
     float *fc[3] = {wx, wy, wz};
+    sq__grid_dist_batch_begin(g);
     for (int c = 0; c < 3; c++)
         sq__grid_fill_ghosts(g, fc[c] + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
+    sq__grid_dist_batch_end(g);
     /* pass 3: faces get the mean of their cells' forces */
     for (int c = 0; c < 3; c++) {
         sq_field3 *f = &g->vel[c];

@@ -191,6 +191,11 @@ static inline int sq__link_coef(uint8_t fa, uint8_t fb)
  * the scalar for inflow values, or -1 for a generic zero-gradient cell field. */
 void sq__grid_fill_ghosts(sq_grid *g, float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
                           int scalar);
+/* The same without the exchange toward neighbouring slabs (their ghost planes keep what they
+ * held): for a field whose neighbours' planes arrive another way (the advection's widened
+ * copy). */
+void sq__grid_fill_ghosts_local(sq_grid *g, float *origin, ptrdiff_t sy, ptrdiff_t sz, int L,
+                                int scalar);
 /* Rebuilds flags-derived data (links, pins, multigrid, ground distance) when solids or
  * boundaries changed. */
 sq_result sq__grid_update_topology(sq_grid *g);
@@ -248,11 +253,18 @@ void sq__grid_dist_global_bc(sq_grid *g);
 void sq__grid_dist_sum_f32(sq_grid *g, float *v, size_t n);
 /* Collective: the normal velocity on every inner face (held by both slabs) becomes the upper
  * slab's (its face 0; across a split periodic axis the first slab's, as one rank's periodic
- * face n copies face 0). */
+ * face n copies face 0). Inside a batch (sq__grid_dist_batch_begin) the faces travel with the
+ * batch's ghost planes and are set, tangential ghosts included, after them. */
 void sq__grid_dist_sync_faces(sq_grid *g);
 /* Collective: the ghost planes toward neighbouring slabs of a padded lattice-L array (origin
  * o, strides sy, sz) become the neighbours' samples next to them (no-op when whole). */
 void sq__grid_dist_halo_lattice(sq_grid *g, float *o, ptrdiff_t sy, ptrdiff_t sz, int L);
+/* Batches the ghost exchanges of several arrays: between begin and end (nestable),
+ * sq__grid_dist_halo_lattice only records its array, and end (the outermost) sends every
+ * recorded array's planes in one message per neighbour. The recorded arrays must not be
+ * written, nor their ghost planes read, until the batch ends. No-op on an undivided grid. */
+void sq__grid_dist_batch_begin(sq_grid *g);
+void sq__grid_dist_batch_end(sq_grid *g);
 /* Collective: link coefficients a (origin, strides) of face lattice L normal to the split
  * axis: the links across the slab faces (a[-1], a[n]) become the neighbours' (their a[n-1]
  * and a[0]), which they compute from their own cells. */
@@ -271,8 +283,11 @@ bool sq__grid_dist_any(const sq_grid *g, bool v);
 sq_result sq__grid_dist_widen(sq_grid *g, float dt, sq_grid **out);
 /* The widened copy (g itself when not decomposed). */
 sq_grid *sq__grid_dist_wide(sq_grid *g);
-/* Collective: the copy's scalar arrays 0..count-1 become scalars s0.. of the slab, widened. */
+/* Collective, one exchange: the copy's scalar arrays 0..count-1 become scalars s0.. of the
+ * slab, widened (count at most sq__grid_dist_wide_scalars). */
 void sq__grid_dist_widen_scalars(sq_grid *g, int s0, int count);
+/* The widened copy's scalar arrays (0 when not decomposed). */
+int sq__grid_dist_wide_scalars(const sq_grid *g);
 /* The slab's samples (interior of lattice L, every face it holds) from an array in the copy's
  * layout of lattice L (origin: its sample 0) into an array in the slab's layout. */
 void sq__grid_dist_narrow(const sq_grid *g, const float *wide, int L, float *slab);

@@ -1085,8 +1085,10 @@ static void solve_jacobi(sq_grid *g, float *phi, sq_grid_project_stats *st)
 sq_result sq__grid_project(sq_grid *g, float dt, sq_grid_project_stats *st)
 {
     memset(st, 0, sizeof *st);
-    sq__grid_dist_sync_faces(g); /* a decomposed grid: faces between slabs agree */
+    sq__grid_dist_batch_begin(g); /* a decomposed grid: faces between slabs agree, and the */
+    sq__grid_dist_sync_faces(g);  /* ghost planes: one message */
     sq__grid_enforce_velocity_ex(g, true);
+    sq__grid_dist_batch_end(g);
     float *phi = g->p.base; /* padded, level-0 layout */
     const size_t n = g->cell_count;
     /* warm start: phi = p dt from the previous step */

@@ -121,9 +121,11 @@ static void cell_winds(sq_grid *g, float *uc, float *vc, float *wc)
                 wc[c + i] = 0.5f * (w0[i] + w1[i]);
             }
         }
+    sq__grid_dist_batch_begin(g);
     sq__grid_fill_ghosts(g, uc + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
     sq__grid_fill_ghosts(g, vc + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
     sq__grid_fill_ghosts(g, wc + sq__cidx(g, 0, 0, 0), g->sy, g->sz, SQ__L_CELL, -1);
+    sq__grid_dist_batch_end(g);
 }
 
 /* Central difference of a cell-centred field at cell c along stride st (solids hold 0; at a
@@ -250,8 +252,10 @@ static float closure_coefficients(sq_grid *g, const sq_grid_sgs_desc *d, float d
     float *l = g->scratch[9], *kh = g->scratch[10];
     const float kmax = sq__grid_tke_coefficients(g, d, n2, l, nu, kh);
     if (dt > 0.0f) sq__grid_tke_sources(g, d, s2, n2, l, nu, kh, dt);
+    sq__grid_dist_batch_begin(g);
     sq__grid_dist_halo_lattice(g, nu + c0, g->sy, g->sz, SQ__L_CELL);
     sq__grid_dist_halo_lattice(g, kh + c0, g->sy, g->sz, SQ__L_CELL);
+    sq__grid_dist_batch_end(g);
     *kh_out = kh;
     return kmax;
 }
