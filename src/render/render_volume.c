@@ -67,6 +67,8 @@
 #define VOL_VERT_FLOATS 4          /* slice vertex: world xyz, light layer */
 #define VOL_MAX_TRI_VERTS 12       /* a hexagon as 4 triangles */
 #define VOL_LIGHT_GROUP 8          /* slabs per light pass without the blur ring (<= 8 outputs) */
+#define VOL_DUST_MARGIN 3          /* cells around the non-zero voxels where the sampled density
+                                      can be non-zero (trilinear 1, local maximum 1, B-spline 2) */
 #define VOL_TAU_STOP 20.0f         /* optical depth from the camera past which the eye pass draws
                                       no slice (volume_bounds.frag): what lies behind reaches the
                                       pixel through less than exp(-20) = 2e-9 of its radiance */
@@ -110,6 +112,8 @@ struct sq__volume_pass {
     GLuint vao_slices, vbo_slices, vao_empty;
     GLuint density_tex, noise_tex, baked_tex;
     bool density_sharp; /* density_tex is RGBA: density, local maximum, edge weight, 0 */
+    sq_vec3 dust_lo, dust_hi; /* world box outside which the drawn density is 0 (grown by
+                                 VOL_DUST_MARGIN cells around the non-zero voxels) */
     int dnx, dny, dnz;
     uint64_t version;
     const float *data;
@@ -740,6 +744,38 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
                             (double)v->density[i]);
         }
     }
+    /* the box around the non-zero voxels (index space), grown by VOL_DUST_MARGIN cells */
+    int lo[3] = {v->nx, v->ny, v->nz}, hi[3] = {-1, -1, -1};
+    for (int k = 0; k < v->nz; k++)
+        for (int j = 0; j < v->ny; j++) {
+            const float *row = v->density + ((size_t)k * v->ny + j) * v->nx;
+            int first = -1, last = -1;
+            for (int i = 0; i < v->nx; i++)
+                if (row[i] > 0.0f) {
+                    if (first < 0) first = i;
+                    last = i;
+                }
+            if (first < 0) continue;
+            lo[0] = first < lo[0] ? first : lo[0];
+            hi[0] = last > hi[0] ? last : hi[0];
+            lo[1] = j < lo[1] ? j : lo[1];
+            hi[1] = j > hi[1] ? j : hi[1];
+            lo[2] = k < lo[2] ? k : lo[2];
+            hi[2] = k > hi[2] ? k : hi[2];
+        }
+    if (hi[0] < 0) { /* no dust: an empty box */
+        vp->dust_lo = sq_v3(1.0f, 1.0f, 1.0f);
+        vp->dust_hi = sq_v3(0.0f, 0.0f, 0.0f);
+    } else {
+        const float cx = v->size_m.x / (float)v->nx, cy = v->size_m.y / (float)v->ny,
+                    cz = v->size_m.z / (float)v->nz, m = (float)VOL_DUST_MARGIN;
+        vp->dust_lo = sq_v3(v->origin_m.x + ((float)lo[0] - m) * cx,
+                            v->origin_m.y + ((float)lo[1] - m) * cy,
+                            v->origin_m.z + ((float)lo[2] - m) * cz);
+        vp->dust_hi = sq_v3(v->origin_m.x + ((float)hi[0] + 1.0f + m) * cx,
+                            v->origin_m.y + ((float)hi[1] + 1.0f + m) * cy,
+                            v->origin_m.z + ((float)hi[2] + 1.0f + m) * cz);
+    }
     const bool sharp = v->edge_sharpness > 0.0f;
     if (!vp->density_tex || vp->dnx != v->nx || vp->dny != v->ny || vp->dnz != v->nz ||
         vp->density_sharp != sharp) {
@@ -1064,6 +1100,13 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     glProgramUniform1i(pb, glGetUniformLocation(pb, "u_planes"), p->n);
     u1f(pb, "u_sigma_min", fminf(v->sigma_ext[0], fminf(v->sigma_ext[1], v->sigma_ext[2])));
     u1f(pb, "u_tau_stop", VOL_TAU_STOP);
+    sq_vec3 dlo = vp->dust_lo, dhi = vp->dust_hi;
+    if (v->mirror_y_m > 0.0f && dlo.x <= dhi.x) { /* mirrored beyond the y faces: all of y */
+        dlo.y = p->lo.y;
+        dhi.y = p->hi.y;
+    }
+    u3(pb, "u_dust_lo", dlo);
+    u3(pb, "u_dust_hi", dhi);
     return SQ_OK;
 }
 

@@ -19,8 +19,12 @@
 // more than the eye pass's; the smallest channel's extinction), and stops at the first slice
 // past which it exceeds u_tau_stop: the slices behind it are not drawn. What they would have
 // added, and the scene behind, reach the pixel through a transmittance below exp(-u_tau_stop),
-// so the picture changes by less than that fraction of the radiance behind.
+// so the picture changes by less than that fraction of the radiance behind. The walk runs only
+// inside the box around the dust (u_dust_lo/hi: clear air costs nothing) and gives up after
+// VOL_MARCH_DUSTY dusty slices (translucent dust: all slices drawn, as without the walk).
 #include "volume_common.glsl"
+
+
 
 layout(binding = 0) uniform sampler3D u_density; // as the eye pass samples it
 layout(binding = 2) uniform sampler2D u_depth; // opaque scene depth (window depth in [0, 1])
@@ -42,6 +46,8 @@ uniform float u_d_first;       // the eye pass's slice k lies on the plane s . x
 uniform int u_planes;          // number of slices
 uniform float u_sigma_min;     // smallest extinction per density unit over the channels
 uniform float u_tau_stop;      // optical depth past which the slices are not drawn; 0: all drawn
+uniform vec3 u_dust_lo, u_dust_hi; // a box outside which the density is 0 (render_volume.c)
+const int VOL_MARCH_DUSTY = 8; // dusty slices after which the walk gives up (translucent dust)
 
 // The distance of the slice at which the optical depth from the camera first exceeds
 // u_tau_stop along the ray p + t dir inside [b.x, b.y] (3e38 if it does not). The slices meet
@@ -50,6 +56,9 @@ uniform float u_tau_stop;      // optical depth past which the slices are not dr
 float opaque_distance(vec3 p, vec3 dir, vec2 b)
 {
     float u = dot(u_s, dir);
+    // only where there is dust: clear air adds nothing, and the slabs clipped to it are shorter
+    vec2 db = vol_box_interval(p, dir, u_dust_lo, u_dust_hi);
+    b = vec2(max(b.x, db.x), min(b.y, db.y));
     if (u_tau_stop <= 0.0 || b.x >= b.y || abs(u) < 0.05) return 3.0e38;
     float dt = u_spacing / abs(u);
     // the plane coordinate at t = b.x, and the first slice whose slab reaches past b.x
@@ -57,12 +66,15 @@ float opaque_distance(vec3 p, vec3 dir, vec2 b)
     float k0 = u > 0.0 ? floor(kf - 0.5) + 1.0 : ceil(kf + 0.5) - 1.0;
     float t0 = (u_d_first + k0 * u_spacing - dot(u_s, p)) / u;
     float tau = 0.0;
+    int dusty = 0;
     for (int j = 0; j < u_planes; j++) {
         float t = t0 + float(j) * dt;
         if (t - 0.5 * dt >= b.y) break;
         float len = max(min(t + 0.5 * dt, b.y) - max(t - 0.5 * dt, b.x), 0.0);
-        tau += vol_density_smooth(u_density, p + t * dir, u_tex_lo, u_tex_size) * u_sigma_min * len;
+        float rho = vol_density_smooth(u_density, p + t * dir, u_tex_lo, u_tex_size);
+        tau += rho * u_sigma_min * len;
         if (tau > u_tau_stop) return t;
+        if (rho > 0.0 && ++dusty >= VOL_MARCH_DUSTY) break;
     }
     return 3.0e38;
 }
