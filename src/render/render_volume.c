@@ -706,9 +706,12 @@ void sq__volume_edge_texture(const float *density, int nx, int ny, int nz, float
                 for (int c = k > 0 ? k - 1 : 0; c <= (k + 1 < nz ? k + 1 : k); c++)
                     for (int b = j > 0 ? j - 1 : 0; b <= (j + 1 < ny ? j + 1 : j); b++)
                         for (int a = i > 0 ? i - 1 : 0; a <= (i + 1 < nx ? i + 1 : i); a++) {
-                            const float x = fmaxf(density[((size_t)c * ny + b) * nx + a], 0.0f);
-                            mx = fmaxf(mx, x);
-                            mn = fminf(mn, x);
+                            /* comparisons, not fmaxf/fminf (a libm call each without
+                             * -ffinite-math-only; the density is finite, checked before) */
+                            const float d = density[((size_t)c * ny + b) * nx + a];
+                            const float x = d > 0.0f ? d : 0.0f;
+                            mx = x > mx ? x : mx;
+                            mn = x < mn ? x : mn;
                         }
                 float e = 0.0f;
                 if (mx > 0.0f) {
