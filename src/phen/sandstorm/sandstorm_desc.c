@@ -109,9 +109,10 @@ sq_result sq_sandstorm_validate(sq_context *ctx, const sq_sandstorm_desc *in, co
         modes = modes < 1 ? 1 : modes > 64 ? 64 : modes;
         const double peak = d.coldpool_spanwise * sqrt(2.0 * modes);
         if (!(d.coldpool_spanwise >= 0.0 && peak < 1.0 && d.coldpool_delta_t_k * (1.0 + peak) <= 20.0))
-            BAD("%scoldpool.spanwise_variation = %g; its %d modes can add up to %.3g x that, so "
+            BAD("%scoldpool.spanwise_variation = %g; its %d mode%s can add up to %.3g x that, so "
                 "the deficit %g K x (1 +- %.3g) must stay > 0 and <= 20 K (at most %.3g here)", P,
-                (double)d.coldpool_spanwise, modes, sqrt(2.0 * modes), (double)d.coldpool_delta_t_k,
+                (double)d.coldpool_spanwise, modes, modes == 1 ? "" : "s", sqrt(2.0 * modes),
+                (double)d.coldpool_delta_t_k,
                 peak, fmin(1.0, 20.0 / d.coldpool_delta_t_k - 1.0) / sqrt(2.0 * modes));
         if (d.coldpool_length_m < 0.0 || d.coldpool_length_m >= len)
             BAD("%scoldpool.length_m = %g m; the initial outflow must start inside the domain "
