@@ -68,3 +68,9 @@ finish() {
 
 # has_feature NAME: the squall under test was built with NAME (as `squall info` lists features)
 has_feature() { "$SQ" info 2>/dev/null | grep -Eq "^features:.* $1( |$)"; }
+
+# mpi_own_lines: stderr of an mpirun without the line libevent (inside Open MPI 4.1's runtime, not
+# squall) sometimes prints when a rank's socket closes while its exit is being handled ("[warn]
+# Epoll MOD(1) on fd 26 failed. ... Bad file descriptor"; seen in 1 of ~55 failing runs here):
+# the tests count squall's own lines.
+mpi_own_lines() { grep -v '^\[warn\] Epoll [A-Z]*([0-9]*) on fd [0-9]* failed\.' || true; }

@@ -21,7 +21,7 @@ check() {
     before=$(snapshot "$T")
     run_np "$np" "$@" > "$T/.out" 2> "$T/.err"
     rc=$?
-    err=$(cat "$T/.err")
+    err=$(mpi_own_lines < "$T/.err")
     rm -f "$T/.out" "$T/.err"
     after=$(snapshot "$T")
     [ "$rc" = "$code" ] || fail "-np $np squall $*: exit $rc, expected $code (stderr: $err)"

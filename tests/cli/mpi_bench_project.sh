@@ -21,6 +21,7 @@ printf '%s' "$two" | grep -q '"ranks": 2' || fail "np 2: ranks is not 2: $two"
     fail "np 2: not two ranks with bytes sent: $two"
 err=$(run_np 4 bench project --size 12x8x8 --reps 1 --threads 1 2>&1 >/dev/null)
 rc=$?
+err=$(printf '%s\n' "$err" | mpi_own_lines)
 [ "$rc" = 2 ] || fail "np 4 on 12 cells: exit $rc, expected 2 ($err)"
 [ "$(printf '%s\n' "$err" | grep -c .)" = 1 ] || fail "np 4 on 12 cells: not one line: $err"
 printf '%s' "$err" | grep -q "cannot be split over 4 ranks" || fail "np 4 on 12 cells: $err"
