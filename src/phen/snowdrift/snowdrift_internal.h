@@ -103,6 +103,9 @@ typedef struct sq__snow {
     /* wall-clock ms spent per stage since create (sq_snowdrift_get_stats) */
     double ms_transport, ms_deposit, ms_erode, ms_couple;
 } sq__snow;
+/* The kernel parameters of the snow's next step over its whole lattice (k0 = kz0 = 0,
+ * k1 = gnz = nz); a slab sets its own planes after. */
+void sq__snow_kparams_of(const sq__snow *s, sq__snow_kparams *kp);
 
 /* ---- kernels (snowdrift_kernels.c): pure functions over arrays ---------------------------- */
 

@@ -133,6 +133,23 @@ static bool plain_view(const sq_field_view *v, const sq__snow *s)
            v->sx == 1 && v->sy == s->nx && v->sz == (ptrdiff_t)s->nx * s->ny;
 }
 
+void sq__snow_kparams_of(const sq__snow *s, sq__snow_kparams *kp)
+{
+    memset(kp, 0, sizeof *kp);
+    kp->nx = s->nx;
+    kp->ny = s->ny;
+    kp->nz = s->nz;
+    kp->dt_over_dx = (float)(s->p.dt_s / s->p.dx_m);
+    kp->fall_cells = (float)(s->p.fall_speed_mps * s->p.dt_s / s->p.dx_m);
+    kp->periodic[0] = s->p.periodic[0];
+    kp->periodic[1] = s->p.periodic[1];
+    kp->seed = s->p.seed;
+    kp->step = s->step;
+    kp->threads = sq_context_threads(s->ctx);
+    kp->k0 = kp->kz0 = 0;
+    kp->k1 = kp->gnz = s->nz;
+}
+
 sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_view *ustar,
                         sq_lbm *lbm)
 {
@@ -146,18 +163,7 @@ sq_result sq__snow_step(sq__snow *s, const sq_field_view u[3], const sq_field_vi
         return sq__fail(s->ctx, SQ_ERR_INVALID_ARG, "snowdrift",
                         "friction-velocity view does not match the snow lattice");
     sq__snow_kparams kp;
-    kp.nx = s->nx;
-    kp.ny = s->ny;
-    kp.nz = s->nz;
-    kp.dt_over_dx = (float)(s->p.dt_s / s->p.dx_m);
-    kp.fall_cells = (float)(s->p.fall_speed_mps * s->p.dt_s / s->p.dx_m);
-    kp.periodic[0] = s->p.periodic[0];
-    kp.periodic[1] = s->p.periodic[1];
-    kp.seed = s->p.seed;
-    kp.step = s->step;
-    kp.threads = sq_context_threads(s->ctx);
-    kp.k0 = kp.kz0 = 0;
-    kp.k1 = kp.gnz = s->nz;
+    sq__snow_kparams_of(s, &kp);
     const size_t bytes = (size_t)s->n * sizeof(uint32_t);
 
     double t0 = sq_time_now(), t1;

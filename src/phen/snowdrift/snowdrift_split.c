@@ -104,17 +104,7 @@ sq_result sq__snow_slab_step(sq__snow_slab *sl, const float *ux, const float *uy
     const size_t P = sl->plane, pb = 5 * P;
     const int64_t sz = (int64_t)P;
     sq__snow_kparams kp;
-    memset(&kp, 0, sizeof kp);
-    kp.nx = s->nx;
-    kp.ny = s->ny;
-    kp.nz = s->nz;
-    kp.dt_over_dx = (float)(s->p.dt_s / s->p.dx_m);
-    kp.fall_cells = (float)(s->p.fall_speed_mps * s->p.dt_s / s->p.dx_m);
-    kp.periodic[0] = s->p.periodic[0];
-    kp.periodic[1] = s->p.periodic[1];
-    kp.seed = s->p.seed;
-    kp.step = s->step;
-    kp.threads = sq_context_threads(s->ctx);
+    sq__snow_kparams_of(s, &kp);
     kp.k0 = sl->below;
     kp.k1 = sl->below + sl->own;
     kp.kz0 = sl->lo - sl->below;
