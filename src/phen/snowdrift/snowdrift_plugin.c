@@ -102,6 +102,8 @@ static sq_result snowdrift_apply_live(void *self, const void *desc)
 #define SQ__PHEN_STATE_SAVE sq__snowdrift_save_state
 #undef SQ__PHEN_STATE_LOAD
 #define SQ__PHEN_STATE_LOAD sq__snowdrift_load_state
+#undef SQ__PHEN_FRAME_SYNC
+#define SQ__PHEN_FRAME_SYNC sq__snowdrift_frame_sync
 SQ__PHEN_PLUGIN_OBSERVING(snowdrift,
     "wind-driven snowfall and drifts: D3Q15 lattice-Boltzmann wind, snow on the lattice with "
     "deposition and erosion (S1)",
