@@ -61,6 +61,13 @@ if has_feature avalanche; then
     "$SQ" scene show alpine-avalanche |
         sed "s#data/dem/hef_srtm.tif#$DEM#; s#data/avalanche/hef_release.geojson#zerothick.geojson#" > n.yaml
     expect 2 "layers.slide.release.area = 'release' .*polygon 0 has thickness 0 m; a release thickness must be > 0 m" -- simulate n.yaml --set layers.slide.particles.spacing_m=3
+    # a void (no-data) in the DEM under the release polygon: the DEM cropped to the preset's
+    # region with the polygon burnt in as no-data (gdal-bin, installed by scripts/install-deps.sh)
+    gdal_translate -q -projwin 10.86 46.84 10.93 46.785 -a_nodata -32768 -ot Int16 "$DEM" void.tif
+    gdal_rasterize -q -burn -32768 -l hef_release "$SRC/data/avalanche/hef_release.geojson" void.tif
+    "$SQ" scene show alpine-avalanche |
+        sed "s#data/dem/hef_srtm.tif#void.tif#; s#data/avalanche/hef_release.geojson#$SRC/data/avalanche/hef_release.geojson#" > o.yaml
+    expect 2 "layers.slide.release.area = 'release': 5[0-9.]* % of the release lies where the DEM has no data .*a release needs measured terrain" -- render o.yaml --set layers.slide.particles.spacing_m=3
 fi
 cat > k.yaml <<YAML
 world:
