@@ -12,13 +12,19 @@
  * ms_deposit: deposition, roll-off, solidification; ms_erode; ms_couple: snow cells passed to
  * the wind lattice; ms_flakes: visual flakes moved and sized; ms_derived: snow cover; ms_budget:
  * metrics), read
- * from sq_snowdrift_get_stats outside the timed calls. */
+ * from sq_snowdrift_get_stats outside the timed calls; cpu_ms_per_frame is this process's CPU
+ * time (user + system), which unlike the wall time leaves out waits for descheduled partners.
+ * Under mpirun (the wind lattice and the snow split in z slabs, docs/mpi.md) every rank steps
+ * its slab and rank 0 prints the line with ranks, the slowest rank's ms per frame, the bytes
+ * all ranks sent and the meetings per frame, and per_rank. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #include "cases.h"
 #include "squall/io.h"
+#include "squall/par.h"
 #include "squall/plugin.h"
 #include "squall/scene.h"
 #include "squall/snowdrift.h"
@@ -43,6 +49,14 @@ typedef struct snow_bench {
     double frame_dt;
     sq_result err;
 } snow_bench;
+
+static double cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * ((double)u.ru_utime.tv_sec + (double)u.ru_stime.tv_sec) +
+           1e-3 * ((double)u.ru_utime.tv_usec + (double)u.ru_stime.tv_usec);
+}
 
 static void stage_ms(const sq_snowdrift_stats *st, double out[SD_COUNT])
 {
@@ -166,14 +180,32 @@ int sq_bench_snowdrift(const sq_bench_args *a)
     } else {
         sq_snowdrift_stats s0, s1;
         sq_snowdrift_get_stats(b.s, &s0);
+        const uint64_t meet0 = sq_par_meetings(), sent0 = sq_par_bytes_sent();
+        const double cpu0 = cpu_ms();
         const double t0 = sq_time_now();
         const sq_bench_stats st = sq_bench_time(step, &b, 0, a->reps);
         const double wall_ms = 1e3 * (sq_time_now() - t0);
+        const double cpu1 = cpu_ms();
+        const uint64_t meet1 = sq_par_meetings(), sent1 = sq_par_bytes_sent();
         sq_snowdrift_get_stats(b.s, &s1);
+        const double nfr = (double)(s1.steps - s0.steps);
+        /* under mpirun: every rank's figures to rank 0 (collective, before any rank prints) */
+        const int nr = sq_par_size(), me = sq_par_rank();
+        char ranks_json[4096] = "";
+        double slowest = st.median_ms, comm = 0.0;
+        if (nr > 1 && b.err == SQ_OK) {
+            const double plane = (double)d.cells[0] * d.cells[1];
+            const double mine[3] = {plane * (double)((int64_t)(me + 1) * d.cells[2] / nr -
+                                                     (int64_t)me * d.cells[2] / nr),
+                                    st.median_ms, nfr > 0 ? (double)(sent1 - sent0) / nfr : 0.0};
+            const sq_bench_rank_keys keys = {"ms_per_frame", "mcells_per_s",
+                                             "bytes_sent_per_frame"};
+            (void)sq_bench_per_rank(mine, &keys, ranks_json, sizeof ranks_json, &slowest, &comm);
+        }
         if (b.err != SQ_OK) {
             sq_cli_error("bench snowdrift: %s", sq_last_error());
             code = sq_cli_exit_code(b.err);
-        } else {
+        } else if (me == 0) {
             const double frames = (double)(s1.steps - s0.steps);
             const double lbm_steps = (double)(s1.lbm_steps - s0.lbm_steps);
             double m0[SD_COUNT], m1[SD_COUNT];
@@ -216,6 +248,16 @@ int sq_bench_snowdrift(const sq_bench_args *a)
             sq_json_bool(&j, "budget_exact", bu.fallen_flakes == bu.airborne_flakes +
                                                                     bu.deposited_flakes +
                                                                     bu.left_flakes);
+            sq_json_num(&j, "cpu_ms_per_frame", frames > 0 ? (cpu1 - cpu0) / frames : (double)NAN);
+            sq_json_int(&j, "ranks", nr);
+            if (nr > 1) {
+                sq_json_str(&j, "decomposition", "slabs along z (wind and snow)");
+                sq_json_num(&j, "ms_per_frame_slowest", slowest);
+                sq_json_num(&j, "comm_bytes_per_frame", comm);
+                sq_json_num(&j, "meetings_per_frame",
+                            frames > 0 ? (double)(meet1 - meet0) / frames : 0.0);
+                sq_json_raw(&j, "per_rank", ranks_json);
+            }
             sq_json_end(&j, stdout);
         }
     }

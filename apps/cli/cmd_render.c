@@ -62,7 +62,7 @@ static void render_usage(bool simulate)
            "  --checkpoint PATH    where (default squall.ckpt); replaced by each new one\n"
            "  --resume CHECKPOINT  continue a run from its checkpoint, bit-identically (the scene\n"
            "                       comes from the checkpoint; only output settings may change)\n"
-           "  --threads N          worker threads (default: all cores)\n"
+           "  --threads N          worker threads (default: OMP_NUM_THREADS, else all cores)\n"
            "  --quiet              no progress, only errors\n"
            "  --json               print a machine-readable summary on stdout\n\n"
            "Progress goes to stderr (a live line on a terminal, one summary line otherwise).\n"

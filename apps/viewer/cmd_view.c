@@ -38,7 +38,7 @@ static void view_usage(void)
            "  --full-res           always draw at full size (default: while the camera moves or\n"
            "                       a live change is made, draw smaller and scale up; still: full)\n"
            "  --overwrite          replace existing screenshots and saved files\n"
-           "  --threads N          simulation worker threads (default: all cores)\n"
+           "  --threads N          simulation worker threads (default: OMP_NUM_THREADS, else all cores)\n"
            "  --json               at exit, one JSON line: draw and simulation rates of the run\n"
            "  --quiet              only errors\n\n"
            "keys: Space pause/run, N single step, R reset, +/- speed, Tab orbit/fly camera,\n"

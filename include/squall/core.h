@@ -71,7 +71,8 @@ typedef enum sq_log_level {
 typedef void (*sq_log_fn)(void *user, sq_log_level level, const char *module, const char *msg);
 
 typedef struct sq_context_desc {
-    int threads;               /* worker threads for kernels; 0 = all available cores */
+    int threads;               /* worker threads for kernels; 0 = OMP_NUM_THREADS when set,
+                                * else all cores available to the process */
     sq_log_fn log;             /* NULL = silent */
     void *log_user;
     sq_log_level log_level;    /* messages below this level are dropped; 0 = INFO */
@@ -92,7 +93,7 @@ typedef struct sq_context sq_context;
 SQ_API sq_result sq_context_create(const sq_context_desc *desc, sq_context **out);
 /* Destroys the context (NULL accepted). Objects made with it must be destroyed before. */
 SQ_API void sq_context_destroy(sq_context *ctx);
-/* Worker threads the kernels use (desc.threads, or the core count for 0). */
+/* Worker threads the kernels use (desc.threads, or for 0 OMP_NUM_THREADS or the cores). */
 SQ_API int sq_context_threads(const sq_context *ctx);
 /* The context's default seed (desc.seed). */
 SQ_API uint64_t sq_context_seed(const sq_context *ctx);

@@ -223,6 +223,16 @@ SQ_API sq_result sq_lbm_get_friction_velocity(sq_lbm *lbm, sq_field_view *out);
 SQ_API sq_result sq_lbm_get_friction_velocity_at(sq_lbm *lbm, int64_t count,
                                                  const int64_t *cells, float *out);
 SQ_API sq_result sq_lbm_get_totals(sq_lbm *lbm, sq_lbm_totals *out);
+/* A split lattice (desc.decompose, several ranks): the density and velocity of this rank's
+ * slab only, gathered from no other rank (collective: the slab's boundaries are exchanged).
+ * The views hold the slab's planes, x fastest; *z0 is the global index of its first plane.
+ * Not split: the whole lattice's views and *z0 = 0. Valid until the next step; cells that
+ * sq_lbm_set_solid changes are updated in them as in sq_lbm_get_views. */
+SQ_API sq_result sq_lbm_get_slab_views(sq_lbm *lbm, sq_lbm_views *out, int *z0);
+/* sq_lbm_get_friction_velocity_at from the slab's views, for cells (global indices) of this
+ * rank's slab only (collective as sq_lbm_get_slab_views). */
+SQ_API sq_result sq_lbm_get_slab_friction_velocity_at(sq_lbm *lbm, int64_t count,
+                                                      const int64_t *cells, float *out);
 
 /* Names of the enumerators as the parameter tables spell them ("bgk", "zou-he"); static. */
 SQ_API const char *sq_lbm_collision_name(sq_lbm_collision c);

@@ -104,6 +104,11 @@ SQ_API sq_result sq_par_allgather_f32(const float *mine, const int64_t *counts, 
 SQ_API sq_result sq_par_gather_f32(const float *mine, const int64_t *counts, float *out);
 /* Collective: the same as sq_par_allgather_f32 for doubles. */
 SQ_API sq_result sq_par_allgather_f64(const double *mine, const int64_t *counts, double *out);
+/* Collective: the same for 64-bit integers (on every rank), and for unsigned 32-bit integers
+ * and bytes (on rank 0 only, as sq_par_gather_f32). */
+SQ_API sq_result sq_par_allgather_i64(const int64_t *mine, const int64_t *counts, int64_t *out);
+SQ_API sq_result sq_par_gather_u32(const uint32_t *mine, const int64_t *counts, uint32_t *out);
+SQ_API sq_result sq_par_gather_u8(const uint8_t *mine, const int64_t *counts, uint8_t *out);
 
 /* Bytes this rank sent through sq_par calls since sq_par_init (communication volume for the
  * benchmarks). */

@@ -70,7 +70,7 @@ typedef struct sq_snowdrift_desc {
     double saltation_kgm3;       /* airborne snow in a surface cell at saturation; 0 -> 0.05 */
     double snow_cfl;             /* largest flake displacement per snow step, cells; 0 -> 0.5 */
     /* drawables */
-    int visual_flakes;           /* falling-snow particles drawn; 0 -> 20000 */
+    int visual_flakes;           /* falling-snow particles drawn; 0 is physical (none) */
     double flake_radius_m;       /* drawn flake radius; 0 -> 0.03 m */
     /* smallest angular radius a flake is drawn with (mrad); a flake seen smaller is enlarged to
      * it and made fainter by (true/drawn radius)², keeping its projected area x opacity (a

@@ -24,10 +24,13 @@ uint64_t sq_physical_memory_bytes(void)
     return (uint64_t)pages * (uint64_t)page;
 }
 
+/* threads = 0: OpenMP's own choice, which is OMP_NUM_THREADS when it is set (so
+ * `mpirun -x OMP_NUM_THREADS=1` gives each rank one thread) and otherwise the cores this
+ * process may run on (its affinity mask: a rank that mpirun bound to one core gets 1). */
 static int available_cores(void)
 {
 #if SQ_HAVE_OPENMP
-    return omp_get_num_procs();
+    return omp_get_max_threads();
 #else
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     return n > 0 ? (int)n : 1;

@@ -475,9 +475,13 @@ void sq_par_broadcast(void *data, size_t bytes, int root)
 #endif
 }
 
-/* Allgatherv (root < 0) or Gatherv to root (out needed on root only). */
-static sq_result gather(const void *mine, const int64_t *counts, void *out, size_t elem, int root)
+/* Allgatherv (root < 0) or Gatherv to root (out needed on root only) of elements of `elem`
+ * bytes: 1 (bytes), 4 (floats, or unsigned 32-bit integers when `integer`), 8 (doubles, or
+ * signed 64-bit integers when `integer`). */
+static sq_result gather(const void *mine, const int64_t *counts, void *out, size_t elem, int root,
+                        bool integer)
 {
+    (void)integer; /* unused without MPI */
     (void)root; /* unused without MPI */
     if (par_size == 1 || !par_active) {
         if (out && out != mine) memmove(out, mine, (size_t)counts[0] * elem);
@@ -499,7 +503,9 @@ static sq_result gather(const void *mine, const int64_t *counts, void *out, size
         disp[r] = (int)at;
         at += counts[r];
     }
-    const MPI_Datatype t = elem == sizeof(float) ? MPI_FLOAT : MPI_DOUBLE;
+    const MPI_Datatype t = elem == 1   ? MPI_UINT8_T
+                           : elem == 4 ? (integer ? MPI_UINT32_T : MPI_FLOAT)
+                                       : (integer ? MPI_INT64_T : MPI_DOUBLE);
     if (root < 0) {
         par_sent += (uint64_t)counts[par_rank] * elem * (uint64_t)(par_size - 1);
         meet();
@@ -516,15 +522,30 @@ static sq_result gather(const void *mine, const int64_t *counts, void *out, size
 
 sq_result sq_par_allgather_f32(const float *mine, const int64_t *counts, float *out)
 {
-    return gather(mine, counts, out, sizeof(float), -1);
+    return gather(mine, counts, out, sizeof(float), -1, false);
 }
 
 sq_result sq_par_gather_f32(const float *mine, const int64_t *counts, float *out)
 {
-    return gather(mine, counts, out, sizeof(float), 0);
+    return gather(mine, counts, out, sizeof(float), 0, false);
 }
 
 sq_result sq_par_allgather_f64(const double *mine, const int64_t *counts, double *out)
 {
-    return gather(mine, counts, out, sizeof(double), -1);
+    return gather(mine, counts, out, sizeof(double), -1, false);
+}
+
+sq_result sq_par_allgather_i64(const int64_t *mine, const int64_t *counts, int64_t *out)
+{
+    return gather(mine, counts, out, sizeof(int64_t), -1, true);
+}
+
+sq_result sq_par_gather_u32(const uint32_t *mine, const int64_t *counts, uint32_t *out)
+{
+    return gather(mine, counts, out, sizeof(uint32_t), 0, true);
+}
+
+sq_result sq_par_gather_u8(const uint8_t *mine, const int64_t *counts, uint8_t *out)
+{
+    return gather(mine, counts, out, 1, 0, true);
 }

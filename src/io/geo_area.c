@@ -11,6 +11,7 @@
 #include <math.h>
 #include <ogr_api.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "geo_internal.h"
@@ -169,6 +170,45 @@ static sq_result polygonize(sq_context *ctx, const char *key, const char *path, 
     return SQ_OK;
 }
 
+/* The area a polygon that is not valid encloses once repaired (its lobes): > 0 for a ring
+ * that crosses itself, 0 for a degenerate one (collinear points), which the caller refuses as
+ * "zero area". */
+static double crossing_lobes_area(OGRGeometryH g)
+{
+    OGRGeometryH fixed = OGR_G_MakeValid(g);
+    if (!fixed) return 0.0;
+    const double a = OGR_G_Area(fixed);
+    OGR_G_DestroyGeometry(fixed);
+    return a;
+}
+
+/* A feature's attribute as a number: a text that is not one, NaN or an infinity is refused
+ * (a missing or null attribute leaves NAN: the caller's default applies). What range the
+ * value must have is the caller's rule (e.g. the avalanche's release thickness > 0). */
+static sq_result attribute_value(sq_context *ctx, const char *key, const sq_area_desc *desc,
+                                 OGRFeatureH f, int fi, int fidx, double *v)
+{
+    const OGRFieldType t = OGR_Fld_GetType(OGR_F_GetFieldDefnRef(f, fi));
+    if (t == OFTInteger || t == OFTInteger64 || t == OFTReal) {
+        *v = OGR_F_GetFieldAsDouble(f, fi);
+    } else {
+        const char *text = OGR_F_GetFieldAsString(f, fi);
+        char *end = NULL;
+        *v = strtod(text, &end);
+        while (end && (*end == ' ' || *end == '\t')) end++;
+        if (!text[0] || end == text || (end && *end))
+            return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                            "%s.file = '%s': feature %d's %s = '%s' is not a number", key,
+                            desc->path, fidx, desc->attribute, text);
+    }
+    if (!isfinite(*v))
+        return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                        "%s.file = '%s': feature %d's %s = %g is not a finite number "
+                        "(leave it out or null to use the default)", key, desc->path, fidx,
+                        desc->attribute, *v);
+    return SQ_OK;
+}
+
 sq_result sq_area_load(sq_context *ctx, const sq_area_desc *desc, sq_area *out)
 {
     if (!out) return sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD, "sq_area_load: out is NULL");
@@ -264,6 +304,17 @@ sq_result sq_area_load(sq_context *ctx, const sq_area_desc *desc, sq_area *out)
             src_span2 = (env.MaxX - env.MinX) * (env.MaxX - env.MinX) +
                         (env.MaxY - env.MinY) * (env.MaxY - env.MinY);
         }
+        /* a ring that crosses itself (a bow tie) has lobes whose signed areas cancel: name
+         * the defect, not a "zero area" (GEOS through OGR; the reason gives the place) */
+        if (g && OGR_G_IsValid(g) == 0 && crossing_lobes_area(g) > 1e-9 * src_span2) {
+            r = sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
+                         "%s.file = '%s': polygon feature %d is not a valid polygon (%s); a "
+                         "release or area boundary must not cross itself (QGIS: Vector > "
+                         "Geometry Tools > Fix Geometries)", key, desc->path, fidx,
+                         sq__geo_reason());
+            OGR_F_Destroy(f);
+            goto done;
+        }
         if (g && OGR_G_Transform(g, ct) != OGRERR_NONE) {
             r = sq__fail(ctx, SQ_ERR_INVALID_ARG, MOD,
                          "%s.file = '%s': feature %d does not transform to the world's CRS (%s)", key,
@@ -297,7 +348,13 @@ sq_result sq_area_load(sq_context *ctx, const sq_area_desc *desc, sq_area *out)
             double v = NAN;
             if (desc->attribute && desc->attribute[0]) {
                 const int fi = OGR_F_GetFieldIndex(f, desc->attribute);
-                if (fi >= 0 && OGR_F_IsFieldSetAndNotNull(f, fi)) v = OGR_F_GetFieldAsDouble(f, fi);
+                if (fi >= 0 && OGR_F_IsFieldSetAndNotNull(f, fi)) {
+                    r = attribute_value(ctx, key, desc, f, fi, fidx, &v);
+                    if (r != SQ_OK) {
+                        OGR_F_Destroy(f);
+                        goto done;
+                    }
+                }
             }
             b.fval[b.nf] = v;
             b.farea[b.nf] = area;

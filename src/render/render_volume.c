@@ -516,7 +516,16 @@ static sq_result ensure_eye_buffers(sq_renderer *r, sq__volume_pass *vp)
     glNamedFramebufferTexture(vp->bounds_fbo, GL_DEPTH_ATTACHMENT, vp->eye_depth, 0);
     const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
     glNamedFramebufferDrawBuffers(vp->bounds_fbo, 2, bufs);
-    sq_result res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
+    /* a driver that cannot hold a texture this large (llvmpipe: 1 GiB each) says
+     * GL_OUT_OF_MEMORY here; name the frame size instead of an incomplete frame buffer */
+    char what[160];
+    snprintf(what, sizeof what,
+             "the volume's eye buffers for a %dx%d frame (RGBA32F, %.2f GiB each; render a "
+             "smaller frame, --size)",
+             r->width, r->height, (double)r->width * r->height * 16.0 / 1073741824.0);
+    sq_result res = sq__gl_check(r->ctx, what);
+    if (res != SQ_OK) return res;
+    res = sq__gl_check_framebuffer(r->ctx, vp->bounds_fbo, "volume ray bounds");
     if (res != SQ_OK) return res;
     /* 32-bit floats: a hundred and more slices blend here (half floats would lose ~0.1 % of
      * the radiance, i.e. several % of a 5 % contrast) */

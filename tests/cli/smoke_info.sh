@@ -4,6 +4,14 @@
 . "$SQ_SOURCE_DIR/tests/cli/lib.sh"
 "$SQ" info > info.txt || fail "info exited $?"
 grep -q "threads:" info.txt || fail "info has no threads"
+# without --threads the worker count is OpenMP's: OMP_NUM_THREADS when set (mpirun -x
+# OMP_NUM_THREADS=1 gives each rank one thread, docs/mpi.md); --threads wins over it
+if grep -Eq "^features:.* openmp( |$)" info.txt; then
+    t=$(OMP_NUM_THREADS=3 "$SQ" info | sed -n 's/^threads: *//p')
+    [ "$t" = 3 ] || fail "OMP_NUM_THREADS=3: info says threads $t"
+    t=$(OMP_NUM_THREADS=3 "$SQ" info --threads 5 | sed -n 's/^threads: *//p')
+    [ "$t" = 5 ] || fail "OMP_NUM_THREADS=3 --threads 5: info says threads $t"
+fi
 if grep -Eq "^features:.* gl( |$)" info.txt; then
     grep -q "gl renderer:" info.txt || fail "info has no GL renderer line: $(cat info.txt)"
     "$SQ" info --json | python3 -c 'import json,sys; d=json.load(sys.stdin); assert d["threads"]>=1 and "gl_renderer" in d, d' || fail "info --json"

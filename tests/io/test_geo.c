@@ -7,6 +7,8 @@
  * works in its own directory under /tmp. The independent checks use GDAL directly. */
 #include <dirent.h>
 #include <errno.h>
+#include <math.h>
+#include <stdio.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -444,6 +446,32 @@ SQ_TEST(area_polygons_from_geojson_with_hole_and_attribute)
     write_text(p, "{\"type\":\"Feature\",\"properties\":{},\"geometry\":{\"type\":\"Point\","
                   "\"coordinates\":[10.80,46.80]}}");
     SQ_CHECK_ERR(sq_area_load(ctx, &d, &a), SQ_ERR_INVALID_ARG, "no polygon");
+    /* a bow tie: two lobes of 0.005 x 0.005 deg whose signed areas cancel (OGR's area: 0); it
+     * is named as a boundary that crosses itself, not as a zero area */
+    write_text(p, "{\"type\":\"Feature\",\"properties\":{},\"geometry\":{\"type\":\"Polygon\","
+                  "\"coordinates\":[[[10.80,46.80],[10.81,46.805],[10.81,46.80],[10.80,46.805],"
+                  "[10.80,46.80]]]}}");
+    SQ_CHECK_ERR(sq_area_load(ctx, &d, &a), SQ_ERR_INVALID_ARG, "must not cross itself");
+    /* an attribute that is text, NaN or infinite is refused; null keeps the default (NAN) */
+    static const char *const bad_thickness[] = {"\"thick\"", "NaN", "Infinity", "\"\""};
+    static const char *const bad_said[] = {"'thick' is not a number", "nan is not a finite",
+                                           "inf is not a finite", "'' is not a number"};
+    for (int k = 0; k < 4; k++) {
+        char text[512];
+        snprintf(text, sizeof text,
+                 "{\"type\":\"Feature\",\"properties\":{\"thickness\":%s},\"geometry\":"
+                 "{\"type\":\"Polygon\",\"coordinates\":[[[10.80,46.80],[10.81,46.80],"
+                 "[10.81,46.81],[10.80,46.81],[10.80,46.80]]]}}",
+                 bad_thickness[k]);
+        write_text(p, text);
+        SQ_CHECK_ERR(sq_area_load(ctx, &d, &a), SQ_ERR_INVALID_ARG, bad_said[k]);
+    }
+    write_text(p, "{\"type\":\"Feature\",\"properties\":{\"thickness\":null},\"geometry\":"
+                  "{\"type\":\"Polygon\",\"coordinates\":[[[10.80,46.80],[10.81,46.80],"
+                  "[10.81,46.81],[10.80,46.81],[10.80,46.80]]]}}");
+    SQ_CHECK_OK(sq_area_load(ctx, &d, &a));
+    SQ_CHECK(a.feature_count == 1 && isnan(a.feature_value[0]));
+    sq_area_release(ctx, &a);
     d.path = in_dir(p, sizeof p, "none.geojson");
     SQ_CHECK_ERR(sq_area_load(ctx, &d, &a), SQ_ERR_IO, "cannot open it");
     CPLFree(wkt);

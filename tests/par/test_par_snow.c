@@ -93,7 +93,8 @@ SQ_TEST(snow_slabs_bit_identical)
                 wind_at((int)(q % NX), (int)(q / NX), k - l0 + lo, st, u);
                 for (int a = 0; a < 4; a++) lw[a * lc + (size_t)k * P + q] = u[a];
             }
-        SQ_CHECK_OK(sq__snow_slab_step(sl, lw, lw + lc, lw + 2 * lc, lw + 3 * lc));
+        const size_t w0 = (size_t)l0 * P; /* the wind of the own planes, as the lattice's slab */
+        SQ_CHECK_OK(sq__snow_slab_step(sl, lw + w0, lw + lc + w0, lw + 2 * lc + w0, lw + 3 * lc));
         if (ref) {
             for (int k = 0; k < NZ; k++)
                 for (size_t q = 0; q < P; q++) {

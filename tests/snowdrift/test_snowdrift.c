@@ -179,7 +179,7 @@ SQ_TEST(snowfall_rate_conversion)
 SQ_TEST(deposition_lookup_rules)
 {
     /* a 3x3x3 block: flakes landed in the centre cell (1,1,1) */
-    sq__snow_kparams kp = {3, 3, 3, 0.1f, 0.1f, {false, false}, 7, 0, 1, 0, 3, 0, 3};
+    sq__snow_kparams kp = {3, 3, 3, 0.1f, 0.1f, {false, false}, 7, 0, 1, 0, 3, 0, 3, 0};
     uint8_t kind[27], changed[27];
     uint32_t land[27], dep[27], air[27];
     const int c = 1 + 3 * (1 + 3 * 1), below = c - 9;
@@ -289,7 +289,7 @@ SQ_TEST(erosion_above_threshold_only)
     float *us = calloc((size_t)n, sizeof(float));
     uint8_t *changed = calloc((size_t)n, 1);
     const sq__snow_params rp = sq__snow_params_resolve(&p);
-    sq__snow_kparams kp = {nx, ny, nz, 0.05f, 0.05f, {true, true}, 3, 0, 2, 0, nz, 0, nz};
+    sq__snow_kparams kp = {nx, ny, nz, 0.05f, 0.05f, {true, true}, 3, 0, 2, 0, nz, 0, nz, 0};
     /* below the threshold: nothing moves */
     for (int64_t c = layer; c < 2 * layer; c++) us[c] = 0.29f;
     SQ_CHECK(sq__snow_erode(&kp, &rp, us, s->kind, s->dep, s->air, changed) == 0);

@@ -52,8 +52,8 @@ static sq_lbm_desc lbm_desc(const sq_snowdrift_desc *d)
     l.wind.beaufort = d->beaufort;
     l.wind.gust_period_s = d->gust_period_s;
     l.wind.ramp_mps2 = d->wind_ramp_mps2;
-    /* under mpirun the wind lattice is split over the ranks (slabs along z); the snow stays
-     * whole on every rank, stepped identically from the gathered wind (docs/mpi.md) */
+    /* under mpirun the wind lattice is split over the ranks (slabs along z) and the snow in
+     * the same slabs (snowdrift_split.c, docs/mpi.md) */
     l.decompose = true;
     return l;
 }
@@ -81,7 +81,17 @@ void sq_snowdrift_destroy(sq_snowdrift *s)
     if (!s) return;
     sq_context *ctx = s->ctx;
     sq_lbm_destroy(s->lbm);
-    sq__snow_destroy(s->snow);
+    if (s->slab)
+        sq__snow_slab_destroy(s->slab); /* its snow with it */
+    else
+        sq__snow_destroy(s->snow);
+    sq_free(ctx, s->tot);
+    sq_free(ctx, s->rank_cells);
+    sq_free(ctx, s->chg);
+    sq_free(ctx, s->chg_all);
+    sq_free(ctx, s->chg_count);
+    sq_free(ctx, s->gair);
+    sq_free(ctx, s->gkind);
     sq_free(ctx, s->fpos);
     sq_free(ctx, s->frot);
     sq_free(ctx, s->fspin);
@@ -112,9 +122,11 @@ static bool cell_of(const sq_snowdrift *s, const float p[3], int *i, int *j, int
 }
 
 /* Whether the lattice cell (i, j, k) is solid for the snow and the wind (terrain, obstacles,
- * filled snow cells); the snow's kinds and the wind's solid flags agree between steps. */
+ * filled snow cells); the snow's kinds and the wind's solid flags agree between steps (a
+ * split snow holds its slab only; the wind's flags are the whole lattice's on every rank). */
 static inline bool solid_cell(const sq_snowdrift *s, int i, int j, int k)
 {
+    if (s->slab) return sq_lbm_is_solid(s->lbm, i, j, k);
     return s->snow->kind[i + (int64_t)s->nx * (j + (int64_t)s->ny * k)] != SQ_SNOW_AIR;
 }
 
@@ -179,6 +191,8 @@ static void move_flakes(sq_snowdrift *s, double dt, const sq_lbm_views *v)
 }
 
 /* ---- lifecycle ---------------------------------------------------------------------------- */
+
+static void reduce_totals(sq_snowdrift *s);
 
 static void *xalloc(sq_snowdrift *s, size_t bytes, bool *ok)
 {
@@ -251,13 +265,36 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
     sp.periodic[0] = d.boundary == SQ_SNOWDRIFT_RECYCLE;
     sp.periodic[1] = true;
     sp.seed = d.seed;
-    r = sq__snow_create(ctx, (sq_dims){s->nx, s->ny, s->nz}, &sp, &s->snow);
+    const int nranks = sq_par_size();
+    if (nranks > 1) { /* the snow in the lattice's z slabs, each rank its own */
+        r = sq__snow_slab_create(ctx, (sq_dims){s->nx, s->ny, s->nz}, &sp, &s->slab);
+        if (r == SQ_OK) {
+            s->snow = sq__snow_slab_snow(s->slab);
+            sq__snow_slab_range(s->slab, &s->slab_lo, &s->slab_own, &s->slab_l0);
+        }
+        r = sq_par_agree(r);
+    } else {
+        r = sq__snow_create(ctx, (sq_dims){s->nx, s->ny, s->nz}, &sp, &s->snow);
+    }
     if (r != SQ_OK) {
         sq_snowdrift_destroy(s);
         return r;
     }
     const size_t cols = (size_t)s->nx * s->ny, n = cols * s->nz;
     bool ok = true;
+    if (s->slab) {
+        s->tot = (int64_t *)xalloc(s, (cols + 6) * sizeof(int64_t), &ok);
+        s->rank_cells = (int64_t *)xalloc(s, (size_t)nranks * sizeof(int64_t), &ok);
+        s->chg_count = (int64_t *)xalloc(s, (size_t)(nranks + 1) * sizeof(int64_t), &ok);
+        s->gkind = (uint8_t *)xalloc(s, n, &ok);
+        if (sq_par_rank() == 0) s->gair = (uint32_t *)xalloc(s, n * sizeof(uint32_t), &ok);
+        const int split[3] = {0, 0, 1};
+        for (int q = 0; q < nranks && s->rank_cells; q++) {
+            sq_par_block b;
+            (void)sq_par_decompose((sq_dims){s->nx, s->ny, s->nz}, split, NULL, 2, nranks, q, &b);
+            s->rank_cells[q] = (int64_t)b.n.nx * b.n.ny * b.n.nz;
+        }
+    }
     s->margin = cover_margin(&d);
     s->ex = s->nx + 2 * s->margin;
     s->ey = s->ny + 2 * s->margin;
@@ -269,7 +306,7 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
     s->fade_w = (float *)xalloc(s, ecols * sizeof(float), &ok);
     s->src_col = (int64_t *)xalloc(s, ecols * sizeof(int64_t), &ok);
     s->air_kgm3 = (float *)xalloc(s, n * sizeof(float), &ok);
-    s->ustar = (float *)xalloc(s, n * sizeof(float), &ok);
+    s->ustar = (float *)xalloc(s, (size_t)s->snow->n * sizeof(float), &ok); /* the snow's */
     s->surf_cap = (int64_t)cols * 2;
     s->surf = (int64_t *)xalloc(s, (size_t)s->surf_cap * sizeof(int64_t), &ok);
     s->surf_us = (float *)xalloc(s, (size_t)s->surf_cap * sizeof(float), &ok);
@@ -283,6 +320,7 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
         s->fradius = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
         s->ffade = (float *)xalloc(s, (size_t)s->nflakes * sizeof(float), &ok);
     }
+    if (s->slab) ok = sq_par_agree(ok ? SQ_OK : SQ_ERR_OUT_OF_MEMORY) == SQ_OK;
     if (!ok) {
         sq_free(ctx, mask);
         sq_snowdrift_destroy(s);
@@ -298,19 +336,15 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
             sq_snowdrift_destroy(s);
             return r;
         }
-        for (int k = 0; k < s->nz; k++)
-            for (int j = 0; j < s->ny; j++)
-                for (int i = 0; i < s->nx; i++) {
-                    uint8_t *m = &mask[(size_t)i + cols * k + (size_t)s->nx * j];
-                    if (k == 0) *m = 1;
-                    if (*m) sq__snow_set_static(s->snow, i, j, k, true);
-                }
-    } else {
-        for (size_t c = 0; c < cols; c++) {
-            mask[c] = 1;
-            sq__snow_set_static(s->snow, (int)(c % s->nx), (int)(c / s->nx), 0, true);
-        }
     }
+    for (size_t c = 0; c < cols; c++) mask[c] = 1;
+    /* the snow's planes (a slab's: its own and the neighbours' edge planes) */
+    const int kz = s->slab ? s->slab_lo - s->slab_l0 : 0;
+    for (int kl = 0; kl < s->snow->nz; kl++)
+        for (int j = 0; j < s->ny; j++)
+            for (int i = 0; i < s->nx; i++)
+                if (mask[(size_t)i + cols * (size_t)(kl + kz) + (size_t)s->nx * j])
+                    sq__snow_set_static(s->snow, i, j, kl, true);
     r = sq_lbm_set_solid_mask(s->lbm, mask);
     sq_free(ctx, mask);
     if (r != SQ_OK) {
@@ -325,9 +359,14 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
         sq__snow *sn = s->snow;
         const double lambda = sq__snow_flakes_per_top_cell(&sn->p);
         const double per_cell = lambda / (d.fall_speed_mps * sn->p.dt_s / s->h);
-        for (int64_t c = 0; c < sn->n && per_cell > 0; c++) {
+        /* a slab: its own planes, drawn by global cell */
+        const int64_t c0 = s->slab ? (int64_t)s->slab_l0 * (int64_t)cols : 0;
+        const int64_t c1 = s->slab ? c0 + (int64_t)s->slab_own * (int64_t)cols : sn->n;
+        const int64_t g0 = (int64_t)kz * (int64_t)cols;
+        for (int64_t c = c0; c < c1 && per_cell > 0; c++) {
             if (sn->kind[c] != SQ_SNOW_AIR) continue;
-            const double x = per_cell + sq_rng_uniform_d(d.seed, FLAKE_STREAM + 1, (uint64_t)c);
+            const double x =
+                per_cell + sq_rng_uniform_d(d.seed, FLAKE_STREAM + 1, (uint64_t)(c + g0));
             const uint32_t m = (uint32_t)x;
             sn->air[c] += m;
             sn->fallen += m;
@@ -359,15 +398,24 @@ sq_result sq_snowdrift_create(sq_context *ctx, const sq_snowdrift_desc *desc,
             }
     }
     s->derived_dirty = s->air_dirty = true;
-    /* a distributed run: the wind views are gathered now (a collective call), so that the
-     * fields, drawables and metrics asked of rank 0 alone find them ready */
-    if (sq_par_size() > 1) {
-        sq_lbm_views v;
-        r = sq_lbm_get_views(s->lbm, &v);
+    /* a distributed run: the wind lattice's slabs and the snow's slabs must be the same; the
+     * totals, and the whole lattice gathered to rank 0 now (collective calls), so that the
+     * fields, drawables and metrics asked before the first frame find them ready */
+    if (s->slab) {
+        sq_lbm_views lv;
+        int z0 = -1;
+        r = sq_lbm_get_slab_views(s->lbm, &lv, &z0);
+        if (r == SQ_OK && (z0 != s->slab_lo || lv.u[0].n.nz != s->slab_own))
+            r = sq__fail(ctx, SQ_ERR_INTERNAL, "snowdrift",
+                         "rank %d: the wind's slab (planes %d + %d) is not the snow's (%d + %d)",
+                         sq_par_rank(), z0, lv.u[0].n.nz, s->slab_lo, s->slab_own);
+        r = sq_par_agree(r);
+        if (r == SQ_OK) r = sq__snowdrift_frame_sync(s, true);
         if (r != SQ_OK) {
             sq_snowdrift_destroy(s);
             return r;
         }
+        reduce_totals(s);
     }
     sq_log(ctx, SQ_LOG_INFO, "snowdrift",
            "lattice %dx%dx%d of %g m, wind step %.4g s, snow every %d wind steps, flake %.3g kg",
@@ -388,7 +436,9 @@ static sq_result surface_friction_velocity(sq_snowdrift *s, sq_field_view *out)
     for (int64_t q = 0; q < s->nsurf; q++) s->ustar[s->surf[q]] = 0.0f;
     s->nsurf = 0;
     int64_t m = 0;
-    for (int64_t c = cols; c < sn->n; c++) {
+    /* a slab: its own planes (the plane below the first is held, its kinds current) */
+    const int64_t cend = s->slab ? (int64_t)(s->slab_l0 + s->slab_own) * cols : sn->n;
+    for (int64_t c = cols; c < cend; c++) {
         if (sn->kind[c] != SQ_SNOW_AIR || sn->kind[c - cols] == SQ_SNOW_AIR) continue;
         if (m == s->surf_cap) { /* more surface than foreseen (overhangs): grow */
             const int64_t cap = 2 * s->surf_cap;
@@ -410,10 +460,159 @@ static sq_result surface_friction_velocity(sq_snowdrift *s, sq_field_view *out)
         s->surf[m++] = c;
     }
     s->nsurf = m;
-    const sq_result r = sq_lbm_get_friction_velocity_at(s->lbm, m, s->surf, s->surf_us);
+    sq_result r;
+    if (s->slab) { /* from the slab's own wind: the list in global cells for the call */
+        const int64_t g0 = (int64_t)(s->slab_lo - s->slab_l0) * cols;
+        for (int64_t q = 0; q < m; q++) s->surf[q] += g0;
+        r = sq_lbm_get_slab_friction_velocity_at(s->lbm, m, s->surf, s->surf_us);
+        for (int64_t q = 0; q < m; q++) s->surf[q] -= g0;
+    } else {
+        r = sq_lbm_get_friction_velocity_at(s->lbm, m, s->surf, s->surf_us);
+    }
     if (r != SQ_OK) return r;
     for (int64_t q = 0; q < m; q++) s->ustar[s->surf[q]] = s->surf_us[q];
-    *out = (sq_field_view){s->ustar, {s->nx, s->ny, s->nz}, 1, s->nx, (ptrdiff_t)cols};
+    *out = (sq_field_view){s->ustar, {sn->nx, sn->ny, sn->nz}, 1, s->nx, (ptrdiff_t)cols};
+    return SQ_OK;
+}
+
+/* ---- the snow split over the ranks (under mpirun) ------------------------------------------ */
+
+/* Grows *buf (keeping its entries) to hold at least `need` entries. */
+static bool grow_i64(sq_snowdrift *s, int64_t **buf, int64_t *cap, int64_t need)
+{
+    if (need <= *cap) return true;
+    int64_t c = *cap > 0 ? *cap : 256;
+    while (c < need) c *= 2;
+    int64_t *b = (int64_t *)sq_alloc(s->ctx, (size_t)c * sizeof(int64_t));
+    if (!b) return false;
+    if (*cap > 0) memcpy(b, *buf, (size_t)*cap * sizeof(int64_t));
+    sq_free(s->ctx, *buf);
+    *buf = b;
+    *cap = c;
+    return true;
+}
+
+/* The cells of every slab that turned snow-solid or fluid in the last snow step, passed to the
+ * wind lattice (sq_lbm_set_solid is collective) on every rank in the one-rank order (ascending
+ * global index: the slabs' lists in rank order). Two meetings: the counts, then the lists
+ * (none when nothing changed). */
+static sq_result couple_split(sq_snowdrift *s)
+{
+    const sq__snow *sn = s->snow;
+    const int64_t cols = (int64_t)s->nx * s->ny;
+    const int64_t c0 = (int64_t)s->slab_l0 * cols, c1 = c0 + (int64_t)s->slab_own * cols;
+    const int64_t g0 = (int64_t)(s->slab_lo - s->slab_l0) * cols;
+    const int nr = sq_par_size(), me = sq_par_rank();
+    int64_t m = 0;
+    bool ok = true;
+    for (int64_t c = c0; c < c1 && ok; c++) {
+        if (!sn->changed[c]) continue;
+        ok = grow_i64(s, &s->chg, &s->chg_cap, m + 1);
+        if (ok) s->chg[m++] = 2 * (c + g0) + (sn->kind[c] != SQ_SNOW_AIR);
+    }
+    for (int q = 0; q < nr; q++) s->chg_count[q] = q == me ? m : 0;
+    s->chg_count[nr] = ok ? 0 : 1; /* ranks out of memory */
+    sq_par_sum_i64(s->chg_count, nr + 1);
+    int64_t all = 0;
+    for (int q = 0; q < nr; q++) all += s->chg_count[q];
+    if (s->chg_count[nr] == 0 && all > 0 && !grow_i64(s, &s->chg_all, &s->chg_all_cap, all))
+        ok = false;
+    sq_result r = sq_par_agree(s->chg_count[nr] == 0 && ok ? SQ_OK : SQ_ERR_OUT_OF_MEMORY);
+    if (r != SQ_OK)
+        return sq__fail(s->ctx, r, "snowdrift", "the list of %lld cells that changed kind: out "
+                        "of memory", (long long)all);
+    if (all == 0) return SQ_OK;
+    r = sq_par_allgather_i64(s->chg, s->chg_count, s->chg_all);
+    for (int64_t q = 0; q < all && r == SQ_OK; q++) {
+        const int64_t c = s->chg_all[q] >> 1;
+        const int i = (int)(c % s->nx), j = (int)((c / s->nx) % s->ny), k = (int)(c / cols);
+        r = sq_lbm_set_solid(s->lbm, i, j, k, (s->chg_all[q] & 1) != 0);
+    }
+    return r;
+}
+
+/* One snow step of this rank's slab from its own lattice slab's wind: u* on its surface
+ * cells, the slab step (flakes handed over at the slab faces), the changed cells to the
+ * wind lattice. */
+static sq_result snow_step_split(sq_snowdrift *s)
+{
+    double t0 = sq_time_now(), t1;
+    sq_lbm_views lv;
+    int z0;
+    sq_result r = sq_lbm_get_slab_views(s->lbm, &lv, &z0);
+    sq_field_view us = {NULL, {0, 0, 0}, 0, 0, 0};
+    if (r == SQ_OK && !s->d.no_erosion) r = surface_friction_velocity(s, &us);
+    r = sq_par_agree(r);
+    if (r != SQ_OK) return r;
+    t1 = sq_time_now();
+    s->ms_ustar += 1e3 * (t1 - t0);
+    r = sq__snow_slab_step(s->slab, lv.u[0].data, lv.u[1].data, lv.u[2].data,
+                           s->d.no_erosion ? NULL : s->ustar);
+    t0 = sq_time_now();
+    s->snow->ms_transport += 1e3 * (t0 - t1); /* transport, deposition and erosion */
+    if (r == SQ_OK) r = couple_split(s);
+    s->snow->ms_couple += 1e3 * (sq_time_now() - t0);
+    return r;
+}
+
+/* The totals of the split snow (s->tot): every slab's own planes summed over the ranks, so
+ * the metrics, the budget and the drawn depth are the whole lattice's on every rank. One
+ * meeting of (nx ny + 6) integers. */
+static void reduce_totals(sq_snowdrift *s)
+{
+    const sq__snow *sn = s->snow;
+    const int nx = s->nx, ny = s->ny;
+    const int64_t cols = (int64_t)nx * ny;
+    const uint32_t thr = (uint32_t)sn->p.threshold;
+    int64_t *v = s->tot;
+    int64_t air = 0, dep = 0, solid = 0;
+    const int nt = sq_context_threads(s->ctx);
+    (void)nt; /* unused without OpenMP */
+    SQ_OMP(omp parallel for schedule(static) num_threads(nt) reduction(+:air, dep, solid) \
+           if(cols * s->slab_own >= 32768))
+    for (int j = 0; j < ny; j++) {
+        int64_t *fl = v + (int64_t)nx * j;
+        for (int i = 0; i < nx; i++) fl[i] = 0;
+        for (int k = s->slab_l0; k < s->slab_l0 + s->slab_own; k++) {
+            const int64_t c0 = (int64_t)nx * j + cols * k;
+            const uint8_t *kd = sn->kind + c0;
+            const uint32_t *a = sn->air + c0, *dp = sn->dep + c0;
+            for (int i = 0; i < nx; i++) {
+                air += a[i];
+                dep += dp[i];
+                solid += kd[i] == SQ_SNOW_SOLID;
+                fl[i] += kd[i] == SQ_SNOW_SOLID ? thr : kd[i] == SQ_SNOW_AIR ? dp[i] : 0u;
+            }
+        }
+    }
+    v[cols + 0] = air;
+    v[cols + 1] = dep;
+    v[cols + 2] = solid;
+    v[cols + 3] = (int64_t)sn->fallen;
+    v[cols + 4] = (int64_t)sn->left;
+    v[cols + 5] = (int64_t)sn->eroded;
+    sq_par_sum_i64(v, (int)(cols + 6));
+}
+
+sq_result sq__snowdrift_frame_sync(void *self, bool gather)
+{
+    sq_snowdrift *s = (sq_snowdrift *)self;
+    if (!s->slab || !gather) return SQ_OK;
+    sq_result r = sq_lbm_get_views(s->lbm, &s->gviews); /* gathered on every rank */
+    const sq__snow *sn = s->snow;
+    const int64_t c0 = (int64_t)s->slab_l0 * s->nx * s->ny;
+    if (r == SQ_OK) r = sq_par_gather_u32(sn->air + c0, s->rank_cells, s->gair);
+    if (r == SQ_OK) r = sq_par_gather_u8(sn->kind + c0, s->rank_cells, s->gkind);
+    if (r != SQ_OK) return r;
+    if (s->gair) { /* rank 0: the airborne snow of the fields (update_air's) */
+        const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h) / s->d.speedup;
+        const int64_t n = (int64_t)s->nx * s->ny * s->nz;
+        const int nt = sq_context_threads(s->ctx);
+        (void)nt;
+        SQ_OMP(omp parallel for schedule(static) num_threads(nt) if(n >= 32768))
+        for (int64_t c = 0; c < n; c++) s->air_kgm3[c] = (float)(s->gair[c] * cell_kg);
+    }
+    s->air_dirty = false;
     return SQ_OK;
 }
 
@@ -428,35 +627,44 @@ sq_result sq_snowdrift_step(sq_snowdrift *s, double dt)
     s->t_acc += dt;
     const double chunk = s->sub * s->lbm_dt;
     sq_lbm_views v;
+    bool stepped = false;
     while (s->t_acc >= chunk) {
         double t0 = sq_time_now();
         sq_result r = sq_lbm_step(s->lbm, s->sub); /* wind: S1 §3.2 steps 1–5 */
         double t1 = sq_time_now();
         s->ms_lbm += 1e3 * (t1 - t0);
         s->lbm_steps += s->sub;
-        if (r == SQ_OK) r = sq_lbm_get_views(s->lbm, &v);
-        sq_field_view us = {NULL, {0, 0, 0}, 0, 0, 0};
-        if (r == SQ_OK && !s->d.no_erosion) r = surface_friction_velocity(s, &us);
-        t0 = sq_time_now();
-        s->ms_ustar += 1e3 * (t0 - t1);
-        if (r == SQ_OK) /* snow: steps 6–8 (transport, deposition, erosion) */
-            r = sq__snow_step(s->snow, v.u, s->d.no_erosion ? NULL : &us, s->lbm);
-        if (r != SQ_OK) return r;
+        if (s->slab) { /* under mpirun: this rank's slab of the snow from its slab's wind */
+            if (r == SQ_OK) r = snow_step_split(s);
+            if (r != SQ_OK) return r;
+            stepped = true;
+        } else {
+            if (r == SQ_OK) r = sq_lbm_get_views(s->lbm, &v);
+            sq_field_view us = {NULL, {0, 0, 0}, 0, 0, 0};
+            if (r == SQ_OK && !s->d.no_erosion) r = surface_friction_velocity(s, &us);
+            t0 = sq_time_now();
+            s->ms_ustar += 1e3 * (t0 - t1);
+            if (r == SQ_OK) /* snow: steps 6–8 (transport, deposition, erosion) */
+                r = sq__snow_step(s->snow, v.u, s->d.no_erosion ? NULL : &us, s->lbm);
+            if (r != SQ_OK) return r;
+        }
         s->t_acc -= chunk;
         s->snow_steps++;
         s->derived_dirty = s->air_dirty = true;
     }
+    if (stepped) { /* the split snow's totals: the metrics and the drawn depth */
+        const double t0 = sq_time_now();
+        reduce_totals(s);
+        s->ms_budget += 1e3 * (sq_time_now() - t0);
+    }
     s->time_s += dt;
     s->steps++;
-    if (flakes_drawn(s)) {
+    if (flakes_drawn(s)) { /* under mpirun: the whole wind gathered on every rank */
         const double t0 = sq_time_now();
         sq_result r = sq_lbm_get_views(s->lbm, &v);
         if (r != SQ_OK) return r;
         move_flakes(s, dt, &v);
         s->ms_flakes += 1e3 * (sq_time_now() - t0);
-    } else if (sq_par_size() > 1) { /* the gathered views ready for rank 0 (see create) */
-        sq_result r = sq_lbm_get_views(s->lbm, &v);
-        if (r != SQ_OK) return r;
     }
     s->version++;
     return SQ_OK;
@@ -505,8 +713,38 @@ typedef struct snow_tally {
     double depth_mean_m, depth_max_m;
 } snow_tally;
 
+/* The same from the split snow's reduced totals, in the one-rank order of the sums. */
+static void tally_split(const sq_snowdrift *s, float *depth, snow_tally *t)
+{
+    const int nx = s->nx, ny = s->ny;
+    const int64_t cols = (int64_t)nx * ny;
+    const double thr_d = s->snow->p.threshold;
+    const int64_t *v = s->tot;
+    memset(t, 0, sizeof *t);
+    double dsum = 0;
+    for (int j = 0; j < ny; j++) {
+        double rsum = 0, rmax = 0;
+        for (int i = 0; i < nx; i++) {
+            const double d = (double)(uint64_t)v[i + (int64_t)nx * j] / thr_d * s->h;
+            if (depth) depth[i + (int64_t)nx * j] = (float)d;
+            rsum += d;
+            if (d > rmax) rmax = d;
+        }
+        dsum += rsum;
+        if (rmax > t->depth_max_m) t->depth_max_m = rmax;
+    }
+    t->airborne = (uint64_t)v[cols + 0];
+    t->deposited = (uint64_t)v[cols + 1];
+    t->solid = v[cols + 2];
+    t->depth_mean_m = dsum / (double)cols;
+}
+
 static void tally(const sq_snowdrift *s, float *depth, snow_tally *t)
 {
+    if (s->slab) {
+        tally_split(s, depth, t);
+        return;
+    }
     const sq__snow *sn = s->snow;
     const int nx = s->nx, ny = s->ny, nz = s->nz;
     const int64_t cols = (int64_t)nx * ny;
@@ -583,7 +821,7 @@ static void update_derived(sq_snowdrift *s)
  * one and is divided by it here (the village preset's 10000x made the field 10^4 too large). */
 static void update_air(sq_snowdrift *s)
 {
-    if (!s->air_dirty) return;
+    if (!s->air_dirty || s->slab) return; /* split: made from the gathered snow at frame_sync */
     const sq__snow *sn = s->snow;
     const double cell_kg = sn->flake_mass_kg / (s->h * s->h * s->h) / s->d.speedup;
     const int nt = sq_context_threads(s->ctx);
@@ -600,16 +838,20 @@ void sq_snowdrift_get_budget(const sq_snowdrift *s, sq_snowdrift_budget *out)
     tally(s, NULL, &t);
     const sq__snow *sn = s->snow;
     const double m = sn->flake_mass_kg;
-    out->fallen_flakes = sn->fallen;
+    const int64_t cols = (int64_t)s->nx * s->ny;
+    const uint64_t fallen = s->slab ? (uint64_t)s->tot[cols + 3] : sn->fallen;
+    const uint64_t left = s->slab ? (uint64_t)s->tot[cols + 4] : sn->left;
+    const uint64_t eroded = s->slab ? (uint64_t)s->tot[cols + 5] : sn->eroded;
+    out->fallen_flakes = fallen;
     out->airborne_flakes = t.airborne;
     out->deposited_flakes = t.deposited;
-    out->left_flakes = sn->left;
-    out->eroded_flakes = sn->eroded;
+    out->left_flakes = left;
+    out->eroded_flakes = eroded;
     out->flake_mass_kg = m;
-    out->fallen_kg = (double)sn->fallen * m;
+    out->fallen_kg = (double)fallen * m;
     out->airborne_kg = (double)t.airborne * m;
     out->deposited_kg = (double)t.deposited * m;
-    out->left_kg = (double)sn->left * m;
+    out->left_kg = (double)left * m;
     out->snow_cells = t.solid;
     out->depth_mean_m = t.depth_mean_m;
     out->depth_max_m = t.depth_max_m;
@@ -713,12 +955,15 @@ int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max)
     update_derived(s);
     update_air(s);
     sq_lbm_views v;
-    if (sq_lbm_get_views(s->lbm, &v) != SQ_OK) return 0;
+    if (s->slab) /* under mpirun: as gathered at the last frame_sync with gather (rank 0) */
+        v = s->gviews;
+    else if (sq_lbm_get_views(s->lbm, &v) != SQ_OK)
+        return 0;
     const sq_vec3 o = sq_v3((float)(s->origin[0] + 0.5 * s->h), (float)(s->origin[1] + 0.5 * s->h),
                             (float)(s->origin[2] + 0.5 * s->h));
     const sq_vec3 sp = sq_v3((float)s->h, (float)s->h, (float)s->h);
     /* terrain, obstacles and cells filled with snow carry no air */
-    const uint8_t *solid = s->snow->kind;
+    const uint8_t *solid = s->slab ? s->gkind : s->snow->kind;
     int n = 0;
     out[n++] = (sq_named_field){"u", "m s-1", "eastward wind", "eastward_wind", v.u[0].data,
                                 s->nx, s->ny, s->nz, o, sp, solid, SQ_FIELD_LEVEL_ALTITUDE};

@@ -36,7 +36,6 @@ sq_result sq_snowdrift_desc_resolve(const sq_snowdrift_desc *in, sq_snowdrift_de
     DEF(d.saturation_time_s, 1.0);
     DEF(d.saltation_kgm3, 0.05);
     DEF(d.snow_cfl, 0.5);
-    DEF(d.visual_flakes, 20000);
     DEF(d.flake_radius_m, 0.03);
     DEF(d.flake_min_mrad, 2.5);
     if (out) *out = d;

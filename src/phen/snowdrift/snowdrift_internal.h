@@ -78,6 +78,8 @@ typedef struct sq__snow_kparams {
     uint64_t seed, step;
     int threads;
     int k0, k1, kz0, gnz;
+    int64_t wind0;              /* local index of the wind arrays' first sample (a slab's
+                                 * wind holds its own planes only: k0 nx ny); 0 when whole */
 } sq__snow_kparams;
 
 typedef struct sq__snow_budget {
@@ -193,9 +195,10 @@ void sq__snow_slab_destroy(sq__snow_slab *sl);
 void sq__snow_slab_range(const sq__snow_slab *sl, int *lo, int *own, int *local0);
 sq__snow *sq__snow_slab_snow(sq__snow_slab *sl);
 /* Collective: one snow step of the slab (sq__snow_step's recipe without the wind coupling)
- * from the wind ux, uy, uz and the friction velocity ustar (may be NULL) on the local lattice
- * (the own planes are read); flakes crossing a slab face are handed over. changed marks the
- * own cells that turned snow-solid (1) or fluid (2). */
+ * from the wind ux, uy, uz of the own planes only (the wind lattice's slab views, x fastest)
+ * and the friction velocity ustar (may be NULL) on the local lattice (its own planes are
+ * read); flakes crossing a slab face are handed over. changed marks the own cells that
+ * turned snow-solid (1) or fluid (2). */
 sq_result sq__snow_slab_step(sq__snow_slab *sl, const float *ux, const float *uy, const float *uz,
                              const float *ustar);
 /* Collective: the whole lattice's budget (sums over the slabs). */
@@ -246,6 +249,24 @@ struct sq_snowdrift {
     double *tally_part;            /* ny*5 per-row partial sums of the budget tally */
     bool derived_dirty, air_dirty;
     uint64_t version;
+    /* under mpirun (more than one rank) the snow is split in the wind lattice's z slabs
+     * (snowdrift_split.c); snow is then the slab's snow: this rank's planes and the
+     * neighbours' edge planes (local indices), and ustar its size */
+    sq__snow_slab *slab;           /* NULL: the whole snow on this process */
+    int slab_lo, slab_own, slab_l0;/* global first own plane, own planes, its local index */
+    int64_t *tot;                  /* nx*ny + 6, reduced after each stepped call: the flakes
+                                    * of every column (depth: snow-solid cells count the
+                                    * threshold, air cells their resting flakes), airborne,
+                                    * deposited, snow-solid cells, fallen, left, eroded */
+    int64_t *rank_cells;           /* cells of each rank's own planes (the gathers) */
+    int64_t *chg, chg_cap;         /* the cells that changed kind this snow step (2c + solid):
+                                    * this rank's, then every rank's */
+    int64_t *chg_all, chg_all_cap;
+    int64_t *chg_count;            /* per rank */
+    uint32_t *gair;                /* rank 0: airborne flakes of the whole lattice (gathered) */
+    uint8_t *gkind;                /* nx*ny*nz: cell kinds of the whole lattice (rank 0:
+                                    * gathered with gair; zero on the others) */
+    sq_lbm_views gviews;           /* the wind as last gathered (the fields) */
     /* timings (ms since create) */
     int64_t steps, lbm_steps;
     double ms_lbm, ms_ustar, ms_flakes, ms_derived, ms_budget;
@@ -258,6 +279,9 @@ void sq__snowdrift_observe(sq_snowdrift *s, const sq_camera *camera);
 int sq__snowdrift_drawables(sq_snowdrift *s, sq_drawable *out, int max);
 int sq__snowdrift_metrics(sq_snowdrift *s, sq_metric *out, int max);
 int sq__snowdrift_fields(sq_snowdrift *s, sq_named_field *out, int max);
+/* Under mpirun, collective, once per frame (sq_phen_plugin.frame_sync): with gather, the wind,
+ * the airborne snow and the cell kinds of the whole lattice to rank 0 (its fields). */
+sq_result sq__snowdrift_frame_sync(void *self, bool gather);
 
 /* checkpoint hooks (snowdrift_state.c) */
 sq_result sq__snowdrift_save_state(const void *self, sq_state_writer *w);

@@ -214,7 +214,8 @@ static inline void transport_row(const sq__snow_kparams *kp, int j, int k, const
             const int64_t c = c0 + occ[o];
             const uint32_t n = air[c];
             /* displacement in cells per step, S1 eq 8 */
-            const float d[3] = {ux[c] * s, uy[c] * s, uz[c] * s - fall};
+            const int64_t cw = c - kp->wind0;
+            const float d[3] = {ux[cw] * s, uy[cw] * s, uz[cw] * s - fall};
             int step[3];
             double pr[3];
             for (int a = 0; a < 3; a++) {

@@ -76,8 +76,9 @@ static const sq_param params[] = {
     D("snow.cfl", snow_cfl, "1", 0.5, 0.01, 1, 0,
       "Largest flake displacement per snow step, in cells; sets how many wind steps a snow "
       "step spans."),
-    I("draw.flakes", visual_flakes, "1", 20000, 0, 2000000,
-      "Falling-snow particles drawn (carried by the lattice wind)."),
+    {"draw.flakes", SQ_PARAM_INT, "1", offsetof(S, visual_flakes), 0, 0, 2000000, NULL, NULL, 0,
+     0, Z, "Falling-snow particles drawn (carried by the lattice wind) while it snows; 0 = none "
+     "(a snowcover layer draws the falling snow around the camera)."},
     D("draw.flake_radius_m", flake_radius_m, "m", 0.03, 0.001, 1, L,
       "Radius of a drawn flake (S1: flakes up to 10 mm; larger reads better on screen)."),
     D("draw.flake_min_mrad", flake_min_mrad, "mrad", 2.5, 0.01, 100, L,
@@ -102,6 +103,8 @@ static sq_result snowdrift_apply_live(void *self, const void *desc)
 #define SQ__PHEN_STATE_SAVE sq__snowdrift_save_state
 #undef SQ__PHEN_STATE_LOAD
 #define SQ__PHEN_STATE_LOAD sq__snowdrift_load_state
+#undef SQ__PHEN_FRAME_SYNC
+#define SQ__PHEN_FRAME_SYNC sq__snowdrift_frame_sync
 SQ__PHEN_PLUGIN_OBSERVING(snowdrift,
     "wind-driven snowfall and drifts: D3Q15 lattice-Boltzmann wind, snow on the lattice with "
     "deposition and erosion (S1)",

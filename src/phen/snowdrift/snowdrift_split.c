@@ -109,6 +109,7 @@ sq_result sq__snow_slab_step(sq__snow_slab *sl, const float *ux, const float *uy
     kp.k1 = sl->below + sl->own;
     kp.kz0 = sl->lo - sl->below;
     kp.gnz = sl->gnz;
+    kp.wind0 = (int64_t)kp.k0 * (int64_t)P; /* the wind holds the own planes */
     const int top = s->nz - 1;            /* the plane above (when held) */
     const int64_t first = kp.k0 * sz, last = (int64_t)(kp.k1 - 1) * sz;
     unsigned char *sb[2] = {sl->buf, sl->buf + pb}, *rb[2] = {sl->buf + 2 * pb, sl->buf + 3 * pb};

@@ -66,6 +66,7 @@ static void invalidate(sq_lbm *l)
     l->nbr_valid = false;
     l->bc_valid = false;
     l->macro_valid = false;
+    l->lmacro_valid = false;
     l->ustar_valid = false;
 }
 
@@ -754,6 +755,12 @@ sq_result sq_lbm_set_solid(sq_lbm *l, int i, int j, int k, bool solid)
      * re-initialised equilibrium when fluid); boundaries and u* are redone */
     l->bc_valid = false;
     l->ustar_valid = false;
+    if (l->zdist && mine && l->lmacro_valid) { /* this slab's views, as the whole's below */
+        const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+        const int64_t o = i + (int64_t)l->nx * (j + (int64_t)l->ny * zl);
+        l->lmacro[o] = (float)(rho * l->units.rho);
+        for (int a = 0; a < 3; a++) l->lmacro[(a + 1) * n + o] = (float)(u[a] * l->units.u);
+    }
     if (l->macro_valid) {
         if (l->zdist && !solid) { /* every rank's copy of the views learns the new state */
             double v[4] = {rho, u[0], u[1], u[2]};
@@ -855,8 +862,8 @@ static sq_field_view interior_view(const sq_lbm *l, const float *data)
     return v;
 }
 
-/* The views of the whole lattice: this slab's computed, then gathered on every rank. */
-static void compute_macro(sq_lbm *l)
+/* This slab's views (the whole lattice's when it is not split). */
+static void compute_local(sq_lbm *l)
 {
     ensure_boundaries(l);
     const int64_t n = (int64_t)l->nx * l->ny * l->nz;
@@ -867,6 +874,15 @@ static void compute_macro(sq_lbm *l)
     float *const m = l->zdist ? l->lmacro : l->macro;
     sq__lbm_macro(l, parity, gh, (float)l->units.rho, (float)l->units.u, m, m + n, m + 2 * n,
                   m + 3 * n);
+    l->lmacro_valid = true;
+    if (!l->zdist) l->macro_valid = true;
+}
+
+/* The views of the whole lattice: this slab's (computed, or as sq_lbm_set_solid left them),
+ * then gathered on every rank. */
+static void compute_macro(sq_lbm *l)
+{
+    if (!l->lmacro_valid) compute_local(l);
     if (l->zdist) sq__lbm_dist_gather_macro(l);
     l->macro_valid = true;
 }
@@ -881,11 +897,26 @@ sq_result sq_lbm_get_views(sq_lbm *l, sq_lbm_views *out)
     return SQ_OK;
 }
 
+sq_result sq_lbm_get_slab_views(sq_lbm *l, sq_lbm_views *out, int *z0)
+{
+    if (!l || !out || !z0)
+        return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_get_slab_views: NULL argument");
+    if (!l->lmacro_valid) compute_local(l);
+    const int64_t n = (int64_t)l->nx * l->ny * l->nz;
+    const float *m = l->zdist ? l->lmacro : l->macro;
+    out->density = interior_view(l, m);
+    for (int a = 0; a < 3; a++) out->u[a] = interior_view(l, m + (a + 1) * n);
+    out->density.n.nz = l->nz;
+    for (int a = 0; a < 3; a++) out->u[a].n.nz = l->nz;
+    *z0 = l->kz0;
+    return SQ_OK;
+}
+
 /* u* of global cell (x, y, z) from the global velocity views u (see
  * sq_lbm_get_friction_velocity): the first wall among the neighbours below, at the sides,
  * above; 0 in solid cells and away from walls. k = κ / ln((Δx/2 + z0)/z0). */
-static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], float k, int x,
-                                    int y, int z)
+static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], int64_t o0,
+                                    float k, int x, int y, int z)
 {
     /* neighbour order: below first, then the sides, then above */
     static const int nb[6][3] = {{0, 0, -1}, {-1, 0, 0}, {1, 0, 0},
@@ -894,7 +925,7 @@ static float friction_velocity_cell(const sq_lbm *l, const float *const u[3], fl
                                    SQ_LBM_FACE_YMIN, SQ_LBM_FACE_YMAX, SQ_LBM_FACE_ZMAX};
     if (sq__lbm_gsolid(l, x, y, z)) return 0.0f;
     const int gnz = global_nz(l);
-    const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z);
+    const int64_t o = x + (int64_t)l->nx * (y + (int64_t)l->ny * z) - o0;
     for (int m = 0; m < 6; m++) {
         const int qx = x + nb[m][0], qy = y + nb[m][1], qz = z + nb[m][2];
         const bool outside =
@@ -933,7 +964,7 @@ sq_result sq_lbm_get_friction_velocity(sq_lbm *l, sq_field_view *out)
             for (int y = 0; y < l->ny; y++)
                 for (int x = 0; x < l->nx; x++)
                     l->ustar[x + (int64_t)l->nx * (y + (int64_t)l->ny * z)] =
-                        friction_velocity_cell(l, u, k, x, y, z);
+                        friction_velocity_cell(l, u, 0, k, x, y, z);
         l->ustar_valid = true;
     }
     *out = interior_view(l, l->ustar);
@@ -959,7 +990,32 @@ sq_result sq_lbm_get_friction_velocity_at(sq_lbm *l, int64_t count, const int64_
                             "(0..%lld)",
                             (long long)c, (long long)(n - 1));
         const int z = (int)(c / sxy), y = (int)((c % sxy) / l->nx), x = (int)(c % l->nx);
-        out[q] = friction_velocity_cell(l, u, k, x, y, z);
+        out[q] = friction_velocity_cell(l, u, 0, k, x, y, z);
+    }
+    return SQ_OK;
+}
+
+sq_result sq_lbm_get_slab_friction_velocity_at(sq_lbm *l, int64_t count, const int64_t *cells,
+                                               float *out)
+{
+    if (!l || count < 0 || (count > 0 && (!cells || !out)))
+        return sq__set_error(SQ_ERR_INVALID_ARG, "sq_lbm_get_slab_friction_velocity_at: NULL "
+                                                 "argument or count < 0");
+    if (!l->lmacro_valid) compute_local(l);
+    const int64_t sxy = (int64_t)l->nx * l->ny, n = sxy * l->nz;
+    const int64_t c0 = sxy * l->kz0; /* the slab's first cell */
+    const float *m = l->zdist ? l->lmacro : l->macro;
+    const float *const u[3] = {m + n, m + 2 * n, m + 3 * n};
+    const float k = friction_factor(l);
+    for (int64_t q = 0; q < count; q++) {
+        const int64_t c = cells[q];
+        if (c < c0 || c >= c0 + n)
+            return sq__fail(l->ctx, SQ_ERR_INVALID_ARG, "lbm",
+                            "get_slab_friction_velocity_at: cell index %lld is outside this "
+                            "rank's slab (%lld..%lld)",
+                            (long long)c, (long long)c0, (long long)(c0 + n - 1));
+        const int z = (int)(c / sxy), y = (int)((c % sxy) / l->nx), x = (int)(c % l->nx);
+        out[q] = friction_velocity_cell(l, u, c0, k, x, y, z);
     }
     return SQ_OK;
 }

@@ -100,6 +100,7 @@ struct sq_lbm {
     bool periodic[3];
     bool bc_valid;             /* boundary populations filled for the current layout */
     bool macro_valid, ustar_valid;
+    bool lmacro_valid;         /* this slab's views (lmacro; macro itself when not split) */
     bool inflow_dirty;         /* inflow shape factors need recomputing */
     int64_t step;
     double tau, nu_lu;

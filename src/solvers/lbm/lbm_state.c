@@ -75,7 +75,7 @@ sq_result sq_lbm_load_state(sq_lbm *l, sq_state_reader *r)
     l->tau = wind[3];
     l->nu_lu = wind[4];
     l->bc_valid = false;
-    l->macro_valid = l->ustar_valid = false;
+    l->macro_valid = l->lmacro_valid = l->ustar_valid = false;
     l->inflow_dirty = true;
     return SQ_OK;
 }
