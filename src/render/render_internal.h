@@ -283,6 +283,28 @@ static inline double sq__volume_ms_beam(double w, double g, double tau, double c
     return b > 0.0 ? b * (1.0 - f * f) / (4.0 * 3.14159265358979323846 * d * sqrt(d)) : 0.0;
 }
 
+/* The box around the non-zero voxels of a density grid (world metres; origin and size: the
+ * grid's box), grown by the voxels within which the eye pass's density lookup reaches
+ * (render_volume.c VOL_DUST_MARGIN): outside it that lookup reads 0. open_lo / open_hi: on that
+ * side the grown box reaches the grid's face, beyond which the clamped texture repeats the
+ * face's voxels (the box is then open there). empty: no voxel above 0. */
+typedef struct sq__volume_dust {
+    sq_vec3 lo, hi;
+    bool open_lo[3], open_hi[3];
+    bool empty;
+} sq__volume_dust;
+void sq__volume_dust_box(const float *density, int nx, int ny, int nz, sq_vec3 origin,
+                         sq_vec3 size, sq__volume_dust *out);
+/* The window rectangle (rect: x, y, w, h in pixels, origin bottom left) outside which no eye-pass
+ * fragment of the slice plane s . x = d can meet dust: the plane cut by the part of the slice box
+ * [glo, ghi] that the dust box covers (all of it along an open side, and along y when the
+ * texture is mirrored there) and by the camera's near plane (forward . (x - cam) >= near_m),
+ * projected with view_proj, grown by two pixels and clipped to the width x height window.
+ * Returns false, rect all 0, where no fragment can. */
+bool sq__volume_slice_rect(const sq__volume_dust *dust, bool mirror_y, sq_vec3 glo, sq_vec3 ghi,
+                           sq_vec3 s, float d, const sq_mat4 *view_proj, sq_vec3 cam,
+                           sq_vec3 forward, float near_m, int width, int height, int rect[4]);
+
 /* The RGBA density texture of sharp edges: density, local maximum over 27 voxels, edge weight,
  * 0 (render_volume.c; rgba holds 4 nx ny nz floats). */
 void sq__volume_edge_texture(const float *density, int nx, int ny, int nz, float sharpness,

@@ -112,8 +112,7 @@ struct sq__volume_pass {
     GLuint vao_slices, vbo_slices, vao_empty;
     GLuint density_tex, noise_tex, baked_tex;
     bool density_sharp; /* density_tex is RGBA: density, local maximum, edge weight, 0 */
-    sq_vec3 dust_lo, dust_hi; /* world box outside which the drawn density is 0 (grown by
-                                 VOL_DUST_MARGIN cells around the non-zero voxels) */
+    sq__volume_dust dust; /* the box outside which the drawn density is 0 */
     int dnx, dny, dnz;
     uint64_t version;
     const float *data;
@@ -153,12 +152,14 @@ struct sq__volume_pass {
     float sky_amb[6];  /* the ambient colours of the texture: sky's half, ground's half */
     float *verts;       /* VOL_VERT_FLOATS per vertex, up to VOL_MAX_TRI_VERTS per plane */
     int *vfirst, *vcount; /* per plane: its triangles in the vertex buffer */
+    int *scissor;         /* per plane: 4 ints, x y w h of the window rectangle outside which
+                             its eye-pass fragments are all clear air (w = 0: none drawn) */
     int plane_cap;
 };
 
 /* ---- GL state the pass changes, restored on exit ------------------------------------------ */
 typedef struct gl_saved {
-    GLint fbo, viewport[4], program, vao, depth_func;
+    GLint fbo, viewport[4], scissor_box[4], program, vao, depth_func;
     GLint blend_src_rgb, blend_dst_rgb, blend_src_a, blend_dst_a, blend_eq_rgb, blend_eq_a;
     GLboolean blend, depth, cull, scissor, depth_mask;
 } gl_saved;
@@ -167,6 +168,7 @@ static void state_save(gl_saved *s)
 {
     glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &s->fbo);
     glGetIntegerv(GL_VIEWPORT, s->viewport);
+    glGetIntegerv(GL_SCISSOR_BOX, s->scissor_box);
     glGetIntegerv(GL_CURRENT_PROGRAM, &s->program);
     glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &s->vao);
     s->blend = glIsEnabled(GL_BLEND);
@@ -193,6 +195,7 @@ static void state_restore(const gl_saved *s)
 {
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, (GLuint)s->fbo);
     glViewport(s->viewport[0], s->viewport[1], s->viewport[2], s->viewport[3]);
+    glScissor(s->scissor_box[0], s->scissor_box[1], s->scissor_box[2], s->scissor_box[3]);
     glUseProgram((GLuint)s->program);
     glBindVertexArray((GLuint)s->vao);
     enable_if(GL_BLEND, s->blend);
@@ -269,6 +272,109 @@ static int plane_box_polygon(sq_vec3 lo, sq_vec3 hi, sq_vec3 n, float d, sq_vec3
     }
     for (int k = 0; k < m; k++) out[k] = pts[k];
     return m;
+}
+
+static float v3_get(sq_vec3 v, int a) { return a == 0 ? v.x : a == 1 ? v.y : v.z; }
+static void v3_set(sq_vec3 *v, int a, float x)
+{
+    if (a == 0) v->x = x;
+    else if (a == 1) v->y = x;
+    else v->z = x;
+}
+
+void sq__volume_dust_box(const float *density, int nx, int ny, int nz, sq_vec3 origin,
+                         sq_vec3 size, sq__volume_dust *out)
+{
+    memset(out, 0, sizeof *out);
+    /* the box around the non-zero voxels (index space), grown by VOL_DUST_MARGIN cells */
+    int lo[3] = {nx, ny, nz}, hi[3] = {-1, -1, -1};
+    for (int k = 0; k < nz; k++)
+        for (int j = 0; j < ny; j++) {
+            const float *row = density + ((size_t)k * ny + j) * nx;
+            int first = -1, last = -1;
+            for (int i = 0; i < nx; i++)
+                if (row[i] > 0.0f) {
+                    if (first < 0) first = i;
+                    last = i;
+                }
+            if (first < 0) continue;
+            lo[0] = first < lo[0] ? first : lo[0];
+            hi[0] = last > hi[0] ? last : hi[0];
+            lo[1] = j < lo[1] ? j : lo[1];
+            hi[1] = j > hi[1] ? j : hi[1];
+            lo[2] = k < lo[2] ? k : lo[2];
+            hi[2] = k > hi[2] ? k : hi[2];
+        }
+    if (hi[0] < 0) { /* no dust: an empty box */
+        out->empty = true;
+        out->lo = sq_v3(1.0f, 1.0f, 1.0f);
+        out->hi = sq_v3(0.0f, 0.0f, 0.0f);
+        return;
+    }
+    const int dims[3] = {nx, ny, nz};
+    const float m = (float)VOL_DUST_MARGIN;
+    for (int a = 0; a < 3; a++) {
+        const float cell = v3_get(size, a) / (float)dims[a], o = v3_get(origin, a);
+        v3_set(&out->lo, a, o + ((float)lo[a] - m) * cell);
+        v3_set(&out->hi, a, o + ((float)hi[a] + 1.0f + m) * cell);
+        out->open_lo[a] = lo[a] - VOL_DUST_MARGIN <= 0;
+        out->open_hi[a] = hi[a] + 1 + VOL_DUST_MARGIN >= dims[a];
+    }
+}
+
+bool sq__volume_slice_rect(const sq__volume_dust *dust, bool mirror_y, sq_vec3 glo, sq_vec3 ghi,
+                           sq_vec3 s, float d, const sq_mat4 *view_proj, sq_vec3 cam,
+                           sq_vec3 forward, float near_m, int width, int height, int rect[4])
+{
+    rect[0] = rect[1] = rect[2] = rect[3] = 0;
+    if (dust->empty) return false;
+    /* the part of the slice box where dust can be */
+    sq_vec3 lo = glo, hi = ghi;
+    for (int a = 0; a < 3; a++) {
+        if (a == 1 && mirror_y) continue;
+        if (!dust->open_lo[a]) v3_set(&lo, a, fmaxf(v3_get(glo, a), v3_get(dust->lo, a)));
+        if (!dust->open_hi[a]) v3_set(&hi, a, fminf(v3_get(ghi, a), v3_get(dust->hi, a)));
+        if (!(v3_get(lo, a) < v3_get(hi, a))) return false;
+    }
+    sq_vec3 poly[6], cut[7];
+    const int m = plane_box_polygon(lo, hi, s, d, poly);
+    if (m < 3) return false;
+    /* cut by the near plane (a little in front of it: the part behind it is clipped anyway, and
+     * every point kept projects with w > 0) */
+    const float e = 0.99f * near_m;
+    int n = 0;
+    for (int i = 0; i < m; i++) {
+        const sq_vec3 a = poly[i], b = poly[(i + 1) % m];
+        const float da = sq_v3_dot(forward, sq_v3_sub(a, cam)) - e;
+        const float db = sq_v3_dot(forward, sq_v3_sub(b, cam)) - e;
+        if (da >= 0.0f) cut[n++] = a;
+        if ((da >= 0.0f) != (db >= 0.0f)) cut[n++] = sq_v3_lerp(a, b, da / (da - db));
+    }
+    if (n < 3) return false;
+    float x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+    for (int i = 0; i < n; i++) {
+        const sq_vec4 c = sq_m4_mul_v4(*view_proj, (sq_vec4){cut[i].x, cut[i].y, cut[i].z, 1.0f});
+        if (!(c.w > 0.0f)) { /* not expected after the cut; the whole window then */
+            x0 = y0 = -INFINITY;
+            x1 = y1 = INFINITY;
+            break;
+        }
+        const float wx = (c.x / c.w * 0.5f + 0.5f) * (float)width;
+        const float wy = (c.y / c.w * 0.5f + 0.5f) * (float)height;
+        x0 = fminf(x0, wx);
+        x1 = fmaxf(x1, wx);
+        y0 = fminf(y0, wy);
+        y1 = fmaxf(y1, wy);
+    }
+    const float gx0 = fmaxf(floorf(x0) - 2.0f, 0.0f), gy0 = fmaxf(floorf(y0) - 2.0f, 0.0f);
+    const float gx1 = fminf(ceilf(x1) + 2.0f, (float)width);
+    const float gy1 = fminf(ceilf(y1) + 2.0f, (float)height);
+    if (!(gx0 < gx1) || !(gy0 < gy1)) return false;
+    rect[0] = (int)gx0;
+    rect[1] = (int)gy0;
+    rect[2] = (int)gx1 - rect[0];
+    rect[3] = (int)gy1 - rect[1];
+    return true;
 }
 
 /* Fraction of Henyey–Greenstein scattering (asymmetry g) into the cone cos θ >= mu:
@@ -581,7 +687,8 @@ sq_result sq__volume_pass_create(sq_renderer *r)
     vp->vfirst = sq_alloc(r->ctx, sizeof(int) * cap);
     vp->vcount = sq_alloc(r->ctx, sizeof(int) * cap);
     vp->slot = sq_alloc(r->ctx, sizeof(int) * cap);
-    if (!vp->verts || !vp->vfirst || !vp->vcount || !vp->slot)
+    vp->scissor = sq_alloc(r->ctx, 4 * sizeof(int) * cap);
+    if (!vp->verts || !vp->vfirst || !vp->vcount || !vp->slot || !vp->scissor)
         return sq__fail(r->ctx, SQ_ERR_OUT_OF_MEMORY, "render",
                         "volume pass: no memory for %d slice polygons", vp->plane_cap);
 
@@ -635,6 +742,7 @@ void sq__volume_pass_destroy(sq_renderer *r)
     sq_free(r->ctx, vp->verts);
     sq_free(r->ctx, vp->vfirst);
     sq_free(r->ctx, vp->vcount);
+    sq_free(r->ctx, vp->scissor);
     sq_free(r->ctx, vp->slot);
     sq_free(r->ctx, vp->sky_buf);
     sq_free(r->ctx, vp->sky_work);
@@ -756,38 +864,7 @@ static sq_result upload_density(sq_renderer *r, const sq_volume_view *v)
                             (double)v->density[i]);
         }
     }
-    /* the box around the non-zero voxels (index space), grown by VOL_DUST_MARGIN cells */
-    int lo[3] = {v->nx, v->ny, v->nz}, hi[3] = {-1, -1, -1};
-    for (int k = 0; k < v->nz; k++)
-        for (int j = 0; j < v->ny; j++) {
-            const float *row = v->density + ((size_t)k * v->ny + j) * v->nx;
-            int first = -1, last = -1;
-            for (int i = 0; i < v->nx; i++)
-                if (row[i] > 0.0f) {
-                    if (first < 0) first = i;
-                    last = i;
-                }
-            if (first < 0) continue;
-            lo[0] = first < lo[0] ? first : lo[0];
-            hi[0] = last > hi[0] ? last : hi[0];
-            lo[1] = j < lo[1] ? j : lo[1];
-            hi[1] = j > hi[1] ? j : hi[1];
-            lo[2] = k < lo[2] ? k : lo[2];
-            hi[2] = k > hi[2] ? k : hi[2];
-        }
-    if (hi[0] < 0) { /* no dust: an empty box */
-        vp->dust_lo = sq_v3(1.0f, 1.0f, 1.0f);
-        vp->dust_hi = sq_v3(0.0f, 0.0f, 0.0f);
-    } else {
-        const float cx = v->size_m.x / (float)v->nx, cy = v->size_m.y / (float)v->ny,
-                    cz = v->size_m.z / (float)v->nz, m = (float)VOL_DUST_MARGIN;
-        vp->dust_lo = sq_v3(v->origin_m.x + ((float)lo[0] - m) * cx,
-                            v->origin_m.y + ((float)lo[1] - m) * cy,
-                            v->origin_m.z + ((float)lo[2] - m) * cz);
-        vp->dust_hi = sq_v3(v->origin_m.x + ((float)hi[0] + 1.0f + m) * cx,
-                            v->origin_m.y + ((float)hi[1] + 1.0f + m) * cy,
-                            v->origin_m.z + ((float)hi[2] + 1.0f + m) * cz);
-    }
+    sq__volume_dust_box(v->density, v->nx, v->ny, v->nz, v->origin_m, v->size_m, &vp->dust);
     const bool sharp = v->edge_sharpness > 0.0f;
     if (!vp->density_tex || vp->dnx != v->nx || vp->dny != v->ny || vp->dnz != v->nz ||
         vp->density_sharp != sharp) {
@@ -1112,7 +1189,7 @@ static sq_result set_eye_uniforms(sq_renderer *r, const sq_volume_view *v, const
     glProgramUniform1i(pb, glGetUniformLocation(pb, "u_planes"), p->n);
     u1f(pb, "u_sigma_min", fminf(v->sigma_ext[0], fminf(v->sigma_ext[1], v->sigma_ext[2])));
     u1f(pb, "u_tau_stop", VOL_TAU_STOP);
-    sq_vec3 dlo = vp->dust_lo, dhi = vp->dust_hi;
+    sq_vec3 dlo = vp->dust.lo, dhi = vp->dust.hi;
     if (v->mirror_y_m > 0.0f && dlo.x <= dhi.x) { /* mirrored beyond the y faces: all of y */
         dlo.y = p->lo.y;
         dhi.y = p->hi.y;
@@ -1255,18 +1332,28 @@ static int sweep_chunk(sq_renderer *r, const vol_plan *p, int c, bool store_next
     return src;
 }
 
-/* The eye pass over the slice triangles [first, last): in VOL_EYE_PARTS consecutive draws (the
- * same order, the same picture), so that Ctrl-C reaches a pass of seconds on llvmpipe. */
+/* The eye pass over the slices of chunk c, back to front as they lie in the vertex buffer, each
+ * inside its window rectangle (vp->scissor: the fragments outside it are clear air, which the
+ * eye shader discards, so the picture is the same pixel for pixel, and llvmpipe neither bins
+ * nor shades them); in VOL_EYE_PARTS parts with sq__render_part_done after each, so that
+ * Ctrl-C reaches a pass of seconds on llvmpipe. */
 #define VOL_EYE_PARTS 16
-static void draw_slices_in_parts(sq_renderer *r, int first, int last)
+static void draw_slices_culled(sq_renderer *r, const vol_plan *p, int c)
 {
-    const int tris = (last - first) / 3;
-    const int per = (tris + VOL_EYE_PARTS - 1) / VOL_EYE_PARTS;
-    for (int t = 0; t < tris; t += per) {
-        const int n = tris - t < per ? tris - t : per;
-        glDrawArrays(GL_TRIANGLES, first + 3 * t, 3 * n);
-        if (sq__render_part_done(r)) return;
+    const sq__volume_pass *vp = r->volume;
+    const int k0 = chunk_first(vp, c), k1 = chunk_end(vp, p, c), count = k1 - k0;
+    const int per = (count + VOL_EYE_PARTS - 1) / VOL_EYE_PARTS;
+    glEnable(GL_SCISSOR_TEST);
+    for (int i = 0; i < count; i++) {
+        const int k = p->front_to_back ? k1 - 1 - i : k0 + i;
+        const int *rect = vp->scissor + 4 * k;
+        if (vp->vcount[k] > 0 && rect[2] > 0 && rect[3] > 0) {
+            glScissor(rect[0], rect[1], rect[2], rect[3]);
+            glDrawArrays(GL_TRIANGLES, vp->vfirst[k], vp->vcount[k]);
+        }
+        if (((i + 1) % per == 0 || i + 1 == count) && sq__render_part_done(r)) break;
     }
+    glDisable(GL_SCISSOR_TEST);
 }
 
 static void bind_light_pass(sq__volume_pass *vp, GLuint density)
@@ -1327,20 +1414,36 @@ static sq_result sweep_light(sq_renderer *r, const sq_volume_view *v, const vol_
 
 /* Fills the slice polygons as triangles, back to front for the eye, each vertex carrying its
  * plane's light layer; returns the vertex count. */
-static int build_slices(sq_renderer *r, const vol_plan *p)
+/* The slice polygons (the planes cut by the box grown by VOL_MARGIN_SPACINGS) into the vertex
+ * buffer, and each plane's window rectangle outside which its fragments are clear air
+ * (sq__volume_slice_rect; the whole window with render.volume_noise, whose bake moves the
+ * density by up to VOL_NOISE_AMP_VOXELS). */
+static int build_slices(sq_renderer *r, const sq_volume_view *v, const vol_plan *p)
 {
     sq__volume_pass *vp = r->volume;
     const float grow = VOL_MARGIN_SPACINGS * p->spacing;
     const sq_vec3 glo = sq_v3_sub(p->lo, sq_v3(grow, grow, grow));
     const sq_vec3 ghi = sq_v3_add(p->hi, sq_v3(grow, grow, grow));
+    const sq_vec3 forward = sq_v3_norm(r->cam_forward);
     int nv = 0;
     for (int i = 0; i < p->n; i++) {
         /* increasing d is front to back when the light comes from behind the viewer */
         const int k = p->front_to_back ? p->n - 1 - i : i;
         sq_vec3 poly[6];
-        const int m = plane_box_polygon(glo, ghi, p->s, p->d_first + (float)k * p->spacing, poly);
+        const float d = p->d_first + (float)k * p->spacing;
+        const int m = plane_box_polygon(glo, ghi, p->s, d, poly);
         vp->vfirst[k] = nv;
         vp->vcount[k] = m >= 3 ? 3 * (m - 2) : 0;
+        int *rect = vp->scissor + 4 * k;
+        if (r->desc.volume_noise) {
+            rect[0] = rect[1] = 0;
+            rect[2] = r->width;
+            rect[3] = r->height;
+        } else {
+            sq__volume_slice_rect(&vp->dust, v->mirror_y_m > 0.0f, glo, ghi, p->s, d,
+                                  &r->view_proj, r->cam_pos, forward, r->near_m, r->width,
+                                  r->height, rect);
+        }
         const float layer = (float)vp->slot[k];
         for (int t = 1; t + 1 < m; t++) {
             const sq_vec3 tri[3] = {poly[0], poly[t], poly[t + 1]};
@@ -1416,7 +1519,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         state_restore(&saved);
         return res;
     }
-    build_slices(r, &p);
+    build_slices(r, v, &p);
     if ((res = set_light_uniforms(r, v, &p)) != SQ_OK) {
         state_restore(&saved);
         return res;
@@ -1474,7 +1577,7 @@ sq_result sq__volume_pass_draw(sq_renderer *r, const sq_volume_view *v)
         glEnable(GL_DEPTH_TEST); /* early rejection behind the per-pixel bound; no writes */
         glDepthFunc(GL_LEQUAL);
         glDepthMask(GL_FALSE);
-        draw_slices_in_parts(r, first, last);
+        draw_slices_culled(r, &p, c);
     }
     glDisable(GL_BLEND);
     glDisable(GL_DEPTH_TEST);

@@ -1675,3 +1675,119 @@ done:
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
 }
+
+/* ---- slices drawn only where they can meet dust (render_volume.c sq__volume_slice_rect) ---- */
+
+/* Whether the eye pass's density lookup at world point p can read a voxel above 0: the lookup
+ * (volume_common.glsl vol_density_smooth: trilinear, the B-spline's fetches reaching the texels
+ * i - 1 .. i + 2 around the texel coordinate x, i = floor(x)) reads only texels within 2 of x
+ * on every axis; the texture clamps x and z (and y unless mirrored) to its faces. Mirrored in y:
+ * every y counts (a superset). */
+static bool lookup_reaches_dust(const float *den, const int n[3], sq_vec3 origin, sq_vec3 size,
+                                bool mirror_y, sq_vec3 p)
+{
+    const float pw[3] = {p.x, p.y, p.z}, o[3] = {origin.x, origin.y, origin.z},
+                sz[3] = {size.x, size.y, size.z};
+    float x[3];
+    for (int a = 0; a < 3; a++) {
+        const float tc = fminf(fmaxf((pw[a] - o[a]) / sz[a], 0.0f), 1.0f);
+        x[a] = tc * (float)n[a] - 0.5f;
+    }
+    for (int k = 0; k < n[2]; k++)
+        for (int j = 0; j < n[1]; j++)
+            for (int i = 0; i < n[0]; i++) {
+                if (!(den[((size_t)k * n[1] + j) * n[0] + i] > 0.0f)) continue;
+                if (fabsf((float)i - x[0]) <= 2.0f && fabsf((float)k - x[2]) <= 2.0f &&
+                    (mirror_y || fabsf((float)j - x[1]) <= 2.0f))
+                    return true;
+            }
+    return false;
+}
+
+/* Conservative: every point of a slice plane, inside the slice box and in the view in front of
+ * the near plane, whose lookup can read dust, lies in its plane's window rectangle. Blobs in
+ * the middle of the grid and against its faces (the clamped texture repeats them beyond),
+ * mirrored y, cameras outside and inside the box. And useful: some planes are culled whole and
+ * the rectangles of the others are, on average, smaller than the window. */
+SQ_TEST(volume_slice_rect_never_culls_dust)
+{
+    const int n[3] = {24, 16, 12};
+    const sq_vec3 origin = sq_v3(-1000.0f, -500.0f, 0.0f), size = sq_v3(2400.0f, 1600.0f, 1200.0f);
+    /* the slice box: the grid box grown by more than the dust box's margin (300 m) */
+    const sq_vec3 glo = sq_v3(-1600.0f, -1100.0f, -600.0f), ghi = sq_v3(2000.0f, 1700.0f, 1800.0f);
+    float *den = calloc((size_t)n[0] * n[1] * n[2], sizeof(float));
+    SQ_CHECK(den != NULL);
+    if (!den) return;
+    const int W = 160, H = 90;
+    uint32_t rs = 2024u;
+    int checked = 0, culled_planes = 0, planes = 0;
+    double area = 0.0;
+    for (int scene = 0; scene < 3; scene++) {
+        memset(den, 0, (size_t)n[0] * n[1] * n[2] * sizeof(float));
+        for (int k = 0; k < n[2]; k++)
+            for (int j = 0; j < n[1]; j++)
+                for (int i = 0; i < n[0]; i++) {
+                    bool on = scene == 0   ? (i >= 9 && i <= 12 && j >= 6 && j <= 8 && k >= 3 && k <= 5)
+                              : scene == 1 ? (i <= 2 && k <= 1 && j >= 4 && j <= 6) /* faces */
+                                           : (i >= 14 && i <= 20 && j >= 12 && k <= 4);
+                    if (on) den[((size_t)k * n[1] + j) * n[0] + i] = scene == 2 ? 1e-7f : 1.0f;
+                }
+        const bool mirror = scene == 2;
+        sq__volume_dust dust;
+        sq__volume_dust_box(den, n[0], n[1], n[2], origin, size, &dust);
+        SQ_CHECK(!dust.empty);
+        for (int cam_i = 0; cam_i < 6; cam_i++) {
+            float u[8];
+            for (int q = 0; q < 8; q++) {
+                rs = rs * 1664525u + 1013904223u;
+                u[q] = (float)(rs >> 8) / 16777216.0f;
+            }
+            /* cameras 0-2 inside the slice box, 3-5 outside it */
+            const sq_vec3 cam = cam_i < 3 ? sq_v3(-900.0f + 2200.0f * u[0], -400.0f + 1400.0f * u[1],
+                                                  50.0f + 1000.0f * u[2])
+                                          : sq_v3(2500.0f + 1000.0f * u[0], 300.0f * u[1], 600.0f * u[2]);
+            const sq_vec3 target = sq_v3(-800.0f + 1800.0f * u[3], -300.0f + 1200.0f * u[4], 900.0f * u[5]);
+            const sq_vec3 fwd = sq_v3_norm(sq_v3_sub(target, cam));
+            const sq_mat4 vp = sq_m4_mul(sq_m4_perspective(0.9f, (float)W / (float)H, 1.0f, 8000.0f),
+                                         sq_m4_look_at(cam, target, sq_v3(0.0f, 0.0f, 1.0f)));
+            const sq_vec3 s = sq_v3_norm(sq_v3(u[6] - 0.5f, u[7] - 0.5f, -0.4f));
+            for (int plane = 0; plane < 40; plane++) {
+                const float d = -1800.0f + 3600.0f * (float)plane / 40.0f;
+                int rect[4];
+                const bool any = sq__volume_slice_rect(&dust, mirror, glo, ghi, s, d, &vp, cam, fwd,
+                                                       1.0f, W, H, rect);
+                planes++;
+                if (!any) culled_planes++;
+                area += (double)rect[2] * rect[3] / (W * H);
+                for (int t = 0; t < 300; t++) {
+                    float r3[3];
+                    for (int a = 0; a < 3; a++) {
+                        rs = rs * 1664525u + 1013904223u;
+                        r3[a] = (float)(rs >> 8) / 16777216.0f;
+                    }
+                    sq_vec3 p = sq_v3(glo.x + (ghi.x - glo.x) * r3[0], glo.y + (ghi.y - glo.y) * r3[1],
+                                      glo.z + (ghi.z - glo.z) * r3[2]);
+                    p = sq_v3_sub(p, sq_v3_scale(s, sq_v3_dot(s, p) - d)); /* onto the plane */
+                    if (p.x < glo.x || p.y < glo.y || p.z < glo.z || p.x > ghi.x || p.y > ghi.y ||
+                        p.z > ghi.z)
+                        continue;
+                    if (sq_v3_dot(fwd, sq_v3_sub(p, cam)) < 1.0f) continue; /* behind the near plane */
+                    const sq_vec4 c = sq_m4_mul_v4(vp, (sq_vec4){p.x, p.y, p.z, 1.0f});
+                    const float wx = (c.x / c.w * 0.5f + 0.5f) * (float)W;
+                    const float wy = (c.y / c.w * 0.5f + 0.5f) * (float)H;
+                    if (wx < 0.0f || wy < 0.0f || wx >= (float)W || wy >= (float)H) continue;
+                    if (!lookup_reaches_dust(den, n, origin, size, mirror, p)) continue;
+                    checked++;
+                    const int px = (int)wx, py = (int)wy;
+                    const bool inside = any && px >= rect[0] && px < rect[0] + rect[2] &&
+                                        py >= rect[1] && py < rect[1] + rect[3];
+                    SQ_CHECK(inside);
+                }
+            }
+        }
+    }
+    SQ_CHECK(checked > 2000);                 /* the check saw many dusty points */
+    SQ_CHECK(culled_planes > planes / 10);    /* whole planes are culled */
+    SQ_CHECK(area / planes < 0.6);            /* and the rest cover less than the window */
+    free(den);
+}

@@ -210,16 +210,32 @@ double sq__sand_detail_weight(double age, double period)
 }
 
 /* Noise at coordinates q, roughly in [-1, 1]: a displacement vector (two octaves of gradient
- * noise per component) and a modulation (one octave), decorrelated by offsets. */
-static void noise_vec(const sq_noise *n, const float q[3], float out[4])
+ * noise per component) and a modulation (one octave), decorrelated by offsets. It takes the
+ * noise at SQ_SAND_DETAIL_POINTS points, which noise_points lists (for sq_noise3_many, which
+ * evaluates many at once) and noise_combine sums. */
+#define SQ_SAND_DETAIL_POINTS 7
+static void noise_points(const float q[3], float *x, float *y, float *z)
 {
     static const float off[4][3] = {{0.0f, 0.0f, 0.0f}, {31.7f, 17.3f, 7.1f}, {11.9f, 53.1f, 29.3f},
                                     {71.3f, 5.9f, 43.7f}};
     for (int c = 0; c < 3; c++) {
-        const float x = q[0] + off[c][0], y = q[1] + off[c][1], z = q[2] + off[c][2];
-        out[c] = 0.67f * sq_noise3(n, x, y, z) + 0.33f * sq_noise3(n, 2.03f * x, 2.03f * y, 2.03f * z);
+        const float px = q[0] + off[c][0], py = q[1] + off[c][1], pz = q[2] + off[c][2];
+        x[2 * c] = px;
+        y[2 * c] = py;
+        z[2 * c] = pz;
+        x[2 * c + 1] = 2.03f * px;
+        y[2 * c + 1] = 2.03f * py;
+        z[2 * c + 1] = 2.03f * pz;
     }
-    out[3] = sq_noise3(n, q[0] + off[3][0], q[1] + off[3][1], q[2] + off[3][2]);
+    x[6] = q[0] + off[3][0];
+    y[6] = q[1] + off[3][1];
+    z[6] = q[2] + off[3][2];
+}
+
+static void noise_combine(const float r[SQ_SAND_DETAIL_POINTS], float out[4])
+{
+    for (int c = 0; c < 3; c++) out[c] = 0.67f * r[2 * c] + 0.33f * r[2 * c + 1];
+    out[3] = r[6];
 }
 
 /* One axis of the dilation: dst[c] = 1 if src is set within r cells of c along the axis
@@ -247,6 +263,44 @@ static void dilate_axis(const sq__sand_detail *d, const uint8_t *src, uint8_t *d
         }
 }
 
+/* One detailed cell: the input looked up at the displaced point and modulated; r0, r1 hold the
+ * noise at the SQ_SAND_DETAIL_POINTS points of phase 0 and 1 (NULL for a phase of weight 0,
+ * whose noise counts 0). */
+static void detail_cell(const sq__sand_detail *d, const float *in, float *out, int i, int j,
+                        int k, float a0, float a1, float amax, const float *r0, const float *r1)
+{
+    const size_t id = cell(d, i, j, k);
+    const float A = d->amp[id];
+    float n0[4] = {0, 0, 0, 0}, n1[4] = {0, 0, 0, 0};
+    if (r0) noise_combine(r0, n0);
+    if (r1) noise_combine(r1, n1);
+    /* trilinear lookup of the input at the displaced point (cells), clamped */
+    float p[3];
+    const int nn[3] = {d->nx, d->ny, d->nz};
+    const int id3[3] = {i, j, k};
+    int i0[3];
+    float t[3];
+    for (int c = 0; c < 3; c++) {
+        p[c] = (float)id3[c] + A * (a0 * n0[c] + a1 * n1[c]);
+        p[c] = fminf(fmaxf(p[c], 0.0f), (float)(nn[c] - 1));
+        i0[c] = (int)p[c];
+        if (i0[c] > nn[c] - 2) i0[c] = nn[c] > 1 ? nn[c] - 2 : 0;
+        t[c] = nn[c] > 1 ? p[c] - (float)i0[c] : 0.0f;
+    }
+    const size_t plane = (size_t)d->nx * d->ny;
+    const size_t sx = d->nx > 1, sy = d->ny > 1 ? (size_t)d->nx : 0, sz = d->nz > 1 ? plane : 0;
+    const float *b = in + cell(d, i0[0], i0[1], i0[2]);
+    const float c00 = b[0] + t[0] * (b[sx] - b[0]);
+    const float c10 = b[sy] + t[0] * (b[sy + sx] - b[sy]);
+    const float c01 = b[sz] + t[0] * (b[sz + sx] - b[sz]);
+    const float c11 = b[sy + sz] + t[0] * (b[sy + sz + sx] - b[sy + sz]);
+    const float c0 = c00 + t[1] * (c10 - c00), c1 = c01 + t[1] * (c11 - c01);
+    /* lobes and clefts: the looked-up extinction modulated by a fourth noise, with the same
+     * shear weight as the displacement */
+    const float m = 1.0f + SQ_SAND_DETAIL_CONTRAST * (A / amax) * (a0 * n0[3] + a1 * n1[3]);
+    out[id] = (c0 + t[2] * (c1 - c0)) * fmaxf(m, 0.0f);
+}
+
 void sq__sand_detail_apply(const sq__sand_detail *d, const float *in, float *out, int threads)
 {
     (void)threads; /* unused without OpenMP */
@@ -260,53 +314,54 @@ void sq__sand_detail_apply(const sq__sand_detail *d, const float *in, float *out
     dilate_axis(d, d->near[1], d->near[0], 1, reach, threads);
     dilate_axis(d, d->near[0], d->near[1], 2, reach, threads);
     const uint8_t *near = d->near[1];
-    const size_t plane = (size_t)d->nx * d->ny;
     const double w0 = sq__sand_detail_weight(d->age[0], d->period_s),
                  w1 = sq__sand_detail_weight(d->age[1], d->period_s);
     const double norm = sqrt(w0 * w0 + w1 * w1);
     const float a0 = (float)(w0 / norm), a1 = (float)(w1 / norm);
     const float inv_s = (float)(1.0 / d->scale_cells);
     const float amax = (float)(d->amplitude_m / d->h);
+    /* noise points per detailed cell: those of each phase of non-zero weight (w0 + w1 = 1) */
+    const int np = ((a0 > 0.0f) + (a1 > 0.0f)) * SQ_SAND_DETAIL_POINTS;
     SQ_OMP(omp parallel for schedule(static) num_threads(threads))
     for (int k = 0; k < d->nz; k++)
-        for (int j = 0; j < d->ny; j++)
-            for (int i = 0; i < d->nx; i++) {
-                const size_t id = cell(d, i, j, k);
-                const float A = d->amp[id];
-                if (A <= 0.0f || !near[id]) {
-                    out[id] = in[id];
-                    continue;
+        for (int j = 0; j < d->ny; j++) {
+            /* the row's detailed cells in batches: their noise points, the noise at all of
+             * them at once (sq_noise3_many: vectorised), then each cell's lookup */
+            enum { BATCH = 32, PTS = 2 * SQ_SAND_DETAIL_POINTS };
+            int bi[BATCH];
+            float px[BATCH * PTS], py[BATCH * PTS], pz[BATCH * PTS], nr[BATCH * PTS];
+            int nb = 0;
+            for (int i = 0; i <= d->nx; i++) {
+                if (i < d->nx) {
+                    const size_t id = cell(d, i, j, k);
+                    if (d->amp[id] <= 0.0f || !near[id]) {
+                        out[id] = in[id];
+                    } else {
+                        /* a phase of weight 0 is not evaluated (its noise counts 0) */
+                        const float *X0 = d->coord[0] + 3 * id, *X1 = d->coord[1] + 3 * id;
+                        size_t o = (size_t)nb * np;
+                        if (a0 > 0.0f) {
+                            const float q0[3] = {X0[0] * inv_s, X0[1] * inv_s, X0[2] * inv_s};
+                            noise_points(q0, px + o, py + o, pz + o);
+                            o += SQ_SAND_DETAIL_POINTS;
+                        }
+                        if (a1 > 0.0f) {
+                            const float q1[3] = {X1[0] * inv_s + 101.0f, X1[1] * inv_s,
+                                                 X1[2] * inv_s};
+                            noise_points(q1, px + o, py + o, pz + o);
+                        }
+                        bi[nb++] = i;
+                    }
                 }
-                float n0[4] = {0, 0, 0, 0}, n1[4] = {0, 0, 0, 0};
-                const float *X0 = d->coord[0] + 3 * id, *X1 = d->coord[1] + 3 * id;
-                const float q0[3] = {X0[0] * inv_s, X0[1] * inv_s, X0[2] * inv_s};
-                const float q1[3] = {X1[0] * inv_s + 101.0f, X1[1] * inv_s, X1[2] * inv_s};
-                if (a0 > 0.0f) noise_vec(&d->noise, q0, n0);
-                if (a1 > 0.0f) noise_vec(&d->noise, q1, n1);
-                /* trilinear lookup of the input at the displaced point (cells), clamped */
-                float p[3];
-                const int nn[3] = {d->nx, d->ny, d->nz};
-                const int id3[3] = {i, j, k};
-                int i0[3];
-                float t[3];
-                for (int c = 0; c < 3; c++) {
-                    p[c] = (float)id3[c] + A * (a0 * n0[c] + a1 * n1[c]);
-                    p[c] = fminf(fmaxf(p[c], 0.0f), (float)(nn[c] - 1));
-                    i0[c] = (int)p[c];
-                    if (i0[c] > nn[c] - 2) i0[c] = nn[c] > 1 ? nn[c] - 2 : 0;
-                    t[c] = nn[c] > 1 ? p[c] - (float)i0[c] : 0.0f;
+                if (nb == BATCH || (i == d->nx && nb > 0)) {
+                    sq_noise3_many(&d->noise, (size_t)nb * np, px, py, pz, nr);
+                    for (int b = 0; b < nb; b++) {
+                        const float *r = nr + (size_t)b * np;
+                        detail_cell(d, in, out, bi[b], j, k, a0, a1, amax, a0 > 0.0f ? r : NULL,
+                                    a1 > 0.0f ? r + np - SQ_SAND_DETAIL_POINTS : NULL);
+                    }
+                    nb = 0;
                 }
-                const size_t sx = d->nx > 1, sy = d->ny > 1 ? (size_t)d->nx : 0,
-                             sz = d->nz > 1 ? plane : 0;
-                const float *b = in + cell(d, i0[0], i0[1], i0[2]);
-                const float c00 = b[0] + t[0] * (b[sx] - b[0]);
-                const float c10 = b[sy] + t[0] * (b[sy + sx] - b[sy]);
-                const float c01 = b[sz] + t[0] * (b[sz + sx] - b[sz]);
-                const float c11 = b[sy + sz] + t[0] * (b[sy + sz + sx] - b[sy + sz]);
-                const float c0 = c00 + t[1] * (c10 - c00), c1 = c01 + t[1] * (c11 - c01);
-                /* lobes and clefts: the looked-up extinction modulated by a fourth noise,
-                 * with the same shear weight as the displacement */
-                const float m = 1.0f + SQ_SAND_DETAIL_CONTRAST * (A / amax) * (a0 * n0[3] + a1 * n1[3]);
-                out[id] = (c0 + t[2] * (c1 - c0)) * fmaxf(m, 0.0f);
             }
+        }
 }
