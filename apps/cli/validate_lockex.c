@@ -102,8 +102,9 @@ int sq_validate_lock_exchange(int argc, char **argv)
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++)
                 *sq_field3_at(T, i, j, k) =
-                    (float)(i < nx / 2 ? theta0 - dT * (1.0 + span * cos(2.0 * SQ_PI * (j + 0.5) / ny))
-                                       : theta0);
+                    (float)(i < nx / 2
+                                ? theta0 - dT * (1.0 + span * cos(2.0 * SQ_PI * (j + 0.5) / ny))
+                                : theta0);
     sq_grid_apply_boundary(g);
 
     if (!json) printf("t_s,front_m\n");
