@@ -256,9 +256,28 @@ static double gust_factor(const sq_lbm *l, double t)
     return a0 + (a1 - a0) * w;
 }
 
-/* Mean horizontal velocity (l.u.) of the fluid cells in the reference plane (vectorised rows,
- * the same moments as the density/velocity views). */
-static void measure_ref_plane(const sq_lbm *l, double u[2])
+/* The plane BODY_FORCE measures: the reference plane, or where fewer than half of its cells
+ * are fluid (buried under deposited snow, say) the first plane above it that is at least half
+ * fluid; -1 when there is none. In a buried plane the few fluid cells left are stagnant pockets:
+ * measuring there (0 when none is left) made the controller add half the set-point to the
+ * whole flow every step until it blew up. Global flags: every rank agrees. */
+static int measured_plane(const sq_lbm *l)
+{
+    const int gnz = global_nz(l);
+    const int64_t half = ((int64_t)l->nx * l->ny + 1) / 2;
+    for (int k = l->k_ref; k < gnz; k++) {
+        int64_t n = 0;
+        for (int y = 0; y < l->ny && n < half; y++)
+            for (int x = 0; x < l->nx; x++) n += sq__lbm_gsolid(l, x, y, k) == 0;
+        if (n >= half) return k;
+    }
+    return -1;
+}
+
+/* Mean horizontal velocity (l.u.) of the fluid cells in the measured plane (vectorised rows,
+ * the same moments as the density/velocity views). Returns false when there is no such plane
+ * (nothing to measure: the drive then adds no correction). */
+static bool measure_ref_plane(const sq_lbm *l, double u[2])
 {
     const int parity = (int)(l->step & 1);
     const float h = parity == 0 ? 0.5f : -0.5f;
@@ -266,20 +285,25 @@ static void measure_ref_plane(const sq_lbm *l, double u[2])
                          h * (float)l->g_step[2]};
     double s[2] = {0, 0};
     int64_t n = 0;
+    const int k = measured_plane(l);
+    u[0] = u[1] = 0.0;
+    if (k < 0) return false;
     if (l->zdist) { /* the slab holding the plane measures, the others are told */
-        const int owner = l->plane_rank[l->k_ref];
+        const int owner = l->plane_rank[k];
         double v[3] = {0, 0, 0};
         if (owner == sq_par_rank()) {
-            sq__lbm_plane_velocity(l, parity, gh, l->k_ref - l->kz0, s, &n);
+            sq__lbm_plane_velocity(l, parity, gh, k - l->kz0, s, &n);
             v[0] = s[0], v[1] = s[1], v[2] = (double)n;
         }
         sq_par_broadcast(v, sizeof v, owner);
         s[0] = v[0], s[1] = v[1], n = (int64_t)v[2];
     } else {
-        sq__lbm_plane_velocity(l, parity, gh, l->k_ref, s, &n);
+        sq__lbm_plane_velocity(l, parity, gh, k, s, &n);
     }
-    u[0] = n ? s[0] / (double)n : 0.0;
-    u[1] = n ? s[1] / (double)n : 0.0;
+    if (n == 0) return false;
+    u[0] = s[0] / (double)n;
+    u[1] = s[1] / (double)n;
+    return true;
 }
 
 /* Adds the velocity v (l.u.) to every fluid cell without changing its density:
@@ -382,9 +406,10 @@ static void update_wind(sq_lbm *l)
     } else if (l->drive == SQ_LBM_DRIVE_BODY_FORCE) {
         double u[2];
         ensure_boundaries(l); /* edge cells of the plane need their incoming populations */
-        measure_ref_plane(l, u);
-        g[0] += LBM_DRIVE_GAIN * (l->setpoint[0] - u[0]);
-        g[1] += LBM_DRIVE_GAIN * (l->setpoint[1] - u[1]);
+        if (measure_ref_plane(l, u)) { /* nothing to measure: no correction */
+            g[0] += LBM_DRIVE_GAIN * (l->setpoint[0] - u[0]);
+            g[1] += LBM_DRIVE_GAIN * (l->setpoint[1] - u[1]);
+        }
     }
     for (int a = 0; a < 3; a++) l->g_step[a] = g[a];
 }
