@@ -65,7 +65,8 @@ const sq_cli_case sq_cli_validate_cases[] = {
      sq_validate_dam_break, NULL},
     {"lock-exchange", "full-depth lock-exchange gravity current on the sandstorm's grid solver: "
      "front speed and Froude number vs Benjamin 1968 / Shin, Dalziel & Linden 2004 (Fr = 1/2)",
-     "--n 32 --depth 1000 --delta-t 3 --closure none|smagorinsky|tke --json", NULL,
+     "--n 32 --depth 1000 --delta-t 3 --closure none|smagorinsky|tke --confinement 0 "
+     "--plain-confinement --spanwise 0 --width 4 --json", NULL,
      sq_validate_lock_exchange, NULL},
     /* helpers: add validate cases here, e.g. {"lbm-cavity", "...", "--re 100 --n 64", NULL, sq_validate_lbm_cavity, NULL}, */
     {NULL, NULL, NULL, NULL, NULL, NULL},

@@ -16,7 +16,13 @@
  * --closure smagorinsky adds the Smagorinsky–Lilly subgrid closure (grid.h
  * sq_grid_diffuse_sgs: eddy viscosity and diffusivity of the wind and θ, stratified by θ; the
  * walls stay free-slip) after the buoyancy, as the sandstorm's solver.turbulence does;
- * --closure tke Deardorff's TKE closure instead (grid_tke.c; e a second scalar, from 0). */
+ * --closure tke Deardorff's TKE closure instead (grid_tke.c; e a second scalar, from 0).
+ * --confinement EPS adds the sandstorm's vorticity confinement (solver.confinement: the
+ * helicity-adaptive form, or Fedkiw's constant-eps one with --plain-confinement) after the
+ * buoyancy, in the sandstorm's order. The helicity u·ω vanishes in a flow without variation
+ * across the slab, so to see what the helicity-adaptive form does --spanwise A varies the cold
+ * side's deficit across the slab as ΔT (1 + A cos(2π y / W)) (mean ΔT; W the slab's width of
+ * --width cells, default 4), as the haboob's coldpool.spanwise_variation does. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -24,6 +30,7 @@
 
 #include "cases.h"
 #include "squall/grid.h"
+#include "squall/sqmath.h"
 
 #define LOCKEX_FR_THEORY 0.5 /* Benjamin 1968; Shin, Dalziel & Linden 2004 */
 
@@ -46,15 +53,19 @@ static double front_position(const sq_grid *g, int nx, int ny, double h, double 
 
 int sq_validate_lock_exchange(int argc, char **argv)
 {
-    int nz;
-    double H, dT, theta0 = 300.0, cfl, t_end_nd;
+    int nz, ny;
+    double H, dT, theta0 = 300.0, cfl, t_end_nd, eps, span;
     if (!sq_cli_int(argc, argv, "--n", 32, 8, 256, &nz) ||
         !sq_cli_double(argc, argv, "--depth", 1000.0, 0.01, 1e5, &H) ||
         !sq_cli_double(argc, argv, "--delta-t", 3.0, 0.01, 30.0, &dT) ||
         !sq_cli_double(argc, argv, "--cfl", 0.5, 0.05, 2.0, &cfl) ||
-        !sq_cli_double(argc, argv, "--t-end", 7.0, 1.0, 100.0, &t_end_nd))
+        !sq_cli_double(argc, argv, "--t-end", 7.0, 1.0, 100.0, &t_end_nd) ||
+        !sq_cli_double(argc, argv, "--confinement", 0.0, 0.0, 2.0, &eps) ||
+        !sq_cli_double(argc, argv, "--spanwise", 0.0, 0.0, 0.9, &span) ||
+        !sq_cli_int(argc, argv, "--width", 4, 1, 256, &ny))
         return SQ_EXIT_USAGE;
     const bool json = sq_cli_flag(argc, argv, "--json");
+    const bool plain = sq_cli_flag(argc, argv, "--plain-confinement");
     const char *closure = sq_cli_value(argc, argv, "--closure");
     const bool tke = closure && strcmp(closure, "tke") == 0;
     const bool sgs = tke || (closure && strcmp(closure, "smagorinsky") == 0);
@@ -65,7 +76,7 @@ int sq_validate_lock_exchange(int argc, char **argv)
     }
     sq_context *ctx = NULL;
     if (sq_cli_context(argc, argv, &ctx) != SQ_OK) return SQ_EXIT_USAGE;
-    const int nx = 8 * nz, ny = 4;
+    const int nx = 8 * nz;
     const double h = H / nz, gr = 9.81, gp = gr * dT / theta0, c = sqrt(gp * H);
     sq_grid_desc d;
     memset(&d, 0, sizeof d);
@@ -90,7 +101,10 @@ int sq_validate_lock_exchange(int argc, char **argv)
     for (int k = 0; k < nz; k++)
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++)
-                *sq_field3_at(T, i, j, k) = (float)(i < nx / 2 ? theta0 - dT : theta0);
+                *sq_field3_at(T, i, j, k) =
+                    (float)(i < nx / 2
+                                ? theta0 - dT * (1.0 + span * cos(2.0 * SQ_PI * (j + 0.5) / ny))
+                                : theta0);
     sq_grid_apply_boundary(g);
 
     if (!json) printf("t_s,front_m\n");
@@ -113,6 +127,7 @@ int sq_validate_lock_exchange(int argc, char **argv)
         if (t + dt > t_end) dt = t_end - t;
         r = sq_grid_advect_velocity(g, dt);
         if (r == SQ_OK) r = sq_grid_add_buoyancy(g, 0, tref, 1.0, gr, dt);
+        if (r == SQ_OK && eps > 0.0) r = sq_grid_confine_vorticity(g, eps, !plain, dt);
         if (r == SQ_OK && sgs) {
             const sq_grid_sgs_desc sd = {.closure = tke ? SQ_SGS_TKE : SQ_SGS_SMAGORINSKY,
                                          .stratified = true, .theta_idx = 0, .gravity_mps2 = gr,
@@ -140,6 +155,10 @@ int sq_validate_lock_exchange(int argc, char **argv)
             sq_json_begin(&j);
             sq_json_str(&j, "case", "lock-exchange");
             sq_json_str(&j, "closure", tke ? "tke" : sgs ? "smagorinsky" : "none");
+            sq_json_num(&j, "confinement", eps);
+            sq_json_bool(&j, "plain_confinement", plain);
+            sq_json_num(&j, "spanwise", span);
+            sq_json_int(&j, "ny", ny);
             sq_json_int(&j, "nz", nz);
             sq_json_int(&j, "nx", nx);
             sq_json_num(&j, "cell_m", h);
@@ -154,8 +173,9 @@ int sq_validate_lock_exchange(int argc, char **argv)
             sq_json_int(&j, "fit_samples", nfit);
             sq_json_end(&j, stdout);
         }
-        fprintf(stderr, "lock-exchange: H = %g m, dT = %g K, %d x %d cells: front speed %.3f m/s, "
-                "Fr = %.3f (theory %.2f, %+.1f %%)\n", H, dT, nx, nz, U, Fr, LOCKEX_FR_THEORY,
+        fprintf(stderr, "lock-exchange: H = %g m, dT = %g K, %d x %d x %d cells, confinement %g%s, "
+                "spanwise %g: front speed %.3f m/s, Fr = %.3f (theory %.2f, %+.1f %%)\n", H, dT,
+                nx, ny, nz, eps, plain ? " (plain)" : "", span, U, Fr, LOCKEX_FR_THEORY,
                 100.0 * err);
     }
     free(tref);

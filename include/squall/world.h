@@ -273,7 +273,8 @@ SQ_API sq_result sq_world_set_meshes(sq_context *ctx, sq_world *w, const sq_mesh
  * direction, radiance and the sky colours move to that time; otherwise only time_s changes. */
 SQ_API void sq_world_set_time(sq_world *w, double t_s);
 
-/* Terrain height and normal at (x, y), bilinear; outside the heightfield the edge is extended. */
+/* Terrain height and normal at (x, y), bilinear; outside the heightfield the edge is extended.
+ * A NaN coordinate gives a NaN height and the vertical (0, 0, 1). */
 SQ_API float sq_world_height_at(const sq_world *w, float x, float y);
 SQ_API sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y);
 /* Highest surface (terrain, obstacle top/roof or mesh) at (x, y). */

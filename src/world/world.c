@@ -565,6 +565,10 @@ void sq_world_destroy(sq_context *ctx, sq_world *w)
 static void cell_coords(const sq_world *w, float x, float y, int *i, int *j, float *fx, float *fy)
 {
     float gx = (x - w->origin.x) / w->dx, gy = (y - w->origin.y) / w->dy;
+    /* a NaN coordinate would survive the clamp and index far outside the heights: the
+     * callers return NaN for it (sq_world_height_at) or the vertical; this keeps the index in */
+    if (!(gx == gx)) gx = 0.0f;
+    if (!(gy == gy)) gy = 0.0f;
     gx = sq_clampf(gx, 0.0f, (float)(w->nx - 1));
     gy = sq_clampf(gy, 0.0f, (float)(w->ny - 1));
     int ii = (int)gx, jj = (int)gy;
@@ -578,6 +582,7 @@ static void cell_coords(const sq_world *w, float x, float y, int *i, int *j, flo
 
 float sq_world_height_at(const sq_world *w, float x, float y)
 {
+    if (isnan(x) || isnan(y)) return NAN;
     int i, j;
     float fx, fy;
     cell_coords(w, x, y, &i, &j, &fx, &fy);
@@ -590,6 +595,7 @@ float sq_world_height_at(const sq_world *w, float x, float y)
 
 sq_vec3 sq_world_normal_at(const sq_world *w, float x, float y)
 {
+    if (isnan(x) || isnan(y)) return sq_v3(0, 0, 1);
     int i, j;
     float fx, fy;
     cell_coords(w, x, y, &i, &j, &fx, &fy);

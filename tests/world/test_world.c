@@ -40,6 +40,13 @@ SQ_TEST(flat_terrain_and_bounds)
     SQ_CHECK_NEAR(n.z, 1.0, 1e-6);
     SQ_CHECK(sq_world_solid_at(w, sq_v3(0, 0, 12.0f)));
     SQ_CHECK(!sq_world_solid_at(w, sq_v3(0, 0, 13.0f)));
+    /* a NaN coordinate (a particle a blown-up wind carried away) reads no memory outside the
+     * heights: NaN height, the vertical; far outside, the edge */
+    SQ_CHECK(isnan(sq_world_height_at(w, NAN, 0.0f)) && isnan(sq_world_height_at(w, 0.0f, NAN)));
+    n = sq_world_normal_at(w, NAN, 1.0f);
+    SQ_CHECK(n.x == 0.0f && n.y == 0.0f && n.z == 1.0f);
+    SQ_CHECK_NEAR(sq_world_height_at(w, -1e30f, 1e30f), 12.5, 1e-5);
+    SQ_CHECK_NEAR(sq_world_height_at(w, INFINITY, -INFINITY), 12.5, 1e-5);
     sq_world_destroy(ctx, w);
     sq_context_destroy(ctx);
 }

@@ -134,7 +134,11 @@ static const sq_param params[] = {
       "Smagorinsky constant C_s of solver.turbulence = smagorinsky (Lilly 1967: 0.17-0.18 for "
       "an inertial range; 0.1-0.23 in use)."),
     D("solver.confinement", confinement, "1", 0, 0, 2, Z,
-      "Vorticity-confinement strength eps_h (S0 eq. 2.15); 0 = off."),
+      "Vorticity-confinement strength eps_h (S0 eq. 2.15); 0 = off. A numerical force that "
+      "puts back vorticity the grid diffuses, not physics; the helicity-adaptive form is zero "
+      "in a two-dimensional flow (no variation and no wind across it). The haboob preset uses "
+      "0 (0.15 fed its winds by ~8 m/s and stops a 3-D lock-exchange current: "
+      "docs/phen/sandstorm.md)."),
     B("solver.plain_confinement", plain_confinement,
       "Use Fedkiw's constant-eps confinement instead of S0's helicity-adaptive one."),
     D("solver.cfl", cfl, "1", 2, 0.1, 20, 0,

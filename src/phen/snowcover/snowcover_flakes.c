@@ -128,8 +128,13 @@ void sq__snowcover_flakes_step(sq_snowcover *s, double dt_s)
         pd[0] = c[0] + wrap(pd[0] - c[0], L);
         pd[1] = c[1] + wrap(pd[1] - c[1], L);
         if (pd[2] > top) pd[2] -= top - bottom;
-        /* reached the ground (or the bottom of the box): re-initialised at its birth position */
-        if (pd[2] < bottom || pd[2] < (double)sq_world_height_at(s->world, (float)pd[0], (float)pd[1])) {
+        /* reached the ground (or the bottom of the box): re-initialised at its birth position;
+         * so is a flake that a non-finite wind (a lattice that is blowing up, reported by its
+         * own layer at its next check) would carry to NaN */
+        const bool lost = !(isfinite(pd[0]) && isfinite(pd[1]) && isfinite(pd[2]) &&
+                            isfinite(vd[0]) && isfinite(vd[1]) && isfinite(vd[2]));
+        if (lost || pd[2] < bottom ||
+            pd[2] < (double)sq_world_height_at(s->world, (float)pd[0], (float)pd[1])) {
             pd[0] = c[0] + (double)s->birth[2 * i];
             pd[1] = c[1] + (double)s->birth[2 * i + 1];
             pd[2] = top;

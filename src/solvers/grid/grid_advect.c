@@ -375,19 +375,33 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
     const float s = dt / g->h, hs = 0.5f * s;
     const ptrdiff_t sy4 = 4 * g->sy, sz4 = 4 * g->sz;
     double *pmax = g->plane_sum;
+    /* cells (ghosts included) whose backward displacements are computed: all, or on a slab's
+     * widened copy those within reach of the first pass (its samples within trace_margin of
+     * the slab, each reading its cell and the one below); forward ones: the slab's */
+    int lo[3] = {-1, -1, -1}, hi[3] = {nx + 1, ny + 1, nz + 1};
+    const int a = g->own_only ? g->own_ax : 0;
+    int flo = -1, fhi = a == 0 ? nx + 1 : a == 1 ? ny + 1 : nz + 1;
+    if (g->own_only) {
+        const int M = g->trace_margin;
+        lo[a] = g->own_lo - M - 2 > -1 ? g->own_lo - M - 2 : -1;
+        hi[a] = g->own_hi + M + 2 < hi[a] ? g->own_hi + M + 2 : hi[a];
+        flo = g->own_lo - 2 > -1 ? g->own_lo - 2 : -1;
+        fhi = g->own_hi + 2 < fhi ? g->own_hi + 2 : fhi;
+    }
+    for (int k = 0; k < nz; k++) pmax[k] = 0.0;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = -1; k <= nz; k++) {
+    for (int k = lo[2]; k < hi[2]; k++) {
         int32_t vmax = 0; /* bit pattern of the non-negative float max */
         float ux[CH], uy[CH], uz[CH];
         v4f u1[CH];
         chunk cm;
         const float Z = (float)(k + C.shift[2]) + 0.5f;
-        for (int j = -1; j <= ny; j++) {
+        for (int j = lo[1]; j < hi[1]; j++) {
             const float Y = (float)(j + C.shift[1]) + 0.5f;
             const ptrdiff_t row = (ptrdiff_t)j * g->sy + (ptrdiff_t)k * g->sz;
             const bool inner = j >= 0 && j < ny && k >= 0 && k < nz;
-            for (int i0 = -1; i0 <= nx; i0 += CH) {
-                const int n = nx + 1 - i0 < CH ? nx + 1 - i0 : CH;
+            for (int i0 = lo[0]; i0 < hi[0]; i0 += CH) {
+                const int n = hi[0] - i0 < CH ? hi[0] - i0 : CH;
                 const float *u = uc4_origin + 4 * (row + i0);
                 for (int q = 0; q < n; q++) {
                     ux[q] = u[4 * q];
@@ -405,19 +419,30 @@ static float cell_displacements(sq_grid *g, const float *uc4_origin, float dt, f
                     }
                 for (int pass = 0; pass < (fwd ? 2 : 1); pass++) {
                     const float sg = pass ? hs : -hs;
-                    for (int q = 0; q < n; q++) {
-                        cm.fx[q] = ((float)(i0 + q + C.shift[0]) + 0.5f) + sg * ux[q];
-                        cm.fy[q] = Y + sg * uy[q];
-                        cm.fz[q] = Z + sg * uz[q];
+                    int qa = 0, qb = n; /* the chunk's cells this pass computes */
+                    if (pass == 1 && a == 0) {
+                        qa = flo - i0 > 0 ? flo - i0 : 0;
+                        qb = fhi - i0 < n ? fhi - i0 : n;
+                    } else if (pass == 1 && ((a == 1 && (j < flo || j >= fhi)) ||
+                                             (a == 2 && (k < flo || k >= fhi)))) {
+                        qb = 0;
                     }
-                    locate_chunk(&C, &cm, n);
-                    float *ox = (pass ? df : db)[0] + row + i0, *oy = (pass ? df : db)[1] + row + i0,
-                          *oz = (pass ? df : db)[2] + row + i0;
+                    const int m = qb - qa;
+                    if (m <= 0) continue;
+                    for (int q = 0; q < m; q++) {
+                        cm.fx[q] = ((float)(i0 + qa + q + C.shift[0]) + 0.5f) + sg * ux[qa + q];
+                        cm.fy[q] = Y + sg * uy[qa + q];
+                        cm.fz[q] = Z + sg * uz[qa + q];
+                    }
+                    locate_chunk(&C, &cm, m);
+                    const ptrdiff_t o0 = row + i0 + qa;
+                    float *ox = (pass ? df : db)[0] + o0, *oy = (pass ? df : db)[1] + o0,
+                          *oz = (pass ? df : db)[2] + o0;
                     const float ss = pass ? s : -s;
-                    for (int q = 0; q < n; q++)
+                    for (int q = 0; q < m; q++)
                         u1[q] = vel_lerp(uc4_origin, cm.b[q], sy4, sz4, cm.fx[q], cm.fy[q],
                                          cm.fz[q]);
-                    for (int q = 0; q < n; q++) {
+                    for (int q = 0; q < m; q++) {
                         ox[q] = ss * u1[q][0];
                         oy[q] = ss * u1[q][1];
                         oz[q] = ss * (u1[q][2] + drift);
@@ -504,14 +529,25 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
     (void)nt; /* unused without OpenMP */
     float *const *dst1 = mac ? hat : out;
     const bool store = mac && rhi; /* limiter range stored by pass 1 (low in out, high in rhi) */
+    /* the samples each pass computes: all, or on a slab's widened copy the slab's (pass 2, or
+     * a semi-Lagrangian pass 1) and those within trace_margin of them (MacCormack's pass 1) */
+    int lo1[3] = {0, 0, 0}, hi1[3] = {mxn, myn, mzn}, lo2[3] = {0, 0, 0}, hi2[3] = {mxn, myn, mzn};
+    if (g->own_only) {
+        const int a = g->own_ax, M = mac ? g->trace_margin : 0;
+        const int ohi = g->own_hi + (L - 1 == a ? 1 : 0); /* a face lattice: both end faces */
+        lo1[a] = g->own_lo - M > 0 ? g->own_lo - M : 0;
+        hi1[a] = ohi + M < hi1[a] ? ohi + M : hi1[a];
+        lo2[a] = g->own_lo;
+        hi2[a] = ohi < hi2[a] ? ohi : hi2[a];
+    }
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < mzn; k++) {
+    for (int k = lo1[2]; k < hi1[2]; k++) {
         chunk cb;
-        for (int j = 0; j < myn; j++) {
+        for (int j = lo1[1]; j < hi1[1]; j++) {
             const ptrdiff_t r0 = (ptrdiff_t)j * sy + (ptrdiff_t)k * sz;
             const ptrdiff_t q0 = (ptrdiff_t)j * csy + (ptrdiff_t)k * csz;
-            for (int i0 = 0; i0 < mxn; i0 += CH) {
-                const int n = mxn - i0 < CH ? mxn - i0 : CH;
+            for (int i0 = lo1[0]; i0 < hi1[0]; i0 += CH) {
+                const int n = hi1[0] - i0 < CH ? hi1[0] - i0 : CH;
                 trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
                 for (int f = 0; f < nf; f++) {
                     const float *o = src[f];
@@ -542,14 +578,14 @@ static void advect_fields(sq_grid *g, int L, int scalar0, const lat *F, int nf,
     sq__grid_dist_batch_end(g);
     const bool clamp = g->d.limiter == SQ_LIMITER_CLAMP;
     SQ_OMP(omp parallel for schedule(static) num_threads(nt))
-    for (int k = 0; k < mzn; k++) {
+    for (int k = lo2[2]; k < hi2[2]; k++) {
         chunk cb, cf;
         float lo[CH], hi[CH];
-        for (int j = 0; j < myn; j++) {
+        for (int j = lo2[1]; j < hi2[1]; j++) {
             const ptrdiff_t r0 = (ptrdiff_t)j * sy + (ptrdiff_t)k * sz;
             const ptrdiff_t q0 = (ptrdiff_t)j * csy + (ptrdiff_t)k * csz;
-            for (int i0 = 0; i0 < mxn; i0 += CH) {
-                const int n = mxn - i0 < CH ? mxn - i0 : CH;
+            for (int i0 = lo2[0]; i0 < hi2[0]; i0 += CH) {
+                const int n = hi2[0] - i0 < CH ? hi2[0] - i0 : CH;
                 if (!store) trace_chunk(F, off, bx, by, bz, i0, n, j, k, q0, &cb);
                 trace_chunk(F, off, fx, fy, fz, i0, n, j, k, q0, &cf);
                 for (int f = 0; f < nf; f++) {

@@ -410,7 +410,8 @@ void sq__grid_dist_max(const sq_grid *g, double *v, int n)
  * slab's own planes are copied, the unchanged kernels run on the copy (placing samples by
  * their global index, grid_advect.c's lat), and the slab's samples are copied back. The
  * copy's samples near its ends are wrong (their traces leave it) but no slab sample reads
- * them. Cost: 2 W planes of extra work per slab and a copy of the advection's arrays. */
+ * them; the kernels skip the samples no slab sample needs (sq_grid.own_only). Cost: up to
+ * 2 (ceil(D) + 2) planes of extra work per slab and a copy of the advection's arrays. */
 
 /* lattice L's sample counts and padded strides for cells n */
 static void lat_layout(const int n[3], int L, int m[3], ptrdiff_t *sy, ptrdiff_t *sz)
@@ -498,6 +499,10 @@ static void wide_layout(sq_grid *g, int width)
     sq_grid *w = h->wide;
     const int ax = h->ax, wlo = h->inner[2 * ax] ? width : 0, whi = h->inner[2 * ax + 1] ? width : 0;
     h->width = width;
+    w->own_only = true;
+    w->own_ax = ax;
+    w->own_lo = wlo;
+    w->own_hi = wlo + g->n[ax];
     w->d = g->d;
     w->h = g->h;
     for (int a = 0; a < 3; a++) {
@@ -665,6 +670,9 @@ sq_result sq__grid_dist_widen(sq_grid *g, float dt, sq_grid **out)
     }
     wide_layout(g, W);
     sq_grid *w = h->wide;
+    /* a sample's trace reaches ceil(D) + 1 cells: the second pass at the slab's samples reads
+     * the first within that, the first pass reads the copy within that again (W) */
+    w->trace_margin = (int)ceil(D) + 2;
     wide_arr arr[4];
     for (int c = 0; c < 3; c++)
         arr[c] = (wide_arr){(unsigned char *)g->vel[c].origin, (unsigned char *)w->vel[c].origin,

@@ -108,6 +108,12 @@ struct sq_grid {
      * a decomposed grid's slab, grid_dist.c) */
     int lat_n[3];
     int lat_shift[3];
+    /* the widened copy of a slab (own_only): the advection's results are used at the slab's
+     * own cells [own_lo, own_hi) along own_ax only, and its first (semi-Lagrangian) pass within
+     * trace_margin cells of them (the second pass reads it that far), so the kernels skip the
+     * rest of the copy (grid_advect.c); false: every sample */
+    bool own_only;
+    int own_ax, own_lo, own_hi, trace_margin;
 };
 
 static inline ptrdiff_t sq__cidx(const sq_grid *g, int i, int j, int k)
