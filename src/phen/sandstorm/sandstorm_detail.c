@@ -40,11 +40,11 @@ static inline size_t cell(const sq__sand_detail *d, int i, int j, int k)
     return ((size_t)k * (size_t)d->ny + (size_t)j) * (size_t)d->nx + (size_t)i;
 }
 
-/* Trilinear value of component c of a 3-vector field at point p (cells; centres at integers),
- * clamped to the centres, plus the part of p outside them when extrapolate is set (a linear
- * field continued beyond the domain). */
-static float vec_at(const sq__sand_detail *d, const float *f, int c, const float p[3],
-                    bool extrapolate)
+/* Trilinear value of the three components of a 3-vector field at point p (cells; centres at
+ * integers), clamped to the centres, plus the part of p outside them when extrapolate is set (a
+ * linear field continued beyond the domain). */
+static void vec_at(const sq__sand_detail *d, const float *f, const float p[3], bool extrapolate,
+                   float out[3])
 {
     const int n[3] = {d->nx, d->ny, d->nz};
     int i0[3];
@@ -56,17 +56,19 @@ static float vec_at(const sq__sand_detail *d, const float *f, int c, const float
         t[a] = n[a] > 1 ? q[a] - (float)i0[a] : 0.0f;
     }
     const int di = d->nx > 1, dj = d->ny > 1, dk = d->nz > 1;
-    const float *b = f + 3 * cell(d, i0[0], i0[1], i0[2]) + c;
     const size_t sy = (size_t)3 * d->nx, sz = sy * d->ny;
-    const float c00 = b[0] + t[0] * (b[3 * di] - b[0]);
-    const float c10 = b[dj * sy] + t[0] * (b[dj * sy + 3 * di] - b[dj * sy]);
-    const float c01 = b[dk * sz] + t[0] * (b[dk * sz + 3 * di] - b[dk * sz]);
-    const float c11 =
-        b[dj * sy + dk * sz] + t[0] * (b[dj * sy + dk * sz + 3 * di] - b[dj * sy + dk * sz]);
-    const float c0 = c00 + t[1] * (c10 - c00), c1 = c01 + t[1] * (c11 - c01);
-    float v = c0 + t[2] * (c1 - c0);
-    if (extrapolate) v += p[c] - q[c];
-    return v;
+    for (int c = 0; c < 3; c++) {
+        const float *b = f + 3 * cell(d, i0[0], i0[1], i0[2]) + c;
+        const float c00 = b[0] + t[0] * (b[3 * di] - b[0]);
+        const float c10 = b[dj * sy] + t[0] * (b[dj * sy + 3 * di] - b[dj * sy]);
+        const float c01 = b[dk * sz] + t[0] * (b[dk * sz + 3 * di] - b[dk * sz]);
+        const float c11 =
+            b[dj * sy + dk * sz] + t[0] * (b[dj * sy + dk * sz + 3 * di] - b[dj * sy + dk * sz]);
+        const float c0 = c00 + t[1] * (c10 - c00), c1 = c01 + t[1] * (c11 - c01);
+        float v = c0 + t[2] * (c1 - c0);
+        if (extrapolate) v += p[c] - q[c];
+        out[c] = v;
+    }
 }
 
 sq_result sq__sand_detail_init(sq__sand_detail *d, sq_context *ctx, int nx, int ny, int nz,
@@ -187,11 +189,11 @@ void sq__sand_detail_advect(sq__sand_detail *d, const sq_grid *g, double dt, int
                     const float mid[3] = {(float)i - 0.5f * fdt * u0[0], (float)j - 0.5f * fdt * u0[1],
                                           (float)k - 0.5f * fdt * u0[2]};
                     float um[3];
-                    for (int c = 0; c < 3; c++) um[c] = vec_at(d, d->vel, c, mid, false);
+                    vec_at(d, d->vel, mid, false, um);
                     const float p[3] = {(float)i - fdt * um[0], (float)j - fdt * um[1],
                                         (float)k - fdt * um[2]};
                     float *out = d->tmp + 3 * cell(d, i, j, k);
-                    for (int c = 0; c < 3; c++) out[c] = vec_at(d, X, c, p, true);
+                    vec_at(d, X, p, true, out);
                 }
         float *swap = d->coord[ph];
         d->coord[ph] = d->tmp;
