@@ -506,11 +506,10 @@ SQ_TEST(instant_wind_moves_the_air_at_once)
     sq_context_destroy(ctx);
 }
 
-SQ_TEST(body_force_drive_holds_the_wind)
+/* 16 x 8 x 16 cells of 2 m, recycled (periodic) x and y, ground wall, free-slip sky, a 6 m/s
+ * wind held by the body-force drive (the snowdrift's `wind.boundary: recycle`) */
+static sq_lbm *recycled_column(sq_context *ctx)
 {
-    /* recycled (periodic) x and y, ground wall, free-slip sky: the controlled body force keeps
-     * the mean wind at the reference height at the requested speed */
-    sq_context *ctx = make_ctx(0);
     sq_lbm_desc d;
     memset(&d, 0, sizeof d);
     d.cells = (sq_dims){16, 8, 16};
@@ -524,6 +523,24 @@ SQ_TEST(body_force_drive_holds_the_wind)
     d.collision = SQ_LBM_COLLISION_SMAGORINSKY;
     sq_lbm *l = NULL;
     SQ_CHECK_OK(sq_lbm_create(ctx, &d, &l));
+    return l;
+}
+
+/* the mean of u over plane k of that lattice */
+static double plane_mean_u(const sq_lbm_views *v, int k)
+{
+    double s = 0;
+    for (int j = 0; j < 8; j++)
+        for (int i = 0; i < 16; i++) s += view_at(&v->u[0], i, j, k);
+    return s / 128;
+}
+
+SQ_TEST(body_force_drive_holds_the_wind)
+{
+    /* the controlled body force keeps the mean wind at the reference height at the requested
+     * speed */
+    sq_context *ctx = make_ctx(0);
+    sq_lbm *l = recycled_column(ctx);
     if (!l) return;
     const sq_lbm_info in = sq_lbm_get_info(l);
     SQ_CHECK(in.drive == SQ_LBM_DRIVE_BODY_FORCE);
@@ -531,11 +548,7 @@ SQ_TEST(body_force_drive_holds_the_wind)
     SQ_CHECK_OK(sq_lbm_step(l, steps));
     sq_lbm_views v;
     SQ_CHECK_OK(sq_lbm_get_views(l, &v));
-    double s = 0;
-    const int k = 5; /* centre at 11 m, the plane holding 10 m */
-    for (int j = 0; j < 8; j++)
-        for (int i = 0; i < 16; i++) s += view_at(&v.u[0], i, j, k);
-    s /= 128;
+    const double s = plane_mean_u(&v, 5); /* centre at 11 m, the plane holding 10 m */
     printf("body-force drive: mean wind at 11 m %.3f m/s (target 6)\n", s);
     SQ_CHECK_REL(s, 6.0, 0.02);
     /* wind increases with height (a boundary layer develops over the ground) */
@@ -552,19 +565,7 @@ SQ_TEST(body_force_drive_holds_the_wind)
 static void buried_reference_plane(int pockets)
 {
     sq_context *ctx = make_ctx(0);
-    sq_lbm_desc d;
-    memset(&d, 0, sizeof d);
-    d.cells = (sq_dims){16, 8, 16};
-    d.cell_size_m = 2;
-    d.viscosity_m2s = 0.05;
-    d.bc[SQ_LBM_FACE_XMIN] = d.bc[SQ_LBM_FACE_XMAX] = SQ_LBM_BC_RECYCLE;
-    d.bc[SQ_LBM_FACE_ZMIN] = SQ_LBM_BC_WALL;
-    d.bc[SQ_LBM_FACE_ZMAX] = SQ_LBM_BC_FREE_SLIP;
-    d.wind.speed_mps = 6;
-    d.wind.ramp_mps2 = 3;
-    d.collision = SQ_LBM_COLLISION_SMAGORINSKY;
-    sq_lbm *l = NULL;
-    SQ_CHECK_OK(sq_lbm_create(ctx, &d, &l));
+    sq_lbm *l = recycled_column(ctx);
     if (!l) return;
     const sq_lbm_info in = sq_lbm_get_info(l);
     SQ_CHECK(in.drive == SQ_LBM_DRIVE_BODY_FORCE);
@@ -579,10 +580,7 @@ static void buried_reference_plane(int pockets)
     SQ_CHECK_OK(sq_lbm_step(l, (int)(10.0 / in.dt_s)));
     sq_lbm_views v;
     SQ_CHECK_OK(sq_lbm_get_views(l, &v));
-    double s = 0;
-    for (int j = 0; j < 8; j++)
-        for (int i = 0; i < 16; i++) s += view_at(&v.u[0], i, j, 6);
-    s /= 128;
+    const double s = plane_mean_u(&v, 6);
     printf("buried reference plane (%d pockets): mean wind in plane 6 %.3f m/s (target 6)\n",
            pockets, s);
     SQ_CHECK_REL(s, 6.0, 0.02);
